@@ -1,0 +1,1 @@
+"""Sub-commands of ``sheer``; each module has ``register(subparsers)`` (see :mod:`app.cli`)."""

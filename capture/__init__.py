@@ -1,0 +1,1 @@
+"""Sheer: capture package."""

@@ -1,0 +1,1 @@
+"""Sheer: painting package."""

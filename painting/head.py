@@ -1,0 +1,322 @@
+"""A head: the mesh, its textures and its metadata (scale in mm per mesh unit, landmarks, skin mask).
+
+Conventions shared by every package (painting, render, capture):
+
+- **Mesh units** are the vertex coordinates exactly as trimesh loads them from the file, with the scene
+  graph's transforms applied (identity for the sample head): no recentring, no scaling.
+- **Texture space**: an image array is stored top row first, and texel row ``i`` covers
+  ``v ∈ [i/H, (i+1)/H)``; column ``j`` covers ``u ∈ [j/W, (j+1)/W)``. The UVs are used exactly as
+  loaded. Uploading an array to GL as it is (row 0 first) puts row 0 at texture coordinate ``t = 0``, so
+  the shader samples ``texture(tex, uv)`` with no flip. (Measured for the sample head: with this
+  convention the albedo's lips land on the mesh's lips.) Thickness maps, baked position maps and masks
+  all follow it.
+- **Metadata sidecar** (JSON): ``<mesh file>.sheer-head.json`` beside the mesh, or for the sample
+  heads (which are read-only and never copied) ``resources/heads/<folder name>.json``. See
+  :class:`HeadMetadata` for the fields.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from km.errors import SheerError
+
+#: Refuse meshes larger than this many triangles (a 3D scan for real-time painting is far smaller).
+MAX_FACES = 2_000_000
+#: Refuse textures larger than this on a side (texels).
+MAX_TEXTURE_SIDE = 16384
+SIDECAR_SUFFIX = ".sheer-head.json"
+HEAD_SCHEMA_VERSION = 1
+SAMPLE_HEAD = "heads/lee-perry-smith/head.glb"
+
+
+class HeadError(SheerError, ValueError):
+    """A head file (mesh, texture or metadata) that cannot be used; the message names the file."""
+
+
+@dataclass
+class HeadMetadata:
+    """What a mesh file does not say about a head.
+
+    Attributes:
+        name: display name.
+        mm_per_unit: scale, millimetres per mesh unit (> 0).
+        scale_note: how ``mm_per_unit`` was calibrated (e.g. from which facial proportions).
+        landmarks: named points in mesh units, e.g. ``left_eye``, ``right_eye``, ``lip_centre``,
+            ``left_cheek``, ``right_cheek``, ``nose_tip``, ``chin``, ``forehead``. "Left" is the
+            subject's left.
+        midplane_point, midplane_normal: the mirror plane of the face (mesh units; unit normal).
+        albedo, normal_map, specular_map, roughness_map: texture file paths relative to the mesh's
+            folder (or absolute), or None.
+        skin_mask: a greyscale image in UV space (white = skin), relative path, or None (then every
+            covered texel counts as skin).
+        credit: credit line to show wherever the head is shown or exported.
+    """
+
+    name: str
+    mm_per_unit: float
+    scale_note: str = ""
+    landmarks: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    midplane_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    midplane_normal: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    albedo: str | None = None
+    normal_map: str | None = None
+    specular_map: str | None = None
+    roughness_map: str | None = None
+    skin_mask: str | None = None
+    credit: str = ""
+    calibrated: bool = True
+
+    @classmethod
+    def from_json(cls, data: Any, source: str) -> HeadMetadata:
+        """Validate and build from parsed JSON; ``source`` names the file in error messages."""
+        if not isinstance(data, dict):
+            raise HeadError(f"{source}: head metadata must be a JSON object")
+        version = data.get("schema_version")
+        if version != HEAD_SCHEMA_VERSION:
+            raise HeadError(
+                f"{source}: schema_version {version!r} is not supported (this Sheer reads {HEAD_SCHEMA_VERSION})"
+            )
+        known = {f for f in cls.__dataclass_fields__}
+        unknown = set(data) - known - {"schema_version"}
+        if unknown:
+            raise HeadError(f"{source}: unknown field(s) {sorted(unknown)}")
+        try:
+            mm = float(data["mm_per_unit"])
+            name = str(data["name"])
+        except KeyError as exc:
+            raise HeadError(f"{source}: missing field {exc.args[0]!r}") from None
+        except (TypeError, ValueError):
+            raise HeadError(f"{source}: field 'mm_per_unit' must be a number") from None
+        if not np.isfinite(mm) or mm <= 0:
+            raise HeadError(f"{source}: field 'mm_per_unit' must be a positive finite number, got {mm}")
+
+        def vec3(key: str, value: Any) -> tuple[float, float, float]:
+            arr = np.asarray(value, dtype=float) if isinstance(value, list) else None
+            if arr is None or arr.shape != (3,) or not np.all(np.isfinite(arr)):
+                raise HeadError(f"{source}: field '{key}' must be a list of 3 finite numbers")
+            return (float(arr[0]), float(arr[1]), float(arr[2]))
+
+        landmarks_raw = data.get("landmarks", {})
+        if not isinstance(landmarks_raw, dict):
+            raise HeadError(f"{source}: field 'landmarks' must be an object of name -> [x, y, z]")
+        landmarks = {str(k): vec3(f"landmarks.{k}", v) for k, v in landmarks_raw.items()}
+        normal = vec3("midplane_normal", data.get("midplane_normal", [1.0, 0.0, 0.0]))
+        n = float(np.linalg.norm(normal))
+        if n == 0:
+            raise HeadError(f"{source}: field 'midplane_normal' must not be zero")
+        strings = {}
+        for key in ("albedo", "normal_map", "specular_map", "roughness_map", "skin_mask"):
+            value = data.get(key)
+            if value is not None and not isinstance(value, str):
+                raise HeadError(f"{source}: field '{key}' must be a file path or null")
+            strings[key] = value
+        return cls(
+            name=name,
+            mm_per_unit=mm,
+            scale_note=str(data.get("scale_note", "")),
+            landmarks=landmarks,
+            midplane_point=vec3("midplane_point", data.get("midplane_point", [0.0, 0.0, 0.0])),
+            midplane_normal=(normal[0] / n, normal[1] / n, normal[2] / n),
+            credit=str(data.get("credit", "")),
+            calibrated=bool(data.get("calibrated", True)),
+            **strings,
+        )
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON form (with ``schema_version``)."""
+        out: dict[str, Any] = {"schema_version": HEAD_SCHEMA_VERSION}
+        for key in self.__dataclass_fields__:
+            value = getattr(self, key)
+            if isinstance(value, tuple):
+                value = list(value)
+            elif isinstance(value, dict):
+                value = {k: list(v) for k, v in value.items()}
+            out[key] = value
+        return out
+
+
+@dataclass
+class Head:
+    """A loaded head.
+
+    Attributes:
+        path: the mesh file.
+        vertices: float64 (N, 3), mesh units. faces: int64 (F, 3). uv: float64 (N, 2) in [0, 1].
+        normals: float64 (N, 3) unit vertex normals.
+        albedo: uint8 (H, W, 3) sRGB, top row first (see the module docstring), or None.
+        normal_map: uint8 (H, W, 3) tangent-space normal map, or None.
+        specular_map, roughness_map: uint8 (H, W) or None.
+        skin_mask: bool (H, W) in UV space, or None (every covered texel is skin).
+        metadata: the sidecar's contents.
+    """
+
+    path: Path
+    vertices: np.ndarray
+    faces: np.ndarray
+    uv: np.ndarray
+    normals: np.ndarray
+    metadata: HeadMetadata
+    albedo: np.ndarray | None = None
+    normal_map: np.ndarray | None = None
+    specular_map: np.ndarray | None = None
+    roughness_map: np.ndarray | None = None
+    skin_mask: np.ndarray | None = None
+
+    @property
+    def mm_per_unit(self) -> float:
+        """Millimetres per mesh unit."""
+        return self.metadata.mm_per_unit
+
+    @property
+    def name(self) -> str:
+        return self.metadata.name
+
+    @property
+    def credit(self) -> str:
+        return self.metadata.credit
+
+    def landmark(self, name: str) -> np.ndarray:
+        """A landmark point (mesh units); :class:`HeadError` naming the known ones if absent."""
+        try:
+            return np.asarray(self.metadata.landmarks[name], dtype=float)
+        except KeyError:
+            known = ", ".join(sorted(self.metadata.landmarks)) or "none"
+            raise HeadError(f"head '{self.name}' has no landmark '{name}' (it has: {known})") from None
+
+    def trimesh(self) -> Any:
+        """A ``trimesh.Trimesh`` of this head (not processed: vertices and faces exactly as here)."""
+        import trimesh
+
+        return trimesh.Trimesh(self.vertices, self.faces, vertex_normals=self.normals, process=False)
+
+
+def sidecar_candidates(mesh_path: Path) -> list[Path]:
+    """Where the metadata of the head at ``mesh_path`` is looked for, in order."""
+    from resources import resource_path
+
+    return [
+        mesh_path.with_name(mesh_path.name + SIDECAR_SUFFIX),
+        resource_path("heads", f"{mesh_path.parent.name}.json"),
+    ]
+
+
+def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> HeadMetadata:
+    """Read the sidecar of ``mesh_path``; without one, an uncalibrated default (scale guessed from the
+    bounding box, assuming a 230 mm tall head, no landmarks, ``calibrated=False``)."""
+    for candidate in sidecar_candidates(mesh_path):
+        if candidate.is_file():
+            try:
+                data = json.loads(candidate.read_text(encoding="utf-8"))
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise HeadError(f"{candidate}: cannot read head metadata: {exc}") from None
+            return HeadMetadata.from_json(data, str(candidate))
+    height = 1.0
+    if mesh_vertices is not None and len(mesh_vertices):
+        extent = np.ptp(mesh_vertices, axis=0)
+        height = float(extent.max()) or 1.0
+    return HeadMetadata(
+        name=mesh_path.stem,
+        mm_per_unit=230.0 / height,
+        scale_note="uncalibrated: guessed from the bounding box, assuming a head 230 mm tall",
+        calibrated=False,
+    )
+
+
+def _read_image(path: Path, mode: str) -> np.ndarray:
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            if max(im.size) > MAX_TEXTURE_SIDE:
+                raise HeadError(f"{path}: texture is {im.size[0]}×{im.size[1]}, over the {MAX_TEXTURE_SIDE} limit")
+            return np.asarray(im.convert(mode))
+    except FileNotFoundError:
+        raise HeadError(f"{path}: texture file not found") from None
+    except (UnidentifiedImageError, OSError) as exc:
+        raise HeadError(f"{path}: cannot decode texture: {exc}") from None
+
+
+def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Load (vertices, faces, uv, vertex normals) from a glTF/GLB, OBJ or PLY file with trimesh.
+
+    Scenes are flattened with their transforms; polygons are triangulated. Raises :class:`HeadError`
+    for an unreadable file, no triangles, no UVs or a mesh over :data:`MAX_FACES` triangles.
+    """
+    import trimesh
+
+    if not path.is_file():
+        raise HeadError(f"{path}: head mesh not found")
+    try:
+        loaded = trimesh.load(str(path), process=False, maintain_order=True)
+    except Exception as exc:  # trimesh raises many types for malformed files
+        raise HeadError(f"{path}: cannot read mesh: {exc}") from None
+    if isinstance(loaded, trimesh.Scene):
+        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
+        if not meshes:
+            raise HeadError(f"{path}: the file contains no triangle mesh")
+        if len(meshes) > 1:
+            uv_ok = all(getattr(m.visual, "uv", None) is not None for m in meshes)
+            if not uv_ok:
+                raise HeadError(f"{path}: a mesh in the file has no UV coordinates")
+            mesh = trimesh.util.concatenate(meshes)
+        else:
+            mesh = meshes[0]
+    elif isinstance(loaded, trimesh.Trimesh):
+        mesh = loaded
+    else:
+        raise HeadError(f"{path}: the file contains no triangle mesh")
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if faces.ndim != 2 or len(faces) == 0:
+        raise HeadError(f"{path}: the mesh has no triangles")
+    if len(faces) > MAX_FACES:
+        raise HeadError(f"{path}: the mesh has {len(faces):,} triangles, over the {MAX_FACES:,} limit")
+    uv = getattr(mesh.visual, "uv", None)
+    if uv is None or len(uv) != len(mesh.vertices):
+        raise HeadError(f"{path}: the mesh has no UV coordinates (Sheer paints in UV space)")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    uv = np.asarray(uv, dtype=np.float64)
+    if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(uv))):
+        raise HeadError(f"{path}: the mesh has NaN or infinite vertex positions or UVs")
+    normals = np.asarray(mesh.vertex_normals, dtype=np.float64)
+    return vertices, faces, uv, normals
+
+
+def load_head(path: str | Path | None = None) -> Head:
+    """Load a head: mesh (glTF/GLB, OBJ, PLY), sidecar metadata and textures.
+
+    ``path=None`` loads the sample head from the assets (:data:`SAMPLE_HEAD`).
+    """
+    if path is None:
+        from resources import find_asset
+
+        path = find_asset(SAMPLE_HEAD)
+    mesh_path = Path(path)
+    vertices, faces, uv, normals = load_mesh_arrays(mesh_path)
+    meta = load_metadata(mesh_path, vertices)
+
+    def texture(rel: str | None, mode: str) -> np.ndarray | None:
+        if rel is None:
+            return None
+        p = Path(rel)
+        return _read_image(p if p.is_absolute() else mesh_path.parent / p, mode)
+
+    mask = texture(meta.skin_mask, "L")
+    return Head(
+        path=mesh_path,
+        vertices=vertices,
+        faces=faces,
+        uv=uv,
+        normals=normals,
+        metadata=meta,
+        albedo=texture(meta.albedo, "RGB"),
+        normal_map=texture(meta.normal_map, "RGB"),
+        specular_map=texture(meta.specular_map, "L"),
+        roughness_map=texture(meta.roughness_map, "L"),
+        skin_mask=None if mask is None else mask >= 128,
+    )

@@ -1,0 +1,1 @@
+"""Sheer: render package."""
