@@ -1,11 +1,59 @@
 """Kubelka–Munk optics, spectra, colour and the cosmetic material library (pure numpy + colour-science).
 
-Units: wavelengths in nm; S and K per mm; thicknesses X and D in mm. Arrays broadcast, wavelengths on
-the last axis.
+Units: wavelengths in nm; S and K per mm; thicknesses X and D in mm; reflectances and transmittances
+are fractions in [0, 1]. Arrays broadcast, wavelengths on the last axis.
+
+The public names are exported lazily (PEP 562), so ``import km`` stays cheap and each module is
+loaded on first use: add a public name by adding one line to ``_EXPORTS``.
 """
 
 from __future__ import annotations
 
+import importlib
+from typing import Any
+
 from km.errors import AssetNotFoundError, SheerError
 
-__all__ = ["AssetNotFoundError", "SheerError"]
+#: public name -> module that defines it
+_EXPORTS: dict[str, str] = {
+    # optics (Eq. 1-4, 6-7 of Huang et al. 2013)
+    "KMDomainError": "km.optics",
+    "layer_rt": "km.optics",
+    "over": "km.optics",
+    "stack": "km.optics",
+    "invert_sk": "km.optics",
+    "mix": "km.optics",
+    "r_inf_from_ks": "km.optics",
+    "ks_from_r_inf": "km.optics",
+    "saunderson": "km.optics",
+    "inverse_saunderson": "km.optics",
+    # spectra and colour
+    "WavelengthGrid": "km.spectra",
+    "DEFAULT_GRID": "km.spectra",
+    "spectrum_to_xyz": "km.colour",
+    "spectrum_to_rgb": "km.colour",
+    "xyz_to_lab": "km.colour",
+    "linear_rgb_to_lab": "km.colour",
+    "delta_e2000": "km.colour",
+    # materials and the library
+    "Material": "km.material",
+    "Measurement": "km.material",
+    "Library": "km.library",
+    "LibraryError": "km.library",
+    "default_library": "km.library",
+}
+
+__all__ = ["AssetNotFoundError", "SheerError", *sorted(_EXPORTS)]
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _EXPORTS.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'km' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module_name), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -1,0 +1,94 @@
+"""Atomic file writes: a failed or interrupted save never damages the file it replaces.
+
+The data goes to a temporary file in the target's folder, is flushed and fsynced, optionally the old
+file is kept as ``<name>.bak``, and the temporary file is renamed over the target (atomic on POSIX),
+then the folder is fsynced. At any moment the target is either the complete old file or the complete
+new one.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import IO
+
+
+@contextlib.contextmanager
+def atomic_writer(path: str | Path, mode: str = "wb", keep_backup: bool = False,
+                  encoding: str | None = None) -> Iterator[IO]:
+    """Context manager yielding a file object; on a clean exit the content replaces ``path`` atomically.
+
+    If the block raises, the temporary file is removed and ``path`` is untouched. With
+    ``keep_backup=True`` the previous file (if any) is kept as ``<path>.bak`` (a hard link or copy made
+    before the rename, so the target never disappears).
+    """
+    target = Path(path)
+    folder = target.parent if str(target.parent) else Path(".")
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    tmp = Path(tmp_name)
+    try:
+        with os.fdopen(fd, mode, encoding=encoding) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        if target.exists():
+            try:
+                existing_mode = target.stat().st_mode & 0o777
+                os.chmod(tmp, existing_mode)
+            except OSError:
+                pass
+            if keep_backup:
+                backup = target.with_name(target.name + ".bak")
+                backup_tmp = target.with_name(f".{target.name}.bak.tmp")
+                shutil.copy2(target, backup_tmp)
+                with open(backup_tmp, "rb") as bfh:
+                    os.fsync(bfh.fileno())
+                os.replace(backup_tmp, backup)
+        else:
+            os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, target)
+        _fsync_dir(folder)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+def atomic_write_bytes(path: str | Path, data: bytes, keep_backup: bool = False) -> None:
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_writer`)."""
+    with atomic_writer(path, "wb", keep_backup=keep_backup) as fh:
+        fh.write(data)
+
+
+def atomic_write_text(path: str | Path, text: str, keep_backup: bool = False) -> None:
+    """Write UTF-8 ``text`` to ``path`` atomically (see :func:`atomic_writer`)."""
+    atomic_write_bytes(path, text.encode("utf-8"), keep_backup=keep_backup)
+
+
+def atomic_write_with(path: str | Path, writer: Callable[[IO], None], keep_backup: bool = False) -> None:
+    """Call ``writer(fileobj)`` on a binary temporary file, then replace ``path`` atomically."""
+    with atomic_writer(path, "wb", keep_backup=keep_backup) as fh:
+        writer(fh)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _fsync_dir(folder: Path) -> None:
+    try:
+        dfd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(dfd)
+    except OSError:
+        pass
+    finally:
+        os.close(dfd)
