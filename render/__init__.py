@@ -1,1 +1,78 @@
-"""Sheer: render package."""
+"""Sheer's real-time cosmetic renderer (moderngl; never Qt).
+
+Huang et al. 2013: Kubelka–Munk cosmetic layers evaluated **spectrally in texture space**, skin lit
+through the makeup (E·T), screen-space subsurface scattering (Jimenez 2009 sum of Gaussians, or the
+Jimenez 2015 separable kernel), out-scatter through the makeup T/(1 − R_bottom·R_skin) plus the makeup's
+own reflection R_top·E, per-layer Kelemen/Szirmay-Kalos specular, tone mapping and sRGB.
+
+Units: mesh units as loaded (see :mod:`painting.head`), the head's ``mm_per_unit`` for SSS widths,
+thickness maps in µm, S and K per mm, wavelengths in nm, angles in degrees at the API.
+
+Studio API (the renderer takes a ``moderngl.Context`` and renders into a framebuffer it is given)::
+
+    from render import Renderer, RenderSettings, Light, OrbitCamera, LayerInput
+
+    r = Renderer(ctx, head)                   # head: painting.head.Head; uploads mesh + textures
+    r.set_layers([LayerInput(material, thickness_um)])   # bottom layer first; km.Material, float32 (H, W)
+    r.update_tiles(i, thickness_um, [(tx, ty), ...])     # re-upload + re-evaluate 64² tiles of layer i
+    r.settings.mode = "fast"                  # or "reference"; .taps 11/17/25, .debug_view, .exposure…
+    r.camera.yaw, r.camera.pitch, r.camera.distance = 20.0, 5.0, 9.0   # degrees, mesh units
+    r.lights = [Light.directional(azimuth=30, elevation=20, intensity=3.0)]
+    r.set_environment("studio", intensity=0.5)            # HDR EXR by name or path, or None
+    r.render(fbo, (0, 0, w, h))               # fbo = ctx.detect_framebuffer(...) in paintGL; viewport px
+    z = r.depth_at(x, y)                      # NDC depth in [0, 1] at pixel (origin top-left) or None
+    p = r.pick(x, y)                          # surface point (mesh units) under the pixel or None
+    m = r.inverse_view_projection()           # 4×4 float64 of the last frame (column vectors)
+    r.release()                               # frees every GPU object (call with the context current)
+
+Document observation: :meth:`Renderer.sync_document` reads a ``painting.Document``'s layers;
+:meth:`Renderer.update_tiles` takes the touched 64² tiles that the document's change events carry.
+
+Reusable pieces (for other engines, e.g. a lightweight Phong engine):
+
+- :mod:`render.shaders` — ``ShaderLibrary``: ``.glsl`` files in ``resources/shaders/`` loaded by name
+  with ``#include "name.glsl"`` resolved (no GPU needed); ``program(ctx, vert, frag, defines)``.
+- :mod:`render.gpu_head` — ``GpuHead``: the mesh in a VBO (position, normal, uv, tangent) + albedo
+  (sRGB → linear), normal and optional specular/roughness textures; ``.vertex_array(program)``.
+- :mod:`render.camera` — ``OrbitCamera`` (yaw, pitch, distance, fov, target) with view/projection.
+- :mod:`render.lights` — ``Light`` (directional or point, colour, intensity), ``ShadowMaps`` (PCF depth
+  maps for up to 8 lights), ``Environment`` (equirectangular EXR → 9 SH coefficients of irradiance).
+- :mod:`render.km_pass` — ``KMTextureSpace``: the spectral texture-space KM evaluation.
+- shader includes: ``common.glsl`` (sRGB, tone map, constants), ``lighting.glsl`` (lights, PCF
+  shadows, SH irradiance), ``specular.glsl`` (Beckmann / Schlick / Kelemen).
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_EXPORTS: dict[str, str] = {
+    "RenderError": "render.errors",
+    "ShaderLibrary": "render.shaders",
+    "OrbitCamera": "render.camera",
+    "Light": "render.lights",
+    "Environment": "render.lights",
+    "ShadowMaps": "render.lights",
+    "GpuHead": "render.gpu_head",
+    "KMTextureSpace": "render.km_pass",
+    "LayerInput": "render.km_pass",
+    "Renderer": "render.renderer",
+    "RenderSettings": "render.renderer",
+    "DEBUG_VIEWS": "render.renderer",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    module_name = _EXPORTS.get(name)
+    if module_name is None:
+        raise AttributeError(f"module 'render' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module_name), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))
