@@ -1,0 +1,129 @@
+"""``sheer project new|info|validate|export``: create, inspect, check and unpack ``.sheer`` files.
+
+- ``new --out FILE [--head PATH] [--look NAME] [--name TEXT] [--self-contained]``: an empty project.
+- ``info FILE [--json]``: what the project holds (does not need the head).
+- ``validate FILE``: every check of ``docs/FORMAT.md``; exit 0 when valid, 2 with a one-line reason.
+- ``export FILE --out DIR [--ora]``: each layer's map as EXR float32 (exact) and 16-bit PNG, the
+  materials, and ``manifest.json``; ``--ora`` adds ``layers.ora`` (OpenRaster, for GIMP and Krita).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("project", help="create, inspect, validate and export .sheer projects", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    cmds = p.add_subparsers(dest="project_command", metavar="ACTION", required=True)
+
+    new = cmds.add_parser("new", help="create an empty project")
+    new.add_argument("--out", required=True, help="the .sheer file to write")
+    new.add_argument("--head", default=None, help="head mesh (default: the sample head)")
+    new.add_argument("--look", default=None, help="look name recorded in the project")
+    new.add_argument("--name", default=None, help="project name (default: the file name)")
+    new.add_argument("--self-contained", action="store_true", help="embed the head's files")
+    new.add_argument("--force", action="store_true", help="replace an existing file (kept as FILE.bak)")
+    new.set_defaults(func=run_new)
+
+    info = cmds.add_parser("info", help="describe a project")
+    info.add_argument("file")
+    info.add_argument("--json", action="store_true", help="print JSON")
+    info.set_defaults(func=run_info)
+
+    val = cmds.add_parser("validate", help="check a project; exit 0 when valid, 2 otherwise")
+    val.add_argument("file")
+    val.set_defaults(func=run_validate)
+
+    exp = cmds.add_parser("export", help="write the layer maps and a manifest into a folder")
+    exp.add_argument("file")
+    exp.add_argument("--out", required=True, help="output folder (created)")
+    exp.add_argument("--ora", action="store_true", help="also write layers.ora (OpenRaster)")
+    exp.set_defaults(func=run_export)
+
+
+def run_new(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from km.errors import SheerError
+    from painting.project import new_project, save_project
+
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise SheerError(f"{out}: already exists (use --force to replace it; the old file is kept as .bak)")
+    project = new_project(args.name or out.stem, head_path=args.head, look=args.look)
+    save_project(project, out, self_contained=args.self_contained)
+    print(f"wrote {out} (head '{project.head.name}', atlas {project.atlas_size[1]}×{project.atlas_size[0]})")
+    return 0
+
+
+def _summary(project: object) -> dict:
+    from painting.project import Project
+
+    assert isinstance(project, Project)
+    return {
+        "name": project.name,
+        "schema_version": project.source_schema_version,
+        "created_by": project.created_by,
+        "atlas": {"width": project.atlas_size[1], "height": project.atlas_size[0]},
+        "head": {"name": project.head.name, "embedded": project.head.embedded,
+                 "path": None if project.head.mesh_path is None else str(project.head.mesh_path),
+                 "asset": project.head.asset, "files": project.head.files},
+        "layers": [{"name": layer.name, "material": layer.material, "visible": layer.visible,
+                    "opacity": layer.opacity, "max_thickness_um": layer.max_thickness_um,
+                    "encoding": layer.encoding, "max_um": float(layer.thickness.max(initial=0.0)),
+                    "mean_um": float(layer.thickness.mean()) if layer.thickness.size else 0.0}
+                   for layer in project.layers],
+        "materials": sorted(project.materials),
+        "lights": len(project.lights),
+        "camera": project.camera is not None,
+        "look": project.look,
+    }
+
+
+def run_info(args: argparse.Namespace) -> int:
+    from painting.project import open_project
+
+    summary = _summary(open_project(args.file, verify_head=False))
+    if args.json:
+        print(json.dumps(summary, indent=2, ensure_ascii=False))
+        return 0
+    head = summary["head"]
+    print(f"{args.file}: '{summary['name']}' (schema_version {summary['schema_version']}, {summary['created_by']})")
+    print(f"  head: {head['name']} ({'embedded' if head['embedded'] else head['path'] or head['asset']})")
+    print(f"  atlas: {summary['atlas']['width']}×{summary['atlas']['height']} texels")
+    print(f"  layers ({len(summary['layers'])}, bottom first):")
+    for layer in summary["layers"]:
+        print(f"    {layer['name']!r:24} {layer['material']!r:24} {'shown' if layer['visible'] else 'hidden':6} "
+              f"opacity {layer['opacity']:.2f}  max {layer['max_um']:.2f} µm  mean {layer['mean_um']:.3f} µm "
+              f"[{layer['encoding']}]")
+    print(f"  materials: {', '.join(summary['materials']) or 'none'}")
+    print(f"  lights: {summary['lights']}; camera: {'yes' if summary['camera'] else 'no'}; "
+          f"look: {summary['look']['name'] if summary['look'] else 'none'}")
+    return 0
+
+
+def run_validate(args: argparse.Namespace) -> int:
+    from km.errors import SheerError
+    from painting.project import open_project
+
+    try:
+        project = open_project(args.file)
+    except SheerError as exc:
+        print(f"sheer: invalid: {' '.join(str(exc).split())}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"sheer: invalid: {args.file}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    print(f"{args.file}: valid ({len(project.layers)} layers, schema_version {project.source_schema_version})")
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    from painting.project_export import export_project
+
+    manifest = export_project(args.file, args.out, ora=args.ora)
+    print(f"wrote {len(manifest['layers'])} layer maps and manifest.json to {args.out}")
+    return 0
