@@ -1,0 +1,597 @@
+"""Import Kubelka–Munk measurements (R∞, R, Rg at thickness D) from CSV and X-Rite/CGATS spectral files,
+invert them to materials, and export materials as CSV.
+
+CSV
+---
+One header row naming the columns, then one row per wavelength; ``#`` lines before the header carry
+metadata as ``# key: value`` (or ``key = value``). Columns (names are case-insensitive, extra columns are
+ignored): ``wavelength`` (nm; also ``wavelength_nm``, ``nm``, ``lambda``), ``R_inf`` (also ``Rinf``,
+``R∞``), ``R`` (also ``R_black``), ``Rg`` (also ``R_g``). Reflectances are fractions in [0, 1].
+Metadata keys: ``D_mm`` (thickness of the R sample in mm; ``--thickness-mm`` overrides it), ``name``,
+``category``, ``instrument``, ``illuminant``, ``saunderson_k1``, ``saunderson_k2``. Comma, semicolon
+or tab separated. :func:`export_csv` writes this format (plus S and K columns), so an export imports.
+
+X-Rite / CGATS (ISO 28178, ANSI CGATS.17)
+-----------------------------------------
+A ``BEGIN_DATA_FORMAT`` block naming the fields (spectral fields ``SPECTRAL_NM380``, ``SPECTRAL_NM_380``
+or X-Rite's ``nm380``), and a ``BEGIN_DATA`` block with one sample per row. Each material needs three
+samples whose ``SAMPLE_NAME`` (else ``SAMPLE_ID``) ends in its role: ``"<material> R_inf"``,
+``"<material> R"``, ``"<material> Rg"`` (separated by a space, ``:``, ``_``, ``/`` or ``-``; ``Rinf`` and
+``R∞`` also work). Header keywords ``D_MM`` (or ``SAMPLE_THICKNESS_MM``), ``INSTRUMENTATION`` and
+``ILLUMINATION_NAME`` are used when present. Values above 1 mean the file is in percent (divided by 100).
+
+Both importers resample linearly onto the wavelength grid (380–780 nm in 5 nm steps by default; grid
+points outside the measured range are dropped), invert with :func:`km.invert_sk`, and report in
+:attr:`ImportResult.rejected` every row, sample or wavelength they left out and why. They never raise for
+bad rows; a file that cannot be read at all raises :class:`MeasurementImportError`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+import shlex
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from km.errors import SheerError
+from km.material import Material, MaterialError, Measurement
+
+#: Largest measurement file read, in bytes.
+MAX_IMPORT_BYTES = 16 * 1024 * 1024
+#: Most data rows read from one file.
+MAX_ROWS = 200_000
+
+#: Typical layer thickness (µm), the most a brush builds up (µm), roughness and index of refraction by
+#: category, used for imported materials (a material's own values can be edited afterwards).
+CATEGORY_DEFAULTS: dict[str, tuple[float, float, float, float]] = {
+    "foundation": (20.0, 80.0, 0.35, 1.45),
+    "concealer": (25.0, 100.0, 0.40, 1.45),
+    "blush": (10.0, 40.0, 0.45, 1.45),
+    "bronzer": (10.0, 40.0, 0.45, 1.45),
+    "highlighter": (8.0, 30.0, 0.20, 1.60),
+    "lipstick": (15.0, 60.0, 0.20, 1.50),
+    "eyeshadow": (10.0, 40.0, 0.40, 1.50),
+    "eyeliner": (10.0, 40.0, 0.30, 1.50),
+}
+_FALLBACK_DEFAULTS = (20.0, 100.0, 0.35, 1.45)
+
+Rejection = tuple[str, str]
+
+
+class MeasurementImportError(SheerError, ValueError):
+    """A measurement file that cannot be read at all (missing, too large, no header, wrong format)."""
+
+
+@dataclass
+class ImportResult:
+    """What an import produced: the materials, and every rejected ``(where, reason)``
+    (``where`` is e.g. ``"line 12"``, ``"sample 'Rose R'"`` or ``"Rose: 455 nm"``)."""
+
+    source: str
+    accepted: list[Material] = field(default_factory=list)
+    rejected: list[Rejection] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def report(self) -> str:
+        """A readable multi-line summary."""
+        lines = [f"{self.source}: imported {len(self.accepted)} material{'s' if len(self.accepted) != 1 else ''}"]
+        for m in self.accepted:
+            wl = m.wavelengths
+            lines.append(f"  + {m.name} ({m.category}, {wl.size} wavelengths {wl[0]:g}–{wl[-1]:g} nm, "
+                         f"D = {m.measurement.D_mm:g} mm)" if m.measurement else f"  + {m.name}")
+        lines += [f"  note: {n}" for n in self.notes]
+        if self.rejected:
+            lines.append(f"rejected {len(self.rejected)}:")
+            lines += [f"  - {where}: {reason}" for where, reason in self.rejected]
+        return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------------
+# shared steps
+
+
+def _default_grid() -> np.ndarray:
+    from km.spectra import DEFAULT_GRID
+
+    return np.asarray(DEFAULT_GRID.wavelengths, dtype=np.float64)
+
+
+def _read_text(path: Path) -> str:
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_IMPORT_BYTES + 1)
+    except FileNotFoundError:
+        raise MeasurementImportError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise MeasurementImportError(f"{path}: is a folder, not a measurement file") from None
+    except OSError as exc:
+        raise MeasurementImportError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_IMPORT_BYTES:
+        raise MeasurementImportError(f"{path}: file too large (more than {MAX_IMPORT_BYTES} bytes)")
+    if b"\x00" in raw[:4096]:
+        raise MeasurementImportError(f"{path}: not a text file")
+    for encoding in ("utf-8-sig", "latin-1"):  # X-Rite software writes Latin-1 (°) as often as UTF-8
+        try:
+            return raw.decode(encoding)
+        except UnicodeDecodeError:
+            continue
+    raise AssertionError("latin-1 decodes any bytes")  # pragma: no cover
+
+
+def _parse_float(text: str) -> float | None:
+    try:
+        x = float(text.strip())
+    except ValueError:
+        return None
+    return x
+
+
+def _fmt_wl(x: float) -> str:
+    return f"{x:g} nm"
+
+
+def _invert_onto_grid(
+    name: str, category: str, wl: np.ndarray, r_inf: np.ndarray, r: np.ndarray, rg: np.ndarray, d_mm: float,
+    grid: np.ndarray, *, instrument: str, illuminant: str, saunderson: tuple[float, float] | None,
+    provenance: str, rejected: list[Rejection],
+) -> Material | None:
+    """Resample a raw triplet onto ``grid``, invert it, and build the material (None if nothing is left)."""
+    from km.optics import invert_sk
+
+    if wl.size < 2:
+        rejected.append((name, f"only {wl.size} valid wavelength{'s' if wl.size != 1 else ''}; need at least 2"))
+        return None
+    inside = (grid >= wl[0] - 1e-9) & (grid <= wl[-1] + 1e-9)
+    outside = grid[~inside]
+    if outside.size:
+        rejected.append((name, f"{outside.size} grid wavelengths outside the measured range "
+                               f"{wl[0]:g}–{wl[-1]:g} nm left out ({_ranges(outside)})"))
+    g = grid[inside]
+    if g.size < 2:
+        rejected.append((name, "the measured range holds fewer than 2 grid wavelengths"))
+        return None
+    # km.spectra resamples linearly (not colour-science's Sprague/cubic): it cannot overshoot, so
+    # Rg < R < R∞ at the measured wavelengths stays true in between and 0 ≤ values ≤ 1 hold.
+    from km.spectra import WavelengthGrid
+
+    ri, rr, rgg = WavelengthGrid.from_wavelengths(g).resample(np.stack([r_inf, r, rg]), wl)
+    if saunderson is None:
+        reasons = _domain_reasons(ri, rr, rgg)
+    else:
+        from km.optics import inverse_saunderson
+
+        internal = [inverse_saunderson(a, *saunderson) for a in (ri, rr, rgg)]
+        reasons = [f"{why} (internal reflectances, after the Saunderson correction)" if why else ""
+                   for why in _domain_reasons(*internal)]
+    inversion = invert_sk(ri, rr, rgg, d_mm, clip=True, saunderson=saunderson, wavelengths=g)
+    s = np.asarray(inversion.S, dtype=np.float64)
+    k = np.asarray(inversion.K, dtype=np.float64)
+    bad = np.asarray(inversion.invalid) | ~(np.isfinite(s) & np.isfinite(k) & (s >= 0) & (k >= 0))
+    for i in np.flatnonzero(bad):
+        rejected.append((f"{name}: {_fmt_wl(g[i])}", reasons[i] or "the inversion gave no finite S, K"))
+    keep = ~bad
+    if keep.sum() < 2:
+        rejected.append((name, "fewer than 2 wavelengths could be inverted; material not imported"))
+        return None
+    thickness, max_thickness, roughness, ior = CATEGORY_DEFAULTS.get(category, _FALLBACK_DEFAULTS)
+    measurement = Measurement(wl, r_inf, r, rg, d_mm, instrument=instrument, illuminant=illuminant,
+                              saunderson=saunderson)
+    try:
+        return Material(name=name, category=category, wavelengths=g[keep], S=s[keep], K=k[keep],
+                        thickness_um=thickness, max_thickness_um=max_thickness, roughness=roughness, ior=ior,
+                        source="measured", provenance=provenance, measurement=measurement)
+    except MaterialError as exc:
+        rejected.append((name, str(exc)))
+        return None
+
+
+def _domain_reasons(r_inf: np.ndarray, r: np.ndarray, rg: np.ndarray) -> list[str]:
+    """Why the Kubelka–Munk inversion is impossible at each wavelength ('' where it is possible)."""
+    out = []
+    for a, b, c in zip(r_inf, r, rg, strict=True):
+        if not 0.0 < a < 1.0:
+            out.append(f"R∞ = {a:.4g} is not strictly between 0 and 1")
+        elif not (min(a, c) < b < max(a, c)):
+            out.append(f"R = {b:.4g} is not strictly between Rg = {c:.4g} and R∞ = {a:.4g}")
+        else:
+            out.append("")
+    return out
+
+
+def _ranges(values: np.ndarray) -> str:
+    if values.size == 0:
+        return ""
+    if values.size <= 3:
+        return ", ".join(_fmt_wl(v) for v in values)
+    return f"{values[0]:g}…{values[-1]:g} nm"
+
+
+def _collect_triplet(rows: list[tuple[str, float, float, float, float]], rejected: list[Rejection]
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Sort rows by wavelength, dropping duplicate wavelengths; rows are ``(where, wl, R∞, R, Rg)``."""
+    rows = sorted(rows, key=lambda t: t[1])
+    kept: list[tuple[str, float, float, float, float]] = []
+    for row in rows:
+        if kept and abs(row[1] - kept[-1][1]) < 1e-9:
+            rejected.append((row[0], f"wavelength {row[1]:g} nm repeats {kept[-1][0]}"))
+            continue
+        kept.append(row)
+    if not kept:
+        empty = np.zeros(0)
+        return empty, empty, empty, empty
+    arr = np.array([t[1:] for t in kept], dtype=np.float64)
+    return arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3]
+
+
+def _check_reflectance(values: dict[str, float], where: str, rejected: list[Rejection]) -> bool:
+    for col, v in values.items():
+        if not math.isfinite(v):
+            rejected.append((where, f"{col} is {v}"))
+            return False
+        if not 0.0 <= v <= 1.0:
+            hint = " (reflectances are fractions, not percent)" if 1.0 < v <= 100.0 else ""
+            rejected.append((where, f"{col} = {v:g} is outside [0, 1]{hint}"))
+            return False
+    return True
+
+
+def _thickness(value: Any, where: str) -> float:
+    d = value if isinstance(value, float) else _parse_float(str(value))
+    if d is None or not math.isfinite(d) or d <= 0 or d > 100:
+        raise MeasurementImportError(f"{where}: the sample thickness D must be a number of mm in (0, 100] "
+                                     f"(got {value!r})")
+    return d
+
+
+def _saunderson(meta: dict[str, str], where: str) -> tuple[float, float] | None:
+    k1, k2 = meta.get("saunderson_k1"), meta.get("saunderson_k2")
+    if k1 is None and k2 is None:
+        return None
+    a = _parse_float(k1 or "")
+    b = _parse_float(k2 or "")
+    if a is None or b is None or not (0 <= a < 1 and 0 <= b < 1):
+        raise MeasurementImportError(f"{where}: saunderson_k1 and saunderson_k2 must both be numbers in [0, 1)")
+    return (a, b)
+
+
+# --------------------------------------------------------------------------------------------------
+# CSV
+
+_CSV_COLUMNS: dict[str, tuple[str, ...]] = {
+    "wavelength": ("wavelength", "wavelength_nm", "wavelengths", "nm", "lambda", "lambda_nm", "wl"),
+    "R_inf": ("r_inf", "rinf", "r∞", "r_infinity", "r_opaque"),
+    "R": ("r", "r_black", "r_d", "r_sample"),
+    "Rg": ("rg", "r_g", "r_background", "background"),
+}
+_META_RE = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_ ]*?)\s*[:=]\s*(.*?)\s*$")
+
+
+def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
+             category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
+    """Import one material from a CSV triplet file (see the module docstring). ``thickness_mm`` (D, mm)
+    overrides the file's ``D_mm``; ``name`` and ``category`` override the file's metadata (defaults: the
+    file name and ``other``). ``grid``: target wavelengths (nm), default 380–780 nm in 5 nm steps."""
+    p = Path(path)
+    source = str(p)
+    text = _read_text(p)
+    result = ImportResult(source=source)
+    # Hand-written on purpose: colour-science's CSV reader (numpy.genfromtxt) turns a bad cell into NaN
+    # and aborts or skips ragged rows without saying which line, and ignores metadata; we must report
+    # every rejected row with its line number and reason, and read D from the header.
+    lines = text.splitlines()
+    meta: dict[str, str] = {}
+    header_index = None
+    for i, line in enumerate(lines):
+        stripped = line.strip()
+        if not stripped:
+            continue
+        if stripped.startswith("#"):
+            m = _META_RE.match(stripped)
+            if m:
+                meta[m.group(1).strip().lower().replace(" ", "_")] = m.group(2).strip().strip('"')
+            continue
+        header_index = i
+        break
+    if header_index is None:
+        raise MeasurementImportError(f"{source}: no header row (expected columns wavelength, R_inf, R, Rg)")
+    header_line = lines[header_index]
+    delimiter = "\t" if "\t" in header_line else (";" if ";" in header_line and "," not in header_line else ",")
+    header = [h.strip().strip('"').lower() for h in next(csv.reader([header_line], delimiter=delimiter))]
+    columns: dict[str, int] = {}
+    for key, aliases in _CSV_COLUMNS.items():
+        found = [j for j, h in enumerate(header) if h in aliases]
+        if not found:
+            raise MeasurementImportError(
+                f"{source}: line {header_index + 1}: no {key} column (header: {', '.join(header) or 'empty'}; "
+                f"expected wavelength, R_inf, R, Rg)")
+        if len(found) > 1:
+            raise MeasurementImportError(f"{source}: line {header_index + 1}: more than one {key} column")
+        columns[key] = found[0]
+    ignored = [h for j, h in enumerate(header) if j not in columns.values()]
+    if ignored:
+        result.notes.append(f"ignored column{'s' if len(ignored) > 1 else ''} {', '.join(ignored)}")
+
+    if thickness_mm is not None:
+        d_mm = _thickness(thickness_mm, "--thickness-mm")
+    elif "d_mm" in meta or "d" in meta:
+        d_mm = _thickness(meta.get("d_mm", meta.get("d")), f"{source}: header D_mm")
+    else:
+        raise MeasurementImportError(f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' "
+                                     "header line or pass --thickness-mm")
+    saunderson = _saunderson(meta, source)
+
+    rows: list[tuple[str, float, float, float, float]] = []
+    body = lines[header_index + 1:]
+    if len(body) > MAX_ROWS:
+        raise MeasurementImportError(f"{source}: too many rows ({len(body)}, at most {MAX_ROWS})")
+    reader = csv.reader(io.StringIO("\n".join(body)), delimiter=delimiter)
+    for offset, cells in enumerate(reader):
+        where = f"line {header_index + 2 + offset}"
+        if not cells or all(not c.strip() for c in cells) or cells[0].lstrip().startswith("#"):
+            continue
+        if len(cells) < len(header):
+            result.rejected.append((where, f"{len(cells)} values, the header has {len(header)} columns"))
+            continue
+        values: dict[str, float] = {}
+        for key, j in columns.items():
+            x = _parse_float(cells[j])
+            if x is None:
+                result.rejected.append((where, f"{key} {cells[j].strip()!r} is not a number"))
+                break
+            values[key] = x
+        else:
+            wl = values.pop("wavelength")
+            if not math.isfinite(wl) or not 200.0 <= wl <= 3000.0:
+                result.rejected.append((where, f"wavelength {wl:g} nm is outside 200–3000 nm"))
+                continue
+            if _check_reflectance(values, where, result.rejected):
+                rows.append((where, wl, values["R_inf"], values["R"], values["Rg"]))
+
+    wl, r_inf, r, rg = _collect_triplet(rows, result.rejected)
+    mat_name = name or meta.get("name") or p.stem
+    mat_category = (category or meta.get("category") or "other").strip().lower()
+    target = _default_grid() if grid is None else np.asarray(grid, dtype=np.float64)
+    provenance = (f"Measured: imported from {p.name} (CSV; R∞, R over a background of reflectance Rg at "
+                  f"D = {d_mm:g} mm), inverted with Kubelka–Munk Eq. 6–7"
+                  + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
+                  + ".")
+    material = _invert_onto_grid(
+        mat_name, mat_category, wl, r_inf, r, rg, d_mm, target, instrument=meta.get("instrument", ""),
+        illuminant=meta.get("illuminant", ""), saunderson=saunderson, provenance=provenance,
+        rejected=result.rejected)
+    if material is not None:
+        result.accepted.append(material)
+    return result
+
+
+# --------------------------------------------------------------------------------------------------
+# X-Rite / CGATS
+
+_SPECTRAL_FIELD_RE = re.compile(r"^(?:SPECTRAL_?)?NM_?(\d+(?:\.\d+)?)$|^SPECTRAL_(\d+(?:\.\d+)?)$", re.IGNORECASE)
+_ROLE_RE = re.compile(r"^(?:(?P<base>.*?)[\s:_/-]+)?(?P<role>r_?inf|r∞|r_?infinity|r_?g|r)$", re.IGNORECASE)
+
+
+def _role(label: str) -> tuple[str, str] | None:
+    m = _ROLE_RE.match(label.strip())
+    if not m:
+        return None
+    role = m.group("role").lower().replace("_", "")
+    role = {"rinf": "R_inf", "r∞": "R_inf", "rinfinity": "R_inf", "rg": "Rg", "r": "R"}[role]
+    return (m.group("base") or "").strip(), role
+
+
+def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
+               category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
+    """Import materials from an X-Rite / CGATS spectral file (see the module docstring). ``name`` may be
+    given only when the file holds one material."""
+    p = Path(path)
+    source = str(p)
+    text = _read_text(p)
+    result = ImportResult(source=source)
+    # Hand-written on purpose: colour.read_sds_from_xrite_file (documented as "minimalistic and absolutely
+    # not bullet-proof") only knows lowercase 'nmNNN' fields, not CGATS's SPECTRAL_NMNNN, splits quoted
+    # sample names at spaces, takes the name from the second column, aborts the whole file on one bad value
+    # and drops the header keywords; we need per-row reasons, D and the instrument from the header.
+    keywords: dict[str, str] = {}
+    fields_: list[str] | None = None
+    data: list[tuple[int, str]] = []
+    state = "header"
+    for lineno, raw_line in enumerate(text.splitlines(), start=1):
+        line = raw_line.strip()
+        if not line or line.startswith("#"):
+            continue
+        upper = line.split(None, 1)[0].upper()
+        if state == "header":
+            if upper == "BEGIN_DATA_FORMAT":
+                state, fields_ = "format", []
+            elif upper == "BEGIN_DATA":
+                state = "data"
+            else:
+                parts = line.split(None, 1)
+                if len(parts) == 2:
+                    keywords[parts[0].upper()] = parts[1].strip().strip('"')
+        elif state == "format":
+            if upper == "END_DATA_FORMAT":
+                state = "header"
+            else:
+                fields_ = (fields_ or []) + line.split()
+        elif state == "data":
+            if upper == "END_DATA":
+                state = "header"
+            else:
+                data.append((lineno, line))
+    if fields_ is None:
+        raise MeasurementImportError(f"{source}: not a CGATS/X-Rite file: no BEGIN_DATA_FORMAT block")
+    if len(data) > MAX_ROWS:
+        raise MeasurementImportError(f"{source}: too many samples ({len(data)}, at most {MAX_ROWS})")
+    spectral: list[tuple[int, float]] = []
+    for j, f in enumerate(fields_):
+        m = _SPECTRAL_FIELD_RE.match(f)
+        if m:
+            spectral.append((j, float(m.group(1) or m.group(2))))
+    if len(spectral) < 2:
+        raise MeasurementImportError(f"{source}: no spectral fields (SPECTRAL_NM380 … or nm380 …) in the data format")
+    upper_fields = [f.upper() for f in fields_]
+    label_col = next((upper_fields.index(k) for k in ("SAMPLE_NAME", "SAMPLE_ID") if k in upper_fields), None)
+    if label_col is None:
+        raise MeasurementImportError(f"{source}: the data format has neither SAMPLE_NAME nor SAMPLE_ID")
+    order = np.argsort([wl for _, wl in spectral], kind="stable")
+    spectral = [spectral[i] for i in order]
+    wl_all = np.array([wl for _, wl in spectral])
+    if np.any(np.diff(wl_all) <= 0):
+        raise MeasurementImportError(f"{source}: the data format repeats a spectral field")
+
+    if thickness_mm is not None:
+        d_mm = _thickness(thickness_mm, "--thickness-mm")
+    elif "D_MM" in keywords or "SAMPLE_THICKNESS_MM" in keywords:
+        d_mm = _thickness(keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")), f"{source}: keyword D_MM")
+    else:
+        raise MeasurementImportError(f"{source}: the sample thickness D is not given: add a 'D_MM 0.15' keyword "
+                                     "or pass --thickness-mm")
+    saunderson = _saunderson({k.lower(): v for k, v in keywords.items()}, source)
+
+    # rows -> spectra, grouped by material and role
+    samples: list[tuple[str, np.ndarray]] = []  # (label, values) of valid rows
+    parsed_rows: list[tuple[str, str, list[float]]] = []
+    for lineno, line in data:
+        where = f"line {lineno}"
+        try:
+            tokens = shlex.split(line, posix=True)
+        except ValueError as exc:
+            result.rejected.append((where, f"cannot split the row: {exc}"))
+            continue
+        if len(tokens) != len(fields_):
+            result.rejected.append((where, f"{len(tokens)} values, the data format has {len(fields_)} fields"))
+            continue
+        values: list[float] = []
+        for j, _wl in spectral:
+            x = _parse_float(tokens[j])
+            if x is None or not math.isfinite(x):
+                result.rejected.append((where, f"{fields_[j]} {tokens[j]!r} is not a finite number"))
+                break
+            values.append(x)
+        else:
+            parsed_rows.append((where, tokens[label_col], values))
+    scale_percent = bool(parsed_rows) and max(max(v) for _, _, v in parsed_rows) > 1.0
+    if scale_percent:
+        result.notes.append("values above 1 found: the file is read as percent (divided by 100)")
+    for where, label, values in parsed_rows:
+        arr = np.array(values) / (100.0 if scale_percent else 1.0)
+        bad = np.flatnonzero((arr < 0) | (arr > 1))
+        if bad.size:
+            result.rejected.append((f"{where} ({label})", f"reflectance {arr[bad[0]]:g} at "
+                                                          f"{_fmt_wl(wl_all[bad[0]])} is outside [0, 1]"))
+            continue
+        samples.append((label, arr))
+
+    groups: dict[str, dict[str, tuple[str, np.ndarray]]] = {}
+    display: dict[str, str] = {}
+    for label, arr in samples:
+        r = _role(label)
+        if r is None:
+            result.rejected.append((f"sample {label!r}", "its name does not end in R_inf, R or Rg, so its role "
+                                                         "in the measurement is unknown"))
+            continue
+        base, role = r
+        key = base.casefold()
+        display.setdefault(key, base)
+        group = groups.setdefault(key, {})
+        if role in group:
+            result.rejected.append((f"sample {label!r}", f"a second {role} sample for {base or 'the material'!r}"))
+            continue
+        group[role] = (label, arr)
+    if name is not None and len(groups) > 1:
+        raise MeasurementImportError(f"{source}: --name can only be used for a file with one material "
+                                     f"(this one has {len(groups)}: {', '.join(display[k] or '?' for k in groups)})")
+    target = _default_grid() if grid is None else np.asarray(grid, dtype=np.float64)
+    instrument = keywords.get("INSTRUMENTATION", "")
+    illuminant = keywords.get("ILLUMINATION_NAME", "")
+    for key, group in groups.items():
+        base = display[key]
+        missing = [role for role in ("R_inf", "R", "Rg") if role not in group]
+        mat_name = name or base or p.stem
+        if missing:
+            result.rejected.append((f"material {mat_name!r}", f"missing the {' and '.join(missing)} sample"
+                                                              f"{'s' if len(missing) > 1 else ''}"))
+            continue
+        provenance = (f"Measured: imported from {p.name} (CGATS samples {', '.join(repr(group[r][0]) for r in ('R_inf', 'R', 'Rg'))}"
+                      f"; D = {d_mm:g} mm{', instrument ' + instrument if instrument else ''}), inverted with "
+                      "Kubelka–Munk Eq. 6–7"
+                      + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
+                      + ".")
+        material = _invert_onto_grid(
+            mat_name, (category or "other").strip().lower(), wl_all, group["R_inf"][1], group["R"][1],
+            group["Rg"][1], d_mm, target, instrument=instrument, illuminant=illuminant, saunderson=saunderson,
+            provenance=provenance, rejected=result.rejected)
+        if material is not None:
+            result.accepted.append(material)
+    if not groups and not result.rejected:
+        result.rejected.append((source, "no samples in the BEGIN_DATA block"))
+    return result
+
+
+# --------------------------------------------------------------------------------------------------
+
+
+def is_cgats(path: str | Path) -> bool:
+    """True if the file looks like X-Rite/CGATS (it has a BEGIN_DATA_FORMAT line)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(64 * 1024)
+    except OSError:
+        return False
+    return b"BEGIN_DATA_FORMAT" in head.upper()
+
+
+def import_file(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
+                category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
+    """Import a CSV or X-Rite/CGATS measurement file (detected from its content)."""
+    reader = read_cgats if is_cgats(path) else read_csv
+    return reader(path, thickness_mm=thickness_mm, name=name, category=category, grid=grid)
+
+
+def export_csv(material: Material, path: str | Path) -> Path:
+    """Write a material as CSV (atomically): its measurement triplet on the material's wavelengths
+    (linearly resampled) with ``# D_mm`` and the other metadata, plus ``S_per_mm`` and ``K_per_mm``
+    columns. A material without a measurement gets the triplet its S and K predict (R∞, R over black
+    at D = 0.15 mm, Rg = 0). :func:`read_csv` reads the file back."""
+    from km.atomicio import atomic_write_text
+
+    wl = material.wavelengths
+    meas = material.measurement
+    if meas is not None:
+        d_mm = meas.D_mm
+        r_inf, r, rg = (np.interp(wl, meas.wavelengths, a) for a in (meas.R_inf, meas.R, meas.Rg))
+        instrument, illuminant, saunderson = meas.instrument, meas.illuminant, meas.saunderson
+    else:
+        from km.optics import over
+
+        d_mm = 0.15
+        r_inf = material.r_inf()
+        rg = np.zeros_like(wl)
+        r0, t = material.rt(d_mm * 1000.0)
+        r = over(r0, t, rg)
+        instrument, illuminant, saunderson = "", "", None
+    out = io.StringIO()
+    out.write(f"# name: {material.name}\n# category: {material.category}\n# D_mm: {d_mm!r}\n")
+    if instrument:
+        out.write(f"# instrument: {instrument}\n")
+    if illuminant:
+        out.write(f"# illuminant: {illuminant}\n")
+    if saunderson:
+        out.write(f"# saunderson_k1: {saunderson[0]!r}\n# saunderson_k2: {saunderson[1]!r}\n")
+    out.write(f"# source: {material.source}\n")
+    writer = csv.writer(out, lineterminator="\n")
+    writer.writerow(["wavelength_nm", "R_inf", "R", "Rg", "S_per_mm", "K_per_mm"])
+    for row in zip(wl, r_inf, r, rg, material.S, material.K, strict=True):
+        writer.writerow([repr(float(x)) for x in row])
+    target = Path(path)
+    atomic_write_text(target, out.getvalue())
+    return target
