@@ -60,6 +60,18 @@ def tiny_head(embedded: bool = True) -> HeadRef:
                    mesh="head.obj", files=files, data=data if embedded else None)
 
 
+def write_tiny_head(folder: str | Path, name: str = "head.obj") -> Path:
+    """Write :func:`tiny_head`'s files (a one-triangle OBJ with UVs and its sidecar) into ``folder``;
+    returns the mesh path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    data = tiny_head(True).data
+    assert data is not None
+    (folder / name).write_bytes(data["head.obj"])
+    (folder / (name + ".sheer-head.json")).write_bytes(data["head.obj.sheer-head.json"])
+    return folder / name
+
+
 def sample_project(side: int = 16, layers: int = 2, seed: int = 0, embedded: bool = True,
                    name: str = "fuzz sample") -> Project:
     """A small valid project: ``layers`` layers of ``side``² texels (EXR, then PNG), two materials,

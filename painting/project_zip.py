@@ -78,7 +78,7 @@ class SafeZipReader:
     """
 
     def __init__(self, source: str | Path | IO[bytes], *, name: str | None = None,
-                 max_total: int = MAX_TOTAL_UNCOMPRESSED) -> None:
+                 max_total: int | None = None) -> None:
         self.name = name or str(source)
         try:
             self._zip = zipfile.ZipFile(source, "r")  # type: ignore[arg-type]
@@ -87,7 +87,7 @@ class SafeZipReader:
         except Exception as exc:  # zipfile raises BadZipFile, NotImplementedError, struct.error... on forged headers
             raise ProjectContainerError(f"{self.name}: not a Sheer project (not a readable zip file: {exc})") from None
         try:
-            self._infos = self._check(max_total)
+            self._infos = self._check(MAX_TOTAL_UNCOMPRESSED if max_total is None else max_total)
         except BaseException:
             self._zip.close()
             raise
@@ -112,7 +112,7 @@ class SafeZipReader:
             mode = (info.external_attr >> 16) & 0xFFFF
             if stat.S_ISLNK(mode):
                 raise self._fail(name, "symbolic link (links are never followed)")
-            if mode and not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            if stat.S_IFMT(mode) not in (0, stat.S_IFREG, stat.S_IFDIR):  # 0: no type recorded
                 raise self._fail(name, "not a regular file")
             if info.flag_bits & 0x1:
                 raise self._fail(name, "encrypted entry")
