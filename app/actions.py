@@ -1,0 +1,77 @@
+"""Actions declared as data (after napari): id, title, shortcut, menu, and when they are enabled.
+
+The studio builds its menus and shortcuts from :data:`STUDIO_ACTIONS`; the kiosk uses the reduced set
+:data:`KIOSK_ACTIONS` (no menus, no file dialogs). ``enabled_when`` names a predicate of the window's
+context (see :meth:`app.main_window.StudioWindow.context`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    id: str
+    title: str
+    menu: str
+    shortcut: str = ""
+    enabled_when: str = "always"
+    checkable: bool = False
+    tip: str = ""
+
+
+STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
+    ActionSpec("file.new", "&New Project", "File", "Ctrl+N"),
+    ActionSpec("file.open", "&Open Project…", "File", "Ctrl+O", "has_project_io"),
+    ActionSpec("file.save", "&Save Project", "File", "Ctrl+S", "has_project_io"),
+    ActionSpec("file.save_as", "Save Project &As…", "File", "Ctrl+Shift+S", "has_project_io"),
+    ActionSpec("file.export_maps", "Export Layer &Maps…", "File", "Ctrl+E", "has_layers"),
+    ActionSpec("file.export_image", "Export Rendered &Image…", "File", "Ctrl+Shift+E"),
+    ActionSpec("file.export_gltf", "Export &glTF/GLB…", "File", "Ctrl+Alt+E"),
+    ActionSpec("file.quit", "&Quit", "File", "Ctrl+Q"),
+    ActionSpec("edit.undo", "&Undo", "Edit", "Ctrl+Z", "can_undo"),
+    ActionSpec("edit.redo", "&Redo", "Edit", "Ctrl+Shift+Z", "can_redo"),
+    ActionSpec("brush.smaller", "Brush Smaller", "Brush", "[", tip="radius ÷ 1.2"),
+    ActionSpec("brush.larger", "Brush Larger", "Brush", "]", tip="radius × 1.2"),
+    ActionSpec("brush.weaker", "Brush Weaker", "Brush", "Shift+[", tip="strength − 0.1"),
+    ActionSpec("brush.stronger", "Brush Stronger", "Brush", "Shift+]", tip="strength + 0.1"),
+    ActionSpec("brush.eraser", "&Eraser", "Brush", "E", checkable=True),
+    ActionSpec("brush.smooth", "&Smooth", "Brush", "S", checkable=True),
+    ActionSpec("brush.mirror", "Mirror (&X)", "Brush", "X", checkable=True),
+    ActionSpec("view.frame", "&Frame Head", "View", "F"),
+    ActionSpec("view.split", "Before/After &Split", "View", "B", checkable=True),
+    ActionSpec("view.reference", "&Reference Render Mode", "View", "R", checkable=True),
+    ActionSpec("view.overlay", "Frame-Time &Overlay", "View", "O", checkable=True),
+    ActionSpec("help.shortcuts", "&Keyboard Shortcuts", "Help", "F1"),
+    ActionSpec("help.about", "&About Sheer", "Help"),
+)
+
+#: The kiosk's reduced set: nothing that opens a dialog or leaves the application without the PIN.
+KIOSK_ACTIONS: tuple[ActionSpec, ...] = (
+    ActionSpec("kiosk.exit", "Exit (administrator)", "Kiosk", "Ctrl+Q"),
+    ActionSpec("view.split", "Before/After", "Kiosk", "B", checkable=True),
+)
+
+MENU_ORDER: tuple[str, ...] = ("File", "Edit", "Brush", "View", "Help")
+
+
+def is_enabled(spec: ActionSpec, context: Mapping[str, bool]) -> bool:
+    return spec.enabled_when == "always" or bool(context.get(spec.enabled_when, False))
+
+
+def shortcut_sheet(specs: tuple[ActionSpec, ...] = STUDIO_ACTIONS) -> list[tuple[str, str, str]]:
+    """(menu, title without mnemonics, shortcut) for every action with a shortcut, plus mouse gestures."""
+    rows = [(s.menu, s.title.replace("&", "").rstrip("…"), s.shortcut) for s in specs if s.shortcut]
+    rows += [
+        ("Viewport", "Paint on the face", "Left drag on the head"),
+        ("Viewport", "Orbit", "Left drag off the head, or right drag"),
+        ("Viewport", "Pan", "Middle drag, or Shift+right drag"),
+        ("Viewport", "Zoom", "Wheel"),
+        ("Viewport", "Move the light", "Ctrl+left drag"),
+    ]
+    return rows
+
+
+Handler = Callable[[], None]

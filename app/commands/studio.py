@@ -1,0 +1,20 @@
+"""``sheer studio [--head PATH] [--look NAME] [--project FILE]``: the desktop studio (the default command)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("studio", help="start the studio (the default)", description=__doc__)
+    p.add_argument("--head", help="head mesh (default: the sample head)")
+    p.add_argument("--look", default="natural", help="look to start with (default: natural)")
+    p.add_argument("--project", help="project file to open")
+    p.add_argument("--resolution", type=int, default=512, help="thickness map resolution (texels)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from app.studio_app import run_studio
+
+    return run_studio(head=args.head, look=args.look, project=args.project, resolution=args.resolution)

@@ -1,0 +1,196 @@
+"""The layers panel: a view of the document's layers that sends commands back (it holds no truth).
+
+Top of the list = top layer. Drag to reorder, double-click to rename, tick to show/hide; opacity,
+maximum thickness, material, delete, import/export of the thickness map; a swatch of each material.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtGui import QColor, QIcon, QPixmap
+from PySide6.QtWidgets import (
+    QAbstractItemView,
+    QComboBox,
+    QDoubleSpinBox,
+    QFormLayout,
+    QHBoxLayout,
+    QListWidget,
+    QListWidgetItem,
+    QPushButton,
+    QSlider,
+    QVBoxLayout,
+    QWidget,
+)
+
+
+def material_rgb(material: Any, thickness_um: float | None = None,
+                 background: tuple[float, float, float] | None = None) -> tuple[int, int, int]:
+    """sRGB 0..255 of a material: R∞, or a layer of ``thickness_um`` over ``background`` (linear RGB)."""
+    from app.fallback import km_layer_rt, km_r_inf, spectrum_to_rgb
+
+    wl = np.asarray(material.wavelengths)
+    if thickness_um is None:
+        lin = spectrum_to_rgb(km_r_inf(material.S, material.K), wl)
+    else:
+        R, T = km_layer_rt(material.S, material.K, thickness_um / 1000.0)
+        r, t = spectrum_to_rgb(R, wl), spectrum_to_rgb(T, wl)
+        bg = np.asarray(background if background is not None else (0.0, 0.0, 0.0))
+        lin = r + t * t * bg / np.maximum(1.0 - r * bg, 1e-4)
+    srgb = np.clip(np.asarray(lin), 0.0, 1.0) ** (1.0 / 2.2)
+    return tuple(int(round(float(c) * 255)) for c in srgb)  # type: ignore[return-value]
+
+
+def swatch_icon(rgb: tuple[int, int, int], size: int = 28) -> QIcon:
+    pm = QPixmap(size, size)
+    pm.fill(QColor(*rgb))
+    return QIcon(pm)
+
+
+class LayerList(QListWidget):
+    moved = Signal(int, int)  # (from row, to row)
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setDragDropMode(QAbstractItemView.DragDropMode.InternalMove)
+        self.setDefaultDropAction(Qt.DropAction.MoveAction)
+        self._drag_row = -1
+
+    def startDrag(self, actions: Any) -> None:
+        self._drag_row = self.currentRow()
+        super().startDrag(actions)
+
+    def dropEvent(self, event: Any) -> None:
+        src = self._drag_row
+        super().dropEvent(event)
+        dst = self.currentRow()
+        if src >= 0 and dst >= 0 and src != dst:
+            self.moved.emit(src, dst)
+
+
+class LayersPanel(QWidget):
+    """Signals carry *document* indices (0 = bottom layer)."""
+
+    add_requested = Signal(str)
+    remove_requested = Signal(int)
+    move_requested = Signal(int, int)
+    rename_requested = Signal(int, str)
+    visibility_requested = Signal(int, bool)
+    opacity_requested = Signal(int, float)
+    max_thickness_requested = Signal(int, float)
+    material_requested = Signal(int, str)
+    import_requested = Signal(int)
+    export_requested = Signal(int)
+    selection_changed = Signal(int)
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._count = 0
+        self._updating = False
+        self.list = LayerList()
+        self.list.setIconSize(self.list.iconSize().expandedTo(self.list.iconSize() * 1.6))
+        self.material = QComboBox()
+        self.add_button = QPushButton("Add Layer")
+        self.delete_button = QPushButton("Delete")
+        self.import_button = QPushButton("Import Map…")
+        self.export_button = QPushButton("Export Map…")
+        self.opacity = QSlider(Qt.Orientation.Horizontal)
+        self.opacity.setRange(0, 100)
+        self.max_thickness = QDoubleSpinBox()
+        self.max_thickness.setRange(0.1, 500.0)
+        self.max_thickness.setSuffix(" µm")
+        self.layer_material = QComboBox()
+        top = QHBoxLayout()
+        top.addWidget(self.material, 1)
+        top.addWidget(self.add_button)
+        form = QFormLayout()
+        form.addRow("Material", self.layer_material)
+        form.addRow("Opacity", self.opacity)
+        form.addRow("Max thickness", self.max_thickness)
+        buttons = QHBoxLayout()
+        for b in (self.delete_button, self.import_button, self.export_button):
+            buttons.addWidget(b)
+        lay = QVBoxLayout(self)
+        lay.addLayout(top)
+        lay.addWidget(self.list, 1)
+        lay.addLayout(form)
+        lay.addLayout(buttons)
+        self.add_button.clicked.connect(lambda: self.add_requested.emit(self.material.currentText()))
+        self.delete_button.clicked.connect(lambda: self._emit_current(self.remove_requested))
+        self.import_button.clicked.connect(lambda: self._emit_current(self.import_requested))
+        self.export_button.clicked.connect(lambda: self._emit_current(self.export_requested))
+        self.list.moved.connect(lambda a, b: self.move_requested.emit(self.doc_index(a), self.doc_index(b)))
+        self.list.itemChanged.connect(self._item_changed)
+        self.list.currentRowChanged.connect(lambda r: self.selection_changed.emit(self.doc_index(r)))
+        self.opacity.sliderReleased.connect(
+            lambda: self._emit_current(self.opacity_requested, self.opacity.value() / 100.0))
+        self.max_thickness.editingFinished.connect(
+            lambda: self._emit_current(self.max_thickness_requested, float(self.max_thickness.value())))
+        self.layer_material.activated.connect(
+            lambda _i: self._emit_current(self.material_requested, self.layer_material.currentText()))
+
+    def doc_index(self, row: int) -> int:
+        return -1 if row < 0 else self._count - 1 - row
+
+    def current_index(self) -> int:
+        return self.doc_index(self.list.currentRow())
+
+    def _emit_current(self, signal: Any, *extra: Any) -> None:
+        if self._updating:
+            return
+        i = self.current_index()
+        if i >= 0:
+            signal.emit(i, *extra)
+
+    def _item_changed(self, item: QListWidgetItem) -> None:
+        if self._updating:
+            return
+        i = self.doc_index(self.list.row(item))
+        name = item.text().strip()
+        if item.data(Qt.ItemDataRole.UserRole) != name and name:
+            self.rename_requested.emit(i, name)
+        visible = item.checkState() == Qt.CheckState.Checked
+        if item.data(Qt.ItemDataRole.UserRole + 1) != visible:
+            self.visibility_requested.emit(i, visible)
+
+    def set_materials(self, library: Any) -> None:
+        current = self.material.currentText()
+        self._updating = True
+        for combo in (self.material, self.layer_material):
+            combo.clear()
+            for m in library:
+                combo.addItem(swatch_icon(material_rgb(m), 16), m.name)
+        if current:
+            self.material.setCurrentText(current)
+        self._updating = False
+
+    def refresh(self, layers: list[Any], library: Any, select: int | None = None) -> None:
+        """Rebuild from the document's layers (bottom first)."""
+        keep = self.current_index() if select is None else select
+        self._updating = True
+        self.list.clear()
+        self._count = len(layers)
+        for lay in reversed(layers):
+            item = QListWidgetItem(lay.name)
+            item.setFlags(item.flags() | Qt.ItemFlag.ItemIsEditable | Qt.ItemFlag.ItemIsUserCheckable
+                          | Qt.ItemFlag.ItemIsDragEnabled)
+            item.setCheckState(Qt.CheckState.Checked if lay.visible else Qt.CheckState.Unchecked)
+            item.setData(Qt.ItemDataRole.UserRole, lay.name)
+            item.setData(Qt.ItemDataRole.UserRole + 1, bool(lay.visible))
+            item.setToolTip(f"{lay.material} · opacity {lay.opacity:.0%} · max {lay.max_thickness:g} µm")
+            if lay.material in library:
+                item.setIcon(swatch_icon(material_rgb(library.get(lay.material))))
+            self.list.addItem(item)
+        if self._count:
+            keep = min(max(keep, 0), self._count - 1)
+            self.list.setCurrentRow(self._count - 1 - keep)
+            lay = layers[keep]
+            self.opacity.setValue(int(round(lay.opacity * 100)))
+            self.max_thickness.setValue(float(lay.max_thickness))
+            self.layer_material.setCurrentText(lay.material)
+        for w in (self.delete_button, self.import_button, self.export_button, self.opacity,
+                  self.max_thickness, self.layer_material):
+            w.setEnabled(self._count > 0)
+        self._updating = False

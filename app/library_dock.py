@@ -1,0 +1,469 @@
+"""The material library editor: search/filter, property edits (undoable), spectral plots with
+pyqtgraph (legends, units, hover read-out), a thickness slider for R0/T, swatches over black, white and
+the current skin, measurement import with a report of rejected rows, Duncan mixing with a live swatch,
+atomic save. Emits ``material_changed(name)`` so the viewport updates live."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QStandardPaths, Qt, Signal
+from PySide6.QtGui import QUndoCommand, QUndoStack
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDoubleSpinBox,
+    QFileDialog,
+    QFormLayout,
+    QGridLayout,
+    QHBoxLayout,
+    QLabel,
+    QLineEdit,
+    QListWidget,
+    QPushButton,
+    QSlider,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app import dialogs
+from app.fallback import km_layer_rt, km_r_inf
+from app.layers_panel import material_rgb, swatch_icon
+
+EDITABLE = {"category": str, "thickness_um": float, "max_thickness_um": float, "roughness": float,
+            "ior": float}
+
+
+class _SetAttr(QUndoCommand):
+    def __init__(self, dock: LibraryDock, name: str, attr: str, old: Any, new: Any) -> None:
+        super().__init__(f"{attr} of {name}")
+        self.dock, self.name, self.attr, self.old, self.new = dock, name, attr, old, new
+
+    def _apply(self, value: Any) -> None:
+        lib = self.dock.library
+        lib.add(lib.get(self.name).replace(**{self.attr: value}), replace=True)
+        self.dock.changed(self.name)
+
+    def redo(self) -> None:
+        self._apply(self.new)
+
+    def undo(self) -> None:
+        self._apply(self.old)
+
+
+class _Rename(QUndoCommand):
+    def __init__(self, dock: LibraryDock, old: str, new: str) -> None:
+        super().__init__(f"rename {old}")
+        self.dock, self.old, self.new = dock, old, new
+
+    def redo(self) -> None:
+        self.dock.library.rename(self.old, self.new)
+        self.dock.changed(self.new, renamed_from=self.old)
+
+    def undo(self) -> None:
+        self.dock.library.rename(self.new, self.old)
+        self.dock.changed(self.old, renamed_from=self.new)
+
+
+class _Add(QUndoCommand):
+    def __init__(self, dock: LibraryDock, material: Any) -> None:
+        super().__init__(f"add {material.name}")
+        self.dock, self.material = dock, material
+
+    def redo(self) -> None:
+        self.dock.library.add(self.material)
+        self.dock.changed(self.material.name)
+
+    def undo(self) -> None:
+        self.dock.library.remove(self.material.name)
+        self.dock.changed(None)
+
+
+class _AddMany(QUndoCommand):
+    def __init__(self, dock: LibraryDock, materials: list[Any], title: str) -> None:
+        super().__init__(title)
+        self.dock, self.materials = dock, materials
+
+    def redo(self) -> None:
+        for m in self.materials:
+            self.dock.library.add(m)
+        self.dock.changed(self.materials[-1].name)
+
+    def undo(self) -> None:
+        for m in self.materials:
+            self.dock.library.remove(m.name)
+        self.dock.changed(None)
+
+
+def duncan_mix(a: Any, b: Any, fraction_b: float, name: str) -> Any:
+    """A new material mixing ``a`` and ``b`` by Duncan's rule: S and K are concentration-weighted sums."""
+    wl = np.asarray(a.wavelengths, float)
+    sb = np.interp(wl, np.asarray(b.wavelengths, float), np.asarray(b.S, float))
+    kb = np.interp(wl, np.asarray(b.wavelengths, float), np.asarray(b.K, float))
+    c = float(np.clip(fraction_b, 0.0, 1.0))
+    return a.replace(name=name, S=(1 - c) * np.asarray(a.S, float) + c * sb,
+                     K=(1 - c) * np.asarray(a.K, float) + c * kb, measurement=None, source="modelled",
+                     provenance=f"Duncan mix: {1 - c:.0%} {a.name} + {c:.0%} {b.name}")
+
+
+class LibraryDock(QWidget):
+    material_changed = Signal(object)  # a material name, or None when the set of materials changed
+
+    def __init__(self, library: Any, skin_rgb: tuple[float, float, float], parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.library = library
+        self.skin = skin_rgb
+        self.undo_stack = QUndoStack(self)
+        self.current: str | None = None
+        self._loading = False
+        self.search = QLineEdit()
+        self.search.setPlaceholderText("Search materials…")
+        self.category = QComboBox()
+        self.list = QListWidget()
+        self.name_edit = QLineEdit()
+        self.category_edit = QComboBox()
+        self.category_edit.setEditable(True)
+        self.spins: dict[str, QDoubleSpinBox] = {}
+        for attr, (lo, hi, suffix, step) in {
+            "thickness_um": (0.1, 10000.0, " µm", 1.0), "max_thickness_um": (0.1, 10000.0, " µm", 1.0),
+            "roughness": (0.01, 1.0, "", 0.05), "ior": (1.0, 3.0, "", 0.01)}.items():
+            s = QDoubleSpinBox()
+            s.setRange(lo, hi)
+            s.setSingleStep(step)
+            s.setDecimals(2)
+            s.setSuffix(suffix)
+            s.editingFinished.connect(lambda a=attr, w=s: self.edit(a, float(w.value())))
+            self.spins[attr] = s
+        form = QFormLayout()
+        form.addRow("Name", self.name_edit)
+        form.addRow("Category", self.category_edit)
+        form.addRow("Default thickness", self.spins["thickness_um"])
+        form.addRow("Max thickness", self.spins["max_thickness_um"])
+        form.addRow("Roughness", self.spins["roughness"])
+        form.addRow("IOR", self.spins["ior"])
+        # plots
+        pg.setConfigOptions(antialias=True)
+        self.refl_plot = pg.PlotWidget()
+        self.refl_plot.setLabel("bottom", "wavelength", units="nm")
+        self.refl_plot.setLabel("left", "reflectance / transmittance (fraction)")
+        self.refl_plot.setYRange(0, 1)
+        self.refl_plot.addLegend(offset=(5, 5))
+        self.coef_plot = pg.PlotWidget()
+        self.coef_plot.setLabel("bottom", "wavelength", units="nm")
+        self.coef_plot.setLabel("left", "S, K (per mm)")
+        self.coef_plot.addLegend(offset=(5, 5))
+        for p in (self.refl_plot, self.coef_plot):
+            p.setMinimumHeight(150)
+            p.showGrid(x=True, y=True, alpha=0.2)
+        self.readout = QLabel("Hover a plot for values")
+        self.readout.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        self.refl_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.refl_plot, pos))
+        self.coef_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.coef_plot, pos))
+        self.thickness = QSlider(Qt.Orientation.Horizontal)
+        self.thickness.setRange(1, 200)
+        self.thickness.setValue(10)
+        self.thickness_label = QLabel()
+        self.thickness.valueChanged.connect(lambda _v: self.update_views())
+        # swatches
+        self.swatches = {k: QLabel(k) for k in ("over black", "over white", "over skin", "R∞")}
+        sw = QGridLayout()
+        for i, lab in enumerate(self.swatches.values()):
+            lab.setMinimumSize(64, 40)
+            lab.setAlignment(Qt.AlignmentFlag.AlignCenter)
+            sw.addWidget(lab, 0, i)
+        # mixing
+        self.mix_with = QComboBox()
+        self.mix_amount = QSlider(Qt.Orientation.Horizontal)
+        self.mix_amount.setRange(0, 100)
+        self.mix_amount.setValue(50)
+        self.mix_swatch = QLabel("mix")
+        self.mix_swatch.setMinimumSize(64, 28)
+        self.mix_swatch.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.mix_button = QPushButton("Create Shade Variant")
+        self.mix_with.currentIndexChanged.connect(lambda _i: self._update_mix())
+        self.mix_amount.valueChanged.connect(lambda _v: self._update_mix())
+        self.mix_button.clicked.connect(self.create_variant)
+        mix = QHBoxLayout()
+        mix.addWidget(QLabel("Mix with"))
+        mix.addWidget(self.mix_with, 1)
+        mix.addWidget(self.mix_amount, 1)
+        mix.addWidget(self.mix_swatch)
+        # buttons
+        self.import_button = QPushButton("Import Measurement…")
+        self.undo_button = QPushButton("Undo")
+        self.redo_button = QPushButton("Redo")
+        self.save_button = QPushButton("Save Library")
+        self.undo_button.clicked.connect(self.undo_stack.undo)
+        self.redo_button.clicked.connect(self.undo_stack.redo)
+        self.undo_stack.canUndoChanged.connect(self.undo_button.setEnabled)
+        self.undo_stack.canRedoChanged.connect(self.redo_button.setEnabled)
+        self.undo_button.setEnabled(False)
+        self.redo_button.setEnabled(False)
+        self.import_button.clicked.connect(self._ask_import)
+        self.save_button.clicked.connect(lambda: self.save())
+        buttons = QHBoxLayout()
+        for b in (self.import_button, self.undo_button, self.redo_button, self.save_button):
+            buttons.addWidget(b)
+        filt = QHBoxLayout()
+        filt.addWidget(self.search, 2)
+        filt.addWidget(self.category, 1)
+        lay = QVBoxLayout(self)
+        lay.addLayout(filt)
+        lay.addWidget(self.list, 1)
+        lay.addLayout(form)
+        lay.addWidget(self.refl_plot, 2)
+        lay.addWidget(self.coef_plot, 1)
+        lay.addWidget(self.readout)
+        th = QHBoxLayout()
+        th.addWidget(QLabel("Thickness for R0/T"))
+        th.addWidget(self.thickness, 1)
+        th.addWidget(self.thickness_label)
+        lay.addLayout(th)
+        lay.addLayout(sw)
+        lay.addLayout(mix)
+        lay.addWidget(self.mix_button)
+        lay.addLayout(buttons)
+        self.search.textChanged.connect(lambda _t: self.refresh_list())
+        self.category.currentIndexChanged.connect(lambda _i: self.refresh_list())
+        self.list.currentTextChanged.connect(self.select)
+        self.name_edit.editingFinished.connect(self._rename)
+        self.category_edit.activated.connect(lambda _i: self.edit("category", self.category_edit.currentText()))
+        self.category_edit.lineEdit().editingFinished.connect(
+            lambda: self.edit("category", self.category_edit.currentText()))
+        self.refresh_list()
+
+    # ------------------------------------------------------------------ model → view
+    def refresh_list(self) -> None:
+        if self._loading:
+            return
+        self._loading = True
+        for w in (self.category, self.category_edit, self.mix_with, self.list):
+            w.blockSignals(True)
+        cats = sorted({str(m.category) for m in self.library})
+        cur_cat = self.category.currentText()
+        self.category.clear()
+        self.category.addItems(["all categories", *cats])
+        if cur_cat in cats:
+            self.category.setCurrentText(cur_cat)
+        self.category_edit.clear()
+        self.category_edit.addItems(cats)
+        text = self.search.text().strip().lower()
+        cat = self.category.currentText()
+        self.list.clear()
+        for m in self.library:
+            if text and text not in m.name.lower() and text not in str(m.category).lower():
+                continue
+            if cat != "all categories" and str(m.category) != cat:
+                continue
+            self.list.addItem(m.name)
+            self.list.item(self.list.count() - 1).setIcon(swatch_icon(material_rgb(m), 16))
+        self.mix_with.clear()
+        self.mix_with.addItems(self.library.names() if hasattr(self.library, "names") else
+                               [m.name for m in self.library])
+        for w in (self.category, self.category_edit, self.mix_with, self.list):
+            w.blockSignals(False)
+        self._loading = False
+        names = [self.list.item(i).text() for i in range(self.list.count())]
+        if self.current in names:
+            self.list.setCurrentRow(names.index(self.current))
+        elif names:
+            self.list.setCurrentRow(0)
+        if self.list.currentItem() is not None:
+            self.select(self.list.currentItem().text())
+
+    def select(self, name: str) -> None:
+        if self._loading or not name or name not in self.library:
+            return
+        self.current = name
+        self.load_fields()
+        self.update_views()
+
+    def load_fields(self) -> None:
+        if self.current is None:
+            return
+        m = self.library.get(self.current)
+        self._loading = True
+        self.name_edit.setText(m.name)
+        self.category_edit.setCurrentText(str(m.category))
+        for attr, spin in self.spins.items():
+            spin.setValue(float(getattr(m, attr)))
+        self._loading = False
+
+    def update_views(self) -> None:
+        self.refl_plot.clear()
+        self.coef_plot.clear()
+        if self.current is None or self.current not in self.library:
+            return
+        m = self.library.get(self.current)
+        wl = np.asarray(m.wavelengths, float)
+        t_um = float(self.thickness.value())
+        self.thickness_label.setText(f"{t_um:.0f} µm")
+        R, T = km_layer_rt(m.S, m.K, t_um / 1000.0)
+        self._curves = {"R∞": km_r_inf(m.S, m.K), f"R0 @ {t_um:.0f} µm": R, f"T @ {t_um:.0f} µm": T}
+        pens = {"R∞": pg.mkPen("#e0a050", width=2), f"R0 @ {t_um:.0f} µm": pg.mkPen("#50a0e0", width=2),
+                f"T @ {t_um:.0f} µm": pg.mkPen("#70d070", width=2, style=Qt.PenStyle.DashLine)}
+        for name, y in self._curves.items():
+            self.refl_plot.plot(wl, y, pen=pens[name], name=name)
+        meas = getattr(m, "measurement", None)
+        if meas is not None:
+            mw = np.asarray(meas.wavelengths, float)
+            d_um = float(meas.D_mm) * 1000.0
+            for key, colour, label in (("R_inf", "#ff6060", "R∞ measured"),
+                                       ("R", "#c080ff", f"R measured ({d_um:g} µm)"),
+                                       ("Rg", "#ffffff", "Rg (background)")):
+                y = np.asarray(getattr(meas, key), float)
+                self.refl_plot.plot(mw, y, pen=None, symbol="o", symbolSize=4, symbolBrush=colour, name=label)
+                self._curves[label] = np.interp(wl, mw, y)
+        self._coefs = {"S (per mm)": np.asarray(m.S, float), "K (per mm)": np.asarray(m.K, float)}
+        self.coef_plot.plot(wl, self._coefs["S (per mm)"], pen=pg.mkPen("#d0d0d0", width=2), name="S (per mm)")
+        self.coef_plot.plot(wl, self._coefs["K (per mm)"], pen=pg.mkPen("#e06060", width=2), name="K (per mm)")
+        self._wl = wl
+        for key, bg in (("over black", (0.0, 0.0, 0.0)), ("over white", (1.0, 1.0, 1.0)),
+                        ("over skin", self.skin)):
+            self._paint_swatch(self.swatches[key], material_rgb(m, t_um, bg))
+        self._paint_swatch(self.swatches["R∞"], material_rgb(m))
+        self._update_mix()
+
+    @staticmethod
+    def _paint_swatch(label: QLabel, rgb: tuple[int, int, int]) -> None:
+        fg = "#000" if sum(rgb) > 380 else "#fff"
+        label.setStyleSheet(f"background: rgb{rgb}; color: {fg}; border: 1px solid #444;")
+        label.setToolTip(f"sRGB {rgb}")
+
+    def _hover(self, plot: pg.PlotWidget, pos: Any) -> None:
+        if not hasattr(self, "_wl") or not plot.sceneBoundingRect().contains(pos):
+            return
+        x = plot.plotItem.vb.mapSceneToView(pos).x()
+        curves = self._curves if plot is self.refl_plot else self._coefs
+        vals = ", ".join(f"{k} {np.interp(x, self._wl, v):.3f}" for k, v in curves.items())
+        self.readout.setText(f"λ {x:.0f} nm: {vals}")
+
+    def _update_mix(self) -> None:
+        other = self.mix_with.currentText()
+        if self.current is None or other not in self.library or self.current not in self.library:
+            return
+        m = duncan_mix(self.library.get(self.current), self.library.get(other),
+                       self.mix_amount.value() / 100.0, "mix")
+        self._paint_swatch(self.mix_swatch, material_rgb(m))
+        self.mix_swatch.setText(f"{100 - self.mix_amount.value()}:{self.mix_amount.value()}")
+
+    # ------------------------------------------------------------------ edits (undoable)
+    def changed(self, name: str | None, renamed_from: str | None = None) -> None:
+        if name is not None:
+            self.current = name
+        self.refresh_list()
+        self.load_fields()
+        self.update_views()
+        self.material_changed.emit(renamed_from or name)
+        if renamed_from:
+            self.material_changed.emit(name)
+
+    def edit(self, attr: str, value: Any) -> None:
+        if self._loading or self.current is None:
+            return
+        m = self.library.get(self.current)
+        old = getattr(m, attr)
+        if old == value or (attr == "category" and not str(value).strip()):
+            return
+        if attr == "max_thickness_um" and value < float(m.thickness_um):
+            dialogs.error(self, "Material", "The maximum thickness cannot be below the default thickness.")
+            self.load_fields()
+            return
+        if attr == "thickness_um" and value > float(m.max_thickness_um):
+            dialogs.error(self, "Material", "The default thickness cannot exceed the maximum thickness.")
+            self.load_fields()
+            return
+        try:
+            m.replace(**{attr: EDITABLE[attr](value)})
+        except ValueError as exc:
+            dialogs.error(self, "Material", str(exc))
+            self.load_fields()
+            return
+        self.undo_stack.push(_SetAttr(self, self.current, attr, old, EDITABLE[attr](value)))
+
+    def _rename(self) -> None:
+        if self._loading or self.current is None:
+            return
+        new = self.name_edit.text().strip()
+        if not new or new == self.current:
+            return
+        if new in self.library:
+            dialogs.error(self, "Rename material", f"A material named '{new}' already exists.")
+            self.name_edit.setText(self.current)
+            return
+        self.undo_stack.push(_Rename(self, self.current, new))
+
+    def create_variant(self) -> None:
+        other = self.mix_with.currentText()
+        if self.current is None or other not in self.library:
+            return
+        c = self.mix_amount.value()
+        base = f"{self.current} + {other} {c}%"
+        name, n = base, 2
+        while name in self.library:
+            name, n = f"{base} ({n})", n + 1
+        try:
+            mixed = duncan_mix(self.library.get(self.current), self.library.get(other), c / 100.0, name)
+        except ValueError as exc:
+            dialogs.error(self, "Shade variant", str(exc))
+            return
+        self.undo_stack.push(_Add(self, mixed))
+
+    def _ask_import(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Import measurement", "",
+                                              "Measurements (*.csv *.txt *.cgats *.cgt);;All files (*)")
+        if path:
+            self.import_measurement(Path(path))
+
+    def import_measurement(self, path: Path) -> bool:
+        """Import the materials of a measurement file (CSV or X-Rite/CGATS) as one undoable step.
+
+        A file that cannot be read, or that yields no material → an error dialog, library unchanged;
+        rejected rows are reported."""
+        from km.errors import SheerError
+        from km.measurements import import_file
+
+        try:
+            result = import_file(path)
+        except (SheerError, OSError, ValueError) as exc:
+            dialogs.error(self, "Import measurement", f"The file could not be imported: {exc}")
+            return False
+        if not result.accepted:
+            dialogs.error(self, "Import measurement",
+                          f"{Path(path).name}: no material could be imported "
+                          f"({len(result.rejected)} rows or samples rejected).", result.report())
+            return False
+        materials = []
+        for m in result.accepted:
+            if m.name in self.library:
+                m = m.replace(name=self.library.unique_name(m.name)) if hasattr(self.library, "unique_name") \
+                    else m.replace(name=m.name + " (imported)")
+            materials.append(m)
+        self.undo_stack.push(_AddMany(self, materials, f"import {Path(path).name}"))
+        if result.rejected:
+            dialogs.info(self, "Import measurement",
+                         f"Imported {len(materials)} material(s); {len(result.rejected)} rows or samples "
+                         f"were rejected (see details).", result.report())
+        return True
+
+    def default_save_path(self) -> Path:
+        base = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
+        return Path(base or ".") / "library.json"
+
+    def save(self, path: Path | None = None) -> Path | None:
+        from resources import RESOURCES_DIR
+
+        own = getattr(self.library, "path", None)
+        if own is not None and Path(own).resolve().is_relative_to(RESOURCES_DIR):
+            own = None  # the shipped default library is never overwritten: save a user copy
+        target = path or own or self.default_save_path()
+        try:
+            Path(target).parent.mkdir(parents=True, exist_ok=True)
+            saved = self.library.save(Path(target))
+        except (OSError, ValueError) as exc:
+            dialogs.error(self, "Save library", f"The library could not be saved: {exc}")
+            return None
+        self.undo_stack.setClean()
+        return Path(saved or target)

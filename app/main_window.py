@@ -1,0 +1,622 @@
+"""The studio's main window: viewport, layers panel, material library dock, brush and view controls.
+
+Data flows one way: widgets change :class:`app.settings.StudioSettings` and call :meth:`apply`, or send
+commands to the document / library; the window subscribes to the document's change events and pushes
+dirty tiles to the viewport.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from PySide6.QtCore import QByteArray, QSettings, Qt, QTimer
+from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
+from PySide6.QtWidgets import (
+    QCheckBox,
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QDockWidget,
+    QDoubleSpinBox,
+    QFileDialog,
+    QInputDialog,
+    QLabel,
+    QMainWindow,
+    QSlider,
+    QTableWidget,
+    QTableWidgetItem,
+    QToolBar,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app import dialogs, seams
+from app.actions import MENU_ORDER, STUDIO_ACTIONS, is_enabled, shortcut_sheet
+from app.export import export_gltf, export_maps, layer_tuples, render_image
+from app.layers_panel import LayersPanel
+from app.library_dock import LibraryDock
+from app.settings import (
+    APPLICATION,
+    ENVIRONMENTS,
+    LIGHT_PRESETS,
+    ORGANISATION,
+    StudioSettings,
+    load_settings,
+    save_settings,
+)
+from app.viewport import Viewport
+from app.workers import run_task
+
+log = logging.getLogger("sheer.app")
+
+
+class StudioWindow(QMainWindow):
+    def __init__(self, head_path: str | Path | None = None, look: str = "natural", resolution: int = 512,
+                 qsettings: QSettings | None = None) -> None:
+        super().__init__()
+        self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)
+        self.settings: StudioSettings = load_settings(self.qsettings)
+        self.library = seams.load_library()
+        self.doc = seams.open_document(head_path, resolution)
+        self.project_path: Path | None = None
+        self.project_name = "Untitled"
+        self._stroke: Any = None
+        self._stroke_cm: Any = None
+        self.selected_layer = 0
+        if look:
+            seams.apply_look(self.doc, self.library, look)
+            self.doc.clear_history()
+        self.doc.subscribe(self._on_doc_event)
+
+        self.viewport = Viewport(self.doc.head, resolution)
+        self.setCentralWidget(self.viewport)
+        self.viewport.stroke_begin.connect(self._stroke_begin)
+        self.viewport.stroke_move.connect(self._stroke_move)
+        self.viewport.stroke_end.connect(self._stroke_end)
+        self.viewport.light_moved.connect(self._light_moved)
+        self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
+
+        self.layers_panel = LayersPanel()
+        self.layers_panel.set_materials(self.library)
+        self._wire_layers_panel()
+        skin = self._skin_colour()
+        self.library_dock = LibraryDock(self.library, skin)
+        self.library_dock.material_changed.connect(self._material_changed)
+        self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
+        self._add_dock("Material Library", self.library_dock, Qt.DockWidgetArea.RightDockWidgetArea)
+
+        self.actions_by_id: dict[str, QAction] = {}
+        self._build_actions()
+        self._build_toolbars()
+        self.status = QLabel()
+        self.statusBar().addPermanentWidget(self.status)
+        self.frame_label = QLabel()
+        self.statusBar().addWidget(self.frame_label)
+        self.viewport.frame_drawn.connect(lambda ms: self.frame_label.setText(f"frame {ms:.1f} ms"))
+
+        geo = self.qsettings.value("window/geometry")
+        if isinstance(geo, QByteArray):
+            self.restoreGeometry(geo)
+        else:
+            self.resize(1280, 800)
+        state = self.qsettings.value("window/state")
+        if isinstance(state, QByteArray):
+            self.restoreState(state)
+        self.refresh_layers()
+        self.apply()
+        self.setWindowModified(False)
+        self._update_title()
+
+    # ------------------------------------------------------------------ construction
+    def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
+        dock = QDockWidget(title, self)
+        dock.setObjectName(title.replace(" ", "_").lower())
+        dock.setWidget(widget)
+        self.addDockWidget(area, dock)
+        return dock
+
+    def context(self) -> dict[str, bool]:
+        return {"has_layers": bool(self.doc.layers), "can_undo": bool(self.doc.can_undo),
+                "can_redo": bool(self.doc.can_redo), "has_project_io": seams_has_project_io()}
+
+    def _build_actions(self) -> None:
+        menus = {name: self.menuBar().addMenu(f"&{name}") for name in MENU_ORDER}
+        handlers = {
+            "file.new": self.new_project, "file.open": self.open_project, "file.save": self.save_project,
+            "file.save_as": lambda: self.save_project(ask=True), "file.export_maps": self.ask_export_maps,
+            "file.export_image": self.ask_export_image, "file.export_gltf": self.ask_export_gltf,
+            "file.quit": self.close, "edit.undo": self.undo, "edit.redo": self.redo,
+            "brush.smaller": lambda: self._brush(radius=1 / 1.2), "brush.larger": lambda: self._brush(radius=1.2),
+            "brush.weaker": lambda: self._brush(strength=-0.1), "brush.stronger": lambda: self._brush(strength=0.1),
+            "brush.eraser": lambda: self._mode("erase"), "brush.smooth": lambda: self._mode("smooth"),
+            "brush.mirror": self._toggle_mirror, "view.frame": self.viewport.frame_head,
+            "view.split": self._toggle_split, "view.reference": self._toggle_reference,
+            "view.overlay": self._toggle_overlay, "help.shortcuts": self.show_shortcuts,
+            "help.about": self.show_about,
+        }
+        for spec in STUDIO_ACTIONS:
+            act = QAction(spec.title, self)
+            act.setObjectName(spec.id)
+            if spec.shortcut:
+                act.setShortcut(QKeySequence(spec.shortcut))
+                act.setShortcutContext(Qt.ShortcutContext.WindowShortcut)
+            act.setCheckable(spec.checkable)
+            if spec.tip:
+                act.setStatusTip(spec.tip)
+            handler = handlers[spec.id]
+            act.triggered.connect(lambda _checked=False, h=handler: h())
+            menus[spec.menu].addAction(act)
+            self.actions_by_id[spec.id] = act
+        self.recent_menu = menus["File"].addMenu("Recent Projects")
+        self._update_actions()
+
+    def _update_actions(self) -> None:
+        ctx = self.context()
+        for spec in STUDIO_ACTIONS:
+            self.actions_by_id[spec.id].setEnabled(is_enabled(spec, ctx))
+        s = self.settings
+        for aid, on in (("brush.eraser", s.brush_mode == "erase"), ("brush.smooth", s.brush_mode == "smooth"),
+                        ("brush.mirror", s.brush_mirror), ("view.split", s.split > 0),
+                        ("view.reference", s.render_mode == "reference"), ("view.overlay", s.overlay)):
+            self.actions_by_id[aid].setChecked(on)
+        self.recent_menu.clear()
+        for p in self.settings.recent_files:
+            self.recent_menu.addAction(p).setEnabled(seams_has_project_io())
+
+    def _build_toolbars(self) -> None:
+        tb = QToolBar("Brush")
+        tb.setObjectName("brush_toolbar")
+        self.addToolBar(tb)
+        self.radius_spin = QDoubleSpinBox()
+        self.radius_spin.setRange(0.5, 100.0)
+        self.radius_spin.setSuffix(" mm")
+        self.strength_spin = QDoubleSpinBox()
+        self.strength_spin.setRange(0.05, 1.0)
+        self.strength_spin.setSingleStep(0.05)
+        self.hardness_spin = QDoubleSpinBox()
+        self.hardness_spin.setRange(0.0, 0.95)
+        self.hardness_spin.setSingleStep(0.05)
+        self.mode_combo = QComboBox()
+        self.mode_combo.addItems(["add", "erase", "smooth"])
+        self.mirror_check = QCheckBox("Mirror")
+        for label, w in (("Radius", self.radius_spin), ("Strength", self.strength_spin),
+                         ("Hardness", self.hardness_spin), ("Mode", self.mode_combo)):
+            tb.addWidget(QLabel(f" {label} "))
+            tb.addWidget(w)
+        tb.addWidget(self.mirror_check)
+        self.radius_spin.valueChanged.connect(lambda v: self._set(brush_radius_mm=float(v)))
+        self.strength_spin.valueChanged.connect(lambda v: self._set(brush_strength=float(v)))
+        self.hardness_spin.valueChanged.connect(lambda v: self._set(brush_hardness=float(v)))
+        self.mode_combo.currentTextChanged.connect(lambda t: self._set(brush_mode=t))
+        self.mirror_check.toggled.connect(lambda on: self._set(brush_mirror=bool(on)))
+        vb = QToolBar("View")
+        vb.setObjectName("view_toolbar")
+        self.addToolBar(vb)
+        self.light_combo = QComboBox()
+        self.light_combo.addItems(list(LIGHT_PRESETS))
+        self.env_combo = QComboBox()
+        self.env_combo.addItems(list(ENVIRONMENTS))
+        self.render_combo = QComboBox()
+        self.render_combo.addItems(["fast", "reference"])
+        self.debug_combo = QComboBox()
+        from app.preview_renderer import DEBUG_VIEWS
+
+        self.debug_combo.addItems(list(DEBUG_VIEWS))
+        self.split_slider = QSlider(Qt.Orientation.Horizontal)
+        self.split_slider.setRange(0, 100)
+        self.split_slider.setMaximumWidth(140)
+        for label, w in (("Light", self.light_combo), ("HDR", self.env_combo), ("Mode", self.render_combo),
+                         ("View", self.debug_combo), ("Before|After", self.split_slider)):
+            vb.addWidget(QLabel(f" {label} "))
+            vb.addWidget(w)
+        self.light_combo.currentTextChanged.connect(self._light_preset)
+        self.env_combo.currentTextChanged.connect(lambda t: self._set(environment=t))
+        self.render_combo.currentTextChanged.connect(lambda t: self._set(render_mode=t))
+        self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
+        self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
+
+    # ------------------------------------------------------------------ settings → everything
+    def _set(self, **changes: Any) -> None:
+        for k, v in changes.items():
+            setattr(self.settings, k, v)
+        self.apply()
+
+    def apply(self) -> None:
+        """Push the settings object to the widgets and the viewport (the one place that does)."""
+        s = self.settings
+        s.clamp()
+        for w, value in ((self.radius_spin, s.brush_radius_mm), (self.strength_spin, s.brush_strength),
+                         (self.hardness_spin, s.brush_hardness)):
+            w.blockSignals(True)
+            w.setValue(value)
+            w.blockSignals(False)
+        for combo, text in ((self.mode_combo, s.brush_mode), (self.light_combo, s.light_preset),
+                            (self.env_combo, s.environment), (self.render_combo, s.render_mode)):
+            combo.blockSignals(True)
+            combo.setCurrentText(text)
+            combo.blockSignals(False)
+        self.debug_combo.blockSignals(True)
+        self.debug_combo.setCurrentIndex(s.debug_view)
+        self.debug_combo.blockSignals(False)
+        self.mirror_check.blockSignals(True)
+        self.mirror_check.setChecked(s.brush_mirror)
+        self.mirror_check.blockSignals(False)
+        self.split_slider.blockSignals(True)
+        self.split_slider.setValue(int(round(s.split * 100)))
+        self.split_slider.blockSignals(False)
+        vp = self.viewport
+        preset = LIGHT_PRESETS[s.light_preset]
+        vp.lighting.azimuth, vp.lighting.elevation = s.light_azimuth, s.light_elevation
+        vp.lighting.colour = preset["colour"]
+        vp.lighting.intensity = preset["intensity"]
+        vp.lighting.ambient = self._ambient(preset["ambient"], s.environment)
+        vp.split = s.split
+        vp.debug = s.debug_view
+        vp.reference = s.render_mode == "reference"
+        vp.brush_radius_units = s.brush_radius_mm / self.doc.head.mm_per_unit
+        vp.set_overlay(s.overlay)
+        vp.roughness = self._top_roughness()
+        if s.debug_view == 2:
+            self._push_thickness_view()
+        self._update_actions()
+        self.status.setText(f"brush {s.brush_radius_mm:.1f} mm · strength {s.brush_strength:.2f} · "
+                            f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''} · renderer: "
+                            f"{seams.backends().get('renderer', '…')}")
+        vp.update()
+
+    _env_cache: dict[str, tuple[float, float, float]] = {}
+
+    def _ambient(self, base: tuple[float, float, float], env: str) -> tuple[float, float, float]:
+        if env == "none":
+            return base
+        if env not in self._env_cache:
+            try:
+                import OpenEXR
+
+                from resources import find_asset
+
+                px = OpenEXR.File(str(find_asset(f"environments/{env}.exr"))).channels()["RGB"].pixels
+                mean = np.asarray(px, np.float32).reshape(-1, 3).mean(axis=0)
+                mean = mean / max(float(mean.max()), 1e-6) * 0.45
+                self._env_cache[env] = (float(mean[0]), float(mean[1]), float(mean[2]))
+            except Exception as exc:
+                dialogs.error(self, "Environment", f"The HDR environment '{env}' could not be read: {exc}")
+                self.settings.environment = "none"
+                return base
+        return self._env_cache[env]
+
+    def _top_roughness(self) -> float:
+        for lay in reversed(self.doc.layers):
+            if lay.visible and lay.material in self.library and np.any(lay.thickness > 0):
+                return float(self.library.get(lay.material).roughness)
+        return 0.45
+
+    def _light_preset(self, name: str) -> None:
+        p = LIGHT_PRESETS.get(name, LIGHT_PRESETS["daylight"])
+        self._set(light_preset=name, light_azimuth=p["azimuth"], light_elevation=p["elevation"])
+
+    def _light_moved(self, az: float, el: float) -> None:
+        self.settings.light_azimuth, self.settings.light_elevation = az, el
+
+    def _brush(self, radius: float = 1.0, strength: float = 0.0) -> None:
+        self._set(brush_radius_mm=self.settings.brush_radius_mm * radius,
+                  brush_strength=round(self.settings.brush_strength + strength, 2))
+
+    def _mode(self, mode: str) -> None:
+        self._set(brush_mode="add" if self.settings.brush_mode == mode else mode)
+
+    def _toggle_mirror(self) -> None:
+        self._set(brush_mirror=not self.settings.brush_mirror)
+
+    def _toggle_split(self) -> None:
+        self._set(split=0.0 if self.settings.split > 0 else 0.5)
+
+    def _toggle_reference(self) -> None:
+        self._set(render_mode="fast" if self.settings.render_mode == "reference" else "reference")
+
+    def _toggle_overlay(self) -> None:
+        self._set(overlay=not self.settings.overlay)
+
+    # ------------------------------------------------------------------ document
+    def _skin_colour(self) -> tuple[float, float, float]:
+        a = self.doc.head.albedo
+        if a is None:
+            return (0.6, 0.45, 0.38)
+        h, w = a.shape[:2]
+        c = (a[h // 3:2 * h // 3, w // 3:2 * w // 3].reshape(-1, 3).astype(float) / 255.0) ** 2.2
+        m = np.median(c, axis=0)
+        return (float(m[0]), float(m[1]), float(m[2]))
+
+    def _on_doc_event(self, event: Any) -> None:
+        self.setWindowModified(True)
+        if event.kind == "paint":
+            self.viewport.set_layers(layer_tuples(self.doc, self.library), list(event.tiles))
+            if self.settings.debug_view == 2:
+                self._push_thickness_view()
+        else:
+            self.refresh_layers()
+        self._update_actions()
+
+    def refresh_layers(self) -> None:
+        n = len(self.doc.layers)
+        self.selected_layer = min(max(self.selected_layer, 0), max(n - 1, 0))
+        self.layers_panel.refresh(self.doc.layers, self.library, self.selected_layer)
+        self.viewport.set_layers(layer_tuples(self.doc, self.library), None)
+        self.viewport.roughness = self._top_roughness()
+        if self.settings.debug_view == 2:
+            self._push_thickness_view()
+
+    def _push_thickness_view(self) -> None:
+        if self.doc.layers:
+            lay = self.doc.layers[self.selected_layer]
+            self.viewport.set_thickness_view(lay.thickness, float(lay.max_thickness))
+        else:
+            self.viewport.set_thickness_view(None, 1.0)
+
+    def _wire_layers_panel(self) -> None:
+        p = self.layers_panel
+        p.add_requested.connect(self.add_layer)
+        p.remove_requested.connect(lambda i: self._layer_cmd(lambda: self.doc.remove_layer(i)))
+        p.move_requested.connect(self.move_layer)
+        p.rename_requested.connect(lambda i, n: self._layer_cmd(lambda: self.doc.set_layer(i, name=n)))
+        p.visibility_requested.connect(lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, visible=v)))
+        p.opacity_requested.connect(lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, opacity=v)))
+        p.max_thickness_requested.connect(
+            lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, max_thickness=v)))
+        p.material_requested.connect(lambda i, m: self._layer_cmd(lambda: self.doc.set_layer(i, material=m)))
+        p.selection_changed.connect(self._select_layer)
+        p.import_requested.connect(self.ask_import_map)
+        p.export_requested.connect(self.ask_export_map)
+
+    def _select_layer(self, index: int) -> None:
+        if index >= 0:
+            self.selected_layer = index
+            if self.settings.debug_view == 2:
+                self._push_thickness_view()
+
+    def _layer_cmd(self, fn: Any) -> None:
+        from km.errors import SheerError
+
+        try:
+            fn()
+        except (SheerError, ValueError, IndexError) as exc:
+            dialogs.error(self, "Layers", str(exc))
+
+    def add_layer(self, material: str) -> None:
+        if material not in self.library:
+            dialogs.error(self, "Add layer", f"Pick a material from the library first ('{material}' is unknown).")
+            return
+        m = self.library.get(material)
+        self.selected_layer = len(self.doc.layers)
+        self._layer_cmd(lambda: self.doc.add_layer(material, name=material,
+                                                   max_thickness=float(m.max_thickness_um)))
+
+    def move_layer(self, src: int, dst: int) -> None:
+        self.selected_layer = dst
+        self._layer_cmd(lambda: self.doc.move_layer(src, dst))
+
+    def undo(self) -> None:
+        self.doc.undo()
+        self._update_actions()
+
+    def redo(self) -> None:
+        self.doc.redo()
+        self._update_actions()
+
+    # ------------------------------------------------------------------ painting
+    def _stroke_begin(self, point: np.ndarray, pressure: float) -> None:
+        if not self.doc.layers:
+            self.statusBar().showMessage("Add a layer to paint on (Layers panel).", 4000)
+            return
+        lay = self.doc.layers[self.selected_layer]
+        if not lay.visible:
+            self.statusBar().showMessage(f"Layer '{lay.name}' is hidden.", 4000)
+            return
+        s = self.settings
+        brush = seams.make_brush(s.brush_radius_mm, s.brush_hardness, s.brush_strength, s.brush_mode,
+                                 s.brush_mirror)
+        self._stroke_cm = self.doc.stroke(lay, brush)
+        self._stroke = self._stroke_cm.__enter__()
+        self._stroke_move(point, pressure)
+
+    def _stroke_move(self, point: np.ndarray, pressure: float) -> None:
+        if self._stroke is not None:
+            self._stroke.dab(point, pressure)
+
+    def _stroke_end(self) -> None:
+        if self._stroke_cm is not None:
+            cm, self._stroke_cm, self._stroke = self._stroke_cm, None, None
+            cm.__exit__(None, None, None)
+            self._update_actions()
+
+    # ------------------------------------------------------------------ materials
+    def _material_changed(self, name: str | None) -> None:
+        renderer = self.viewport.renderer
+        if renderer is not None and hasattr(renderer, "compositor"):
+            renderer.compositor.invalidate(name)
+        self.layers_panel.set_materials(self.library)
+        self.refresh_layers()
+        self.apply()
+
+    # ------------------------------------------------------------------ project files (seam)
+    def _update_title(self) -> None:
+        self.setWindowTitle(f"{self.project_name}[*] — Sheer Studio")
+
+    def setWindowModified(self, modified: bool) -> None:  # noqa: N802 (Qt name)
+        super().setWindowModified(modified)
+
+    def new_project(self) -> None:
+        from km.errors import SheerError
+
+        try:
+            seams.apply_look(self.doc, self.library, "bare")
+        except SheerError as exc:
+            dialogs.error(self, "New project", str(exc))
+            return
+        self.doc.clear_history()
+        self.project_path, self.project_name = None, "Untitled"
+        self.setWindowModified(False)
+        self._update_title()
+        self._update_actions()
+
+    def open_project(self) -> None:
+        dialogs.info(self, "Open project", "Project files are not available in this build yet.")
+
+    def save_project(self, ask: bool = False) -> None:
+        dialogs.info(self, "Save project", "Project files are not available in this build yet.")
+
+    # ------------------------------------------------------------------ exports
+    def _ask_folder(self, title: str) -> str:
+        return QFileDialog.getExistingDirectory(self, title)
+
+    def ask_export_maps(self) -> None:
+        folder = self._ask_folder("Export layer maps to folder")
+        if folder:
+            self.export_maps(Path(folder))
+
+    def export_maps(self, folder: Path, on_done: Any = None) -> None:
+        run_task(self, "Exporting layer maps", lambda p, c: export_maps(self.doc, folder, p, c),
+                 on_done or (lambda r: self.statusBar().showMessage(f"Maps exported: {r}", 6000)),
+                 lambda m: dialogs.error(self, "Export maps", m))
+
+    def ask_export_gltf(self) -> None:
+        path, _ = QFileDialog.getSaveFileName(self, "Export glTF", "face.glb", "glTF binary (*.glb);;glTF (*.gltf)")
+        if path:
+            self.export_gltf(Path(path))
+
+    def export_gltf(self, path: Path, on_done: Any = None) -> None:
+        run_task(self, "Exporting glTF", lambda p, c: export_gltf(self.doc, self.library, path, p, c),
+                 on_done or (lambda r: self.statusBar().showMessage(f"glTF exported: {r}", 6000)),
+                 lambda m: dialogs.error(self, "Export glTF", m))
+
+    def ask_export_image(self) -> None:
+        sizes = ["1280x720", "1920x1080", "2048x2048", "3840x2160"]
+        size, ok = QInputDialog.getItem(self, "Rendered image", "Size", sizes, 0, True)
+        if not ok:
+            return
+        path, _ = QFileDialog.getSaveFileName(self, "Export rendered image", "render.png", "PNG (*.png)")
+        if path:
+            try:
+                w, h = (int(x) for x in size.lower().split("x"))
+            except ValueError:
+                dialogs.error(self, "Export image", f"'{size}' is not a size like 1920x1080.")
+                return
+            self.export_image(Path(path), (w, h))
+
+    def export_image(self, path: Path, size: tuple[int, int], on_done: Any = None) -> None:
+        import copy
+
+        cam, light = copy.deepcopy(self.viewport.camera), copy.deepcopy(self.viewport.lighting)
+        layers = [(t.copy(), m, o) for t, m, o in layer_tuples(self.doc, self.library)]
+        ref = self.settings.render_mode == "reference"
+        run_task(self, "Rendering image",
+                 lambda p, c: render_image(self.doc.head, layers, cam, light, size, path, ref, p, c),
+                 on_done or (lambda r: self.statusBar().showMessage(f"Image saved: {r}", 6000)),
+                 lambda m: dialogs.error(self, "Export image", m))
+
+    def ask_import_map(self, index: int) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Import thickness map", "", "16-bit PNG (*.png)")
+        if path:
+            self.import_map(index, Path(path))
+
+    def import_map(self, index: int, path: Path) -> bool:
+        from PIL import Image, UnidentifiedImageError
+
+        lay = self.doc.layers[index]
+        try:
+            with Image.open(path) as im:
+                arr = np.asarray(im)
+        except (OSError, UnidentifiedImageError) as exc:
+            dialogs.error(self, "Import map", f"{path}: not a readable image ({exc}).")
+            return False
+        if arr.ndim != 2 or arr.shape != lay.thickness.shape:
+            dialogs.error(self, "Import map", f"{path}: the map must be a greyscale image of "
+                          f"{lay.thickness.shape[1]}×{lay.thickness.shape[0]} texels, got {arr.shape}.")
+            return False
+        scale = 65535.0 if arr.dtype == np.uint16 else 255.0
+        new = (arr.astype(np.float32) / scale * float(lay.max_thickness)).astype(np.float32)
+        with self.doc.stroke(lay, seams.make_brush(1.0, 0.5, 1.0, "add", False)) as s:
+            s._remember(slice(0, new.shape[0]), slice(0, new.shape[1]))
+            lay.thickness[...] = new
+        self.refresh_layers()
+        return True
+
+    def ask_export_map(self, index: int) -> None:
+        folder = self._ask_folder("Export this layer's map to folder")
+        if folder:
+            lay = self.doc.layers[index]
+
+            class _One:
+                head = self.doc.head
+                layers = [lay]
+
+            run_task(self, "Exporting map", lambda p, c: export_maps(_One, Path(folder), p, c),
+                     lambda r: self.statusBar().showMessage(f"Map exported: {r}", 6000),
+                     lambda m: dialogs.error(self, "Export map", m))
+
+    # ------------------------------------------------------------------ help
+    def show_about(self) -> None:
+        from resources import ASSET_CREDITS
+
+        credits = "".join(f"<li>{v}</li>" for v in ASSET_CREDITS.values())
+        used = ", ".join(f"{k}: {v}" for k, v in seams.backends().items())
+        text = (f"<h3>Sheer Studio</h3><p>A physically based makeup design studio: Kubelka–Munk cosmetic "
+                f"layers over subsurface-scattering skin (after Huang et al. 2013).</p>"
+                f"<p><b>Head scan:</b> {self.doc.head.credit or 'none'}</p>"
+                f"<p><b>Sample assets</b><ul>{credits}</ul></p>"
+                f"<p><small>Components in use: {used}</small></p>")
+        box = QDialog(self)
+        box.setWindowTitle("About Sheer")
+        lay = QVBoxLayout(box)
+        label = QLabel(text)
+        label.setWordWrap(True)
+        label.setTextFormat(Qt.TextFormat.RichText)
+        lay.addWidget(label)
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
+        buttons.accepted.connect(box.accept)
+        lay.addWidget(buttons)
+        self._exec_dialog(box)
+
+    def show_shortcuts(self) -> None:
+        rows = shortcut_sheet()
+        box = QDialog(self)
+        box.setWindowTitle("Keyboard Shortcuts")
+        table = QTableWidget(len(rows), 3)
+        table.setHorizontalHeaderLabels(["Where", "Action", "Shortcut"])
+        for r, row in enumerate(rows):
+            for c, text in enumerate(row):
+                table.setItem(r, c, QTableWidgetItem(text))
+        table.resizeColumnsToContents()
+        lay = QVBoxLayout(box)
+        lay.addWidget(table)
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
+        buttons.accepted.connect(box.accept)
+        lay.addWidget(buttons)
+        box.resize(560, 520)
+        self._exec_dialog(box)
+
+    def _exec_dialog(self, box: QDialog) -> None:
+        if dialogs.AUTO_DISMISS_MS is not None:
+            QTimer.singleShot(dialogs.AUTO_DISMISS_MS, box.accept)
+        box.exec()
+        box.deleteLater()
+
+    # ------------------------------------------------------------------ close
+    def closeEvent(self, event: QCloseEvent) -> None:
+        self._stroke_end()
+        save_settings(self.qsettings, self.settings)
+        self.qsettings.setValue("window/geometry", self.saveGeometry())
+        self.qsettings.setValue("window/state", self.saveState())
+        self.qsettings.sync()
+        from app.workers import wait_all
+
+        wait_all(20000)
+        self.viewport.release_gl()
+        event.accept()
+
+
+def seams_has_project_io() -> bool:
+    return False

@@ -1,0 +1,88 @@
+"""All UI state in one plain object (after Open3D's GUI examples); widgets set a field and call one
+``apply`` function. Persisted with QSettings (brush, view options, recent files; window layout is
+saved by the window itself)."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
+
+SETTINGS_SCHEMA_VERSION = 1
+ORGANISATION, APPLICATION = "Sheer", "Sheer Studio"
+
+LIGHT_PRESETS: dict[str, dict[str, Any]] = {
+    "daylight": {"azimuth": 25.0, "elevation": 35.0, "colour": (1.0, 0.98, 0.95), "intensity": 2.4,
+                 "ambient": (0.38, 0.40, 0.45)},
+    "office": {"azimuth": 0.0, "elevation": 60.0, "colour": (0.95, 1.0, 1.0), "intensity": 2.0,
+               "ambient": (0.42, 0.43, 0.44)},
+    "evening": {"azimuth": -50.0, "elevation": 15.0, "colour": (1.0, 0.75, 0.55), "intensity": 2.0,
+                "ambient": (0.18, 0.18, 0.28)},
+    "warm indoor": {"azimuth": 40.0, "elevation": 20.0, "colour": (1.0, 0.82, 0.62), "intensity": 2.2,
+                    "ambient": (0.30, 0.26, 0.22)},
+}
+ENVIRONMENTS: tuple[str, ...] = ("none", "studio", "city", "lobby", "night", "sunset", "warehouse")
+
+
+@dataclass
+class StudioSettings:
+    brush_radius_mm: float = 8.0
+    brush_strength: float = 0.6
+    brush_hardness: float = 0.5
+    brush_mode: str = "add"  # add | erase | smooth
+    brush_mirror: bool = False
+    render_mode: str = "fast"  # fast | reference
+    debug_view: int = 0
+    light_preset: str = "daylight"
+    light_azimuth: float = 25.0
+    light_elevation: float = 35.0
+    environment: str = "none"
+    split: float = 0.0
+    overlay: bool = False
+    recent_files: list[str] = field(default_factory=list)
+
+    def clamp(self) -> None:
+        self.brush_radius_mm = min(max(self.brush_radius_mm, 0.5), 100.0)
+        self.brush_strength = min(max(self.brush_strength, 0.05), 1.0)
+        self.brush_hardness = min(max(self.brush_hardness, 0.0), 0.95)
+        if self.brush_mode not in ("add", "erase", "smooth"):
+            self.brush_mode = "add"
+        if self.render_mode not in ("fast", "reference"):
+            self.render_mode = "fast"
+        if self.light_preset not in LIGHT_PRESETS:
+            self.light_preset = "daylight"
+        if self.environment not in ENVIRONMENTS:
+            self.environment = "none"
+        self.split = min(max(self.split, 0.0), 1.0)
+
+    def add_recent(self, path: str, limit: int = 8) -> None:
+        self.recent_files = [path, *[p for p in self.recent_files if p != path]][:limit]
+
+
+def load_settings(qsettings: Any) -> StudioSettings:
+    """Read the settings; anything missing, malformed or of another schema version gets its default."""
+    s = StudioSettings()
+    if qsettings.value("schema_version") not in (SETTINGS_SCHEMA_VERSION, str(SETTINGS_SCHEMA_VERSION)):
+        return s
+    for f in fields(s):
+        raw = qsettings.value(f"studio/{f.name}")
+        if raw is None:
+            continue
+        default = getattr(s, f.name)
+        try:
+            if isinstance(default, bool):
+                value: Any = raw if isinstance(raw, bool) else str(raw).lower() == "true"
+            elif isinstance(default, list):
+                value = [str(x) for x in (raw if isinstance(raw, list) else [raw]) if x]
+            else:
+                value = type(default)(raw)
+        except (TypeError, ValueError):
+            continue
+        setattr(s, f.name, value)
+    s.clamp()
+    return s
+
+
+def save_settings(qsettings: Any, s: StudioSettings) -> None:
+    qsettings.setValue("schema_version", SETTINGS_SCHEMA_VERSION)
+    for k, v in asdict(s).items():
+        qsettings.setValue(f"studio/{k}", v)

@@ -1,0 +1,97 @@
+"""Long work off the GUI thread: a QRunnable on the global QThreadPool, progress and Cancel through a
+QProgressDialog, results and errors back on the GUI thread through signals."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from PySide6.QtCore import QObject, QRunnable, Qt, QThreadPool, Signal
+from PySide6.QtWidgets import QProgressDialog, QWidget
+
+log = logging.getLogger("sheer.app")
+
+#: fn(progress(fraction 0..1, message), cancelled() -> bool) -> result
+Job = Callable[[Callable[[float, str], None], Callable[[], bool]], Any]
+
+
+class Cancelled(Exception):
+    """Raised by a job that saw ``cancelled()`` become true."""
+
+
+class _Signals(QObject):
+    progress = Signal(float, str)
+    done = Signal(object)
+    failed = Signal(str)
+    cancelled = Signal()
+
+
+class Task(QRunnable):
+    def __init__(self, job: Job) -> None:
+        super().__init__()
+        self.job = job
+        self.signals = _Signals()
+        self._cancel = threading.Event()
+        self.setAutoDelete(False)
+
+    def cancel(self) -> None:
+        self._cancel.set()
+
+    def run(self) -> None:
+        from km.errors import SheerError
+
+        try:
+            result = self.job(lambda f, m="": self.signals.progress.emit(float(f), str(m)), self._cancel.is_set)
+        except Cancelled:
+            self.signals.cancelled.emit()
+        except (SheerError, OSError, ValueError) as exc:
+            self.signals.failed.emit(str(exc))
+        except Exception as exc:  # an internal error: logged with its traceback, shown as one line
+            log.exception("background task failed")
+            self.signals.failed.emit(f"internal error: {type(exc).__name__}: {exc}")
+        else:
+            self.signals.done.emit(result)
+
+
+_RUNNING: set[Task] = set()
+
+
+def run_task(parent: QWidget | None, title: str, job: Job, on_done: Callable[[Any], None],
+             on_error: Callable[[str], None], show_progress: bool = True) -> Task:
+    """Start ``job`` in the thread pool with a progress dialog (Cancel asks the job to stop)."""
+    task = Task(job)
+    dialog: QProgressDialog | None = None
+    if show_progress:
+        dialog = QProgressDialog(title, "Cancel", 0, 1000, parent)
+        dialog.setWindowTitle(title)
+        dialog.setWindowModality(Qt.WindowModality.WindowModal)
+        dialog.setMinimumDuration(300)
+        dialog.setAutoClose(False)
+        dialog.setAutoReset(False)
+        dialog.canceled.connect(task.cancel)
+
+        def progress(f: float, msg: str) -> None:
+            dialog.setValue(int(f * 1000))
+            if msg:
+                dialog.setLabelText(f"{title}\n{msg}")
+
+        task.signals.progress.connect(progress)
+
+    def finish() -> None:
+        _RUNNING.discard(task)
+        if dialog is not None:
+            dialog.close()
+            dialog.deleteLater()
+
+    task.signals.done.connect(lambda r: (finish(), on_done(r)))
+    task.signals.failed.connect(lambda m: (finish(), on_error(m)))
+    task.signals.cancelled.connect(lambda: (finish(), on_error("cancelled")))
+    _RUNNING.add(task)
+    QThreadPool.globalInstance().start(task)
+    return task
+
+
+def wait_all(timeout_ms: int = 30000) -> bool:
+    return QThreadPool.globalInstance().waitForDone(timeout_ms)
