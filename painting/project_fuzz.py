@@ -326,8 +326,9 @@ def crash_runs(runs: int, seed: int = 0, folder: str | Path | None = None,
                max_delay_s: float = 0.1) -> dict[str, Any]:
     """Kill a saving process ``runs`` times at random moments; open the file (and its .bak) each time.
 
-    Returns counts: runs, loaded (file opened and was one of the two versions), bak_loaded, failures
-    (with messages), and how many runs found a complete file vs. no file yet.
+    Before the first run on a file an initial version is saved, so there is always an old project to
+    lose. Returns counts: runs, file_loaded (the file opened and was the old or a new version),
+    bak_loaded / bak_absent, temporary files left behind by the kills, failures (with messages).
     """
     rng = random.Random(seed)
     methods = multiprocessing.get_all_start_methods()
@@ -335,12 +336,17 @@ def crash_runs(runs: int, seed: int = 0, folder: str | Path | None = None,
     if hasattr(ctx, "set_forkserver_preload"):
         ctx.set_forkserver_preload(["painting.project", "painting.project_fuzz", "km.material", "jsonschema",
                                     "OpenEXR", "PIL.PngImagePlugin"])
-    expected = {f"generation {g}" for g in range(2)}
+    from painting.project import save_project
+
+    expected = {f"generation {g}" for g in range(2)} | {"initial"}
+    initial = sample_project(16, 2, seed=seed, embedded=True, name="initial")
     stats: Counter[str] = Counter()
     failures: list[str] = []
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
         for run in range(runs):
             path = Path(tmp) / f"run{run % 4}.sheer"  # reuse a few files: later runs replace existing ones
+            if not path.exists():  # there is always an old version to lose
+                save_project(initial, path, self_contained=True, clear_recovery=False)
             ready = ctx.Event()
             proc = ctx.Process(target=_crash_child, args=(str(path), seed + run, ready), daemon=True)
             proc.start()

@@ -1,0 +1,78 @@
+"""Fuzzing with hypothesis: damaged projects and libraries raise ProjectError / SheerError, nothing else.
+
+The mutations (bit flips, truncations, byte runs, entry swaps/drops/duplicates/additions, project.json
+value and text changes) are those of ``sheer bench fuzz`` (:mod:`painting.project_fuzz`), driven here
+by hypothesis's random source; the benchmark runs 10,000+ of them.
+"""
+
+from __future__ import annotations
+
+import io
+import random
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from painting.project import project_bytes, read_project
+from painting.project_fuzz import (
+    MUTATIONS,
+    classify,
+    classify_library,
+    mutate,
+    mutate_library,
+    run_fuzz,
+    sample_library_text,
+    sample_project,
+)
+
+EMBEDDED = project_bytes(sample_project(16, 2, seed=0, embedded=True), self_contained=True)
+REFERENCED = project_bytes(sample_project(8, 3, seed=1, embedded=False), self_contained=False)
+LIBRARY = sample_library_text()
+FUZZ = settings(max_examples=120, deadline=None, database=None, derandomize=True,
+                suppress_health_check=[HealthCheck.too_slow])
+
+
+def test_the_unmutated_samples_load() -> None:
+    assert classify(EMBEDDED) == "ok" and classify(REFERENCED) == "ok"
+    assert classify_library(LIBRARY) == "ok"
+
+
+@FUZZ
+@given(rng=st.randoms(use_true_random=False), kind=st.sampled_from(MUTATIONS), base=st.sampled_from([0, 1]))
+def test_mutated_projects_raise_only_project_errors(rng: random.Random, kind: str, base: int) -> None:
+    _, blob = mutate([EMBEDDED, REFERENCED][base], rng, kind)
+    result = classify(blob)
+    assert result in ("ok", "ProjectError"), result
+
+
+@FUZZ
+@given(rng=st.randoms(use_true_random=False))
+def test_mutated_libraries_raise_only_sheer_errors(rng: random.Random) -> None:
+    _, text = mutate_library(LIBRARY, rng)
+    result = classify_library(text)
+    assert result in ("ok", "SheerError"), result
+
+
+@settings(max_examples=60, deadline=None, database=None, derandomize=True)
+@given(data=st.binary(max_size=600))
+def test_arbitrary_bytes_are_refused_cleanly(data: bytes) -> None:
+    assert classify(data) == "ProjectError"
+    assert classify(b"PK\x03\x04" + data) == "ProjectError"
+
+
+def test_accepted_mutants_are_really_valid() -> None:
+    """Whatever a mutation leaves loadable must load again identically (no half-validated state)."""
+    rng = random.Random(5)
+    for _ in range(100):
+        _, blob = mutate(EMBEDDED, rng)
+        if classify(blob) == "ok":
+            a = read_project(io.BytesIO(blob), name="a", verify_head=False)
+            b = read_project(io.BytesIO(blob), name="b", verify_head=False)
+            assert a.same_as(b)
+
+
+@pytest.mark.parametrize("seed", [11])
+def test_bench_driver_reports_zero_other_exceptions(seed: int) -> None:
+    result = run_fuzz(300, seed)
+    assert result["cases"] == 300 and result["outcomes"].get("other", 0) == 0, result["other_examples"]
