@@ -25,3 +25,14 @@ def pin_singletons() -> None:
     for obj in (None, True, False, ()):
         ctypes.c_ssize_t.from_address(id(obj)).value += _HEADROOM
     _PINNED = True
+
+
+def qimage_to_rgb(image: object) -> object:
+    """A QImage as a uint8 numpy array (H, W, 3), RGB."""
+    import numpy as np
+    from PySide6.QtGui import QImage
+
+    img = image.convertToFormat(QImage.Format.Format_RGB32)  # type: ignore[attr-defined]
+    w, h = img.width(), img.height()
+    arr = np.frombuffer(img.constBits(), np.uint8).reshape(h, img.bytesPerLine() // 4, 4)[:, :w]
+    return arr[..., [2, 1, 0]].copy()

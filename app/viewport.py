@@ -71,6 +71,7 @@ class Viewport(QOpenGLWidget):
         self.frame_ms = 0.0
         self.frames = 0
         self.first_frame_time: float | None = None
+        self.gl_error_at_release: str | None = None
         self.overlay = QLabel(self)
         self.overlay.setStyleSheet("color: #e8e8e8; background: rgba(0,0,0,120); padding: 3px;")
         self.overlay.move(6, 6)
@@ -97,6 +98,8 @@ class Viewport(QOpenGLWidget):
             return
         self.makeCurrent()
         try:
+            if self.ctx is not None:
+                self.gl_error_at_release = str(self.ctx.error)
             if self.renderer is not None:
                 self.renderer.release()
         finally:
