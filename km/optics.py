@@ -193,8 +193,7 @@ def over(R: ArrayLike, T: ArrayLike, Rg: ArrayLike, R_bottom: ArrayLike | None =
     shape = np.broadcast_shapes(R_.shape, T_.shape, Rg_.shape, Rb_.shape)
     out = np.empty(shape, dtype=np.float64)
     with np.errstate(all="ignore"):
-        den = Rb_ * Rg_
-        np.subtract(1.0, den, out=den)
+        den = 1.0 - Rb_ * Rg_
         np.multiply(T_, T_, out=out)
         out *= Rg_
         out /= den
@@ -237,8 +236,10 @@ def stack(layers: Sequence[tuple[ArrayLike, ArrayLike]]) -> tuple[FloatArray, Fl
     so that ``over(R_top, T, Rg, R_bottom)`` equals nesting :func:`over` layer by layer from the
     bottom. An empty sequence is the identity ``(0, 0, 1)``.
 
-    Bad values: NaN or a value outside [0, 1] gives NaN at that position (and below it, in the
-    results that depend on it). A layer pair that does not unpack into two values raises
+    Bad values: NaN or a value outside [0, 1] gives NaN at that position in all three results.
+    Where two facing layers are both perfect mirrors (R1_bottom = R2 = 1) the series between them
+    diverges: a result is kept only where no light enters the gap (R_top = R1_top if T1 = 0,
+    R_bottom = R2 if T2 = 0, T = 0 if either is 0) and is NaN otherwise. A layer pair that does not unpack into two values raises
     :class:`KMDomainError`.
     """
     pairs: list[tuple[FloatArray, FloatArray]] = []
@@ -261,8 +262,7 @@ def stack(layers: Sequence[tuple[ArrayLike, ArrayLike]]) -> tuple[FloatArray, Fl
             if not (_all_in(r2, 0.0, 1.0) and _all_in(t2, 0.0, 1.0)):
                 b2 = ~(_in01(r2) & _in01(t2))
                 bad = b2 if bad is None else bad | b2
-            d = R_bot * r2
-            np.subtract(1.0, d, out=d)
+            d = 1.0 - R_bot * r2
             degenerate = not (d.size == 0 or bool(d.min() > 0.0))
             inv_d = np.divide(1.0, d)
             new_top = T * T
