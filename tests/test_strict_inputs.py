@@ -1,0 +1,402 @@
+"""Every file Sheer reads is untrusted: malformed inputs to every loader raise a SheerError subclass with a
+message naming the file, never another exception (and never hang or allocate without bound).
+
+Loaders covered: material libraries (km.Library), measurement files (km.measurements), head metadata
+sidecars, head meshes and textures (painting.head), photographs and masks (capture), camera files
+(capture.camera), HDR environments (render.lights), looks (painting.looks, when present). Projects have
+their own files (tests/test_project_*.py).
+
+Cases a loader does not handle yet are marked ``xfail(strict=True)`` with the reason: they flip to
+failures (so the mark must be removed) as soon as the loader is fixed.
+"""
+
+from __future__ import annotations
+
+import importlib
+import struct
+import zlib
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from km.errors import SheerError
+
+
+def _noise(n: int) -> bytes:
+    """Deterministic random bytes (the same inputs on every run)."""
+    return np.random.default_rng(n).bytes(n)
+
+
+LAX = "loader too lax (reported by the project engineer): "
+
+
+def png_header_only(width: int, height: int) -> bytes:
+    """A PNG that declares width × height but holds no pixel data (a decompression-bomb header)."""
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b"")
+
+
+def raises_clean(func: Callable[[], Any], *fragments: str) -> SheerError:
+    """``func()`` raises a SheerError (not anything else) whose message contains ``fragments``."""
+    try:
+        func()
+    except SheerError as exc:
+        message = str(exc)
+        assert message.strip(), "empty error message"
+        for fragment in fragments:
+            assert fragment in message, f"{fragment!r} not in {message!r}"
+        return exc
+    except Exception as exc:  # the point of this file: anything else is a bug
+        pytest.fail(f"raised {type(exc).__name__} instead of a SheerError: {exc}")
+    pytest.fail("accepted a malformed input")
+
+
+DEEP_JSON = "[" * 50_000 + "]" * 50_000
+TINY_OBJ = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\n"
+
+
+# ------------------------------------------------------------------------------------------- libraries
+
+
+LIBRARY_CASES = {
+    "not json": (b"{not json", "library"),
+    "binary": (_noise(64) + b"\xff", "library"),
+    "deeply nested": (DEEP_JSON.encode(), "nested"),
+    "NaN": (b'{"format": "sheer.materials", "schema_version": 1, "name": "x", "materials": NaN}', "NaN"),
+    "newer": (b'{"format": "sheer.materials", "schema_version": 99, "name": "x", "materials": []}', "newer"),
+    "wrong type": (b'{"format": "sheer.materials", "schema_version": 1, "name": "x", "materials": {}}',
+                   "materials"),
+    "bad material": (b'{"format": "sheer.materials", "schema_version": 1, "name": "x", "materials": [{"name": 1}]}',
+                     "materials[0]"),
+    "array": (b"[]", "library"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(LIBRARY_CASES))
+def test_material_library_files(case: str, tmp_path: Path) -> None:
+    import km
+
+    data, fragment = LIBRARY_CASES[case]
+    path = tmp_path / "lib.json"
+    path.write_bytes(data)
+    raises_clean(lambda: km.Library.load(path), fragment)
+
+
+def test_material_library_size_cap(tmp_path: Path) -> None:
+    import km
+    from km import library
+
+    path = tmp_path / "huge.json"
+    with open(path, "wb") as fh:
+        fh.truncate(library.MAX_FILE_BYTES + 10)
+    raises_clean(lambda: km.Library.load(path), "huge.json")
+
+
+def test_material_library_missing_file(tmp_path: Path) -> None:
+    import km
+
+    with pytest.raises((SheerError, FileNotFoundError)):
+        km.Library.load(tmp_path / "missing.json")
+
+
+# ------------------------------------------------------------------------------------------- measurements
+
+
+MEASUREMENT_CASES = {
+    "binary.csv": _noise(256) + b"\x00\xff",
+    "empty.csv": b"",
+    "no columns.csv": b"hello\nworld\n",
+    "bad cgats.txt": b"CGATS.17\nBEGIN_DATA_FORMAT\nSAMPLE_ID SPECTRAL_400\nEND_DATA_FORMAT\nBEGIN_DATA\n1 abc\nEND_DATA\n",
+    "cgats no data.txt": b"CGATS.17\nBEGIN_DATA_FORMAT\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(MEASUREMENT_CASES))
+def test_measurement_files(name: str, tmp_path: Path) -> None:
+    from km.measurements import import_file
+
+    path = tmp_path / name
+    path.write_bytes(MEASUREMENT_CASES[name])
+    try:
+        result = import_file(path, thickness_mm=0.15)
+    except SheerError as exc:
+        assert str(exc).strip()
+        return
+    except Exception as exc:
+        pytest.fail(f"raised {type(exc).__name__} instead of a SheerError: {exc}")
+    assert not result.accepted and result.rejected  # nothing usable: reported row by row
+
+
+def test_measurement_rows_with_nan_are_rejected_with_line_numbers(tmp_path: Path) -> None:
+    from km.measurements import import_file
+
+    path = tmp_path / "m.csv"
+    path.write_text("wavelength,R_inf,R,Rg\n400,nan,0.2,0.0\n500,0.5,0.2,x\n")
+    try:
+        result = import_file(path, thickness_mm=0.15)
+    except SheerError:
+        return
+    assert not result.accepted
+    assert any("line 2" in str(r) for r in result.rejected)
+
+
+def test_measurement_size_cap(tmp_path: Path) -> None:
+    from km import measurements
+
+    path = tmp_path / "big.csv"
+    with open(path, "wb") as fh:
+        fh.truncate(measurements.MAX_IMPORT_BYTES + 10)
+    raises_clean(lambda: measurements.import_file(path, thickness_mm=0.15), "big.csv")
+
+
+# ------------------------------------------------------------------------------------------- head metadata
+
+
+def _head(tmp_path: Path, sidecar: bytes | None = None) -> Path:
+    mesh = tmp_path / "m.obj"
+    mesh.write_text(TINY_OBJ)
+    if sidecar is not None:
+        (tmp_path / "m.obj.sheer-head.json").write_bytes(sidecar)
+    return mesh
+
+
+SIDECAR_CASES = {
+    "not json": (b"{", "cannot read head metadata"),
+    "not utf-8": (b"\xff\xfe", "cannot read head metadata"),
+    "array": (b"[]", "JSON object"),
+    "no version": (b'{"name": "x", "mm_per_unit": 1}', "schema_version"),
+    "newer": (b'{"schema_version": 2, "name": "x", "mm_per_unit": 1}', "schema_version"),
+    "NaN scale": (b'{"schema_version": 1, "name": "x", "mm_per_unit": NaN}', "mm_per_unit"),
+    "negative scale": (b'{"schema_version": 1, "name": "x", "mm_per_unit": -3}', "mm_per_unit"),
+    "missing name": (b'{"schema_version": 1, "mm_per_unit": 1}', "name"),
+    "unknown field": (b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "evil": 1}', "evil"),
+    "bad landmark": (b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "landmarks": {"a": [1, 2]}}',
+                     "landmarks.a"),
+    "zero normal": (b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "midplane_normal": [0, 0, 0]}',
+                    "midplane_normal"),
+    "texture type": (b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "albedo": 3}', "albedo"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SIDECAR_CASES))
+def test_head_metadata_sidecars(case: str, tmp_path: Path) -> None:
+    from painting.head import load_metadata
+
+    data, fragment = SIDECAR_CASES[case]
+    mesh = _head(tmp_path, data)
+    raises_clean(lambda: load_metadata(mesh), "m.obj.sheer-head.json", fragment)
+
+
+@pytest.mark.parametrize("case", [
+    pytest.param("deep", marks=pytest.mark.xfail(strict=True, reason=LAX + "RecursionError escapes load_metadata")),
+    pytest.param("types", marks=pytest.mark.xfail(strict=True, reason=LAX + "name/mm_per_unit accept any type")),
+])
+def test_head_metadata_sidecars_lax(case: str, tmp_path: Path) -> None:
+    from painting.head import load_metadata
+
+    data = DEEP_JSON.encode() if case == "deep" else \
+        b'{"schema_version": 1, "name": ["x"], "mm_per_unit": true}'
+    mesh = _head(tmp_path, data)
+    raises_clean(lambda: load_metadata(mesh), "m.obj.sheer-head.json")
+
+
+# ------------------------------------------------------------------------------------------- meshes
+
+
+MESH_CASES = {
+    "garbage.glb": b"glTF" + bytes(range(256)) * 2,
+    "random.glb": _noise(300),
+    "empty.obj": b"",
+    "no uv.obj": b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    "nan.obj": TINY_OBJ.replace("v 0 0 0", "v nan 0 0", 1).encode(),
+    "bad index.obj": TINY_OBJ.replace("3/3", "99/3").encode(),
+    "huge.ply": b"ply\nformat binary_little_endian 1.0\nelement vertex 1000000000\nproperty float x\nend_header\n",
+    "text.ply": b"ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nend_header\nabc\n",
+    "binary.obj": _noise(400),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MESH_CASES))
+def test_meshes(name: str, tmp_path: Path) -> None:
+    import warnings
+
+    from painting.head import load_mesh_arrays
+
+    path = tmp_path / name
+    path.write_bytes(MESH_CASES[name])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # trimesh's own numpy warnings on bad data
+        raises_clean(lambda: load_mesh_arrays(path), name)
+
+
+def test_truncated_sample_head(tmp_path: Path) -> None:
+    from painting.head import load_mesh_arrays
+    from resources import AssetNotFoundError, find_asset
+
+    try:
+        glb = find_asset("heads/lee-perry-smith/head.glb").read_bytes()
+    except AssetNotFoundError:
+        pytest.skip("sample assets not available")
+    for cut in (20, len(glb) // 3, len(glb) - 7):
+        path = tmp_path / f"cut{cut}.glb"
+        path.write_bytes(glb[:cut])
+        raises_clean(lambda p=path: load_mesh_arrays(p), path.name)
+
+
+# ------------------------------------------------------------------------------------------- images
+
+
+IMAGE_CASES = {
+    "garbage.png": _noise(128),
+    "empty.png": b"",
+    "truncated.png": None,  # filled below: a real PNG cut short
+    "text.jpg": b"this is not a jpeg",
+}
+
+
+def _truncated_png() -> bytes:
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray((np.random.default_rng(0).random((64, 64, 3)) * 255).astype(np.uint8)).save(buf, "PNG")
+    return buf.getvalue()[:300]
+
+
+@pytest.mark.parametrize("name", sorted(IMAGE_CASES))
+def test_head_textures(name: str, tmp_path: Path) -> None:
+    from painting.head import load_head
+
+    data = IMAGE_CASES[name] if IMAGE_CASES[name] is not None else _truncated_png()
+    (tmp_path / name).write_bytes(data)
+    sidecar = f'{{"schema_version": 1, "name": "x", "mm_per_unit": 1, "albedo": "{name}"}}'.encode()
+    mesh = _head(tmp_path, sidecar)
+    raises_clean(lambda: load_head(mesh), name)
+
+
+def test_head_texture_missing(tmp_path: Path) -> None:
+    from painting.head import load_head
+
+    mesh = _head(tmp_path, b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "albedo": "gone.png"}')
+    raises_clean(lambda: load_head(mesh), "gone.png", "not found")
+
+
+def _bomb_png(tmp_path: Path) -> Path:
+    path = tmp_path / "bomb.png"
+    path.write_bytes(png_header_only(30_000, 30_000))
+    return path
+
+
+@pytest.mark.xfail(strict=True, reason=LAX + "Pillow's DecompressionBombError escapes painting.head._read_image")
+def test_head_texture_decompression_bomb(tmp_path: Path) -> None:
+    from painting.head import load_head
+
+    _bomb_png(tmp_path)
+    mesh = _head(tmp_path, b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "albedo": "bomb.png"}')
+    raises_clean(lambda: load_head(mesh), "bomb.png")
+
+
+def test_head_texture_over_the_side_cap(tmp_path: Path) -> None:
+    from painting.head import MAX_TEXTURE_SIDE, load_head
+
+    (tmp_path / "wide.png").write_bytes(png_header_only(MAX_TEXTURE_SIDE + 1, 1))
+    mesh = _head(tmp_path, b'{"schema_version": 1, "name": "x", "mm_per_unit": 1, "albedo": "wide.png"}')
+    raises_clean(lambda: load_head(mesh), "wide.png", "limit")
+
+
+def _capture(name: str) -> Any:
+    try:
+        return importlib.import_module(name)
+    except ImportError:
+        pytest.skip(f"{name} not available")
+
+
+@pytest.mark.parametrize("loader", ["photo", "mask"])
+def test_capture_images_garbage(loader: str, tmp_path: Path) -> None:
+    path = tmp_path / "x.png"
+    path.write_bytes(_noise(64))
+    if loader == "photo":
+        raises_clean(lambda: _capture("capture.pipeline").read_photo(path), "x.png")
+    else:
+        raises_clean(lambda: _capture("capture.mask").load_mask(path, (4, 4)), "x.png")
+
+
+@pytest.mark.parametrize("loader", [
+    pytest.param("photo", marks=pytest.mark.xfail(strict=True, reason=LAX + "DecompressionBombError escapes read_photo")),
+    pytest.param("mask", marks=pytest.mark.xfail(strict=True, reason=LAX + "DecompressionBombError escapes load_mask")),
+])
+def test_capture_images_decompression_bomb(loader: str, tmp_path: Path) -> None:
+    path = _bomb_png(tmp_path)
+    if loader == "photo":
+        raises_clean(lambda: _capture("capture.pipeline").read_photo(path), "bomb.png")
+    else:
+        raises_clean(lambda: _capture("capture.mask").load_mask(path, (4, 4)), "bomb.png")
+
+
+# ------------------------------------------------------------------------------------------- camera files
+
+
+CAMERA_CASES = {
+    "not json": b"{",
+    "array": b"[]",
+    "NaN matrix": b'{"P": [[NaN, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0]]}',
+    "short matrix": b'{"P": [[1, 0, 0], [0, 1, 0]]}',
+    "strings": b'{"P": "identity"}',
+}
+
+
+@pytest.mark.parametrize("case", sorted(CAMERA_CASES))
+def test_camera_files(case: str, tmp_path: Path) -> None:
+    camera = _capture("capture.camera")
+    path = tmp_path / "cam.json"
+    path.write_bytes(CAMERA_CASES[case])
+    raises_clean(lambda: camera.load_camera(path, 64, 64), "cam.json")
+
+
+@pytest.mark.xfail(strict=True, reason=LAX + "RecursionError escapes capture.camera._read_json")
+def test_camera_file_deeply_nested(tmp_path: Path) -> None:
+    camera = _capture("capture.camera")
+    path = tmp_path / "cam.json"
+    path.write_text(DEEP_JSON)
+    raises_clean(lambda: camera.load_camera(path, 64, 64), "cam.json")
+
+
+def test_point_files(tmp_path: Path) -> None:
+    camera = _capture("capture.camera")
+    path = tmp_path / "pts.json"
+    path.write_bytes(b'{"points": [{"image": [1, "x"], "mesh": [0, 0, 0]}]}')
+    raises_clean(lambda: camera.load_points(path, 64, 64), "pts.json")
+
+
+# ------------------------------------------------------------------------------------------- environments
+
+
+@pytest.mark.parametrize("data", [b"\x76\x2f\x31\x01" + bytes(100), b"not an exr", b""])
+def test_environment_exr(data: bytes, tmp_path: Path) -> None:
+    lights = _capture("render.lights")
+    path = tmp_path / "env.exr"
+    path.write_bytes(data)
+    raises_clean(lambda: lights.read_exr_rgb(path), "env.exr")
+
+
+# ------------------------------------------------------------------------------------------- looks
+
+
+def test_looks_reject_malformed_files(tmp_path: Path) -> None:
+    """painting.looks (the renderer engineer's) — exercised when it exists."""
+    looks = _capture("painting.looks")
+    loader = next((getattr(looks, n) for n in ("load_look", "read_look", "load") if hasattr(looks, n)), None)
+    if loader is None:
+        pytest.skip("painting.looks has no file loader yet")
+    for data in (b"{", b"[]", DEEP_JSON.encode(), b'{"schema_version": 99}', _noise(64)):
+        path = tmp_path / "look.json"
+        path.write_bytes(data)
+        raises_clean(lambda p=path: loader(p))
