@@ -1,0 +1,256 @@
+"""The photograph's camera: a 3×4 projection matrix, given or computed from 2D–3D correspondences.
+
+Conventions (OpenCV's): camera coordinates x right, y down, z forward (into the scene);
+``x_cam = R · X + t`` with ``X`` in mesh units; pixel ``(x, y) = (K · x_cam)[:2] / z`` where the pixel
+grid has x right, y down, and the centre of the top-left pixel at (0.5, 0.5).
+
+From ≥ 6 correspondences: the normalised direct linear transform (Hartley & Zisserman, Alg. 7.1), the
+RQ decomposition into K, R, t, then a non-linear refinement of the reprojection error with
+``scipy.optimize.least_squares`` on (focal length, principal point, rotation vector, translation), with
+square pixels and zero skew (a photographic camera; it also keeps a few hand-picked points from
+over-fitting).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
+
+from km.errors import SheerError
+
+from .raster import GBuffer, rasterize
+
+
+class CameraError(SheerError, ValueError):
+    """A camera or correspondence file that cannot be used; the message says what and where."""
+
+
+@dataclass
+class Camera:
+    """A pinhole camera.
+
+    Attributes:
+        K: (3, 3) intrinsics in pixels. R: (3, 3) rotation world→camera. t: (3,) translation (mesh units).
+        width, height: the photograph's size in pixels.
+        reprojection_error_px: RMS reprojection error of the correspondences it was fitted to (pixels),
+            or None for a camera given directly.
+    """
+
+    K: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    width: int
+    height: int
+    reprojection_error_px: float | None = None
+
+    @property
+    def P(self) -> np.ndarray:
+        """The (3, 4) projection matrix K [R | t]."""
+        return self.K @ np.hstack([self.R, self.t[:, None]])
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The camera centre in mesh units."""
+        return -self.R.T @ self.t
+
+    def to_camera(self, points: np.ndarray) -> np.ndarray:
+        """Mesh-unit points (N, 3) → camera coordinates (N, 3)."""
+        return np.asarray(points, dtype=float) @ self.R.T + self.t
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Project mesh-unit points (N, 3): returns (pixels (N, 2), camera depth z (N,))."""
+        xc = self.to_camera(points)
+        z = xc[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uvw = xc @ self.K.T
+            px = uvw[:, :2] / uvw[:, 2:3]
+        return px, z
+
+    def gbuffer(self, vertices: np.ndarray, faces: np.ndarray, scale: float = 1.0) -> GBuffer:
+        """Rasterise a mesh as this camera sees it (image ``scale`` times the photo's size)."""
+        px, z = self.project(vertices)
+        w = max(1, round(self.width * scale))
+        h = max(1, round(self.height * scale))
+        # NDC-like depth 1/z is linear in screen space; nearer = larger 1/z, so rasterise -1/z.
+        with np.errstate(divide="ignore"):
+            d = np.where(z > 1e-9, -1.0 / z, np.inf)
+        return rasterize(px * scale, d, faces, w, h, w=np.where(z > 1e-9, z, -1.0))
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "K": self.K.tolist(), "R": self.R.tolist(), "t": self.t.tolist(), "P": self.P.tolist(),
+            "width": self.width, "height": self.height,
+            "reprojection_error_px": self.reprojection_error_px,
+        }
+
+    @classmethod
+    def from_projection(cls, P: np.ndarray, width: int, height: int) -> Camera:
+        """Decompose a (3, 4) projection matrix into K, R, t (K with a positive diagonal, det R = +1)."""
+        P = np.asarray(P, dtype=float)
+        if P.shape != (3, 4) or not np.all(np.isfinite(P)):
+            raise CameraError(f"a projection matrix must be 3×4 finite numbers, got shape {P.shape}")
+        M = P[:, :3]
+        if abs(np.linalg.det(M)) < 1e-12 * max(1.0, float(np.abs(M).max()) ** 3):
+            raise CameraError("the projection matrix is singular (its left 3×3 block has no inverse)")
+        if np.linalg.det(M) < 0:
+            P = -P
+            M = -M
+        K, R = scipy.linalg.rq(M)
+        S = np.diag(np.sign(np.diag(K)))
+        K = K @ S
+        R = S @ R
+        t = np.linalg.solve(K, P[:, 3])
+        scale = K[2, 2]
+        K = K / scale
+        t = t  # K/scale with P/scale: t is unchanged up to the overall scale of P
+        if np.linalg.det(R) < 0:
+            R = -R
+            t = -t
+        return cls(K=K, R=R, t=t / 1.0, width=int(width), height=int(height))
+
+
+def _normalise_2d(x: np.ndarray) -> np.ndarray:
+    c = x.mean(axis=0)
+    d = np.sqrt(((x - c) ** 2).sum(axis=1)).mean()
+    s = np.sqrt(2.0) / max(d, 1e-12)
+    return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1.0]])
+
+
+def _normalise_3d(X: np.ndarray) -> np.ndarray:
+    c = X.mean(axis=0)
+    d = np.sqrt(((X - c) ** 2).sum(axis=1)).mean()
+    s = np.sqrt(3.0) / max(d, 1e-12)
+    T = np.eye(4)
+    T[:3, :3] *= s
+    T[:3, 3] = -s * c
+    return T
+
+
+def dlt(points2d: np.ndarray, points3d: np.ndarray) -> np.ndarray:
+    """The normalised DLT: a (3, 4) projection matrix from ≥ 6 correspondences (pixels ↔ mesh units)."""
+    x = np.asarray(points2d, dtype=float)
+    X = np.asarray(points3d, dtype=float)
+    T = _normalise_2d(x)
+    U = _normalise_3d(X)
+    xn = (np.hstack([x, np.ones((len(x), 1))]) @ T.T)
+    Xn = (np.hstack([X, np.ones((len(X), 1))]) @ U.T)
+    rows = []
+    for (u, v, w), Xh in zip(xn, Xn):
+        rows.append(np.concatenate([np.zeros(4), -w * Xh, v * Xh]))
+        rows.append(np.concatenate([w * Xh, np.zeros(4), -u * Xh]))
+    A = np.asarray(rows)
+    _, _, vt = np.linalg.svd(A)
+    Pn = vt[-1].reshape(3, 4)
+    P = np.linalg.inv(T) @ Pn @ U
+    # Make the points lie in front of the camera.
+    depth = np.hstack([X, np.ones((len(X), 1))]) @ P[2]
+    if np.median(depth) < 0:
+        P = -P
+    return P
+
+
+def _residuals(params: np.ndarray, x: np.ndarray, X: np.ndarray) -> np.ndarray:
+    f, cx, cy = params[:3]
+    R = Rotation.from_rotvec(params[3:6]).as_matrix()
+    t = params[6:9]
+    xc = X @ R.T + t
+    proj = np.stack([f * xc[:, 0] / xc[:, 2] + cx, f * xc[:, 1] / xc[:, 2] + cy], axis=1)
+    return (proj - x).ravel()
+
+
+def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: int,
+              source: str = "correspondences") -> Camera:
+    """A camera from ≥ 6 2D (pixels) ↔ 3D (mesh units) correspondences: DLT, then refinement.
+
+    Returns a :class:`Camera` whose ``reprojection_error_px`` is the RMS error (pixels) after refinement.
+    Raises :class:`CameraError` (naming ``source``) for too few, non-finite or degenerate points.
+    """
+    x = np.asarray(points2d, dtype=float)
+    X = np.asarray(points3d, dtype=float)
+    if x.ndim != 2 or x.shape[1] != 2 or X.ndim != 2 or X.shape[1] != 3 or len(x) != len(X):
+        raise CameraError(f"{source}: need matching lists of 2D points [x, y] and 3D points [x, y, z]")
+    if len(x) < 6:
+        raise CameraError(f"{source}: a camera needs at least 6 correspondences, got {len(x)}")
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(X))):
+        raise CameraError(f"{source}: a correspondence has a NaN or infinite coordinate")
+    sv = np.linalg.svd(X - X.mean(axis=0), compute_uv=False)
+    if sv[2] < 1e-6 * sv[0]:
+        raise CameraError(f"{source}: the 3D points are coplanar or collinear; pick points at several depths")
+    P = dlt(x, X)
+    cam0 = Camera.from_projection(P, width, height)
+    K = cam0.K
+    f0 = float(0.5 * (K[0, 0] + K[1, 1]))
+    p0 = np.concatenate([[f0, K[0, 2], K[1, 2]], Rotation.from_matrix(cam0.R).as_rotvec(), cam0.t])
+    if not np.all(np.isfinite(p0)) or f0 <= 0:
+        raise CameraError(f"{source}: the correspondences do not determine a camera (degenerate DLT)")
+    res = least_squares(_residuals, p0, args=(x, X), method="lm" if len(x) * 2 >= 9 else "trf")
+    p = res.x
+    K = np.array([[p[0], 0, p[1]], [0, p[0], p[2]], [0, 0, 1.0]])
+    R = Rotation.from_rotvec(p[3:6]).as_matrix()
+    rms = float(np.sqrt(np.mean(_residuals(p, x, X).reshape(-1, 2) ** 2 @ np.ones(2))))
+    return Camera(K=K, R=R, t=p[6:9].copy(), width=int(width), height=int(height), reprojection_error_px=rms)
+
+
+def load_points(path: str | Path, width: int, height: int) -> Camera:
+    """Read a correspondence file and calibrate.
+
+    JSON: ``{"points": [{"name": "...", "image": [x, y], "mesh": [x, y, z]}, ...]}`` with image points
+    in pixels (x right, y down, top-left pixel centre at 0.5) and mesh points in mesh units.
+    """
+    data = _read_json(path)
+    pts = data.get("points") if isinstance(data, dict) else None
+    if not isinstance(pts, list):
+        raise CameraError(f"{path}: expected an object with a 'points' list")
+    try:
+        x = np.array([p["image"] for p in pts], dtype=float)
+        X = np.array([p["mesh"] for p in pts], dtype=float)
+    except (KeyError, TypeError, ValueError):
+        raise CameraError(f"{path}: every point needs 'image' [x, y] and 'mesh' [x, y, z] numbers") from None
+    return calibrate(x, X, width, height, source=str(path))
+
+
+def load_camera(path: str | Path, width: int, height: int) -> Camera:
+    """Read a projection-matrix file: JSON ``{"P": [[...4], [...4], [...4]]}`` (pixels, mesh units)."""
+    data = _read_json(path)
+    if not isinstance(data, dict) or "P" not in data:
+        raise CameraError(f"{path}: expected an object with a 3×4 'P' projection matrix")
+    try:
+        P = np.asarray(data["P"], dtype=float)
+    except (TypeError, ValueError):
+        raise CameraError(f"{path}: 'P' must be a 3×4 matrix of numbers") from None
+    try:
+        return Camera.from_projection(P, width, height)
+    except CameraError as exc:
+        raise CameraError(f"{path}: {exc}") from None
+
+
+def _read_json(path: str | Path) -> Any:
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CameraError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CameraError(f"{path}: cannot read JSON: {exc}") from None
+
+
+def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray, fov_y_deg: float, width: int,
+            height: int) -> Camera:
+    """A camera at ``eye`` looking at ``target`` (mesh units) with ``up`` pointing up in the image."""
+    eye = np.asarray(eye, dtype=float)
+    z = np.asarray(target, dtype=float) - eye
+    z /= np.linalg.norm(z)
+    x = np.cross(z, np.asarray(up, dtype=float))
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    t = -R @ eye
+    f = 0.5 * height / np.tan(np.radians(fov_y_deg) / 2)
+    K = np.array([[f, 0, width / 2], [0, f, height / 2], [0, 0, 1.0]])
+    return Camera(K=K, R=R, t=t, width=width, height=height)

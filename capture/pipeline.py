@@ -1,0 +1,418 @@
+"""The capture pipeline: photograph + head + camera (+ probe, + mask) → a relightable face.
+
+Steps (Paris et al. 2003, Fig. 3): rasterise the head as the camera sees it; the skin mask; the light
+from the probe; the reflectance map from the skin pixels; the specular exponent; the Phong fit; the
+detail texture (photograph / shaded model) baked into the head's UV space.
+
+A face folder (``write_face``) holds:
+
+- ``face.json`` — parameters (:class:`capture.phong.PhongParams`), light, camera, residuals, timings;
+- ``detail.exr`` — the detail texture, **float32** RGB in the head's UV space (top row first, the
+  conventions of :mod:`painting.head`), values in [0, 2ⁿ] with n = 3 (the paper's [0, 8] range; we store
+  floats rather than n doubling passes over an 8-bit texture);
+- ``report.png`` — photograph | fitted Phong render | difference (ΔE2000 × 10 as grey), like Fig. 9;
+- ``skin_mask.png`` — the skin pixels used.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from km.errors import SheerError
+
+from .camera import Camera
+from .mask import landmark_region, refine_by_skin_colour
+from .phong import FitResult, Geometry, PhongParams, delta_e2000, fit_phong, refine_exponent, shade
+from .probe import ProbeAnalysis
+from .raster import rasterize_uv
+from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
+
+FACE_SCHEMA_VERSION = 1
+#: The detail texture's range is [0, 2**DETAIL_DOUBLINGS].
+DETAIL_DOUBLINGS = 3
+#: A shaded-model value below this is replaced by it before dividing (the paper's "small value").
+SHADED_FLOOR = 1e-3
+
+
+class CaptureError(SheerError, ValueError):
+    """A capture that cannot proceed (the head is not in the photo, no skin, …)."""
+
+
+def srgb_to_linear(x: np.ndarray) -> np.ndarray:
+    """sRGB-encoded values in [0, 1] → linear (IEC 61966-2-1)."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+
+
+def linear_to_srgb(x: np.ndarray) -> np.ndarray:
+    """Linear values → sRGB-encoded in [0, 1] (clipped)."""
+    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+
+
+def to_uint8(srgb: np.ndarray) -> np.ndarray:
+    return np.clip(np.round(np.asarray(srgb) * 255.0), 0, 255).astype(np.uint8)
+
+
+def read_photo(path: str | Path) -> np.ndarray:
+    """Read a photograph as linear RGB float64 (H, W, 3) in [0, 1] (8/16-bit sRGB images)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            arr = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+    except FileNotFoundError:
+        raise CaptureError(f"{path}: photo not found") from None
+    except (UnidentifiedImageError, OSError) as exc:
+        raise CaptureError(f"{path}: cannot read the image: {exc}") from None
+    return srgb_to_linear(arr)
+
+
+@dataclass
+class PixelData:
+    """The head as the photograph's camera sees it (covered pixels only, flattened).
+
+    Attributes:
+        rows, cols: (P,) pixel indices. normals: (P, 3) unit world normals. positions: (P, 3) mesh units.
+        view: (P, 3) unit directions to the camera. uv: (P, 2). depth: (H, W) camera-space z (inf = empty).
+    """
+
+    rows: np.ndarray
+    cols: np.ndarray
+    normals: np.ndarray
+    positions: np.ndarray
+    view: np.ndarray
+    uv: np.ndarray
+    depth: np.ndarray
+
+
+def pixel_data(head: Any, camera: Camera) -> PixelData:
+    """Rasterise the head for the camera and interpolate its attributes per covered pixel."""
+    gb = camera.gbuffer(head.vertices, head.faces)
+    cov = gb.covered
+    if cov.sum() < 100:
+        raise CaptureError("the head is (almost) not visible with this camera: check the correspondences")
+    rows, cols = np.nonzero(cov)
+    b = gb.bary[cov].astype(np.float64)
+    f = head.faces[gb.tri[cov]]
+
+    def interp(attr: np.ndarray) -> np.ndarray:
+        return np.einsum("pk,pkc->pc", b, attr[f])
+
+    nrm = interp(head.normals)
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+    pos = interp(head.vertices)
+    view = camera.centre[None, :] - pos
+    view /= np.linalg.norm(view, axis=1, keepdims=True)
+    depth = np.full(cov.shape, np.inf)
+    depth[cov] = camera.to_camera(pos)[:, 2]
+    return PixelData(rows=rows, cols=cols, normals=nrm, positions=pos, view=view, uv=interp(head.uv),
+                     depth=depth)
+
+
+def compute_skin_mask(head: Any, camera: Camera, photo_lin: np.ndarray, pix: PixelData) -> np.ndarray:
+    """The computed skin mask (see :mod:`capture.mask`), bool (H, W)."""
+    shape = photo_lin.shape[:2]
+    front = np.zeros(shape, dtype=bool)
+    facing = np.einsum("pc,pc->p", pix.normals, pix.view) > 0.25
+    front[pix.rows[facing], pix.cols[facing]] = True
+    region = landmark_region(camera, head.metadata.landmarks, shape)
+    cand = front if region is None else front & region
+    if region is None:
+        # No landmarks: keep the central part of the head's silhouette (drops ears, neck and hair edge).
+        rr, cc = np.nonzero(front)
+        cy, cx = np.median(rr), np.median(cc)
+        ry = 0.42 * (rr.max() - rr.min() + 1)
+        rx = 0.38 * (cc.max() - cc.min() + 1)
+        yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+        cand &= ((yy - cy) / ry) ** 2 + ((xx - cx) / rx) ** 2 <= 1.0
+    if cand.sum() < 200:
+        raise CaptureError("the computed skin region is too small; paint a mask and pass --mask")
+    return refine_by_skin_colour(photo_lin, cand)
+
+
+@dataclass
+class CaptureResult:
+    """Everything the capture found (see the module docstring)."""
+
+    camera: Camera
+    params: PhongParams
+    light_dir_world: np.ndarray
+    exponent: ExponentEstimate
+    fit: FitResult
+    rmap: ReflectanceMap
+    detail: np.ndarray
+    detail_valid: np.ndarray
+    skin_mask: np.ndarray
+    photo_lin: np.ndarray
+    fitted_render: np.ndarray
+    reproduction: np.ndarray
+    reproduction_de2000_skin: float
+    probe: ProbeAnalysis | None
+    timings_s: dict[str, float] = field(default_factory=dict)
+    robustness: dict[str, Any] | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        e = self.exponent
+        return {
+            "schema_version": FACE_SCHEMA_VERSION,
+            "phong": self.params.to_json(),
+            "light_dir_world": self.light_dir_world.tolist(),
+            "exponent": {"s": e.s, "s_saturation": e.s_saturation, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
+                         "alpha_right_deg": e.alpha_right_deg, "spec_over_diffuse": e.spec_over_diffuse},
+            "residual": {"rms_luv_per_pixel": self.fit.rms_luv, "l2_luv": self.fit.l2_luv,
+                         "evaluations": self.fit.evaluations,
+                         "reproduction_mean_de2000_skin": self.reproduction_de2000_skin},
+            "camera": self.camera.to_json(),
+            "probe": None if self.probe is None else self.probe.to_json(),
+            "skin_pixels": int(self.skin_mask.sum()),
+            "detail_texture": {"file": "detail.exr", "storage": "float32 RGB, UV space, top row first",
+                               "range": [0.0, float(2 ** DETAIL_DOUBLINGS)],
+                               "size": list(self.detail.shape[:2])},
+            "timings_s": self.timings_s,
+            "robustness": self.robustness,
+        }
+
+
+def _log(progress: Callable[[str], None] | None, msg: str) -> None:
+    if progress is not None:
+        progress(msg)
+
+
+def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None = None,
+            mask: np.ndarray | None = None, texture_size: int = 1024,
+            progress: Callable[[str], None] | None = None, robustness_starts: int = 0,
+            refine_s: bool = True) -> CaptureResult:
+    """Run the whole capture.
+
+    Args:
+        head: a :class:`painting.head.Head`.
+        photo_lin: (H, W, 3) linear RGB in [0, 1] (the camera's width/height must match).
+        camera: the photograph's camera.
+        probe: the light-probe analysis; None = a white flash on the camera's axis and no ambient light.
+        mask: bool (H, W) painted skin mask, or None to compute one.
+        texture_size: the detail texture's side (texels).
+        progress: called with one line per step.
+        robustness_starts: if > 0, also run the fit from this many random starts (paper: 200).
+        refine_s: refine the saturation estimate of s by a profile search (:func:`capture.phong.refine_exponent`).
+    """
+    t_all = time.perf_counter()
+    timings: dict[str, float] = {}
+    h, w = photo_lin.shape[:2]
+    if (camera.width, camera.height) != (w, h):
+        raise CaptureError(f"the camera is for {camera.width}×{camera.height} but the photo is {w}×{h}")
+
+    t = time.perf_counter()
+    pix = pixel_data(head, camera)
+    timings["rasterise"] = time.perf_counter() - t
+    _log(progress, f"head rasterised: {len(pix.rows)} pixels cover the head")
+
+    t = time.perf_counter()
+    if mask is None:
+        mask = compute_skin_mask(head, camera, photo_lin, pix)
+    covered = np.zeros((h, w), dtype=bool)
+    covered[pix.rows, pix.cols] = True
+    skin = mask & covered
+    sel = skin[pix.rows, pix.cols]
+    sel &= np.einsum("pc,pc->p", pix.normals, pix.view) > 0.05
+    if sel.sum() < 200:
+        raise CaptureError(f"only {int(sel.sum())} skin pixels on the head; check the mask and the camera")
+    timings["mask"] = time.perf_counter() - t
+    _log(progress, f"skin mask: {int(sel.sum())} pixels")
+
+    # Light.
+    R = camera.R
+    if probe is not None:
+        light_world = R.T @ probe.light_dir_camera
+        flash_rgb = probe.flash_rgb
+        ambient_rgb = probe.ambient_rgb
+        _log(progress, f"probe: light θ={probe.theta_deg:.2f}° φ={probe.phi_deg:.2f}°, "
+                       f"flash hue {np.round(flash_rgb, 3).tolist()}, ambient {np.round(ambient_rgb, 4).tolist()}")
+    else:
+        centroid = pix.positions[sel].mean(axis=0)
+        light_world = camera.centre - centroid
+        light_world /= np.linalg.norm(light_world)
+        flash_rgb = np.ones(3)
+        ambient_rgb = np.zeros(3)
+        _log(progress, "no probe: a white flash on the camera axis, no ambient light")
+
+    # Reflectance map.
+    t = time.perf_counter()
+    colours = photo_lin[pix.rows[sel], pix.cols[sel]]
+    normals_cam_all = pix.normals @ R.T
+    rmap = build_reflectance_map(normals_cam_all[sel], colours)
+    timings["reflectance_map"] = time.perf_counter() - t
+    _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
+
+    # Exponent.
+    t = time.perf_counter()
+    exp_est = estimate_exponent(pix.normals[sel], pix.view[sel], light_world, colours, R[0])
+    _log(progress, f"specular exponent from saturation s = {exp_est.s:.1f} (Eq. 3 alone: {exp_est.s_eq3:.1f}; "
+                   f"fastest saturation change at {exp_est.alpha_deg:.2f}°)")
+    geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], light_world)
+    if refine_s:
+        exp_est.s_saturation = exp_est.s
+        exp_est.s, _ = refine_exponent(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
+        _log(progress, f"specular exponent refined by a profile search: s = {exp_est.s:.1f}")
+    timings["exponent"] = time.perf_counter() - t
+
+    # Phong fit.
+    t = time.perf_counter()
+    fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
+    timings["phong_fit"] = time.perf_counter() - t
+    p = fit.params
+    _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
+                   f"ambient scale {p.ambient_scale:.3f}; residual {fit.rms_luv:.2f} Luv per pixel")
+    rob = None
+    if robustness_starts > 0:
+        from .phong import robustness
+
+        t = time.perf_counter()
+        rob = robustness(colours, geo, exp_est.s, flash_rgb, ambient_rgb, starts=robustness_starts)
+        timings["robustness"] = time.perf_counter() - t
+        _log(progress, f"robustness: {robustness_starts} random starts, max relative std "
+                       f"{100 * rob['max_relative_std']:.3f} %")
+
+    # Detail texture.
+    t = time.perf_counter()
+    detail, valid = bake_detail(head, camera, photo_lin, pix.depth, rmap, texture_size)
+    timings["detail_texture"] = time.perf_counter() - t
+    _log(progress, f"detail texture {texture_size}² baked ({100 * valid.mean():.1f} % of texels seen)")
+
+    # Fitted render and reproduction (same pose).
+    geo_all = Geometry.from_vectors(pix.normals, pix.view, light_world)
+    fitted = np.zeros_like(photo_lin)
+    fitted[pix.rows, pix.cols] = shade(p, geo_all)
+    det_px = sample_texture(detail, pix.uv)
+    repro = np.zeros_like(photo_lin)
+    repro[pix.rows, pix.cols] = np.clip(shade(p, geo_all, clip=False) * det_px, 0, 1)
+    de = delta_e2000(repro[pix.rows[sel], pix.cols[sel]], photo_lin[pix.rows[sel], pix.cols[sel]])
+    timings["total"] = time.perf_counter() - t_all
+    skin_used = np.zeros((h, w), dtype=bool)
+    skin_used[pix.rows[sel], pix.cols[sel]] = True
+    _log(progress, f"reproduction: mean ΔE2000 {float(de.mean()):.2f} on skin; total {timings['total']:.1f} s")
+    return CaptureResult(camera=camera, params=p, light_dir_world=light_world, exponent=exp_est, fit=fit,
+                         rmap=rmap, detail=detail, detail_valid=valid, skin_mask=skin_used, photo_lin=photo_lin,
+                         fitted_render=fitted, reproduction=repro, reproduction_de2000_skin=float(de.mean()),
+                         probe=probe, timings_s=timings, robustness=rob)
+
+
+def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear lookup of a UV-space texture (H, W, C) (top row first, texel centres at +0.5) at uv (P, 2)."""
+    th, tw = tex.shape[:2]
+    x = uv[:, 0] * tw - 0.5
+    y = uv[:, 1] * th - 0.5
+    return np.stack([ndimage.map_coordinates(tex[..., c], [y, x], order=1, mode="nearest")
+                     for c in range(tex.shape[2])], axis=1)
+
+
+def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndarray, rmap: ReflectanceMap,
+                size: int) -> tuple[np.ndarray, np.ndarray]:
+    """The detail texture: photograph / shaded model per texel (float32 (size, size, 3), [0, 8]), and
+    the texels seen in the photograph (bool). Unseen texels take the value of the nearest seen texel
+    (so a relit view from another angle has no holes; they carry no measured detail)."""
+    gb = rasterize_uv(head.uv, head.faces, (size, size))
+    cov = gb.covered
+    b = gb.bary[cov].astype(np.float64)
+    f = head.faces[gb.tri[cov]]
+    pos = np.einsum("pk,pkc->pc", b, head.vertices[f])
+    nrm = np.einsum("pk,pkc->pc", b, head.normals[f])
+    nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+    px, z = camera.project(pos)
+    hh, ww = photo_lin.shape[:2]
+    xi = np.floor(px[:, 0]).astype(np.int64)
+    yi = np.floor(px[:, 1]).astype(np.int64)
+    inb = (xi >= 0) & (yi >= 0) & (xi < ww) & (yi < hh) & (z > 0)
+    vis = np.zeros(len(pos), dtype=bool)
+    dz = np.full(len(pos), np.inf)
+    dz[inb] = depth[yi[inb], xi[inb]]
+    # Visible when the texel's depth is within a small tolerance of what the camera sees there.
+    tol = 0.01 * float(np.median(z[inb])) if inb.any() else 0.0
+    vis[inb] = np.abs(z[inb] - dz[inb]) <= tol
+    view = camera.centre[None, :] - pos
+    vis &= np.einsum("pc,pc->p", nrm, view) > 0
+    photo = np.stack([ndimage.map_coordinates(photo_lin[..., c], [px[:, 1] - 0.5, px[:, 0] - 0.5], order=1,
+                                              mode="nearest") for c in range(3)], axis=1)
+    shaded = rmap.sample(nrm @ camera.R.T)
+    ratio = photo / np.maximum(shaded, SHADED_FLOOR)
+    ratio = np.clip(ratio, 0.0, float(2 ** DETAIL_DOUBLINGS))
+    detail = np.zeros((size, size, 3), dtype=np.float32)
+    valid = np.zeros((size, size), dtype=bool)
+    rr, cc = np.nonzero(cov)
+    detail[rr[vis], cc[vis]] = ratio[vis]
+    valid[rr[vis], cc[vis]] = True
+    if not valid.any():
+        raise CaptureError("no texel of the head is visible in the photograph")
+    _, (iy, ix) = ndimage.distance_transform_edt(~valid, return_indices=True)
+    detail = detail[iy, ix]
+    return detail, valid
+
+
+def report_image(result: CaptureResult) -> np.ndarray:
+    """photograph | fitted Phong render | difference (ΔE2000 × 10 as grey, skin pixels), uint8 (H, 3W, 3)."""
+    photo = result.photo_lin
+    de = np.zeros(photo.shape[:2])
+    m = result.skin_mask
+    de[m] = delta_e2000(result.fitted_render[m], photo[m])
+    diff = np.repeat(np.clip(de * 10.0 / 255.0, 0, 1)[..., None], 3, axis=2)
+    return np.concatenate([to_uint8(linear_to_srgb(photo)), to_uint8(linear_to_srgb(result.fitted_render)),
+                           to_uint8(diff)], axis=1)
+
+
+def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None) -> Path:
+    """Write the face folder (see the module docstring); returns the folder."""
+    import OpenEXR
+    from PIL import Image
+
+    from km.atomicio import atomic_write_text
+
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CaptureError(f"{out}: cannot create the output folder: {exc.strerror}") from None
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(hdr, {"RGB": np.ascontiguousarray(result.detail, dtype=np.float32)}).write(str(out / "detail.exr"))
+    Image.fromarray(report_image(result)).save(out / "report.png")
+    Image.fromarray((result.skin_mask * 255).astype(np.uint8)).save(out / "skin_mask.png")
+    data = result.to_json()
+    data["head"] = None if head_path is None else str(head_path)
+    atomic_write_text(out / "face.json", json.dumps(data, indent=2))
+    return out
+
+
+@dataclass
+class Face:
+    """A captured face read back from its folder: parameters and detail texture (float32, UV space)."""
+
+    params: PhongParams
+    detail: np.ndarray
+    data: dict[str, Any]
+
+
+def load_face(folder: str | Path) -> Face:
+    """Read a face folder written by :func:`write_face`."""
+    import OpenEXR
+
+    folder = Path(folder)
+    try:
+        data = json.loads((folder / "face.json").read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CaptureError(f"{folder}: not a face folder (no face.json)") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CaptureError(f"{folder / 'face.json'}: cannot read: {exc}") from None
+    if data.get("schema_version") != FACE_SCHEMA_VERSION:
+        raise CaptureError(f"{folder / 'face.json'}: unsupported schema_version {data.get('schema_version')!r}")
+    try:
+        detail = np.asarray(OpenEXR.File(str(folder / "detail.exr")).channels()["RGB"].pixels, dtype=np.float32)
+    except Exception as exc:  # OpenEXR raises plain exceptions for missing/corrupt files
+        raise CaptureError(f"{folder / 'detail.exr'}: cannot read the detail texture: {exc}") from None
+    return Face(params=PhongParams.from_json(data["phong"]), detail=detail, data=data)

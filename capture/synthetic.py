@@ -1,0 +1,91 @@
+"""Synthetic ground truth for validating the capture: the sample head rendered with known Phong
+parameters under a known flash near the camera, and a mirror-ball probe made from an HDR environment plus
+the same point light.
+
+The ground-truth detail texture is the head's albedo (linearised) divided by its mean over the face
+(the landmark region of :mod:`capture.mask` as the camera sees it), so it averages 1 on skin, like a real ratio image. The photograph is the CPU render
+``clip(detail ⊙ Phong)`` (modulation after lighting, clamping after modulation), 8-bit sRGB quantised.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .camera import Camera, look_at
+from .mask import landmark_region
+from .phong import Geometry, PhongParams, shade
+from .pipeline import linear_to_srgb, pixel_data, sample_texture, srgb_to_linear, to_uint8
+from .probe import synthetic_probe
+
+
+@dataclass
+class SyntheticScene:
+    """The synthetic inputs and the truth."""
+
+    camera: Camera
+    photo_srgb8: np.ndarray
+    probe_srgb8: np.ndarray
+    params: PhongParams
+    light_dir_world: np.ndarray
+    detail: np.ndarray
+
+    @property
+    def photo_lin(self) -> np.ndarray:
+        return srgb_to_linear(self.photo_srgb8 / 255.0)
+
+    @property
+    def probe_lin(self) -> np.ndarray:
+        return srgb_to_linear(self.probe_srgb8 / 255.0)
+
+
+def read_env(path: str) -> np.ndarray:
+    """An equirectangular EXR environment as float64 (H, W, 3)."""
+    import OpenEXR
+
+    return np.asarray(OpenEXR.File(str(path)).channels()["RGB"].pixels, dtype=np.float64)
+
+
+def light_from_camera(camera: Camera, up_deg: float, right_deg: float) -> np.ndarray:
+    """A world direction towards a light at the given angles above and to the right of the camera's
+    axis, as seen from the subject (unit (3,))."""
+    a, b = np.radians(up_deg), np.radians(right_deg)
+    # Camera coordinates: x right, y down, z forward; "towards the camera" is -z.
+    d = np.array([np.sin(b) * np.cos(a), -np.sin(a), -np.cos(a) * np.cos(b)])
+    return camera.R.T @ (d / np.linalg.norm(d))
+
+
+def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongParams | None = None,
+               light_up_deg: float = 4.0, light_right_deg: float = 3.0, env_scale: float | None = None,
+               probe_size: int = 256) -> SyntheticScene:
+    """Render the synthetic photograph and probe (see the module docstring)."""
+    cam = look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 6.4,
+                  size, size)
+    light = light_from_camera(cam, light_up_deg, light_right_deg)
+    flash = np.array([1.0, 0.96, 0.88])
+    flash = flash / float(flash @ np.array([0.2126, 0.7152, 0.0722]))
+    if env_scale is None:
+        env_scale = 0.04 / max(float(np.mean(env)), 1e-9)  # a dim room: mean radiance 0.04 of the flash
+    ambient = env.reshape(-1, 3).mean(axis=0) * env_scale
+    if params is None:
+        params = PhongParams(diffuse=np.array([0.62, 0.42, 0.33]), specular=0.25, exponent=24.0,
+                             ambient_scale=1.0, flash_rgb=flash, ambient_rgb=ambient)
+    else:
+        params.flash_rgb = flash
+        params.ambient_rgb = ambient
+    # Ground-truth detail from the albedo (1 on average over the face).
+    alb = srgb_to_linear(np.asarray(head.albedo, dtype=np.float64) / 255.0)  # type: ignore[attr-defined]
+    pix = pixel_data(head, cam)
+    region = landmark_region(cam, head.metadata.landmarks, (size, size))  # type: ignore[attr-defined]
+    face = np.ones(len(pix.rows), dtype=bool) if region is None else region[pix.rows, pix.cols]
+    mean = sample_texture(alb, pix.uv)[face].mean(axis=0)
+    detail = (alb / np.maximum(mean, 1e-4)).astype(np.float32)
+    geo = Geometry.from_vectors(pix.normals, pix.view, light)
+    det_px = sample_texture(detail, pix.uv)
+    img = np.zeros((size, size, 3))
+    img[pix.rows, pix.cols] = np.clip(shade(params, geo, clip=False) * det_px, 0, 1)
+    probe = synthetic_probe(env, cam.R, light, flash, size=probe_size, env_scale=env_scale)
+    return SyntheticScene(camera=cam, photo_srgb8=to_uint8(linear_to_srgb(img)),
+                          probe_srgb8=to_uint8(linear_to_srgb(probe)), params=params, light_dir_world=light,
+                          detail=detail)
