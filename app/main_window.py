@@ -164,7 +164,8 @@ class StudioWindow(QMainWindow):
             self.actions_by_id[aid].setChecked(on)
         self.recent_menu.clear()
         for p in self.settings.recent_files:
-            self.recent_menu.addAction(p).setEnabled(seams_has_project_io())
+            act = self.recent_menu.addAction(p)
+            act.triggered.connect(lambda _c=False, path=p: self.open_project(Path(path)))
 
     def _build_toolbars(self) -> None:
         tb = QToolBar("Brush")
@@ -462,11 +463,52 @@ class StudioWindow(QMainWindow):
         self._update_title()
         self._update_actions()
 
-    def open_project(self) -> None:
-        dialogs.info(self, "Open project", "Project files are not available in this build yet.")
+    def open_project(self, path: Path | None = None) -> bool:
+        from app import project_io
+        from km.errors import SheerError
 
-    def save_project(self, ask: bool = False) -> None:
-        dialogs.info(self, "Save project", "Project files are not available in this build yet.")
+        if path is None:
+            name, _ = QFileDialog.getOpenFileName(self, "Open project", "", "Sheer projects (*.sheer)")
+            if not name:
+                return False
+            path = Path(name)
+        try:
+            self.project_name = project_io.load_project_into(self.doc, self.library, Path(path))
+        except (SheerError, OSError, ValueError) as exc:
+            dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
+            return False
+        self.project_path = Path(path)
+        self.settings.add_recent(str(path))
+        self.layers_panel.set_materials(self.library)
+        self.library_dock.refresh_list()
+        self.refresh_layers()
+        self.setWindowModified(False)
+        self._update_title()
+        self._update_actions()
+        return True
+
+    def save_project(self, ask: bool = False, path: Path | None = None) -> bool:
+        from app import project_io
+        from km.errors import SheerError
+
+        target = path or (None if ask else self.project_path)
+        if target is None:
+            name, _ = QFileDialog.getSaveFileName(self, "Save project", f"{self.project_name}.sheer",
+                                                  "Sheer projects (*.sheer)")
+            if not name:
+                return False
+            target = Path(name) if name.endswith(".sheer") else Path(name + ".sheer")
+        try:
+            saved = project_io.save_document(self.doc, self.library, Path(target), Path(target).stem)
+        except (SheerError, OSError, ValueError) as exc:
+            dialogs.error(self, "Save project", f"The project could not be saved: {exc}")
+            return False
+        self.project_path, self.project_name = saved, saved.stem
+        self.settings.add_recent(str(saved))
+        self.setWindowModified(False)
+        self._update_title()
+        self._update_actions()
+        return True
 
     # ------------------------------------------------------------------ exports
     def _ask_folder(self, title: str) -> str:
@@ -619,4 +661,6 @@ class StudioWindow(QMainWindow):
 
 
 def seams_has_project_io() -> bool:
-    return False
+    from app import project_io
+
+    return project_io.available()

@@ -41,7 +41,7 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     except SheerError as exc:
         dialogs.error(None, "Sheer Studio", f"The studio could not start: {exc}")
         return 2
-    if project:
-        dialogs.info(win, "Open project", f"Project files are not available in this build yet ({project}).")
     win.show()
+    if project:
+        win.open_project(Path(project))
     return int(app.exec())  # type: ignore[attr-defined]

@@ -1,0 +1,513 @@
+"""The customer kiosk: full screen, no menus and no file dialogs, large touch targets.
+
+Looks, product swaps per category, light presets, drag to turn, before/after, snapshots to a configured
+folder, an idle attract mode, and an administrator PIN (stored hashed) guarding every way out:
+window-manager close / Alt+F4 (``closeEvent``), Esc and Ctrl+Q. Any error returns to the start screen with
+a friendly message and is logged; a traceback is never shown.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import json
+import logging
+import os
+import secrets
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from PySide6.QtCore import QEvent, QObject, Qt, QTimer, Signal
+from PySide6.QtGui import QCloseEvent, QKeyEvent, QKeySequence, QShortcut
+from PySide6.QtWidgets import (
+    QGridLayout,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QSlider,
+    QStackedWidget,
+    QVBoxLayout,
+    QWidget,
+)
+
+from app import seams
+from app.actions import KIOSK_ACTIONS
+from app.export import layer_tuples
+from app.settings import LIGHT_PRESETS
+
+log = logging.getLogger("sheer.kiosk")
+
+CATEGORIES: tuple[str, ...] = ("foundation", "lipstick", "blush", "eyeshadow")
+KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
+FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
+_PBKDF2_ROUNDS = 200_000
+
+
+def hash_pin(pin: str, salt: bytes | None = None) -> str:
+    """``pbkdf2_sha256$rounds$salt_hex$hash_hex`` of a PIN."""
+    salt = salt or secrets.token_bytes(16)
+    digest = hashlib.pbkdf2_hmac("sha256", pin.encode("utf-8"), salt, _PBKDF2_ROUNDS)
+    return f"pbkdf2_sha256${_PBKDF2_ROUNDS}${salt.hex()}${digest.hex()}"
+
+
+def check_pin(pin: str, stored: str) -> bool:
+    try:
+        algo, rounds, salt_hex, hash_hex = stored.split("$")
+        if algo != "pbkdf2_sha256":
+            return False
+        digest = hashlib.pbkdf2_hmac("sha256", pin.encode("utf-8"), bytes.fromhex(salt_hex), int(rounds))
+    except (ValueError, TypeError):
+        return False
+    return hmac.compare_digest(digest.hex(), hash_hex)
+
+
+@dataclass
+class KioskConfig:
+    """The kiosk's configuration file (JSON). ``pin_hash`` is never the PIN itself."""
+
+    pin_hash: str = ""
+    snapshot_dir: str = ""
+    idle_seconds: float = 90.0
+    look_seconds: float = 8.0
+    fullscreen: bool = True
+
+    @staticmethod
+    def default_path() -> Path:
+        base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+        return Path(base) / "sheer" / "kiosk.json"
+
+    @classmethod
+    def load(cls, path: Path | None = None) -> KioskConfig:
+        """Read the config; a missing or broken file gives the defaults (PIN 0000 until one is set)."""
+        path = path or cls.default_path()
+        cfg = cls()
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            if isinstance(data, dict):
+                for k in asdict(cfg):
+                    if k in data and isinstance(data[k], type(getattr(cfg, k))):
+                        setattr(cfg, k, data[k])
+        except (OSError, ValueError) as exc:
+            if path.exists():
+                log.warning("kiosk config %s unreadable (%s); using defaults", path, exc)
+        if not cfg.pin_hash:
+            cfg.pin_hash = hash_pin("0000")
+        if not cfg.snapshot_dir:
+            cfg.snapshot_dir = str(Path.home() / "Pictures" / "sheer-kiosk")
+        cfg.idle_seconds = min(max(float(cfg.idle_seconds), 5.0), 3600.0)
+        cfg.look_seconds = min(max(float(cfg.look_seconds), 2.0), 120.0)
+        return cfg
+
+    def save(self, path: Path | None = None) -> Path:
+        from km.atomicio import atomic_write_text
+
+        path = path or self.default_path()
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(path, json.dumps(asdict(self), indent=2))
+        return path
+
+
+def big_button(text: str, height: int = 72) -> QPushButton:
+    b = QPushButton(text)
+    b.setMinimumHeight(height)
+    b.setMinimumWidth(120)
+    b.setFocusPolicy(Qt.FocusPolicy.NoFocus)
+    return b
+
+
+class PinPad(QWidget):
+    """An in-window PIN pad (no dialog): emits ``entered(pin)`` or ``cancelled``."""
+
+    entered = Signal(str)
+    cancelled = Signal()
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setObjectName("pinpad")
+        self.pin = ""
+        self.display = QLabel("Administrator PIN")
+        self.display.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.message = QLabel("")
+        self.message.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        grid = QGridLayout()
+        keys = ["1", "2", "3", "4", "5", "6", "7", "8", "9", "Clear", "0", "OK"]
+        self.buttons: dict[str, QPushButton] = {}
+        for i, k in enumerate(keys):
+            b = big_button(k, 80)
+            b.clicked.connect(lambda _c=False, key=k: self.press(key))
+            grid.addWidget(b, i // 3, i % 3)
+            self.buttons[k] = b
+        cancel = big_button("Cancel", 64)
+        cancel.clicked.connect(self._cancel)
+        lay = QVBoxLayout(self)
+        lay.addStretch(1)
+        lay.addWidget(self.display)
+        lay.addWidget(self.message)
+        lay.addLayout(grid)
+        lay.addWidget(cancel)
+        lay.addStretch(1)
+
+    def reset(self, message: str = "") -> None:
+        self.pin = ""
+        self.display.setText("Administrator PIN")
+        self.message.setText(message)
+
+    def press(self, key: str) -> None:
+        if key == "Clear":
+            self.reset()
+        elif key == "OK":
+            pin, self.pin = self.pin, ""
+            self.display.setText("Administrator PIN")
+            self.entered.emit(pin)
+        elif len(self.pin) < 12:
+            self.pin += key
+            self.display.setText("•" * len(self.pin))
+
+    def _cancel(self) -> None:
+        self.reset()
+        self.cancelled.emit()
+
+
+class _ActivityFilter(QObject):
+    """Any touch, click or key counts as activity (resets the idle timer, ends attract mode)."""
+
+    def __init__(self, on_activity: Callable[[], None]) -> None:
+        super().__init__()
+        self.on_activity = on_activity
+
+    def eventFilter(self, obj: QObject, event: QEvent) -> bool:  # noqa: N802
+        if event.type() in (QEvent.Type.MouseButtonPress, QEvent.Type.TouchBegin, QEvent.Type.KeyPress,
+                            QEvent.Type.TabletPress):
+            self.on_activity()
+        return False
+
+
+class KioskWindow(QWidget):
+    """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle."""
+
+    def __init__(self, config: KioskConfig, project: str | None = None, head: str | None = None,
+                 resolution: int = 512) -> None:
+        super().__init__()
+        self.config = config
+        self.setWindowTitle("Sheer")
+        self._allow_close = False
+        self.attract = False
+        self.last_error: str | None = None
+        self.snapshots: list[Path] = []
+        self.library = seams.load_library()
+        self.doc = seams.open_document(head, resolution)
+        self.look = "natural"
+        self.viewport = self._make_viewport(resolution)
+        self.stack = QStackedWidget()
+        self.start_page = self._build_start()
+        self.main_page = self._build_main()
+        self.pin_pad = PinPad()
+        self.pin_pad.entered.connect(self._pin_entered)
+        self.pin_pad.cancelled.connect(self._pin_cancelled)
+        for page in (self.start_page, self.main_page, self.pin_pad):
+            self.stack.addWidget(page)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.stack)
+        self.setStyleSheet("QWidget { background: #1d1b1c; color: #f4efe9; font-size: 22px; }"
+                           "QPushButton { background: #3a3536; border-radius: 14px; padding: 10px; }"
+                           "QPushButton:checked { background: #b0605f; }"
+                           "QSlider::handle:horizontal { width: 48px; background: #e0c0b0; border-radius: 10px; }")
+        # reduced action set: only the exit (PIN) and before/after, as shortcuts
+        for spec in KIOSK_ACTIONS:
+            sc = QShortcut(QKeySequence(spec.shortcut), self)
+            sc.activated.connect(self.request_exit if spec.id == "kiosk.exit" else self._toggle_split)
+        QShortcut(QKeySequence("Esc"), self).activated.connect(self.request_exit)
+        QShortcut(QKeySequence("Alt+F4"), self).activated.connect(self.request_exit)
+        self.idle_timer = QTimer(self)
+        self.idle_timer.setSingleShot(True)
+        self.idle_timer.timeout.connect(self.guard(self.start_attract))
+        self.spin_timer = QTimer(self)
+        self.spin_timer.setInterval(40)
+        self.spin_timer.timeout.connect(self.guard(lambda: self.viewport.orbit_by(0.6)))
+        self.look_timer = QTimer(self)
+        self.look_timer.timeout.connect(self.guard(self._next_attract_look))
+        self._filter = _ActivityFilter(self.activity)
+        from PySide6.QtWidgets import QApplication
+
+        QApplication.instance().installEventFilter(self._filter)
+        self.guard(lambda: self._load(project))()
+        self.show_start()
+
+    # ------------------------------------------------------------------ construction
+    def _make_viewport(self, resolution: int) -> Any:
+        from app.viewport import Viewport
+
+        vp = Viewport(self.doc.head, resolution)
+        vp.paint_enabled = False
+        vp.gl_failed.connect(lambda msg: self.fail(msg))
+        return vp
+
+    def _build_start(self) -> QWidget:
+        page = QWidget()
+        title = QLabel("Sheer")
+        title.setStyleSheet("font-size: 64px; font-weight: 300;")
+        title.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.start_message = QLabel("Try on makeup — touch to start")
+        self.start_message.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.start_message.setWordWrap(True)
+        self.start_button = big_button("Start", 120)
+        self.start_button.clicked.connect(self.guard(self.show_main))
+        lay = QVBoxLayout(page)
+        lay.addStretch(2)
+        lay.addWidget(title)
+        lay.addWidget(self.start_message)
+        lay.addWidget(self.start_button)
+        lay.addStretch(3)
+        return page
+
+    def _build_main(self) -> QWidget:
+        page = QWidget()
+        self.look_buttons: dict[str, QPushButton] = {}
+        looks = QHBoxLayout()
+        for name in KIOSK_LOOKS:
+            b = big_button(name.replace("-", " ").title())
+            b.setCheckable(True)
+            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_look(n)))
+            looks.addWidget(b)
+            self.look_buttons[name] = b
+        self.product_labels: dict[str, QLabel] = {}
+        products = QGridLayout()
+        for row, cat in enumerate(CATEGORIES):
+            prev, nxt = big_button("◀", 64), big_button("▶", 64)
+            prev.setMinimumWidth(72)
+            nxt.setMinimumWidth(72)
+            label = QLabel(cat.title())
+            label.setMinimumWidth(260)
+            label.setAlignment(Qt.AlignmentFlag.AlignCenter)
+            prev.clicked.connect(self.guard(lambda _c=False, c=cat: self.swap_product(c, -1)))
+            nxt.clicked.connect(self.guard(lambda _c=False, c=cat: self.swap_product(c, +1)))
+            products.addWidget(prev, row, 0)
+            products.addWidget(label, row, 1)
+            products.addWidget(nxt, row, 2)
+            self.product_labels[cat] = label
+        lights = QHBoxLayout()
+        self.light_buttons: dict[str, QPushButton] = {}
+        for name in LIGHT_PRESETS:
+            b = big_button(name.title(), 64)
+            b.setCheckable(True)
+            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_light(n)))
+            lights.addWidget(b)
+            self.light_buttons[name] = b
+        self.split = QSlider(Qt.Orientation.Horizontal)
+        self.split.setRange(0, 100)
+        self.split.setMinimumHeight(64)
+        self.split.valueChanged.connect(self.guard(self._split_changed))
+        self.snapshot_button = big_button("Save Photo")
+        self.snapshot_button.clicked.connect(self.guard(self.snapshot))
+        self.toast = QLabel("")
+        side = QVBoxLayout()
+        side.addLayout(products)
+        side.addWidget(QLabel("Light"))
+        side.addLayout(lights)
+        side.addWidget(QLabel("Before  ◀▶  After"))
+        side.addWidget(self.split)
+        side.addWidget(self.snapshot_button)
+        side.addWidget(self.toast)
+        side.addStretch(1)
+        body = QHBoxLayout()
+        body.addWidget(self.viewport, 3)
+        body.addLayout(side, 2)
+        lay = QVBoxLayout(page)
+        lay.addLayout(looks)
+        lay.addLayout(body, 1)
+        return page
+
+    # ------------------------------------------------------------------ error handling
+    def guard(self, fn: Callable[..., Any]) -> Callable[..., Any]:
+        """Wrap a handler: any exception is logged and returns to the start screen with a friendly message."""
+
+        def run(*args: Any) -> Any:
+            try:
+                return fn(*args)
+            except Exception as exc:
+                log.exception("kiosk error")
+                self.fail(str(exc))
+                return None
+
+        return run
+
+    def fail(self, detail: str) -> None:
+        self.last_error = detail
+        log.error("kiosk: %s", detail)
+        self.start_message.setText(FRIENDLY)
+        self.show_start()
+
+    # ------------------------------------------------------------------ state
+    def _load(self, project: str | None) -> None:
+        if project:
+            from app.project_io import load_project_into
+
+            load_project_into(self.doc, self.library, Path(project))
+            self.look = "project"
+        else:
+            self.set_look("natural")
+
+    def set_look(self, name: str) -> None:
+        seams.apply_look(self.doc, self.library, name)
+        self.doc.clear_history()
+        self.look = name
+        for n, b in self.look_buttons.items():
+            b.setChecked(n == name)
+        self._sync()
+
+    def _layer_for(self, category: str) -> int | None:
+        for i, lay in enumerate(self.doc.layers):
+            if lay.material in self.library and self.library.get(lay.material).category == category:
+                return i
+        return None
+
+    def swap_product(self, category: str, step: int) -> None:
+        i = self._layer_for(category)
+        names = [m.name for m in self.library if m.category == category]
+        if i is None or not names:
+            self.toast.setText(f"This look has no {category}")
+            return
+        cur = self.doc.layers[i].material
+        k = (names.index(cur) + step) % len(names) if cur in names else 0
+        self.doc.set_layer(i, material=names[k])
+        self.doc.clear_history()
+        self._sync()
+
+    def set_light(self, name: str) -> None:
+        p = LIGHT_PRESETS[name]
+        lt = self.viewport.lighting
+        lt.azimuth, lt.elevation = p["azimuth"], p["elevation"]
+        lt.colour, lt.intensity, lt.ambient = p["colour"], p["intensity"], p["ambient"]
+        for n, b in self.light_buttons.items():
+            b.setChecked(n == name)
+        self.viewport.update()
+
+    def _split_changed(self, v: int) -> None:
+        self.viewport.split = v / 100.0
+        self.viewport.update()
+
+    def _toggle_split(self) -> None:
+        self.split.setValue(0 if self.split.value() else 50)
+
+    def _sync(self) -> None:
+        for cat, label in self.product_labels.items():
+            i = self._layer_for(cat)
+            label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
+        self.viewport.set_layers(layer_tuples(self.doc, self.library), None)
+
+    def snapshot(self) -> Path:
+        folder = Path(self.config.snapshot_dir)
+        folder.mkdir(parents=True, exist_ok=True)
+        path = folder / f"sheer-{time.strftime('%Y%m%d-%H%M%S')}-{len(self.snapshots):03d}.png"
+        if not self.viewport.grabFramebuffer().save(str(path)):
+            raise OSError(f"could not write the photo to {folder}")
+        self.snapshots.append(path)
+        self.toast.setText("Photo saved")
+        return path
+
+    # ------------------------------------------------------------------ screens
+    def show_start(self) -> None:
+        self.stack.setCurrentWidget(self.start_page)
+
+    def show_main(self) -> None:
+        self.start_message.setText("Try on makeup — touch to start")
+        self.stack.setCurrentWidget(self.main_page)
+        self.viewport.update()
+        self.activity()
+
+    def activity(self) -> None:
+        if self.attract:
+            self.stop_attract()
+            self.show_start()
+        self.idle_timer.start(int(self.config.idle_seconds * 1000))
+
+    def start_attract(self) -> None:
+        if self.stack.currentWidget() is self.pin_pad:
+            return
+        self.attract = True
+        self.stack.setCurrentWidget(self.main_page)
+        self.spin_timer.start()
+        self.look_timer.start(int(self.config.look_seconds * 1000))
+
+    def stop_attract(self) -> None:
+        self.attract = False
+        self.spin_timer.stop()
+        self.look_timer.stop()
+
+    def _next_attract_look(self) -> None:
+        looks = [n for n in KIOSK_LOOKS if n != "bare"]
+        i = (looks.index(self.look) + 1) % len(looks) if self.look in looks else 0
+        self.set_look(looks[i])
+
+    # ------------------------------------------------------------------ the way out
+    def request_exit(self) -> None:
+        self.stop_attract()
+        self._before_pin = self.stack.currentWidget()
+        self.pin_pad.reset()
+        self.stack.setCurrentWidget(self.pin_pad)
+
+    def _pin_entered(self, pin: str) -> None:
+        if check_pin(pin, self.config.pin_hash):
+            log.info("kiosk: exit with the administrator PIN")
+            self._allow_close = True
+            self.close()
+        else:
+            log.warning("kiosk: wrong PIN")
+            self.pin_pad.reset("Wrong PIN")
+
+    def _pin_cancelled(self) -> None:
+        before = getattr(self, "_before_pin", None)
+        self.stack.setCurrentWidget(before if before is not None and before is not self.pin_pad else self.start_page)
+
+    def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802
+        if not self._allow_close:
+            event.ignore()
+            self.request_exit()
+            return
+        self.stop_attract()
+        self.idle_timer.stop()
+        from PySide6.QtWidgets import QApplication
+
+        QApplication.instance().removeEventFilter(self._filter)
+        self.viewport.release_gl()
+        event.accept()
+
+    def keyPressEvent(self, event: QKeyEvent) -> None:  # noqa: N802
+        if event.key() in (Qt.Key.Key_Escape, Qt.Key.Key_F4) or (
+                event.key() == Qt.Key.Key_Q and event.modifiers() & Qt.KeyboardModifier.ControlModifier):
+            self.request_exit()
+            return
+        super().keyPressEvent(event)
+
+
+def run_kiosk(project: str | None = None, config_path: str | None = None, windowed: bool = False) -> int:
+    """Start the kiosk; never shows a traceback (errors are logged and shown as a friendly screen)."""
+    import sys
+
+    from app.studio_app import make_application
+
+    cfg_path = Path(config_path) if config_path else None
+    config = KioskConfig.load(cfg_path)
+    log_dir = Path(config.snapshot_dir).parent
+    logging.basicConfig(level=logging.INFO, filename=str(Path(os.environ.get("SHEER_KIOSK_LOG", str(
+        log_dir / "sheer-kiosk.log")))) if os.access(log_dir, os.W_OK) else None)
+    app = make_application()
+
+    def hook(exc_type: type[BaseException], exc: BaseException, tb: Any) -> None:
+        log.error("uncaught error in the kiosk", exc_info=(exc_type, exc, tb))
+        if win is not None:
+            win.fail(str(exc))
+
+    win: KioskWindow | None = None
+    sys.excepthook = hook
+    win = KioskWindow(config, project=project)
+    if config.fullscreen and not windowed:
+        win.showFullScreen()
+    else:
+        win.resize(1280, 800)
+        win.show()
+    return int(app.exec())  # type: ignore[attr-defined]

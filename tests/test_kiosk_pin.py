@@ -1,0 +1,103 @@
+"""The kiosk on a real window: the PIN guard (close, Esc, Ctrl+Q intercepted; wrong PIN stays, right PIN
+exits), looks and product swaps, snapshots, attract mode, a friendly screen on errors."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from app.qt_compat import pin_singletons
+
+pin_singletons()
+
+pytest.importorskip("pytestqt")
+pytestmark = [pytest.mark.qt, pytest.mark.gl]
+
+
+@pytest.fixture(scope="module")
+def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
+    from app.kiosk import KioskConfig, KioskWindow, hash_pin
+
+    folder = tmp_path_factory.mktemp("kiosk")
+    cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
+                      fullscreen=False)
+    win = KioskWindow(cfg)
+    win.resize(800, 600)
+    win.show()
+    from pytestqt.qtbot import QtBot
+
+    QtBot(qapp).waitUntil(lambda: win.isVisible(), timeout=5000)
+    yield win
+    if win.isVisible():
+        win._allow_close = True
+        win.close()
+    win.deleteLater()
+
+
+def test_pin_is_stored_hashed() -> None:
+    from app.kiosk import check_pin, hash_pin
+
+    h = hash_pin("2468")
+    assert "2468" not in h and check_pin("2468", h) and not check_pin("1357", h)
+    assert not check_pin("2468", "garbage")
+
+
+def test_looks_products_and_snapshot(kiosk: object, qtbot: object) -> None:
+    kiosk.start_button.click()
+    assert kiosk.stack.currentWidget() is kiosk.main_page
+    qtbot.waitUntil(lambda: kiosk.viewport.frames > 0, timeout=15000)
+    kiosk.look_buttons["evening"].click()
+    assert kiosk.look == "evening"
+    before = kiosk.product_labels["lipstick"].text()
+    kiosk.swap_product("lipstick", +1)
+    assert kiosk.product_labels["lipstick"].text() != before
+    kiosk.light_buttons["evening"].click()
+    kiosk.split.setValue(50)
+    path = kiosk.snapshot()
+    assert Path(path).is_file() and Path(path).stat().st_size > 1000
+
+
+def test_attract_mode_and_touch_returns_to_start(kiosk: object, qtbot: object) -> None:
+    kiosk.start_attract()
+    yaw = kiosk.viewport.camera.yaw
+    qtbot.waitUntil(lambda: kiosk.viewport.camera.yaw != yaw, timeout=3000)
+    from PySide6.QtCore import Qt
+
+    qtbot.mouseClick(kiosk.viewport, Qt.MouseButton.LeftButton)
+    assert not kiosk.attract
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+
+
+def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
+    from app.kiosk import FRIENDLY
+
+    kiosk.show_main()
+    kiosk.guard(lambda: kiosk.set_look("no-such-look"))()
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.start_message.text() == FRIENDLY
+    assert "no-such-look" in (kiosk.last_error or "")
+
+
+def test_pin_guard(kiosk: object, qtbot: object) -> None:
+    from PySide6.QtCore import Qt
+
+    kiosk.close()  # window-manager close / Alt+F4
+    assert kiosk.isVisible() and kiosk.stack.currentWidget() is kiosk.pin_pad
+    kiosk.pin_pad.buttons["Clear"].click()
+    kiosk._pin_cancelled()
+    qtbot.keyClick(kiosk, Qt.Key.Key_Escape)
+    assert kiosk.stack.currentWidget() is kiosk.pin_pad
+    kiosk._pin_cancelled()
+    qtbot.keyClick(kiosk, Qt.Key.Key_Q, Qt.KeyboardModifier.ControlModifier)
+    assert kiosk.stack.currentWidget() is kiosk.pin_pad
+    for k in "1111":
+        kiosk.pin_pad.buttons[k].click()
+    kiosk.pin_pad.buttons["OK"].click()
+    assert kiosk.isVisible() and kiosk.pin_pad.message.text() == "Wrong PIN"
+    for k in "2468":
+        kiosk.pin_pad.buttons[k].click()
+    kiosk.pin_pad.buttons["OK"].click()
+    assert not kiosk.isVisible()
+    assert kiosk.viewport.gl_error_at_release in (None, "GL_NO_ERROR")
