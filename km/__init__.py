@@ -38,6 +38,7 @@ _EXPORTS: dict[str, str] = {
     # materials and the library
     "Material": "km.material",
     "Measurement": "km.material",
+    "MaterialError": "km.material",
     "Library": "km.library",
     "LibraryError": "km.library",
     "default_library": "km.library",

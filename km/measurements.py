@@ -8,7 +8,8 @@ metadata as ``# key: value`` (or ``key = value``). Columns (names are case-insen
 ignored): ``wavelength`` (nm; also ``wavelength_nm``, ``nm``, ``lambda``), ``R_inf`` (also ``Rinf``,
 ``R∞``), ``R`` (also ``R_black``), ``Rg`` (also ``R_g``). Reflectances are fractions in [0, 1].
 Metadata keys: ``D_mm`` (thickness of the R sample in mm; ``--thickness-mm`` overrides it), ``name``,
-``category``, ``instrument``, ``illuminant``, ``saunderson_k1``, ``saunderson_k2``. Comma, semicolon
+``category``, ``instrument``, ``illuminant``, ``saunderson_k1``, ``saunderson_k2``, ``source``
+(``measured``, the default, or ``modelled``) and ``provenance``. Comma, semicolon
 or tab separated. :func:`export_csv` writes this format (plus S and K columns), so an export imports.
 
 X-Rite / CGATS (ISO 28178, ANSI CGATS.17)
@@ -140,7 +141,7 @@ def _fmt_wl(x: float) -> str:
 def _invert_onto_grid(
     name: str, category: str, wl: np.ndarray, r_inf: np.ndarray, r: np.ndarray, rg: np.ndarray, d_mm: float,
     grid: np.ndarray, *, instrument: str, illuminant: str, saunderson: tuple[float, float] | None,
-    provenance: str, rejected: list[Rejection],
+    provenance: str, rejected: list[Rejection], source: str = "measured",
 ) -> Material | None:
     """Resample a raw triplet onto ``grid``, invert it, and build the material (None if nothing is left)."""
     from km.optics import invert_sk
@@ -151,8 +152,9 @@ def _invert_onto_grid(
     inside = (grid >= wl[0] - 1e-9) & (grid <= wl[-1] + 1e-9)
     outside = grid[~inside]
     if outside.size:
-        rejected.append((name, f"{outside.size} grid wavelengths outside the measured range "
-                               f"{wl[0]:g}–{wl[-1]:g} nm left out ({_ranges(outside)})"))
+        parts = [_span(part) for part in (grid[grid < wl[0] - 1e-9], grid[grid > wl[-1] + 1e-9]) if part.size]
+        rejected.append((name, f"{outside.size} grid wavelength{'s' if outside.size > 1 else ''} outside the "
+                               f"measured range {wl[0]:g}–{wl[-1]:g} nm left out ({' and '.join(parts)})"))
     g = grid[inside]
     if g.size < 2:
         rejected.append((name, "the measured range holds fewer than 2 grid wavelengths"))
@@ -163,19 +165,30 @@ def _invert_onto_grid(
 
     ri, rr, rgg = WavelengthGrid.from_wavelengths(g).resample(np.stack([r_inf, r, rg]), wl)
     if saunderson is None:
-        reasons = _domain_reasons(ri, rr, rgg)
+        kinds = _domain_reasons(ri, rr, rgg)
+        suffix = ""
     else:
         from km.optics import inverse_saunderson
 
-        internal = [inverse_saunderson(a, *saunderson) for a in (ri, rr, rgg)]
-        reasons = [f"{why} (internal reflectances, after the Saunderson correction)" if why else ""
-                   for why in _domain_reasons(*internal)]
+        ri_c, rr_c, rgg_c = (inverse_saunderson(a, *saunderson) for a in (ri, rr, rgg))
+        kinds = _domain_reasons(ri_c, rr_c, rgg_c)
+        suffix = " (internal reflectances, after the Saunderson correction)"
     inversion = invert_sk(ri, rr, rgg, d_mm, clip=True, saunderson=saunderson, wavelengths=g)
     s = np.asarray(inversion.S, dtype=np.float64)
     k = np.asarray(inversion.K, dtype=np.float64)
     bad = np.asarray(inversion.invalid) | ~(np.isfinite(s) & np.isfinite(k) & (s >= 0) & (k >= 0))
-    for i in np.flatnonzero(bad):
-        rejected.append((f"{name}: {_fmt_wl(g[i])}", reasons[i] or "the inversion gave no finite S, K"))
+    # one line per run of neighbouring grid wavelengths rejected for the same reason (each wavelength
+    # is still named: by the run's range and count), with the values at the first one as an example
+    bad_idx = list(np.flatnonzero(bad))
+    while bad_idx:
+        i = bad_idx.pop(0)
+        kind = kinds[i] or "the inversion gave no finite S, K"
+        j = i
+        while bad_idx and bad_idx[0] == j + 1 and (kinds[bad_idx[0]] or "the inversion gave no finite S, K") == kind:
+            j = bad_idx.pop(0)
+        where = f"{name}: {_fmt_wl(g[i])}" if i == j else f"{name}: {g[i]:g}–{g[j]:g} nm ({j - i + 1} wavelengths)"
+        example = f"R∞ = {ri[i]:.6g}, R = {rr[i]:.6g}, Rg = {rgg[i]:.6g}"
+        rejected.append((where, f"{kind}{suffix} ({'at ' + _fmt_wl(g[i]) + ': ' if i != j else ''}{example})"))
     keep = ~bad
     if keep.sum() < 2:
         rejected.append((name, "fewer than 2 wavelengths could be inverted; material not imported"))
@@ -186,7 +199,7 @@ def _invert_onto_grid(
     try:
         return Material(name=name, category=category, wavelengths=g[keep], S=s[keep], K=k[keep],
                         thickness_um=thickness, max_thickness_um=max_thickness, roughness=roughness, ior=ior,
-                        source="measured", provenance=provenance, measurement=measurement)
+                        source=source, provenance=provenance, measurement=measurement)
     except MaterialError as exc:
         rejected.append((name, str(exc)))
         return None
@@ -197,20 +210,18 @@ def _domain_reasons(r_inf: np.ndarray, r: np.ndarray, rg: np.ndarray) -> list[st
     out = []
     for a, b, c in zip(r_inf, r, rg, strict=True):
         if not 0.0 < a < 1.0:
-            out.append(f"R∞ = {a:.4g} is not strictly between 0 and 1")
+            out.append("R∞ is not strictly between 0 and 1")
+        elif not 0.0 <= c <= 1.0:
+            out.append("Rg is outside [0, 1]")
         elif not (min(a, c) < b < max(a, c)):
-            out.append(f"R = {b:.4g} is not strictly between Rg = {c:.4g} and R∞ = {a:.4g}")
+            out.append("R is not strictly between Rg and R∞")
         else:
             out.append("")
     return out
 
 
-def _ranges(values: np.ndarray) -> str:
-    if values.size == 0:
-        return ""
-    if values.size <= 3:
-        return ", ".join(_fmt_wl(v) for v in values)
-    return f"{values[0]:g}…{values[-1]:g} nm"
+def _span(values: np.ndarray) -> str:
+    return _fmt_wl(values[0]) if values.size == 1 else f"{values[0]:g}–{values[-1]:g} nm"
 
 
 def _collect_triplet(rows: list[tuple[str, float, float, float, float]], rejected: list[Rejection]
@@ -358,14 +369,18 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     mat_name = name or meta.get("name") or p.stem
     mat_category = (category or meta.get("category") or "other").strip().lower()
     target = _default_grid() if grid is None else np.asarray(grid, dtype=np.float64)
-    provenance = (f"Measured: imported from {p.name} (CSV; R∞, R over a background of reflectance Rg at "
-                  f"D = {d_mm:g} mm), inverted with Kubelka–Munk Eq. 6–7"
+    source_kind = meta.get("source", "measured").strip().lower()
+    if source_kind not in ("measured", "modelled"):
+        result.notes.append(f"unknown source {source_kind!r} in the header: taken as measured")
+        source_kind = "measured"
+    provenance = (f"{source_kind.capitalize()}: imported from {p.name} (CSV; R∞, R over a background of "
+                  f"reflectance Rg at D = {d_mm:g} mm), inverted with Kubelka–Munk Eq. 6–7"
                   + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
-                  + ".")
+                  + "." + (f" Original provenance: {meta['provenance']}" if meta.get("provenance") else ""))
     material = _invert_onto_grid(
         mat_name, mat_category, wl, r_inf, r, rg, d_mm, target, instrument=meta.get("instrument", ""),
         illuminant=meta.get("illuminant", ""), saunderson=saunderson, provenance=provenance,
-        rejected=result.rejected)
+        rejected=result.rejected, source=source_kind)
     if material is not None:
         result.accepted.append(material)
     return result
@@ -588,6 +603,8 @@ def export_csv(material: Material, path: str | Path) -> Path:
     if saunderson:
         out.write(f"# saunderson_k1: {saunderson[0]!r}\n# saunderson_k2: {saunderson[1]!r}\n")
     out.write(f"# source: {material.source}\n")
+    if material.provenance:
+        out.write("# provenance: " + " ".join(material.provenance.split()) + "\n")
     writer = csv.writer(out, lineterminator="\n")
     writer.writerow(["wavelength_nm", "R_inf", "R", "Rg", "S_per_mm", "K_per_mm"])
     for row in zip(wl, r_inf, r, rg, material.S, material.K, strict=True):
