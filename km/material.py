@@ -32,7 +32,8 @@ A material is a JSON object with exactly these keys (``measurement`` may be ``nu
                             "D_mm": float, "instrument": str, "illuminant": str,
                             "saunderson": null | {"k1": float, "k2": float}}}
 
-Numbers are written with Python's shortest round-trip ``repr``, so a save/load round trip is
+:data:`MATERIAL_JSON_SCHEMA` is the JSON Schema of this shape. Numbers are written with Python's
+shortest round-trip ``repr``, so a save/load round trip is
 bit-identical. :meth:`Material.from_json` rejects missing and unknown keys, wrong types (``true`` is
 not a number), NaN/±inf, negative S or K, length mismatches and out-of-range values with a
 :class:`MaterialError` whose message names the field, e.g. ``materials[3].S[12]: negative (-0.5)``.
@@ -67,6 +68,68 @@ _MATERIAL_KEYS = ("name", "category", "source", "provenance", "wavelengths", "S"
 _MEASUREMENT_KEYS = ("wavelengths", "R_inf", "R", "Rg", "D_mm", "instrument", "illuminant", "saunderson")
 
 
+def _number_array(minimum: float | None = None, maximum: float | None = None) -> dict[str, Any]:
+    item: dict[str, Any] = {"type": "number"}
+    if minimum is not None:
+        item["minimum"] = minimum
+    if maximum is not None:
+        item["maximum"] = maximum
+    return {"type": "array", "minItems": 1, "maxItems": MAX_SAMPLES, "items": item}
+
+
+#: JSON Schema (draft 2020-12) of :meth:`Material.to_json`, for documents that embed materials (e.g. a
+#: project file's ``$defs``). It checks the shape, types and ranges; what a schema cannot express
+#: (finite values, equal lengths, increasing wavelengths, thickness ≤ maximum) is checked by
+#: :meth:`Material.from_json`, which is the authority.
+MATERIAL_JSON_SCHEMA: dict[str, Any] = {
+    "$schema": "https://json-schema.org/draft/2020-12/schema",
+    "title": "Sheer material (km.Material JSON)",
+    "type": "object",
+    "additionalProperties": False,
+    "required": list(_MATERIAL_KEYS),
+    "properties": {
+        "name": {"type": "string", "minLength": 1, "maxLength": MAX_NAME_CHARS},
+        "category": {"type": "string", "pattern": _CATEGORY_RE.pattern},
+        "source": {"enum": list(SOURCES)},
+        "provenance": {"type": "string", "maxLength": MAX_TEXT_CHARS},
+        "wavelengths": {**_number_array(200.0, 3000.0), "minItems": 2, "description": "nm, strictly increasing"},
+        "S": {**_number_array(0.0), "description": "scattering coefficient, per mm"},
+        "K": {**_number_array(0.0), "description": "absorption coefficient, per mm"},
+        "thickness_um": {"type": "number", "exclusiveMinimum": 0, "maximum": 10_000},
+        "max_thickness_um": {"type": "number", "exclusiveMinimum": 0, "maximum": 10_000},
+        "roughness": {"type": "number", "exclusiveMinimum": 0, "maximum": 1},
+        "ior": {"type": "number", "minimum": 1, "maximum": 3},
+        "measurement": {
+            "oneOf": [
+                {"type": "null"},
+                {
+                    "type": "object",
+                    "additionalProperties": False,
+                    "required": list(_MEASUREMENT_KEYS),
+                    "properties": {
+                        "wavelengths": {**_number_array(200.0, 3000.0), "minItems": 2},
+                        "R_inf": _number_array(0.0, 1.0),
+                        "R": _number_array(0.0, 1.0),
+                        "Rg": _number_array(0.0, 1.0),
+                        "D_mm": {"type": "number", "exclusiveMinimum": 0, "maximum": 100},
+                        "instrument": {"type": "string", "maxLength": MAX_NAME_CHARS * 4},
+                        "illuminant": {"type": "string", "maxLength": MAX_NAME_CHARS},
+                        "saunderson": {
+                            "oneOf": [
+                                {"type": "null"},
+                                {"type": "object", "additionalProperties": False, "required": ["k1", "k2"],
+                                 "properties": {"k1": {"type": "number", "minimum": 0, "exclusiveMaximum": 1},
+                                                "k2": {"type": "number", "minimum": 0, "exclusiveMaximum": 1}}},
+                            ]
+                        },
+                    },
+                },
+            ]
+        },
+    },
+}
+
+
 class MaterialError(SheerError, ValueError):
     """An invalid material or measurement. ``field`` is the path of the offending value (e.g.
     ``materials[3].S[12]``) and ``reason`` says what is wrong with it; ``str()`` gives both."""
@@ -92,7 +155,10 @@ def _check_number(value: Any, where: str, lo: float | None = None, hi: float | N
                   lo_open: bool = False, hi_open: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
         raise MaterialError(where, f"must be a number, got {type(value).__name__}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # a JSON integer beyond the float range
+        raise MaterialError(where, "must be finite (got an integer too large for a float)") from None
     if not math.isfinite(x):
         raise MaterialError(where, f"must be finite (got {x})")
     if lo is not None and (x < lo or (lo_open and x == lo)):
@@ -135,6 +201,12 @@ def _check_array(value: Any, where: str, lo: float | None = None, hi: float | No
         for i, v in enumerate(value):
             if isinstance(v, bool) or not isinstance(v, int | float | np.floating | np.integer):
                 raise MaterialError(f"{where}[{i}]", f"must be a number, got {type(v).__name__}")
+            if isinstance(v, int):
+                try:
+                    float(v)
+                except OverflowError:  # a JSON integer beyond the float range
+                    raise MaterialError(f"{where}[{i}]", "must be finite (got an integer too large for a float)"
+                                        ) from None
         arr = np.array(value, dtype=np.float64)
     else:
         raise MaterialError(where, f"must be a list of numbers, got {type(value).__name__}")

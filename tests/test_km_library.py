@@ -88,6 +88,7 @@ def _mutations() -> list:
         ("materials not list", set_(["materials"], {}), "materials: must be a list"),
         ("negative S", set_(["materials", 2, "S", 12], -0.25), "materials[2].S[12]: negative"),
         ("overflowing K", None, "materials[1].K[0]: must be finite"),
+        ("overflowing integer", None, "materials[1].K[0]: must be finite"),
         ("infinity literal", set_(["materials", 1, "K", 0], float("inf")), "Infinity is not valid JSON"),
         ("length mismatch", lambda d: d["materials"][3]["K"].pop(), "materials[3].K: has 80 values"),
         ("wrong type", set_(["materials", 0, "roughness"], "rough"), "materials[0].roughness: must be a number"),
@@ -112,6 +113,8 @@ def test_malformed_files_are_refused_naming_file_and_field(lib: Library, tmp_pat
         raw = text.replace(json.dumps(_good(lib)["materials"][0]["S"][3]), "NaN", 1).encode()
     elif case == "overflowing K":  # 1e400 parses as inf
         raw = text.replace(json.dumps(_good(lib)["materials"][1]["K"][0]), "1e400", 1).encode()
+    elif case == "overflowing integer":  # a JSON integer no float can hold
+        raw = text.replace(json.dumps(_good(lib)["materials"][1]["K"][0]), "1" + "0" * 400, 1).encode()
     elif case == "not utf-8":
         raw = text.encode()[:100] + b"\xff\xfe" + text.encode()[100:]
     else:

@@ -192,3 +192,23 @@ def test_on_wavelengths_resamples() -> None:
     m2 = m.on_wavelengths(np.arange(400.0, 701.0, 10.0))
     assert m2.wavelengths.size == 31
     np.testing.assert_allclose(m2.S, 1 + (m2.wavelengths - 380) / 5)
+
+
+def test_json_schema_agrees_with_the_validator() -> None:
+    jsonschema = pytest.importorskip("jsonschema")
+    from km.material import MATERIAL_JSON_SCHEMA
+
+    jsonschema.Draft202012Validator.check_schema(MATERIAL_JSON_SCHEMA)
+    validator = jsonschema.Draft202012Validator(MATERIAL_JSON_SCHEMA)
+    for m in km.default_library():
+        assert not list(validator.iter_errors(m.to_json())), m.name
+    good = _good_json()
+    assert not list(validator.iter_errors(good))
+    for mutate in (lambda d: d.pop("K"), lambda d: d.update(colour=1), lambda d: d["S"].__setitem__(0, -1.0),
+                   lambda d: d.update(source="guess"), lambda d: d["measurement"].update(D_mm=0),
+                   lambda d: d.update(category="Lip Stick")):
+        data = _good_json()
+        mutate(data)
+        assert list(validator.iter_errors(data))
+        with pytest.raises(MaterialError):
+            Material.from_json(data)

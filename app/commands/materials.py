@@ -167,7 +167,8 @@ def plot_material(m: Any, out: Path) -> None:
     ax1, ax2 = fig.subplots(1, 2)
     meas = m.measurement
     if meas is not None:
-        ax1.plot(meas.wavelengths, meas.R_inf, color="tab:green", lw=2, label="R∞ (measured)")
+        kind = "measured" if m.source == "measured" else "synthetic measurement"
+        ax1.plot(meas.wavelengths, meas.R_inf, color="tab:green", lw=2, label=f"R∞ ({kind})")
         ax1.plot(meas.wavelengths, meas.R, color="tab:red", lw=2, label=f"R over Rg, D = {meas.D_mm:g} mm")
         ax1.plot(meas.wavelengths, meas.Rg, color="tab:blue", lw=2, label="Rg (background)")
     else:
@@ -178,7 +179,7 @@ def plot_material(m: Any, out: Path) -> None:
     ax1.set_ylabel("reflectance / transmittance (fraction)")
     ax1.set_ylim(0, 1.05)
     ax1.set_title("reflectance and transmittance")
-    ax1.legend(fontsize=7, loc="upper left")
+    ax1.legend(fontsize=7, loc="best")
     ax1.grid(alpha=0.3)
     ax2.plot(wl, m.S, color="tab:blue", label="S (scattering)")
     ax2.plot(wl, m.K, color="tab:red", label="K (absorption)")
