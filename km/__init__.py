@@ -35,6 +35,7 @@ _EXPORTS: dict[str, str] = {
     "xyz_to_lab": "km.colour",
     "linear_rgb_to_lab": "km.colour",
     "delta_e2000": "km.colour",
+    "spectral_rgb_matrix": "km.colour",
     # materials and the library
     "Material": "km.material",
     "Measurement": "km.material",
