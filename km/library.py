@@ -317,6 +317,8 @@ class Library:
         p = Path(path)
         source = str(p)
         try:
+            if p.exists() and not p.is_dir() and not p.is_file():  # a FIFO or device would block or never end
+                raise LibraryError(f"{source}: not a regular file")
             with open(p, "rb") as fh:
                 size = _file_size(fh)
                 if size is not None and size > MAX_FILE_BYTES:

@@ -106,6 +106,8 @@ def _default_grid() -> np.ndarray:
 
 def _read_text(path: Path) -> str:
     try:
+        if path.exists() and not path.is_dir() and not path.is_file():  # a FIFO or device: never read
+            raise MeasurementImportError(f"{path}: not a regular file")
         with open(path, "rb") as fh:
             raw = fh.read(MAX_IMPORT_BYTES + 1)
     except FileNotFoundError:
@@ -557,6 +559,8 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
 
 def is_cgats(path: str | Path) -> bool:
     """True if the file looks like X-Rite/CGATS (it has a BEGIN_DATA_FORMAT line)."""
+    if not Path(path).is_file():
+        return False
     try:
         with open(path, "rb") as fh:
             head = fh.read(64 * 1024)

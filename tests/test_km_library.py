@@ -340,3 +340,24 @@ def test_build_script_reproduces_the_file(monkeypatch: pytest.MonkeyPatch) -> No
     for m in rebuilt:
         assert json.dumps(m.to_json()) == json.dumps(by_name[m.name]), m.name
     assert rebuilt.name == stored["name"]
+
+
+def test_default_library_meets_its_hiding_criteria(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each material hides the stated fraction of the skin contrast at its category's reference
+    thickness (foundation: half at 20 µm), using the S and K stored in the file."""
+    builder = _load_builder(monkeypatch)
+    weights = builder.luminance_weights()
+    assert builder.HIDING["foundation"].fraction == 0.5 and builder.HIDING["foundation"].at_um == 20.0
+    for m in km.default_library():
+        hiding = builder.HIDING[m.category]
+        passed = builder.contrast_passed(m.S, m.K, hiding.at_um / 1000.0, weights)
+        assert passed == pytest.approx(1.0 - hiding.fraction, abs=1e-4), m.name
+
+
+def test_special_files_are_refused(tmp_path: Path) -> None:
+    fifo = tmp_path / "pipe.json"
+    os.mkfifo(fifo)
+    with pytest.raises(LibraryError, match="not a regular file"):
+        Library.load(fifo)
+    with pytest.raises(LibraryError, match="not a regular file"):
+        Library.load("/dev/zero")

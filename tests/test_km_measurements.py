@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -111,6 +112,9 @@ def test_csv_unreadable_files(tmp_path: Path, text: str, words: str) -> None:
 def test_missing_and_binary_files(tmp_path: Path) -> None:
     with pytest.raises(MeasurementImportError, match="no such file"):
         import_file(tmp_path / "none.csv")
+    os.mkfifo(tmp_path / "pipe.csv")
+    with pytest.raises(MeasurementImportError, match="not a regular file"):
+        import_file(tmp_path / "pipe.csv")
     (tmp_path / "b.csv").write_bytes(b"\x00\x01\x02")
     with pytest.raises(MeasurementImportError, match="not a text file"):
         import_file(tmp_path / "b.csv")
