@@ -375,6 +375,76 @@ def crash_runs(runs: int, seed: int = 0, folder: str | Path | None = None,
     return {**dict(stats), "failures": len(failures), "failure_examples": failures[:10]}
 
 
+_STEP_CALLS = (("os", "fsync"), ("os", "replace"), ("os", "chmod"), ("os", "unlink"), ("shutil", "copy2"))
+
+
+def _step_crash_child(path: str, step: int) -> None:
+    """Save once, exiting abruptly just before or just after the ``step``-th file-system call."""
+    import shutil
+
+    from painting.project import save_project
+
+    modules = {"os": os, "shutil": shutil}
+    counter = [0]
+
+    def tick() -> None:
+        counter[0] += 1
+        if counter[0] == step:
+            os._exit(3)  # no clean-up, no flush: as a crash or a power cut after this point
+
+    for module_name, name in _STEP_CALLS:
+        real = getattr(modules[module_name], name)
+
+        def wrapped(*args: Any, _real: Any = real, **kwargs: Any) -> Any:
+            tick()
+            result = _real(*args, **kwargs)
+            tick()
+            return result
+
+        setattr(modules[module_name], name, wrapped)
+    save_project(sample_project(16, 2, seed=1, embedded=True, name="generation 1"), path,
+                 self_contained=True, clear_recovery=False)
+    os._exit(0)
+
+
+def crash_at_every_step(folder: str | Path | None = None, max_steps: int = 200) -> dict[str, Any]:
+    """Crash a save just before and just after each of its file-system calls (fsync, replace, chmod,
+    unlink, copy2), one run per point, over an existing project; open the file and its .bak each time.
+
+    Returns steps (crash points covered), failures (with messages).
+    """
+    from painting.project import save_project
+
+    ctx = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods()
+                                      else "spawn")
+    initial = sample_project(16, 2, seed=0, embedded=True, name="initial")
+    failures: list[str] = []
+    steps = 0
+    with tempfile.TemporaryDirectory(dir=folder) as tmp:
+        path = Path(tmp) / "p.sheer"
+        for step in range(1, max_steps + 1):
+            for p in Path(tmp).iterdir():
+                p.unlink()
+            save_project(initial, path, self_contained=True, clear_recovery=False)
+            save_project(initial, path, self_contained=True, clear_recovery=False)  # so a .bak exists too
+            proc = ctx.Process(target=_step_crash_child, args=(str(path), step))
+            proc.start()
+            proc.join(60)
+            for candidate in (path, path.with_name(path.name + ".bak")):
+                try:
+                    name = open_project(candidate).name
+                    if name not in ("initial", "generation 1"):
+                        failures.append(f"step {step}: {candidate.name}: unexpected {name!r}")
+                except (ProjectError, OSError) as exc:
+                    failures.append(f"step {step}: {candidate.name}: {exc}")
+            if proc.exitcode == 0:  # the save completed: every point before it has been covered
+                if open_project(path).name != "generation 1":
+                    failures.append("a completed save did not leave the new version")
+                break
+            steps += 1
+    return {"steps": steps, "failures": len(failures), "failure_examples": failures[:10]}
+
+
 def bench_main(argv: list[str]) -> int:
     """``sheer bench fuzz``: ≥ 10,000 fuzz cases and ≥ 200 crash-kill runs by default; prints JSON."""
     parser = argparse.ArgumentParser(prog="sheer bench fuzz", description=__doc__,
@@ -388,6 +458,7 @@ def bench_main(argv: list[str]) -> int:
     t0 = time.perf_counter()
     crash = crash_runs(args.crash_runs, args.seed) if args.crash_runs > 0 else {}
     crash["seconds"] = round(time.perf_counter() - t0, 2)
+    steps = crash_at_every_step() if args.crash_runs > 0 else {"steps": 0, "failures": 0}
     result = {
         "cases_run": fuzz["cases"],
         "project_errors": fuzz["outcomes"].get("ProjectError", 0),
@@ -396,8 +467,10 @@ def bench_main(argv: list[str]) -> int:
         "other_exceptions": fuzz["outcomes"].get("other", 0),
         "fuzz": fuzz,
         "crash_kill": crash,
+        "crash_at_every_step": steps,
         "pid": os.getpid(),
     }
     json.dump(result, sys.stdout, indent=2)
     print()
-    return 0 if result["other_exceptions"] == 0 and crash.get("failures", 0) == 0 else 1
+    ok = result["other_exceptions"] == 0 and crash.get("failures", 0) == 0 and steps["failures"] == 0
+    return 0 if ok else 1

@@ -15,8 +15,14 @@ failure becomes a :class:`ProjectError` naming the entry.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import io
+import os
+import sys
+import threading
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -28,6 +34,56 @@ MAX_MAP_SIDE = 8192
 ENCODINGS = ("exr-float32", "png16")
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+_FD_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def _library_output() -> Iterator[list[str]]:
+    """Capture what the OpenEXR library prints on file descriptors 1 and 2 during the block.
+
+    The binding reports some decoding failures only as a printed warning ("Exception raised reading
+    pixel data", with partly decoded pixels) and its C core prints ``EXR_ERR_*`` lines: they would
+    corrupt ``--json`` output and the one-line messages of ``sheer project validate``, and the
+    warning is our only sign that the pixels are not trustworthy. The pipes are non-blocking, so a
+    chatty library cannot block; at most the first 64 KiB are kept. The yielded list receives the
+    text after the block.
+    """
+    captured: list[str] = []
+    with _FD_LOCK:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        saved: list[tuple[int, int, int]] = []  # (fd, saved copy, pipe read end)
+        try:
+            for fd in (1, 2):
+                read_end, write_end = os.pipe()
+                fcntl.fcntl(write_end, fcntl.F_SETFL, fcntl.fcntl(write_end, fcntl.F_GETFL) | os.O_NONBLOCK)
+                fcntl.fcntl(read_end, fcntl.F_SETFL, fcntl.fcntl(read_end, fcntl.F_GETFL) | os.O_NONBLOCK)
+                saved.append((fd, os.dup(fd), read_end))
+                os.dup2(write_end, fd)
+                os.close(write_end)
+            yield captured
+        finally:
+            for fd, copy, read_end in saved:
+                os.dup2(copy, fd)
+                os.close(copy)
+                chunks = []
+                with contextlib.suppress(BlockingIOError, OSError):
+                    while chunk := os.read(read_end, 65536):
+                        chunks.append(chunk)
+                        if sum(map(len, chunks)) >= 65536:
+                            break
+                os.close(read_end)
+                captured.append(b"".join(chunks).decode("utf-8", "replace"))
+
+
+def _library_complaint(captured: list[str]) -> str | None:
+    text = "\n".join(captured)
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    bad = [line for line in lines if "EXR_ERR" in line or "Exception" in line or "rror" in line]
+    return bad[0][:160] if bad else None
 
 
 def encode_exr(thickness: np.ndarray) -> bytes:
@@ -91,7 +147,11 @@ def decode_exr(data: bytes, where: str, shape: tuple[int, int]) -> np.ndarray:
     if not data.startswith(_EXR_MAGIC):
         raise ProjectError(f"{where}: not an OpenEXR file")
     try:
-        head = OpenEXR.File(io.BytesIO(data), header_only=True)
+        with _library_output() as out:
+            head = OpenEXR.File(io.BytesIO(data), header_only=True)
+        complaint = _library_complaint(out)
+        if complaint:
+            raise ProjectError(f"{where}: damaged EXR header ({complaint})")
         parts = head.parts
         if len(parts) != 1:
             raise ProjectError(f"{where}: {len(parts)} parts in the EXR file, 1 expected")
@@ -108,9 +168,13 @@ def decode_exr(data: bytes, where: str, shape: tuple[int, int]) -> np.ndarray:
         raise ProjectError(f"{where}: EXR data window does not start at (0, 0)")
     _check_size(where, int(x1 - x0 + 1), int(y1 - y0 + 1), shape)
     try:
-        pixels = OpenEXR.File(io.BytesIO(data), separate_channels=True).channels()["Y"].pixels
+        with _library_output() as out:
+            pixels = OpenEXR.File(io.BytesIO(data), separate_channels=True).channels()["Y"].pixels
     except Exception as exc:
         raise ProjectError(f"{where}: cannot decode the EXR pixels ({exc})") from None
+    complaint = _library_complaint(out)
+    if complaint:
+        raise ProjectError(f"{where}: damaged EXR pixel data ({complaint})")
     if not isinstance(pixels, np.ndarray) or pixels.dtype != np.float32:
         raise ProjectError(f"{where}: EXR channel 'Y' is {getattr(pixels, 'dtype', type(pixels))}, "
                            "32-bit float expected")

@@ -153,3 +153,11 @@ def test_stale_temporaries_are_found_and_removed(tmp_path: Path) -> None:
     fresh.write_bytes(b"a save in progress")
     assert stale_temporaries(path) == [stale]
     assert remove_stale_temporaries(path) == 1 and not stale.exists() and fresh.exists()
+
+
+def test_a_crash_just_before_or_after_every_file_system_call_of_a_save(tmp_path: Path) -> None:
+    from painting.project_fuzz import crash_at_every_step
+
+    result = crash_at_every_step(tmp_path)
+    assert result["failures"] == 0, result["failure_examples"]
+    assert result["steps"] >= 8  # fsyncs, the backup copy, chmod, the replaces: each before and after

@@ -390,13 +390,40 @@ def test_environment_exr(data: bytes, tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------- looks
 
 
-def test_looks_reject_malformed_files(tmp_path: Path) -> None:
-    """painting.looks (the renderer engineer's) — exercised when it exists."""
+LOOK_CASES = {
+    "not json": (b"{", "cannot read look"),
+    "array": (b"[]", "JSON object"),
+    "newer": (b'{"schema_version": 99}', "schema_version"),
+    "binary": (_noise(64), "look"),
+    "layers not a list": (b'{"schema_version": 1, "layers": 3}', "layers"),
+    "no material": (b'{"schema_version": 1, "layers": [{"name": "x"}]}', "layers[0]"),
+    "unknown stroke field": (b'{"schema_version": 1, "layers": [{"material": "m", "strokes": [{"points": ["chin"], '
+                             b'"evil": 1}]}]}', "evil"),
+    "empty points": (b'{"schema_version": 1, "layers": [{"material": "m", "strokes": [{"points": []}]}]}', "points"),
+}
+LOOK_LAX = {
+    "deeply nested": DEEP_JSON.encode(),
+    "strokes not a list": b'{"schema_version": 1, "layers": [{"material": "m", "strokes": 5}]}',
+    "radius a string": b'{"schema_version": 1, "layers": [{"material": "m", "strokes": [{"points": ["chin"], '
+                       b'"radius_mm": "big"}]}]}',
+    "NaN strength": b'{"schema_version": 1, "layers": [{"material": "m", "strokes": [{"points": ["chin"], '
+                    b'"strength": NaN}]}]}',
+}
+
+
+@pytest.mark.parametrize("case", sorted(LOOK_CASES))
+def test_look_files(case: str, tmp_path: Path) -> None:
     looks = _capture("painting.looks")
-    loader = next((getattr(looks, n) for n in ("load_look", "read_look", "load") if hasattr(looks, n)), None)
-    if loader is None:
-        pytest.skip("painting.looks has no file loader yet")
-    for data in (b"{", b"[]", DEEP_JSON.encode(), b'{"schema_version": 99}', _noise(64)):
-        path = tmp_path / "look.json"
-        path.write_bytes(data)
-        raises_clean(lambda p=path: loader(p))
+    data, fragment = LOOK_CASES[case]
+    path = tmp_path / "look.json"
+    path.write_bytes(data)
+    raises_clean(lambda: looks.load_look(path), "look.json", fragment)
+
+
+@pytest.mark.parametrize("case", sorted(LOOK_LAX))
+@pytest.mark.xfail(strict=True, reason=LAX + "painting.looks: RecursionError escapes, stroke values unchecked")
+def test_look_files_lax(case: str, tmp_path: Path) -> None:
+    looks = _capture("painting.looks")
+    path = tmp_path / "look.json"
+    path.write_bytes(LOOK_LAX[case])
+    raises_clean(lambda: looks.load_look(path), "look.json")
