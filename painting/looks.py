@@ -1,0 +1,181 @@
+"""Built-in looks: cosmetic layers painted with brush strokes at the head's landmarks (reproducible).
+
+A look is a JSON file in ``resources/looks/<name>.json``::
+
+    {"schema_version": 1, "name": "natural", "description": "…",
+     "layers": [{"material": "Foundation Ivory", "name": "Foundation",
+                 "strokes": [{"points": ["forehead", {"landmark": "left_cheek", "offset_mm": [5, 0, 0]}],
+                              "radius_mm": 30, "hardness": 0.3, "strength": 0.8, "amount_um": 12,
+                              "mode": "add", "mirror": false}]}]}
+
+Layers are listed bottom first. A point is a landmark name, ``{"landmark": name, "offset_mm": [dx, dy,
+dz]}`` (offset in mm in head space, then projected back onto the surface along −Z from the front), or
+``[x, y, z]`` in mesh units (projected likewise). Each stroke becomes one brush stroke (one undo step)
+through :class:`painting.Document`'s brush API; ``mirror`` paints the mirror image too. ``bare`` has no
+layers.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from km.errors import SheerError
+
+LOOK_SCHEMA_VERSION = 1
+BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip")
+_STROKE_KEYS = {"points", "radius_mm", "hardness", "strength", "amount_um", "mode", "mirror", "flow", "spacing"}
+
+
+class LookError(SheerError, ValueError):
+    """An unknown or malformed look; the message names the look (file) and the offending field."""
+
+
+@dataclass
+class LookStroke:
+    """One stroke: points (see the module docstring) and brush settings (radius in mm, amount in µm)."""
+
+    points: list[Any]
+    radius_mm: float = 10.0
+    hardness: float = 0.5
+    strength: float = 1.0
+    amount_um: float | None = None
+    mode: str = "add"
+    mirror: bool = False
+    flow: float = 1.0
+    spacing: float = 0.15
+
+
+@dataclass
+class LookLayer:
+    material: str
+    name: str = ""
+    strokes: list[LookStroke] = field(default_factory=list)
+
+
+@dataclass
+class Look:
+    name: str
+    description: str = ""
+    layers: list[LookLayer] = field(default_factory=list)
+
+    @classmethod
+    def from_json(cls, data: Any, source: str) -> Look:
+        if not isinstance(data, dict):
+            raise LookError(f"{source}: a look must be a JSON object")
+        if data.get("schema_version") != LOOK_SCHEMA_VERSION:
+            raise LookError(f"{source}: schema_version {data.get('schema_version')!r} is not supported "
+                            f"(this Sheer reads {LOOK_SCHEMA_VERSION})")
+        layers_raw = data.get("layers", [])
+        if not isinstance(layers_raw, list):
+            raise LookError(f"{source}: 'layers' must be a list")
+        layers = []
+        for i, lay in enumerate(layers_raw):
+            where = f"{source}: layers[{i}]"
+            if not isinstance(lay, dict) or not isinstance(lay.get("material"), str):
+                raise LookError(f"{where}: needs a 'material' name")
+            strokes = []
+            for j, st in enumerate(lay.get("strokes", [])):
+                w = f"{where}.strokes[{j}]"
+                if not isinstance(st, dict):
+                    raise LookError(f"{w}: must be an object")
+                unknown = set(st) - _STROKE_KEYS
+                if unknown:
+                    raise LookError(f"{w}: unknown field(s) {sorted(unknown)}")
+                pts = st.get("points")
+                if not isinstance(pts, list) or not pts:
+                    raise LookError(f"{w}: 'points' must be a non-empty list")
+                try:
+                    strokes.append(LookStroke(**st))
+                except TypeError as exc:
+                    raise LookError(f"{w}: {exc}") from None
+            layers.append(LookLayer(lay["material"], str(lay.get("name", lay["material"])), strokes))
+        return cls(str(data.get("name", source)), str(data.get("description", "")), layers)
+
+
+def look_path(name: str) -> Path:
+    from resources import resource_path
+
+    return resource_path("looks", f"{name}.json")
+
+
+def available_looks() -> list[str]:
+    """Names of the looks in ``resources/looks``."""
+    from resources import resource_path
+
+    return sorted(p.stem for p in resource_path("looks").glob("*.json"))
+
+
+def load_look(name_or_path: str | Path) -> Look:
+    """A look by built-in name (``natural``…) or from a JSON file path."""
+    p = Path(name_or_path)
+    if p.suffix.lower() != ".json":
+        p = look_path(str(name_or_path))
+        if not p.is_file():
+            raise LookError(f"unknown look '{name_or_path}' (known: {', '.join(available_looks())})")
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise LookError(f"{p}: look file not found") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise LookError(f"{p}: cannot read look: {exc}") from None
+    return Look.from_json(data, str(p))
+
+
+def _front_z(doc: Any) -> float:
+    return float(np.asarray(doc.head.vertices)[:, 2].max()) + 1.0
+
+
+def resolve_point(doc: Any, point: Any, where: str) -> np.ndarray:
+    """A look point → a surface point (mesh units)."""
+    head = doc.head
+    offset = np.zeros(3)
+    if isinstance(point, str):
+        return np.asarray(head.landmark(point), dtype=float)
+    if isinstance(point, dict):
+        if "landmark" not in point:
+            raise LookError(f"{where}: a point object needs 'landmark'")
+        base = np.asarray(head.landmark(str(point["landmark"])), dtype=float)
+        off = np.asarray(point.get("offset_mm", [0, 0, 0]), dtype=float)
+        if off.shape != (3,) or not np.all(np.isfinite(off)):
+            raise LookError(f"{where}: 'offset_mm' must be 3 finite numbers")
+        offset = off / float(head.mm_per_unit)
+        p = base + offset
+    else:
+        p = np.asarray(point, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise LookError(f"{where}: a point must be a landmark name, an object or [x, y, z]")
+    hit = doc.hit((p[0], p[1], _front_z(doc)), (0.0, 0.0, -1.0))
+    if hit is None:
+        raise LookError(f"{where}: the point {p.tolist()} does not project onto the surface")
+    return np.asarray(getattr(hit, "point", hit), dtype=float)
+
+
+def apply_look(doc: Any, look: Look | str, clear: bool = True) -> list[Any]:
+    """Paint ``look`` on a :class:`painting.Document` through its brush API (one undo step per stroke
+    and per added layer); ``clear`` removes the document's layers first. Returns the added layers."""
+    from painting import Brush
+
+    if isinstance(look, str):
+        look = load_look(look)
+    if clear:
+        for i in reversed(range(len(doc.layers))):
+            doc.remove_layer(i)
+    added = []
+    for i, lay in enumerate(look.layers):
+        layer = doc.add_layer(lay.material, name=lay.name or None)
+        added.append(layer)
+        for j, st in enumerate(lay.strokes):
+            where = f"look '{look.name}' layers[{i}].strokes[{j}]"
+            pts = [resolve_point(doc, p, where) for p in st.points]
+            brush = Brush(radius_mm=float(st.radius_mm), hardness=float(st.hardness), strength=float(st.strength),
+                          mode=st.mode, flow=float(st.flow), amount_um=st.amount_um, spacing=float(st.spacing),
+                          mirror=bool(st.mirror))
+            with doc.stroke(layer, brush) as s:
+                for p in pts:
+                    s.dab(p)
+    return added

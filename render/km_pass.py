@@ -1,0 +1,332 @@
+"""Texture-space Kubelka–Munk: per texel, the cosmetic stack evaluated **spectrally** on the GPU.
+
+For every texel and every wavelength of the material grid (380–780 nm, 5 nm: 81 samples), each layer's
+R0 and T (Huang 2013 Eq. 1–2, written with e^{−bSX} so it never overflows and stays exact as S → 0 or
+K → 0) are stacked bottom-up with Eq. 3–4 (inter-reflections), giving R_top (the stack seen from
+above, over black), T (total transmittance) and R_bottom (seen from below, from the skin). Each spectrum
+is reduced to linear sRGB on the fly with a precomputed wavelength → RGB matrix (a spectrum → RGB
+conversion is linear, so ``rgb = Σ_λ M[λ]·R(λ)``; M comes from ``km.colour.spectrum_to_rgb`` of the
+identity, so white reflectance maps to (1, 1, 1)).
+
+Outputs (textures in the head's UV space, same size as the thickness maps; row 0 = v 0):
+``r_top`` RGBA (a = 1 where any layer is present), ``transmittance`` RGBA, ``r_bottom`` RGBA.
+Thickness maps are float32 µm; a layer's ``opacity`` scales its thickness. Only dirty 64² tiles are
+re-evaluated by :meth:`KMTextureSpace.update_tiles`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from render.errors import RenderError
+
+MAX_LAYERS = 8
+TILE = 64
+
+
+@dataclass
+class LayerInput:
+    """One cosmetic layer for the renderer: a ``km.Material`` and its thickness map (float32 (H, W), µm)."""
+
+    material: Any
+    thickness: np.ndarray
+    opacity: float = 1.0
+    visible: bool = True
+    name: str = ""
+
+
+def default_wavelengths() -> np.ndarray:
+    try:
+        from km.spectra import DEFAULT_GRID
+
+        wl = getattr(DEFAULT_GRID, "wavelengths", DEFAULT_GRID)
+        return np.asarray(wl, dtype=np.float64)
+    except Exception:  # km.spectra not there yet: the same grid
+        return np.arange(380.0, 780.0 + 1e-9, 5.0)
+
+
+def spectral_matrix(wavelengths: np.ndarray) -> np.ndarray:
+    """(n, 3) matrix M with ``rgb = spectrum @ M`` (linear sRGB under the km default illuminant).
+
+    Prefer ``km.colour.spectrum_to_rgb`` (applied to the identity: the conversion is linear), so the GPU
+    matches km exactly; fall back to colour-science (CIE 1931 2°, D65, white → 1) if km lacks it.
+    """
+    wl = np.asarray(wavelengths, dtype=np.float64)
+    try:
+        from km.colour import spectral_rgb_matrix
+
+        m = np.array(spectral_rgb_matrix(wl), dtype=np.float64)
+        if m.shape == (len(wl), 3):
+            return m
+    except (ImportError, AttributeError, TypeError):
+        pass
+    import colour
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    ill = colour.SDS_ILLUMINANTS["D65"]
+    xyz_bar = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)], axis=1)
+    e = np.interp(wl, ill.wavelengths, ill.values)
+    w = xyz_bar * e[:, None]
+    w = w / w[:, 1].sum()
+    xyz_to_rgb = np.array([[3.2404542, -1.5371385, -0.4985314],
+                           [-0.9692660, 1.8760108, 0.0415560],
+                           [0.0556434, -0.2040259, 1.0572252]])
+    m = w @ xyz_to_rgb.T
+    return m / m.sum(axis=0, keepdims=True)
+
+
+def material_sk(material: Any, wavelengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """S and K (per mm) of ``material`` on ``wavelengths`` (linear interpolation, clamped at the ends)."""
+    mwl = np.asarray(material.wavelengths, dtype=np.float64)
+    s = np.interp(wavelengths, mwl, np.asarray(material.S, dtype=np.float64))
+    k = np.interp(wavelengths, mwl, np.asarray(material.K, dtype=np.float64))
+    return s, k
+
+
+def layer_rt_np(s: np.ndarray, k: np.ndarray, x_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """R0, T of one KM layer (numpy twin of ``km.glsl``; S, K per mm, X mm; broadcasts)."""
+    beta = np.sqrt(k * k + 2.0 * k * s)
+    x = beta * x_mm
+    f = np.exp(-x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        h = np.where(x < 1e-3, 2.0 - 2.0 * x + (4.0 / 3.0) * x * x, (1.0 - f * f) / np.where(x == 0, 1, x))
+    den = (s + k) * x_mm * h + 1.0 + f * f
+    return s * x_mm * h / den, 2.0 * f / den
+
+
+def stack_np(rs: list[np.ndarray], ts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(R_top, R_bottom, T) of layers given bottom first (numpy twin of the shader's stacking)."""
+    r = np.zeros_like(rs[0])
+    rb = np.zeros_like(rs[0])
+    t = np.ones_like(rs[0])
+    for r0, t0 in zip(rs, ts):
+        d = 1.0 / (1.0 - r0 * r)
+        r, rb, t = r0 + t0 * t0 * r * d, rb + t * t * r0 * d, t0 * t * d
+    return r, rb, t
+
+
+class KMTextureSpace:
+    """GPU evaluation of the cosmetic stack in texture space (see the module docstring).
+
+    ``dtype`` of the outputs: ``"f2"`` (half float, default: ample for display) or ``"f4"`` (exact
+    comparisons). ``set_layers`` uploads every map and evaluates everything; ``update_tiles`` re-uploads
+    and re-evaluates only the listed tiles. With no visible layer the outputs are 1×1 (R 0, T 1).
+    """
+
+    def __init__(self, ctx: Any, shaders: Any, dtype: str = "f2") -> None:
+        if dtype not in ("f2", "f4"):
+            raise RenderError(f"KM output dtype must be 'f2' or 'f4', got {dtype!r}")
+        self.ctx = ctx
+        self.dtype = dtype
+        self.wavelengths = default_wavelengths()
+        self.matrix = spectral_matrix(self.wavelengths)
+        nw = len(self.wavelengths)
+        self.shaders = shaders
+        self._programs: dict[int, tuple[Any, Any]] = {}
+        self.ubo = ctx.buffer(reserve=(MAX_LAYERS * nw + nw) * 16)
+        self.size: tuple[int, int] = (0, 0)
+        self.layers: list[LayerInput] = []
+        self.active: list[int] = []  # indices of visible layers, bottom first
+        self.thickness_textures: list[Any] = []
+        self.r_top: Any = None
+        self.transmittance: Any = None
+        self.r_bottom: Any = None
+        self.fbo: Any = None
+        self.version = 0
+        self._alloc((1, 1))
+        self._clear_outputs()
+
+    # -- resources ---------------------------------------------------------------------------------
+    def _alloc(self, size: tuple[int, int]) -> None:
+        if size == self.size and self.fbo is not None:
+            return
+        old = (self.fbo, self.r_top, self.transmittance, self.r_bottom)
+        self.r_top, self.transmittance, self.r_bottom = (
+            self.ctx.texture(size, 4, dtype=self.dtype) for _ in range(3))
+        for t in (self.r_top, self.transmittance, self.r_bottom):
+            t.repeat_x = t.repeat_y = False
+        # create the new framebuffer before releasing the old one, and bind it: moderngl re-binds the
+        # "current" framebuffer after creating one, which must not be a deleted object
+        self.fbo = self.ctx.framebuffer([self.r_top, self.transmittance, self.r_bottom])
+        self.fbo.use()
+        for obj in old:
+            if obj is not None:
+                obj.release()
+        self.size = size
+
+    def _clear_outputs(self) -> None:
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, *self.size)
+        self.fbo.scissor = None
+        self.ctx.clear_color = (0, 0, 0, 0)
+        # attachment 1 (T) must be 1: clear all, then draw the empty stack
+        self._draw(None)
+
+    def _set_thickness_textures(self, n: int, size: tuple[int, int]) -> None:
+        for t in self.thickness_textures[n:]:
+            t.release()
+        self.thickness_textures = self.thickness_textures[:n]
+        for i, t in enumerate(self.thickness_textures):
+            if t.size != size:
+                t.release()
+                self.thickness_textures[i] = self._new_thickness(size)
+        while len(self.thickness_textures) < n:
+            self.thickness_textures.append(self._new_thickness(size))
+
+    def _new_thickness(self, size: tuple[int, int]) -> Any:
+        t = self.ctx.texture(size, 1, dtype="f4")
+        t.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        t.repeat_x = t.repeat_y = False
+        return t
+
+    # -- inputs ------------------------------------------------------------------------------------
+    @staticmethod
+    def _check_map(layer: LayerInput, where: str) -> np.ndarray:
+        a = np.asarray(layer.thickness)
+        if a.ndim != 2 or a.shape[0] < 1 or a.shape[1] < 1:
+            raise RenderError(f"{where}: thickness map must be a 2D array, got shape {a.shape}")
+        if not np.issubdtype(a.dtype, np.floating):
+            raise RenderError(f"{where}: thickness map must be float (µm), got {a.dtype}")
+        return a
+
+    def _upload_params(self) -> None:
+        nw = len(self.wavelengths)
+        data = np.zeros((MAX_LAYERS * nw + nw, 4), np.float32)
+        for slot, i in enumerate(self.active):
+            s, k = material_sk(self.layers[i].material, self.wavelengths)
+            data[slot * nw:(slot + 1) * nw, 0] = s
+            data[slot * nw:(slot + 1) * nw, 1] = k
+            data[slot * nw:(slot + 1) * nw, 2] = np.sqrt(k * k + 2 * k * s)
+        data[MAX_LAYERS * nw:, :3] = self.matrix
+        self.ubo.write(data.tobytes())
+
+    def set_layers(self, layers: list[LayerInput]) -> None:
+        """Upload every layer (bottom first) and evaluate the whole map."""
+        if len(layers) > MAX_LAYERS:
+            raise RenderError(f"at most {MAX_LAYERS} cosmetic layers can be rendered, got {len(layers)}")
+        shape: tuple[int, ...] | None = None
+        for i, layer in enumerate(layers):
+            where = f"layer {i} ({layer.name or getattr(layer.material, 'name', '?')})"
+            a = self._check_map(layer, where)
+            if shape is not None and a.shape != shape:
+                raise RenderError(f"{where}: thickness map is {a.shape}, other layers are {shape}")
+            shape = a.shape
+            if not (math.isfinite(layer.opacity) and 0.0 <= layer.opacity <= 1.0):
+                raise RenderError(f"{where}: opacity must be in [0, 1], got {layer.opacity}")
+        self.layers = list(layers)
+        self.active = [i for i, lay in enumerate(layers) if lay.visible and lay.opacity > 0]
+        self.version += 1
+        if not self.active or shape is None:
+            self._set_thickness_textures(0, (1, 1))
+            self._alloc((1, 1))
+            self._clear_outputs()
+            return
+        size = (shape[1], shape[0])
+        self._alloc(size)
+        self._set_thickness_textures(len(self.active), size)
+        for slot, i in enumerate(self.active):
+            a = np.ascontiguousarray(np.nan_to_num(layers[i].thickness, nan=0.0), dtype=np.float32)
+            self.thickness_textures[slot].write(np.clip(a, 0.0, None).tobytes())
+        self._upload_params()
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, *size)
+        self.fbo.scissor = None
+        self._draw(size)
+
+    def update_tiles(self, layer_index: int, thickness: np.ndarray | None,
+                     tiles: list[tuple[int, int]], tile: int = TILE) -> None:
+        """Re-upload tiles ``(tx, ty)`` (column, row of ``tile``² blocks) of layer ``layer_index``'s map
+        from ``thickness`` (the full map, or None = the map given to :meth:`set_layers`) and re-evaluate
+        those tiles."""
+        if not 0 <= layer_index < len(self.layers):
+            raise RenderError(f"no layer {layer_index} (the renderer has {len(self.layers)})")
+        layer = self.layers[layer_index]
+        a = layer.thickness if thickness is None else thickness
+        if thickness is not None:
+            layer.thickness = thickness
+        if layer_index not in self.active:
+            return
+        slot = self.active.index(layer_index)
+        w, h = self.size
+        if a.shape != (h, w):
+            raise RenderError(f"layer {layer_index}: thickness map is {a.shape}, expected {(h, w)}")
+        tex = self.thickness_textures[slot]
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, w, h)
+        rects = []
+        for tx, ty in tiles:
+            x0, y0 = int(tx) * tile, int(ty) * tile
+            if x0 >= w or y0 >= h or x0 < 0 or y0 < 0:
+                continue
+            x1, y1 = min(x0 + tile, w), min(y0 + tile, h)
+            block = np.ascontiguousarray(np.clip(np.nan_to_num(a[y0:y1, x0:x1], nan=0.0), 0, None),
+                                         dtype=np.float32)
+            tex.write(block.tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
+            rects.append((x0, y0, x1 - x0, y1 - y0))
+        for r in rects:
+            self.fbo.scissor = r
+            self._draw((w, h))
+        self.fbo.scissor = None
+        self.version += 1
+
+    def refresh_materials(self) -> None:
+        """Re-read the layers' materials (e.g. edited in the library) and re-evaluate everything."""
+        self.set_layers(self.layers)
+
+    def _program(self, n: int) -> tuple[Any, Any]:
+        """The KM program specialised for ``n`` layers (loops over layers unrolled) and its quad."""
+        if n not in self._programs:
+            prog = self.shaders.program(self.ctx, "fullscreen.vert", "km.frag",
+                                        {"NW": len(self.wavelengths), "MAX_LAYERS": MAX_LAYERS, "NL": n})
+            self._programs[n] = (prog, self.ctx.vertex_array(prog, []))
+        return self._programs[n]
+
+    def _draw(self, size: tuple[int, int] | None) -> None:
+        n = 0 if size is None else len(self.active)
+        program, quad = self._program(n)
+        for slot in range(n):
+            self.thickness_textures[slot].use(slot)
+        self.ubo.bind_to_uniform_block(0)
+        if "u_nlayers" in program:
+            program["u_nlayers"] = n
+        scales = np.zeros(MAX_LAYERS, np.float32)
+        for slot, i in enumerate(self.active[:n]):
+            scales[slot] = 1e-3 * self.layers[i].opacity  # µm → mm, opacity scales thickness
+        if "u_scale" in program:
+            u = program["u_scale"]
+            program["u_scale"].write(scales[:max(u.array_length, 1)].tobytes())
+        if "u_thick" in program:
+            u = program["u_thick"]
+            u.value = list(range(u.array_length)) if u.array_length > 1 else 0
+        self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND | self.ctx.CULL_FACE)
+        quad.render(mode=self.ctx.TRIANGLES, vertices=3)
+
+    # -- outputs -----------------------------------------------------------------------------------
+    def bind(self, start_unit: int) -> None:
+        """Bind r_top, transmittance, r_bottom to three consecutive texture units."""
+        self.r_top.use(start_unit)
+        self.transmittance.use(start_unit + 1)
+        self.r_bottom.use(start_unit + 2)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(R_top, T, R_bottom) as float32 (H, W, 3) arrays, row 0 = v 0 (for tests and export)."""
+        out = []
+        for t in (self.r_top, self.transmittance, self.r_bottom):
+            raw = t.read()
+            a = np.frombuffer(raw, dtype=np.float32 if self.dtype == "f4" else np.float16)
+            out.append(a.reshape(self.size[1], self.size[0], 4)[..., :3].astype(np.float32))
+        return out[0], out[1], out[2]
+
+    def release(self) -> None:
+        progs = [o for pair in self._programs.values() for o in pair[::-1]]
+        self._programs = {}
+        for obj in (self.fbo, self.r_top, self.transmittance, self.r_bottom, *progs, self.ubo,
+                    *self.thickness_textures):
+            if obj is not None:
+                obj.release()
+        self.thickness_textures = []
+        self.fbo = None

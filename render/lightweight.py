@@ -1,0 +1,239 @@
+"""The lightweight engine (Paris et al. 2003, §5): a captured face rendered fast under any lights.
+
+Per light, Phong with the fitted skin parameters (:mod:`capture.phong`), shadow maps (the physical
+renderer's :class:`render.lights.ShadowMaps`, PCF), up to 8 lights and optional SH environment irradiance
+(:class:`render.lights.Environment`), then the detail texture modulates the result and the sensor clamp
+comes last — so overexposure loses the detail in the highlights, as the paper's Fig. 10a. The paper's
+[0, 2ⁿ] texture range with n doubling passes is replaced by a float texture (one pass).
+
+Eye highlights: two purely specular hemispheres of the cornea's 7.8 mm radius (converted with the
+head's mm per unit) at the ``left_eye``/``right_eye`` landmarks, exponent 2000, added on top of the
+face's display value.
+
+Cosmetic layers: the skin albedo is detail × fitted diffuse; the texture-space KM outputs of the
+physical renderer (:class:`render.km_pass.KMTextureSpace`: R_top, T, R_bottom) apply as there:
+diffuse out = E·(R_top + a·T² / (1 − R_bottom·a)), the skin's specular attenuated by T².
+
+Reuses: :class:`render.gpu_head.GpuHead` (mesh upload), :class:`render.shaders.ShaderLibrary`
+(``lighting.glsl``, ``common.glsl``), :class:`render.camera.OrbitCamera`.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from render.camera import OrbitCamera
+from render.errors import RenderError
+from render.gpu_head import GpuHead
+from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps
+from render.shaders import ShaderLibrary
+
+#: Cornea radius (Wyszecki & Stiles, via the paper), millimetres.
+CORNEA_RADIUS_MM = 7.8
+EYE_SHININESS = 2000.0
+
+
+def hemisphere(radius: float, rings: int = 8, segments: int = 32) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A +Z hemisphere mesh: (vertices (N, 3), normals (N, 3), faces (F, 3)); 8×32 → 257 vertices."""
+    verts = [np.array([0.0, 0.0, 1.0])]
+    for r in range(1, rings + 1):
+        th = (np.pi / 2) * r / rings
+        for s in range(segments):
+            ph = 2 * np.pi * s / segments
+            verts.append(np.array([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)]))
+    v = np.asarray(verts)
+    faces = [[0, 1 + s, 1 + (s + 1) % segments] for s in range(segments)]
+    for r in range(1, rings):
+        a0 = 1 + (r - 1) * segments
+        b0 = 1 + r * segments
+        for s in range(segments):
+            s1 = (s + 1) % segments
+            faces.append([a0 + s, b0 + s, b0 + s1])
+            faces.append([a0 + s, b0 + s1, a0 + s1])
+    return v * radius, v.copy(), np.asarray(faces, dtype=np.int64)
+
+
+class LightweightRenderer:
+    """The lightweight engine for one captured face on a ``moderngl.Context``.
+
+    Attributes (set, then :meth:`render`): ``camera`` (:class:`OrbitCamera`), ``lights`` (≤ 8
+    :class:`Light`; intensities in the photograph's units, 1 = the capture's flash), ``environment``,
+    ``exposure``, ``shadows_on``, ``eye_highlights``, ``makeup`` (an object with ``bind(unit)`` binding
+    R_top, T, R_bottom — e.g. a :class:`render.km_pass.KMTextureSpace` — or None).
+    """
+
+    def __init__(self, ctx: Any, head: Any, face: Any, shaders: ShaderLibrary | None = None,
+                 shadow_size: int = 1024) -> None:
+        self.ctx = ctx
+        self.head = head
+        self.face = face
+        self.shaders = shaders or ShaderLibrary()
+        self.gpu_head = GpuHead(ctx, head)
+        self.camera = OrbitCamera.for_face(head.vertices, head.metadata.landmarks)
+        p = face.params
+        self.lights: list[Light] = [Light("directional", (0.0, 0.0, 1.0), tuple(float(x) for x in p.flash_rgb),
+                                          1.0, True)]
+        self.environment: Environment | None = None
+        self.exposure = 1.0
+        self.shadows_on = True
+        self.eye_highlights = True
+        self.makeup: Any = None
+        self.pcf_radius = 2.5
+        self.program = self.shaders.program(ctx, "mesh.vert", "lightweight_face.frag")
+        self.eye_program = self.shaders.program(ctx, "lightweight_eye.vert", "lightweight_eye.frag")
+        self.shadows = ShadowMaps(ctx, self.shaders, shadow_size)
+        det = np.ascontiguousarray(face.detail, dtype=np.float32)
+        self.detail = ctx.texture((det.shape[1], det.shape[0]), 3, det.tobytes(), dtype="f4")
+        self.detail.filter = (ctx.LINEAR, ctx.LINEAR)
+        self._dummy = ctx.texture((1, 1), 4, np.zeros(4, np.float32).tobytes(), dtype="f4")
+        self._eyes = self._eye_geometry()
+        self._offscreen: tuple[Any, Any, Any] | None = None
+
+    def _eye_geometry(self) -> Any:
+        lm = self.head.metadata.landmarks
+        if "left_eye" not in lm or "right_eye" not in lm:
+            return None
+        r = CORNEA_RADIUS_MM / float(self.head.mm_per_unit)
+        v, n, f = hemisphere(r)
+        verts, norms, faces = [], [], []
+        for k, name in enumerate(("left_eye", "right_eye")):
+            # The sphere's front touches the landmark (on the lid/cornea surface), lifted by 0.3 mm so
+            # it wins the depth test against the lid it sits on.
+            centre = np.asarray(lm[name], float) - np.array([0.0, 0.0, r]) + np.array([0.0, 0.0, 0.3 / self.head.mm_per_unit])
+            verts.append(v + centre)
+            norms.append(n)
+            faces.append(f + k * len(v))
+        vb = self.ctx.buffer(np.concatenate(verts).astype("f4").tobytes())
+        nb = self.ctx.buffer(np.concatenate(norms).astype("f4").tobytes())
+        ib = self.ctx.buffer(np.concatenate(faces).astype("u4").tobytes())
+        vao = self.ctx.vertex_array(self.eye_program, [(vb, "3f", "in_position"), (nb, "3f", "in_normal")], ib)
+        return (vao, vb, nb, ib)
+
+    @staticmethod
+    def _set(prog: Any, name: str, value: Any) -> None:
+        if name in prog:
+            prog[name].value = value
+
+    @staticmethod
+    def _write(prog: Any, name: str, data: np.ndarray) -> None:
+        if name in prog:
+            prog[name].write(np.ascontiguousarray(data, dtype=np.float32).tobytes())
+
+    def _upload_lights(self, prog: Any) -> None:
+        if len(self.lights) > MAX_LIGHTS:
+            raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
+        vec = np.zeros((MAX_LIGHTS, 4), np.float32)
+        col = np.zeros((MAX_LIGHTS, 4), np.float32)
+        par = np.zeros((MAX_LIGHTS, 4), np.float32)
+        mats = np.zeros((MAX_LIGHTS, 16), np.float32)
+        tiles = np.array([self.shadows.tile(i) for i in range(MAX_LIGHTS)], np.float32)
+        for i, lt in enumerate(self.lights):
+            lt.validate(f"light {i + 1}")
+            v = np.asarray(lt.vector, float)
+            vec[i] = (*(v / np.linalg.norm(v)), 0.0) if lt.kind == "directional" else (*v, 1.0)
+            col[i] = (*(np.asarray(lt.colour) * lt.intensity), lt.reference_distance)
+            if lt.shadows and self.shadows_on:
+                texel = self.shadows.texel_world[i]
+                par[i] = (1.0, self.pcf_radius, texel * 0.5, texel)
+                mats[i] = self.shadows.matrices[i].T.reshape(16)
+        self._set(prog, "u_nlights", len(self.lights))
+        self._write(prog, "u_light_vec", vec)
+        self._write(prog, "u_light_col", col)
+        self._write(prog, "u_shadow_par", par)
+        self._write(prog, "u_light_mat", mats)
+        self._write(prog, "u_shadow_tile", tiles)
+        env = self.environment
+        self._set(prog, "u_env_on", 1.0 if env is not None else 0.0)
+        self._write(prog, "u_sh", env.coefficients if env is not None else np.zeros((9, 3)))
+
+    def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
+        """Draw a frame into ``fbo`` (which needs a depth attachment)."""
+        ctx = self.ctx
+        vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
+        if self.shadows_on and any(lt.shadows for lt in self.lights):
+            self.shadows.update(self.lights, self.gpu_head.centre, self.gpu_head.radius, self.gpu_head.draw)
+        fbo.use()
+        fbo.viewport = (vx, vy, w, h)
+        fbo.clear(0.045, 0.047, 0.052, 1.0, depth=1.0)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.BLEND | ctx.CULL_FACE)
+        prog = self.program
+        vp = self.camera.view_projection(w / h)
+        eye = tuple(float(x) for x in self.camera.eye())
+        self._write(prog, "u_view_proj", vp.T.reshape(1, 16))
+        self._write(prog, "u_view", self.camera.view().T.reshape(1, 16))
+        p = self.face.params
+        self._set(prog, "u_diffuse", tuple(float(x) for x in p.diffuse))
+        self._set(prog, "u_spec", float(p.specular))
+        self._set(prog, "u_shininess", float(p.exponent))
+        self._set(prog, "u_ambient", tuple(float(x) for x in p.ambient_scale * p.ambient_rgb))
+        self._set(prog, "u_eye", eye)
+        self._set(prog, "u_exposure", float(self.exposure))
+        self._upload_lights(prog)
+        self.detail.use(0)
+        self._set(prog, "u_detail", 0)
+        if self.makeup is not None:
+            self.makeup.bind(1)
+        else:
+            for u in (1, 2, 3):
+                self._dummy.use(u)
+        self._set(prog, "u_r_top", 1)
+        self._set(prog, "u_transmittance", 2)
+        self._set(prog, "u_r_bottom", 3)
+        self._set(prog, "u_makeup", 1.0 if self.makeup is not None else 0.0)
+        self.shadows.texture.use(4)
+        self._set(prog, "u_shadow", 4)
+        self.gpu_head.draw(prog)
+        if self.eye_highlights and self._eyes is not None:
+            ep = self.eye_program
+            self._write(ep, "u_view_proj", vp.T.reshape(1, 16))
+            self._set(ep, "u_eye", eye)
+            self._set(ep, "u_shininess", EYE_SHININESS)
+            self._set(ep, "u_exposure", float(self.exposure))
+            self._upload_lights(ep)
+            self._set(ep, "u_shadow", 4)  # a shadow sampler must not sit on a colour texture's unit
+            ctx.enable(ctx.BLEND)
+            ctx.blend_func = ctx.ONE, ctx.ONE
+            ctx.depth_func = "<="
+            self._eyes[0].render()
+            ctx.depth_func = "<"
+            ctx.disable(ctx.BLEND)
+        ctx.disable(ctx.DEPTH_TEST)
+
+    def render_image(self, size: tuple[int, int]) -> np.ndarray:
+        """Render into an offscreen target (kept for the next call of the same size) and return uint8 sRGB
+        (H, W, 3), top row first."""
+        if self._offscreen is None or self._offscreen[0].size != tuple(size):
+            self._release_offscreen()
+            w, h = size
+            color = self.ctx.renderbuffer((w, h), 4)
+            depth = self.ctx.depth_renderbuffer((w, h))
+            self._offscreen = (self.ctx.framebuffer(color_attachments=[color], depth_attachment=depth),
+                               color, depth)
+        fbo = self._offscreen[0]
+        self.render(fbo)
+        raw = fbo.read(components=3)
+        w, h = size
+        return np.frombuffer(raw, np.uint8).reshape(h, w, 3)[::-1].copy()
+
+    def _release_offscreen(self) -> None:
+        if self._offscreen is not None:
+            for obj in self._offscreen:
+                obj.release()
+            self._offscreen = None
+
+    def release(self) -> None:
+        """Release every GPU object this engine owns."""
+        # moderngl re-binds the last used framebuffer when it creates one: never leave a deleted one bound.
+        self.ctx.detect_framebuffer(0).use()
+        self._release_offscreen()
+        if self._eyes is not None:
+            for obj in self._eyes:
+                obj.release()
+            self._eyes = None
+        for obj in (self.program, self.eye_program, self.detail, self._dummy):
+            obj.release()
+        self.shadows.release()
+        self.gpu_head.release()

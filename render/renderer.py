@@ -1,0 +1,646 @@
+"""The frame: shadow maps → lit pass through the makeup → SSS (fast or reference) → composite → display.
+
+See :mod:`render` for the API. One :class:`Renderer` per head and GL context; it owns every GPU object
+it creates and frees them in :meth:`Renderer.release`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from render.camera import OrbitCamera
+from render.errors import RenderError
+from render.gpu_head import GpuHead
+from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput, layer_rt_np, material_sk
+from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights
+from render.shaders import ShaderLibrary
+
+#: Debug views (``RenderSettings.debug_view``) → shader code.
+DEBUG_VIEWS: dict[str, int] = {
+    "none": 0, "albedo": 1, "thickness": 2, "r_top": 3, "transmittance": 4, "irradiance": 5, "unlit": 6,
+}
+MODES = ("fast", "reference", "off")
+FAST_TAPS = (11, 17, 25)
+
+#: d'Eon et al. 2007 (GPU Gems 3 ch. 14): the skin diffusion profile as a sum of Gaussians,
+#: (variance mm², R, G, B weights). Each column sums to 1.
+SKIN_GAUSSIANS: tuple[tuple[float, float, float, float], ...] = (
+    (0.0064, 0.233, 0.455, 0.649),
+    (0.0484, 0.100, 0.336, 0.344),
+    (0.187, 0.118, 0.198, 0.0),
+    (0.567, 0.113, 0.007, 0.007),
+    (1.99, 0.358, 0.004, 0.0),
+    (7.41, 0.078, 0.0, 0.0),
+)
+REFERENCE_TAPS = 13
+#: material categories whose coverage smooths the skin (their roughness replaces the skin's)
+SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
+
+# texture units of the lit pass
+_U_KM, _U_MASK, _U_LUT, _U_THICK, _U_SHADOW = 4, 7, 8, 9, 17
+
+
+@dataclass
+class RenderSettings:
+    """Everything that changes how a frame looks (one plain object; set fields, then render).
+
+    Attributes:
+        mode: ``"fast"`` (Jimenez 2015 separable SSS), ``"reference"`` (Jimenez 2009 sum of Gaussians)
+            or ``"off"`` (no subsurface scattering).
+        taps: fast-mode kernel taps, 11, 17 or 25.
+        exposure: multiplier before tone mapping. tonemap: ``"aces"``, ``"none"`` (clamp) or ``"raw"``
+            (linear values, for float targets and tests).
+        debug_view: a key of :data:`DEBUG_VIEWS`; debug_layer: layer index for ``"thickness"``.
+        makeup: render the cosmetic layers (False = bare skin, for before/after).
+        sss_width: scale of the skin profile (1 = d'Eon's measured skin). follow_surface: strength of
+            the depth test that stops the blur at silhouettes.
+        skin_roughness (Beckmann m), skin_f0 (Fresnel at normal incidence), spec_intensity (rho_s).
+        normal_strength: tangent-space normal map strength. background: linear RGB.
+        shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
+    """
+
+    mode: str = "fast"
+    taps: int = 17
+    exposure: float = 1.0
+    tonemap: str = "aces"
+    debug_view: str = "none"
+    debug_layer: int = 0
+    makeup: bool = True
+    sss_width: float = 1.0
+    follow_surface: float = 1.0
+    skin_roughness: float = 0.35
+    skin_f0: float = 0.028
+    spec_intensity: float = 0.18
+    normal_strength: float = 1.0
+    background: tuple[float, float, float] = (0.045, 0.047, 0.052)
+    shadow_size: int = 1024
+    pcf_radius: float = 2.5
+
+    def validate(self) -> None:
+        if self.mode not in MODES:
+            raise RenderError(f"render mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.taps not in FAST_TAPS:
+            raise RenderError(f"fast SSS taps must be one of {FAST_TAPS}, got {self.taps!r}")
+        if self.debug_view not in DEBUG_VIEWS:
+            raise RenderError(f"unknown debug view {self.debug_view!r} (known: {', '.join(DEBUG_VIEWS)})")
+        if self.tonemap not in ("aces", "none", "raw"):
+            raise RenderError(f"tonemap must be 'aces', 'none' or 'raw', got {self.tonemap!r}")
+        for name in ("exposure", "sss_width", "follow_surface", "skin_roughness", "spec_intensity"):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise RenderError(f"render setting {name} must be a finite number ≥ 0, got {v!r}")
+
+
+def fast_kernel(taps: int, width: float = 1.0, exponent: float = 2.0, core_mm: float = 0.0) -> np.ndarray:
+    """The pre-integrated separable kernel (Jimenez et al. 2015) of the d'Eon skin profile.
+
+    Returns (taps, 4): RGB weights (each channel sums to 1) and the offset in mm; tap 0 is the centre.
+    Offsets are spaced as ``range·t|t|`` (denser near the centre); each weight integrates the 1D profile
+    over the tap's interval (midpoints to the neighbours). Taps closer than ``core_mm`` to the centre
+    (below a pixel on screen) are merged into it, so the core can be applied at full resolution.
+    """
+    if taps % 2 == 0 or taps < 3:
+        raise RenderError(f"kernel taps must be odd and ≥ 3, got {taps}")
+    sig = np.sqrt(np.array([g[0] for g in SKIN_GAUSSIANS])) * width
+    w = np.array([g[1:] for g in SKIN_GAUSSIANS])  # (6, 3)
+    rng = 3.0 * sig.max()
+    t = np.linspace(-1.0, 1.0, taps)
+    off = rng * np.sign(t) * np.abs(t) ** exponent
+    edges = np.concatenate([[-np.inf], (off[1:] + off[:-1]) / 2.0, [np.inf]])
+    from scipy.special import erf
+
+    def cdf(x: np.ndarray) -> np.ndarray:  # (n,) → (n, 3): the 1D profile's cumulative distribution
+        z = x[:, None] / (np.sqrt(2.0) * sig[None, :])
+        return (0.5 * (1.0 + erf(z))) @ w
+
+    weights = cdf(edges[1:]) - cdf(edges[:-1])
+    weights /= weights.sum(axis=0, keepdims=True)
+    k = np.concatenate([weights, off[:, None]], axis=1)
+    c = taps // 2
+    core = np.abs(off) <= core_mm
+    core[c] = True
+    k[c, :3] = weights[core].sum(axis=0)
+    k[core & (np.arange(taps) != c), :3] = 0.0
+    return np.concatenate([k[c:c + 1], k[:c], k[c + 1:]], axis=0).astype(np.float32)
+
+
+@dataclass
+class FrameInfo:
+    """What the last frame used (for picking and overlays)."""
+
+    size: tuple[int, int] = (0, 0)
+    view: np.ndarray = field(default_factory=lambda: np.eye(4))
+    view_proj: np.ndarray = field(default_factory=lambda: np.eye(4))
+    scissor: tuple[int, int, int, int] = (0, 0, 0, 0)
+
+
+class Renderer:
+    """The cosmetic renderer for one head on one ``moderngl.Context`` (see :mod:`render`)."""
+
+    def __init__(self, ctx: Any, head: Any, shaders: ShaderLibrary | None = None, km_dtype: str = "f2",
+                 layout: Any = None) -> None:
+        """``head``: a :class:`painting.head.Head`; ``layout``: the painting document's UV layout when its
+        maps are not in the mesh's own UVs (see :class:`render.gpu_head.GpuHead`)."""
+        self.ctx = ctx
+        self.shaders = shaders or ShaderLibrary()
+        self.settings = RenderSettings()
+        self.gpu_head = GpuHead(ctx, head, layout)
+        self.head = head
+        self.camera = OrbitCamera.for_face(head.vertices, head.metadata.landmarks)
+        self.lights: list[Light] = default_lights()
+        self.environment: Environment | None = None
+        self.km = KMTextureSpace(ctx, self.shaders, dtype=km_dtype)
+        self.shadows = ShadowMaps(ctx, self.shaders, self.settings.shadow_size)
+        self._frame_programs: dict[int, Any] = {}
+        self._fast_programs: dict[int, Any] = {}
+        self._gauss = self.shaders.program(ctx, "fullscreen.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
+        self._composite = self.shaders.program(ctx, "fullscreen.vert", "composite.frag")
+        self._baseline: Any = None
+        self._quads: dict[int, Any] = {}
+        mask = head.skin_mask
+        mask_img = (np.full((1, 1), 255, np.uint8) if mask is None
+                    else np.ascontiguousarray(np.where(mask, 255, 0).astype(np.uint8)))
+        self.skin_mask = ctx.texture((mask_img.shape[1], mask_img.shape[0]), 1, mask_img.tobytes(), alignment=1)
+        self.t_lut = ctx.texture((256, MAX_LAYERS), 4, np.ones((MAX_LAYERS, 256, 4), np.float32).tobytes(),
+                                 dtype="f4")
+        self.t_lut.repeat_x = self.t_lut.repeat_y = False
+        self._lut_max = np.ones(MAX_LAYERS, np.float32)
+        self._layer_spec = np.zeros((MAX_LAYERS, 4), np.float32)
+        self._targets: dict[str, Any] = {}
+        self._size: tuple[int, int] = (0, 0)
+        self.last = FrameInfo()
+
+    # -- layers -----------------------------------------------------------------------------------
+    def set_layers(self, layers: list[LayerInput]) -> None:
+        """Replace the cosmetic layers (bottom first) and evaluate them in texture space."""
+        self.km.set_layers(layers)
+        self._update_layer_tables()
+
+    @classmethod
+    def for_document(cls, ctx: Any, doc: Any, **kwargs: Any) -> Renderer:
+        """A renderer of a ``painting.Document``'s head and layers (kept in sync by :meth:`attach`)."""
+        r = cls(ctx, doc.head, layout=getattr(doc, "layout", None), **kwargs)
+        r.sync_document(doc)
+        return r
+
+    def update_tiles(self, layer_index: int, thickness: np.ndarray | None, tiles: list[tuple[int, int]]) -> None:
+        """A layer's map changed in the 64² tiles ``tiles`` = [(column, row), …]: re-evaluate those.
+        (``painting.ChangeEvent.tiles`` are (row, column): :meth:`on_document_event` converts.)"""
+        self.km.update_tiles(layer_index, thickness, tiles)
+
+    def on_document_event(self, doc: Any, event: Any) -> None:
+        """Apply a ``painting.ChangeEvent``: "paint" → re-evaluate the touched tiles of that layer; any
+        other change (layers, material) → :meth:`sync_document`. Then call :meth:`render`."""
+        if getattr(event, "kind", "") == "paint" and event.layer is not None:
+            for i, lay in enumerate(doc.layers):
+                if lay.id == event.layer:
+                    if i < len(self.km.layers) and self.km.layers[i].thickness.shape == lay.thickness.shape:
+                        self.update_tiles(i, lay.thickness, [(c, r) for r, c in event.tiles])
+                        return
+                    break
+        self.sync_document(doc)
+
+    def attach(self, doc: Any) -> Any:
+        """Follow ``doc``'s change events (see :meth:`on_document_event`); returns the unsubscribe function.
+        Events are applied synchronously: call it with this renderer's GL context current."""
+        self.sync_document(doc)
+        return doc.subscribe(lambda event: self.on_document_event(doc, event))
+
+    def sync_document(self, doc: Any) -> None:
+        """Read every layer of a ``painting.Document`` (``doc.layers``: ``.material_object`` or
+        ``.material`` — a km Material or a library name —, ``.thickness``, ``.visible``, ``.opacity``)."""
+        layers = []
+        lib = None
+        for i, lay in enumerate(getattr(doc, "layers", [])):
+            mat = getattr(lay, "material_object", None) or lay.material
+            if isinstance(mat, str):
+                if lib is None:
+                    import km
+
+                    lib = getattr(doc, "library", None) or km.default_library()
+                mat = lib.get(mat)
+            layers.append(LayerInput(mat, lay.thickness, float(getattr(lay, "opacity", 1.0)),
+                                     bool(getattr(lay, "visible", True)), str(getattr(lay, "name", f"layer {i}"))))
+        self.set_layers(layers)
+
+    def _update_layer_tables(self) -> None:
+        lut = np.ones((MAX_LAYERS, 256, 4), np.float32)
+        self._layer_spec[:] = 0.0
+        self._lut_max[:] = 1.0
+        wl = self.km.wavelengths
+        for slot, i in enumerate(self.km.active):
+            lay = self.km.layers[i]
+            mat = lay.material
+            xmax = float(getattr(mat, "max_thickness_um", 100.0) or 100.0)
+            xs = np.linspace(0.0, xmax, 256)
+            s, k = material_sk(mat, wl)
+            _, t = layer_rt_np(s[None, :], k[None, :], xs[:, None] * 1e-3)
+            lut[slot, :, :3] = t @ self.km.matrix
+            self._lut_max[slot] = xmax
+            rough = float(getattr(mat, "roughness", 0.3))
+            ior = float(getattr(mat, "ior", 1.5))
+            f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
+            default_t = float(getattr(mat, "thickness_um", getattr(mat, "default_thickness_um", 10.0)) or 10.0)
+            smooth = 1.0 if getattr(mat, "category", "") in SMOOTHING_CATEGORIES else 0.0
+            self._layer_spec[slot] = (rough, f0, smooth, float(np.clip(0.3 * default_t, 0.5, 10.0)))
+        self.t_lut.write(lut.tobytes())
+
+    # -- environment ------------------------------------------------------------------------------
+    def set_environment(self, name_or_path: str | None, intensity: float = 0.5) -> None:
+        """Ambient light from an HDR environment (sample name like ``"studio"`` or an EXR path)."""
+        self.environment = None if name_or_path is None else Environment.load(name_or_path, intensity)
+
+    # -- targets ----------------------------------------------------------------------------------
+    def _ensure_targets(self, size: tuple[int, int]) -> None:
+        if size == self._size:
+            return
+        w, h = size
+        if w < 1 or h < 1 or w > 16384 or h > 16384:
+            raise RenderError(f"viewport size {w}×{h} is out of range (1..16384)")
+        old = list(self._targets.values())
+        t: dict[str, Any] = {}
+        for name in ("diffuse", "outer", "factor", "tmp", "accum"):  # RGBA16F, linear HDR
+            tex = self.ctx.texture(size, 4, dtype="f2")
+            tex.repeat_x = tex.repeat_y = False
+            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            t[name] = tex
+        t["depth"] = self.ctx.depth_texture(size)
+        t["gbuffer"] = self.ctx.framebuffer([t["diffuse"], t["outer"], t["factor"]], t["depth"])
+        t["tmp_fbo"] = self.ctx.framebuffer([t["tmp"]])
+        t["accum_fbo"] = self.ctx.framebuffer([t["accum"]])
+        half = ((w + 1) // 2, (h + 1) // 2)
+        for name in ("half_a", "half_b"):
+            tex = self.ctx.texture(half, 4, dtype="f2")
+            tex.repeat_x = tex.repeat_y = False
+            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            t[name] = tex
+            t[name + "_fbo"] = self.ctx.framebuffer([tex])
+        t["gbuffer"].use()
+        for obj in old:
+            obj.release()
+        self._targets = t
+        self._size = size
+
+    # -- programs ---------------------------------------------------------------------------------
+    def _frame_program(self, n: int) -> Any:
+        if n not in self._frame_programs:
+            self._frame_programs[n] = self.shaders.program(self.ctx, "mesh.vert", "frame.frag", {"NL": n})
+        return self._frame_programs[n]
+
+    def _fast_program(self, taps: int) -> Any:
+        if taps not in self._fast_programs:
+            self._fast_programs[taps] = self.shaders.program(self.ctx, "fullscreen.vert", "sss_fast.frag",
+                                                             {"NTAPS": taps})
+        return self._fast_programs[taps]
+
+    def _quad(self, program: Any) -> Any:
+        q = self._quads.get(program.glo)
+        if q is None:
+            q = self._quads[program.glo] = self.ctx.vertex_array(program, [])
+        return q
+
+    @staticmethod
+    def _set(program: Any, name: str, value: Any) -> None:
+        if name in program:
+            program[name].value = value
+
+    @staticmethod
+    def _write(program: Any, name: str, data: np.ndarray) -> None:
+        if name in program:
+            u = program[name]
+            n = max(u.array_length, 1)
+            arr = np.asarray(data, dtype=np.float32)
+            arr = arr.reshape(-1, *arr.shape[2:]) if arr.ndim > 2 else arr
+            u.write(np.ascontiguousarray(arr[:n] if arr.ndim > 1 or n > 1 else arr).tobytes())
+
+    # -- the frame --------------------------------------------------------------------------------
+    def _screen_rect(self, view_proj: np.ndarray, size: tuple[int, int]) -> tuple[int, int, int, int]:
+        v = self.head.vertices
+        lo, hi = v.min(0), v.max(0)
+        corners = np.array([[x, y, z, 1.0] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        c = corners @ view_proj.T
+        w, h = size
+        if np.any(c[:, 3] <= 1e-6):
+            return (0, 0, w, h)
+        ndc = c[:, :2] / c[:, 3:4]
+        x0 = int(np.floor((ndc[:, 0].min() * 0.5 + 0.5) * w)) - 2
+        x1 = int(np.ceil((ndc[:, 0].max() * 0.5 + 0.5) * w)) + 2
+        y0 = int(np.floor((ndc[:, 1].min() * 0.5 + 0.5) * h)) - 2
+        y1 = int(np.ceil((ndc[:, 1].max() * 0.5 + 0.5) * h)) + 2
+        x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+        return (x0, y0, max(x1 - x0, 0), max(y1 - y0, 0))
+
+    def _validate_lights(self) -> None:
+        if len(self.lights) > MAX_LIGHTS:
+            raise RenderError(f"at most {MAX_LIGHTS} lights, got {len(self.lights)}")
+        for i, lt in enumerate(self.lights):
+            lt.validate(f"light {i}")
+
+    def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> FrameInfo:
+        """Render one frame into ``fbo`` (e.g. ``ctx.detect_framebuffer(...)``) over ``viewport``
+        (x, y, width, height in pixels; default the whole framebuffer). Leaves ``fbo`` bound."""
+        s = self.settings
+        s.validate()
+        self._validate_lights()
+        vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
+        self._ensure_targets((w, h))
+        ctx = self.ctx
+        aspect = w / h
+        view = self.camera.view()
+        view_proj = self.camera.projection(aspect) @ view
+        rect = self._screen_rect(view_proj, (w, h))
+        self.last = FrameInfo((w, h), view, view_proj, rect)
+
+        # 1. shadow maps (cached until a light moves)
+        if self.shadows.size != s.shadow_size:
+            self.shadows.release()
+            self.shadows = ShadowMaps(ctx, self.shaders, s.shadow_size)
+        shadowed = [lt for lt in self.lights if lt.shadows]
+        if shadowed:
+            self.shadows.update(self.lights, self.gpu_head.centre, self.gpu_head.radius, self.gpu_head.draw)
+
+        # 2. lit pass into the G-buffer
+        n = len(self.km.active)
+        prog = self._frame_program(n)
+        gb = self._targets["gbuffer"]
+        gb.use()
+        gb.viewport = (0, 0, w, h)
+        gb.scissor = None
+        ctx.scissor = None
+        gb.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.BLEND | ctx.CULL_FACE)
+        self.gpu_head.bind_textures(0)
+        self.km.bind(_U_KM)
+        self.skin_mask.use(_U_MASK)
+        self.t_lut.use(_U_LUT)
+        for slot in range(n):
+            self.km.thickness_textures[slot].use(_U_THICK + slot)
+        self.shadows.texture.use(_U_SHADOW)
+        units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
+                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_skin_mask": _U_MASK, "u_t_lut": _U_LUT}
+        for name, unit in units.items():
+            self._set(prog, name, unit)
+        if n and "u_layer_thick" in prog:
+            u = prog["u_layer_thick"]
+            u.value = list(range(_U_THICK, _U_THICK + u.array_length)) if u.array_length > 1 else _U_THICK
+        self._set(prog, "u_shadow", _U_SHADOW)
+        self._write(prog, "u_view_proj", view_proj.T.reshape(1, 16))
+        self._write(prog, "u_view", view.T.reshape(1, 16))
+        self._set(prog, "u_eye", tuple(float(x) for x in self.camera.eye()))
+        self._set(prog, "u_normal_strength", float(s.normal_strength))
+        self._set(prog, "u_skin_roughness", float(s.skin_roughness))
+        self._set(prog, "u_skin_f0", float(s.skin_f0))
+        self._set(prog, "u_spec_intensity", float(s.spec_intensity))
+        self._set(prog, "u_makeup_on", 1.0 if s.makeup and n > 0 else 0.0)
+        gh = self.gpu_head
+        self._set(prog, "u_has_maps", (int(gh.has_specular_map), int(gh.has_roughness_map),
+                                       int(self.head.skin_mask is not None)))
+        self._set(prog, "u_debug", DEBUG_VIEWS[s.debug_view])
+        self._set(prog, "u_debug_layer", int(s.debug_layer))
+        self._write(prog, "u_layer_spec", self._layer_spec)
+        self._write(prog, "u_lut_max", self._lut_max)
+        opac = np.zeros(MAX_LAYERS, np.float32)
+        for slot, i in enumerate(self.km.active):
+            opac[slot] = self.km.layers[i].opacity
+        self._write(prog, "u_opacity", opac)
+        self._upload_lights(prog)
+        self.gpu_head.draw(prog)
+        ctx.disable(ctx.DEPTH_TEST)
+
+        # 3-6. SSS, composite, display
+        tonemap = {"raw": -1, "none": 0, "aces": 1}[s.tonemap]
+        px_per_mm = h / (2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0)) / self.gpu_head.mm_per_unit
+        t = self._targets
+        rx, ry, rw, rh = rect
+        debug = DEBUG_VIEWS[s.debug_view]
+        mode = 0
+        w0: tuple[float, ...] = (1.0, 1.0, 1.0)
+        if debug == 0 and s.mode == "fast":
+            # wide lobes on the half-resolution grid, the kernel's centre (c²·E) at full resolution
+            mode = 2
+            # the kernel's core: taps within 1.5 full-resolution pixels at the head's distance
+            mm_per_px = (self.camera.distance * 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / h
+                         * self.gpu_head.mm_per_unit)
+            k = fast_kernel(s.taps, s.sss_width, core_mm=1.5 * mm_per_px)
+            w0 = tuple(float(c * c) for c in k[0, :3])
+            hw, hh = t["half_a"].size
+            hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
+            hp = self._fast_program(s.taps)
+            t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
+            self._blur_common(hp, px_per_mm, t["diffuse"], (1.0, 0.0))
+            self._write(hp, "u_kernel", k)
+            self._set(hp, "u_final", 0)
+            t["half_a_fbo"].use()
+            t["half_a_fbo"].viewport = (0, 0, hw, hh)
+            ctx.scissor = hrect
+            self._quad(hp).render(vertices=3)
+            self._blur_common(hp, px_per_mm * 0.5, t["half_a"], (0.0, 1.0))
+            t["diffuse"].use(1)
+            self._set(hp, "u_centre", 1)
+            self._set(hp, "u_final", 1)
+            t["half_b_fbo"].use()
+            t["half_b_fbo"].viewport = (0, 0, hw, hh)
+            t["half_b_fbo"].clear(0.0, 0.0, 0.0, 0.0)
+            ctx.scissor = hrect
+            self._quad(hp).render(vertices=3)
+            accum = t["half_b"]
+        elif debug == 0 and s.mode == "reference":
+            mode = 1
+            w0 = tuple(float(x) for x in SKIN_GAUSSIANS[0][1:])
+            t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR)
+            gp = self._gauss
+            acc = t["accum_fbo"]
+            acc.use()
+            acc.viewport = (0, 0, w, h)
+            ctx.scissor = None
+            acc.clear(0.0, 0.0, 0.0, 0.0)
+            ctx.scissor = (rx, ry, rw, rh)
+            for var, *wt in SKIN_GAUSSIANS[1:]:
+                sigma = math.sqrt(var) * s.sss_width
+                self._blur_common(gp, px_per_mm, t["diffuse"], (1.0, 0.0))
+                self._set(gp, "u_sigma_mm", sigma)
+                self._set(gp, "u_weight", (1.0, 1.0, 1.0))
+                t["tmp_fbo"].use()
+                ctx.disable(ctx.BLEND)
+                self._quad(gp).render(vertices=3)
+                self._blur_common(gp, px_per_mm, t["tmp"], (0.0, 1.0))
+                self._set(gp, "u_weight", tuple(float(x) for x in wt))
+                acc.use()
+                ctx.enable(ctx.BLEND)
+                ctx.blend_func = ctx.ONE, ctx.ONE
+                self._quad(gp).render(vertices=3)
+            ctx.disable(ctx.BLEND)
+            accum = t["accum"]
+        else:
+            accum = t["accum"]
+        cp = self._composite
+        t["diffuse"].use(0)
+        accum.use(1)
+        t["factor"].use(3)
+        for name, unit in (("u_src", 0), ("u_accum", 1), ("u_factor", 3)):
+            self._set(cp, name, unit)
+        self._set(cp, "u_w0", w0)
+        self._set(cp, "u_mode", mode)
+        self._display_common(cp, tonemap, debug)
+        self._to_target(fbo, (vx, vy, w, h), rect, cp)
+        ctx.scissor = None
+        fbo.scissor = None
+        return self.last
+
+    def _blur_common(self, prog: Any, px_per_mm: float, src: Any, direction: tuple[float, float]) -> None:
+        src.use(0)
+        self._targets["factor"].use(1)
+        self._set(prog, "u_src", 0)
+        self._set(prog, "u_factor", 1)
+        self._set(prog, "u_dir", direction)
+        self._set(prog, "u_px_per_mm_at_1", float(px_per_mm))
+        self._set(prog, "u_mm_per_unit", float(self.gpu_head.mm_per_unit))
+        self._set(prog, "u_follow", float(self.settings.follow_surface))
+        self._set(prog, "u_width", float(self.settings.sss_width))
+
+    def _display_common(self, prog: Any, tonemap: int, debug: int) -> None:
+        self._targets["outer"].use(2)
+        self._set(prog, "u_outer", 2)
+        self._set(prog, "u_background", tuple(float(x) for x in self.settings.background))
+        self._set(prog, "u_exposure", float(self.settings.exposure))
+        self._set(prog, "u_tonemap", tonemap)
+        self._set(prog, "u_debug", debug)
+
+    def _to_target(self, fbo: Any, viewport: tuple[int, int, int, int], rect: tuple[int, int, int, int],
+                   prog: Any) -> None:
+        """Clear ``fbo``'s viewport to the background, then run ``prog`` over the head's screen rectangle."""
+        ctx = self.ctx
+        vx, vy, w, h = viewport
+        fbo.use()
+        fbo.viewport = viewport
+        bg = self.settings.background
+        enc = [float(c * 12.92 if c <= 0.0031308 else 1.055 * c ** (1 / 2.4) - 0.055) for c in bg]
+        if self.settings.tonemap == "raw":
+            enc = [float(c) for c in bg]
+        ctx.scissor = viewport
+        fbo.clear(enc[0], enc[1], enc[2], 1.0, viewport=viewport)
+        rx, ry, rw, rh = rect
+        ctx.scissor = (vx + rx, vy + ry, rw, rh)
+        ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
+        if rw > 0 and rh > 0:
+            self._quad(prog).render(vertices=3)
+        ctx.scissor = None
+
+    def _upload_lights(self, prog: Any) -> None:
+        n = len(self.lights)
+        vec = np.zeros((MAX_LIGHTS, 4), np.float32)
+        col = np.zeros((MAX_LIGHTS, 4), np.float32)
+        par = np.zeros((MAX_LIGHTS, 4), np.float32)
+        mats = np.zeros((MAX_LIGHTS, 16), np.float32)
+        tiles = np.array([self.shadows.tile(i) for i in range(MAX_LIGHTS)], np.float32)
+        for i, lt in enumerate(self.lights):
+            v = np.asarray(lt.vector, float)
+            if lt.kind == "directional":
+                vec[i] = (*(v / np.linalg.norm(v)), 0.0)
+            else:
+                vec[i] = (*v, 1.0)
+            col[i] = (*(np.asarray(lt.colour) * lt.intensity), lt.reference_distance)
+            if lt.shadows:
+                texel = self.shadows.texel_world[i]
+                par[i] = (1.0, self.settings.pcf_radius, texel * 0.5, texel)
+                mats[i] = self.shadows.matrices[i].T.reshape(16)
+        self._set(prog, "u_nlights", n)
+        self._write(prog, "u_light_vec", vec)
+        self._write(prog, "u_light_col", col)
+        self._write(prog, "u_shadow_par", par)
+        self._write(prog, "u_light_mat", mats)
+        self._write(prog, "u_shadow_tile", tiles)
+        env = self.environment
+        self._set(prog, "u_env_on", 1.0 if env is not None else 0.0)
+        self._write(prog, "u_sh", env.coefficients if env is not None else np.zeros((9, 3)))
+
+    # -- baseline (benchmark) ---------------------------------------------------------------------
+    def render_baseline(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
+        """The benchmark baseline: same mesh and albedo, one Lambert light, no post-processing
+        (``fbo`` needs a depth attachment)."""
+        if self._baseline is None:
+            self._baseline = self.shaders.program(self.ctx, "mesh.vert", "baseline.frag")
+        vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
+        prog = self._baseline
+        fbo.use()
+        fbo.viewport = (vx, vy, w, h)
+        fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        self.ctx.enable(self.ctx.DEPTH_TEST)
+        vp = self.camera.view_projection(w / h)
+        self._write(prog, "u_view_proj", vp.T.reshape(1, 16))
+        self._write(prog, "u_view", self.camera.view().T.reshape(1, 16))
+        key = self.lights[0] if self.lights else Light()
+        d = np.asarray(key.vector, float)
+        self._set(prog, "u_light_dir", tuple(float(x) for x in d / np.linalg.norm(d)))
+        self.gpu_head.albedo.use(0)
+        self._set(prog, "u_albedo", 0)
+        self.gpu_head.draw(prog)
+        self.ctx.disable(self.ctx.DEPTH_TEST)
+
+    # -- picking ----------------------------------------------------------------------------------
+    def depth_at(self, x: int, y: int) -> float | None:
+        """Window depth in [0, 1] of the last frame at pixel (x, y), origin top-left; None = background."""
+        w, h = self.last.size
+        if not (0 <= x < w and 0 <= y < h) or "gbuffer" not in self._targets:
+            return None
+        raw = self._targets["gbuffer"].read(viewport=(int(x), int(h - 1 - y), 1, 1), attachment=-1, dtype="f4")
+        z = float(np.frombuffer(raw, np.float32)[0])
+        return None if z >= 1.0 else z
+
+    def inverse_view_projection(self) -> np.ndarray:
+        """Inverse of the last frame's view-projection matrix (4×4 float64, column vectors)."""
+        return np.linalg.inv(self.last.view_proj)
+
+    def unproject(self, x: float, y: float, depth: float) -> np.ndarray:
+        """World point (mesh units) of pixel (x, y) (origin top-left, pixel centres at +0.5) at window depth."""
+        w, h = self.last.size
+        ndc = np.array([2.0 * (x + 0.5) / w - 1.0, 1.0 - 2.0 * (y + 0.5) / h, 2.0 * depth - 1.0, 1.0])
+        p = self.inverse_view_projection() @ ndc
+        return p[:3] / p[3]
+
+    def pick(self, x: int, y: int) -> np.ndarray | None:
+        """The surface point (mesh units) under pixel (x, y) of the last frame, or None."""
+        z = self.depth_at(x, y)
+        return None if z is None else self.unproject(x, y, z)
+
+    # -- convenience ------------------------------------------------------------------------------
+    def render_image(self, size: tuple[int, int], linear: bool = False) -> np.ndarray:
+        """Render to an offscreen target and return the image, top row first: uint8 (H, W, 3), or
+        float32 (H, W, 3) linear values if ``linear`` (sets ``tonemap='raw'`` for this frame)."""
+        w, h = size
+        dtype = "f4" if linear else "f1"
+        colour = self.ctx.texture((w, h), 4, dtype=dtype)
+        fbo = self.ctx.framebuffer([colour])
+        saved = self.settings.tonemap
+        try:
+            if linear:
+                self.settings.tonemap = "raw"
+            self.render(fbo, (0, 0, w, h))
+            raw = fbo.read(components=3, dtype=dtype)
+        finally:
+            self.settings.tonemap = saved
+            if "gbuffer" in self._targets:  # never leave a deleted framebuffer bound (moderngl re-binds it)
+                self._targets["gbuffer"].use()
+            fbo.release()
+            colour.release()
+        a = np.frombuffer(raw, np.float32 if linear else np.uint8).reshape(h, w, 3)
+        return np.ascontiguousarray(a[::-1])
+
+    def release(self) -> None:
+        """Free every GPU object (call with this renderer's context current)."""
+        objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
+                           self._gauss, self._composite, self.skin_mask, self.t_lut,
+                           *self._targets.values()]
+        if self._baseline is not None:
+            objs.append(self._baseline)
+        for obj in objs:
+            obj.release()
+        self._quads, self._frame_programs, self._fast_programs, self._targets = {}, {}, {}, {}
+        self.km.release()
+        self.shadows.release()
+        self.gpu_head.release()

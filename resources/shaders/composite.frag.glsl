@@ -1,0 +1,40 @@
+#version 450 core
+// Final composite: skin diffuse after SSS, out-scatter through the makeup (factor = sqrt(albedo) T /
+// (1 - R_bottom albedo)), plus the makeup's reflection and the specular (outer); exposure, tone map, sRGB.
+// u_mode: 0 = no SSS; 1 = reference: w0 E + the accumulated blurred Gaussians (w0: the narrowest
+// Gaussian, below a pixel); 2 = fast: c^2 E + the (half-resolution, premultiplied) wide part.
+// u_debug != 0: show outer (the debug view's colour) as it is.
+#include "common.glsl"
+in vec2 v_uv;
+uniform sampler2D u_src;      // unblurred diffuse; a = coded depth (see frame.frag)
+uniform sampler2D u_accum;    // mode 1: sum of weighted Gaussians (full res); mode 2: wide part (rgb, coverage)
+uniform sampler2D u_factor;   // rgb: out-scatter factor; a = linear depth (0 = background)
+uniform sampler2D u_outer;
+uniform vec3 u_w0;
+uniform int u_mode;
+uniform int u_debug;
+uniform vec3 u_background;
+uniform float u_exposure;
+uniform int u_tonemap;
+out vec4 o_colour;
+void main() {
+    vec4 f = textureLod(u_factor, v_uv, 0.0);
+    if (f.a <= 0.0) {
+        o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb(u_background), 1.0);
+        return;
+    }
+    vec3 outer = textureLod(u_outer, v_uv, 0.0).rgb;
+    if (u_debug != 0) { o_colour = vec4(linear_to_srgb(outer), 1.0); return; }
+    vec4 src = textureLod(u_src, v_uv, 0.0);
+    vec3 d = src.rgb;
+    if (src.a > 0.0) {
+        if (u_mode == 1) {
+            d = src.rgb * u_w0 + textureLod(u_accum, v_uv, 0.0).rgb;
+        } else if (u_mode == 2) {
+            vec4 wide = textureLod(u_accum, v_uv, 0.0);
+            if (wide.a > 1e-3) d = src.rgb * u_w0 + wide.rgb / wide.a;
+        }
+    }
+    vec3 c = d * f.rgb + outer;
+    o_colour = vec4(display(c, u_exposure, u_tonemap), 1.0);
+}

@@ -1,0 +1,137 @@
+#version 450 core
+// The lit pass (Huang 2013 Fig. 1): irradiance through the makeup, specular, makeup reflection.
+// Outputs (linear HDR, display units):
+//   o_diffuse: E*T*sqrt(albedo) for the SSS blur; a = linear depth on skin, -depth elsewhere (0: background)
+//   o_outer:   R_top*E + specular (not blurred), or the debug view's colour (already final, linear)
+//   o_factor:  sqrt(albedo)*T/(1 - R_bottom*albedo) (out-scatter through the makeup); a = linear depth
+// Define NL = number of cosmetic layers (specialised program).
+#include "common.glsl"
+#include "lighting.glsl"
+#include "specular.glsl"
+
+in vec3 v_pos;
+in vec3 v_normal;
+in vec4 v_tangent;
+in vec2 v_uv;
+in vec2 v_uv_paint;
+in float v_depth;
+
+uniform sampler2D u_albedo;      // unit 0, sRGB texture -> linear
+uniform sampler2D u_normal_map;  // unit 1
+uniform sampler2D u_spec_map;    // unit 2 (multiplies skin specular)
+uniform sampler2D u_rough_map;   // unit 3 (multiplies skin roughness)
+uniform sampler2D u_rtop;        // unit 4
+uniform sampler2D u_trans;       // unit 5
+uniform sampler2D u_rbottom;     // unit 6
+uniform sampler2D u_skin_mask;   // unit 7
+uniform sampler2D u_t_lut;       // unit 8: per layer (row) T_rgb(X), X in [0, u_lut_max[i]]
+#if NL > 0
+uniform sampler2D u_layer_thick[NL];  // units 9.. : µm
+#endif
+uniform vec4 u_layer_spec[8];    // per layer: roughness, F0, smooths skin (1/0), coverage scale (µm)
+uniform float u_lut_max[8];      // µm
+uniform float u_opacity[8];      // scales thickness
+uniform vec3 u_eye;
+uniform float u_normal_strength;
+uniform float u_skin_roughness;
+uniform float u_skin_f0;
+uniform float u_spec_intensity;  // rho_s
+uniform float u_makeup_on;
+uniform ivec3 u_has_maps;        // specular map, roughness map, skin mask present
+uniform int u_debug;             // 0 lit, 1 albedo, 2 thickness heat map, 3 R_top, 4 T, 5 irradiance, 6 unlit
+uniform int u_debug_layer;
+
+layout(location = 0) out vec4 o_diffuse;
+layout(location = 1) out vec4 o_outer;
+layout(location = 2) out vec4 o_factor;
+
+vec3 heat(float t) {  // 0 -> dark blue, 1 -> yellow-white
+    t = clamp(t, 0.0, 1.0);
+    return vec3(smoothstep(0.3, 0.8, t), smoothstep(0.0, 0.6, t) * smoothstep(1.2, 0.6, t) + smoothstep(0.8, 1.0, t),
+                0.3 + 0.7 * smoothstep(0.0, 0.3, t) * (1.0 - smoothstep(0.3, 0.7, t)));
+}
+
+void main() {
+    vec3 Ng = normalize(v_normal);
+    vec3 V = normalize(u_eye - v_pos);
+    if (dot(Ng, V) < 0.0) Ng = -Ng;  // back faces seen through holes
+    vec3 albedo = texture(u_albedo, v_uv).rgb;
+    bool skin = u_has_maps.z == 0 || texture(u_skin_mask, v_uv).r > 0.5;
+
+    // makeup in texture space
+    vec3 rtop = vec3(0.0), tr = vec3(1.0), rbot = vec3(0.0);
+    if (u_makeup_on > 0.5) {
+        rtop = texture(u_rtop, v_uv_paint).rgb;
+        tr = texture(u_trans, v_uv_paint).rgb;
+        rbot = texture(u_rbottom, v_uv_paint).rgb;
+    }
+
+    // foundation smoothing: coverage of smoothing layers flattens the normal detail and sets roughness
+    float smooth_cov = 0.0;
+    float smooth_rough = u_skin_roughness;
+    float X[8];
+#if NL > 0
+    for (int i = 0; i < NL; ++i) {
+        X[i] = u_makeup_on > 0.5 ? max(texture(u_layer_thick[i], v_uv_paint).r, 0.0) * u_opacity[i] : 0.0;
+        float c = 1.0 - exp(-X[i] / max(u_layer_spec[i].w, 1e-3));
+        if (u_layer_spec[i].z > 0.5 && c > smooth_cov) { smooth_cov = c; smooth_rough = u_layer_spec[i].x; }
+    }
+#endif
+    vec3 nt = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
+    nt.xy *= u_normal_strength * (1.0 - 0.7 * smooth_cov);
+    vec3 T = normalize(v_tangent.xyz - Ng * dot(Ng, v_tangent.xyz));
+    vec3 B = cross(Ng, T) * v_tangent.w;
+    vec3 N = normalize(T * nt.x + B * nt.y + Ng * max(nt.z, 1e-3));
+    if (dot(N, V) < 0.0) N = normalize(N - V * dot(N, V) * 1.01);
+
+    float skin_m = mix(u_skin_roughness * (u_has_maps.y != 0 ? texture(u_rough_map, v_uv).r : 1.0),
+                       smooth_rough, smooth_cov);
+    float skin_rho = u_spec_intensity * (u_has_maps.x != 0 ? texture(u_spec_map, v_uv).r : 1.0);
+
+    vec3 E = sh_irradiance(N);
+    vec3 spec = vec3(0.0);
+    for (int i = 0; i < u_nlights; ++i) {
+        vec3 L = light_direction(i, v_pos);
+        float ndl = dot(N, L);
+        float ndl_g = dot(Ng, L);
+        if (ndl_g <= -0.2 && ndl <= 0.0) continue;
+        float sh = shadow_factor(i, v_pos, Ng, L);
+        vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
+        E += Ei * max(ndl, 0.0);
+        if (ndl <= 0.0) continue;
+        // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
+        // highlight below attenuated by the transmittance of the layer above it
+        vec3 s = vec3(skin_rho * kelemen(N, L, V, max(skin_m, 0.05), u_skin_f0));
+#if NL > 0
+        for (int k = 0; k < NL; ++k) {
+            if (X[k] <= 0.0) continue;
+            vec3 tk = texture(u_t_lut, vec2(clamp(X[k] / u_lut_max[k], 0.0, 1.0), (float(k) + 0.5) / 8.0)).rgb;
+            float ck = 1.0 - exp(-X[k] / max(u_layer_spec[k].w, 1e-3));
+            s = s * tk + vec3(ck * u_spec_intensity * kelemen(N, L, V, max(u_layer_spec[k].x, 0.05), u_layer_spec[k].y));
+        }
+#endif
+        spec += s * Ei * ndl;
+    }
+
+    vec3 sa = sqrt(max(albedo, vec3(0.0)));
+    vec3 out_factor = sa * tr / max(vec3(1.0) - rbot * albedo, vec3(1e-4));
+    o_diffuse = vec4(E * tr * sa, skin ? v_depth : -v_depth);
+    o_outer = vec4(rtop * E + spec, 1.0);
+    o_factor = vec4(out_factor, v_depth);
+
+    if (u_debug != 0) {
+        vec3 c = vec3(0.0);
+        if (u_debug == 1) c = albedo;
+        else if (u_debug == 2) {
+#if NL > 0
+            int k = clamp(u_debug_layer, 0, NL - 1);
+            c = X[k] > 0.0 ? heat(X[k] / max(u_lut_max[k], 1e-3)) : vec3(0.02);
+#endif
+        }
+        else if (u_debug == 3) c = rtop;
+        else if (u_debug == 4) c = tr;
+        else if (u_debug == 5) c = E * 0.25;
+        else if (u_debug == 6) c = rtop + albedo * tr * tr / max(vec3(1.0) - rbot * albedo, vec3(1e-4));
+        o_outer = vec4(c, 1.0);
+    }
+}

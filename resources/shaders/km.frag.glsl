@@ -1,0 +1,46 @@
+#version 450 core
+// Texture-space Kubelka-Munk stack, spectral per texel (see render/km_pass.py).
+// Defines: NW (wavelength count), MAX_LAYERS.
+#include "km.glsl"
+
+layout(std140, binding = 0) uniform KMParams {
+    vec4 u_skb[MAX_LAYERS * NW];   // per layer, per wavelength: S, K (per mm), beta = sqrt(K^2 + 2KS)
+    vec4 u_rgb[NW];                // wavelength -> linear sRGB weights (xyz)
+};
+uniform sampler2D u_thick[MAX_LAYERS];  // µm
+uniform float u_scale[MAX_LAYERS];       // µm -> mm times opacity
+uniform int u_nlayers;  // == NL (the program is specialised per layer count)
+
+layout(location = 0) out vec4 o_rtop;
+layout(location = 1) out vec4 o_t;
+layout(location = 2) out vec4 o_rbottom;
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    float X[NL + 1];
+    bool any_layer = false;
+    for (int i = 0; i < NL; ++i) {
+        X[i] = 0.0;
+        if (i < NL) {
+            X[i] = max(texelFetch(u_thick[i], p, 0).r, 0.0) * u_scale[i];
+            any_layer = any_layer || X[i] > 0.0;
+        }
+    }
+    if (!any_layer) {
+        o_rtop = vec4(0.0); o_t = vec4(1.0, 1.0, 1.0, 0.0); o_rbottom = vec4(0.0);
+        return;
+    }
+    vec3 rt = vec3(0.0), tt = vec3(0.0), rb = vec3(0.0);
+    for (int w = 0; w < NW; ++w) {
+        float R = 0.0, Rb = 0.0, T = 1.0;
+        for (int i = 0; i < NL; ++i) {
+            // X = 0 gives R0 = 0, T = 1 exactly: no branch needed
+            vec4 skb = u_skb[i * NW + w];
+            vec2 rt0 = km_layer(skb.x, skb.y, skb.z, X[i]);
+            km_put_on_top(rt0.x, rt0.y, R, Rb, T);
+        }
+        vec3 m = u_rgb[w].xyz;
+        rt += m * R; tt += m * T; rb += m * Rb;
+    }
+    o_rtop = vec4(rt, 1.0); o_t = vec4(tt, 1.0); o_rbottom = vec4(rb, 1.0);
+}
