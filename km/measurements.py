@@ -4,8 +4,8 @@ invert them to materials, and export materials as CSV.
 CSV
 ---
 One header row naming the columns, then one row per wavelength; ``#`` lines before the header carry
-metadata as ``# key: value`` (or ``key = value``). Columns (names are case-insensitive, extra columns are
-ignored): ``wavelength`` (nm; also ``wavelength_nm``, ``nm``, ``lambda``), ``R_inf`` (also ``Rinf``,
+metadata as ``# key: value`` (or ``key = value``). Columns (names are case-insensitive, units in
+brackets are ignored, extra columns are ignored): ``wavelength`` (nm; also ``wavelength_nm``, ``nm``, ``lambda``), ``R_inf`` (also ``Rinf``,
 ``R∞``), ``R`` (also ``R_black``), ``Rg`` (also ``R_g``). Reflectances are fractions in [0, 1].
 Metadata keys: ``D_mm`` (thickness of the R sample in mm; ``--thickness-mm`` overrides it), ``name``,
 ``category``, ``instrument``, ``illuminant``, ``saunderson_k1``, ``saunderson_k2``, ``source``
@@ -286,6 +286,13 @@ _CSV_COLUMNS: dict[str, tuple[str, ...]] = {
 _META_RE = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_ ]*?)\s*[:=]\s*(.*?)\s*$")
 
 
+def _column_key(text: str) -> str:
+    """Normalised column name: lowercase, units in brackets dropped, spaces as underscores
+    (``"Wavelength (nm)"`` → ``wavelength``, ``"R inf"`` → ``r_inf``)."""
+    key = re.sub(r"[\(\[].*?[\)\]]", "", text.strip().strip('"')).strip().lower()
+    return re.sub(r"\s+", "_", key)
+
+
 def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
              category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
     """Import one material from a CSV triplet file (see the module docstring). ``thickness_mm`` (D, mm)
@@ -316,7 +323,7 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
         raise MeasurementImportError(f"{source}: no header row (expected columns wavelength, R_inf, R, Rg)")
     header_line = lines[header_index]
     delimiter = "\t" if "\t" in header_line else (";" if ";" in header_line and "," not in header_line else ",")
-    header = [h.strip().strip('"').lower() for h in next(csv.reader([header_line], delimiter=delimiter))]
+    header = [_column_key(h) for h in next(csv.reader([header_line], delimiter=delimiter))]
     columns: dict[str, int] = {}
     for key, aliases in _CSV_COLUMNS.items():
         found = [j for j, h in enumerate(header) if h in aliases]

@@ -8,7 +8,9 @@ import importlib.util
 import json
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 import pytest
@@ -64,8 +66,8 @@ def _good(lib: Library) -> dict:
     return json.loads(lib.dumps())
 
 
-def _mutations() -> list:
-    def set_(path: list, value: object):
+def _mutations() -> list[tuple[str, Callable[[dict], object] | None, str]]:
+    def set_(path: list, value: object) -> Callable[[dict], None]:
         def f(d: dict) -> None:
             target = d
             for key in path[:-1]:
@@ -101,7 +103,8 @@ def _mutations() -> list:
 
 
 @pytest.mark.parametrize(("case", "mutate", "words"), _mutations(), ids=[m[0] for m in _mutations()])
-def test_malformed_files_are_refused_naming_file_and_field(lib: Library, tmp_path: Path, case: str, mutate,
+def test_malformed_files_are_refused_naming_file_and_field(lib: Library, tmp_path: Path, case: str,
+                                                          mutate: Callable[[dict], object] | None,
                                                           words: str) -> None:
     path = tmp_path / "bad.json"
     text = lib.dumps()
@@ -311,7 +314,7 @@ def test_default_library_returns_independent_copies() -> None:
     assert len(b) == n and "Mine" not in b and b.path is None
 
 
-def _load_builder(monkeypatch: pytest.MonkeyPatch):
+def _load_builder(monkeypatch: pytest.MonkeyPatch) -> ModuleType:
     spec = importlib.util.spec_from_file_location("build_default_library",
                                                   ROOT / "scripts" / "build_default_library.py")
     assert spec is not None and spec.loader is not None

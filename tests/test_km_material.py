@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -116,7 +117,7 @@ def _good_json() -> dict:
         (lambda d: d["measurement"].pop("illuminant"), "materials[3].measurement", "missing field illuminant"),
     ],
 )
-def test_from_json_names_the_field(mutate, field: str, words: str) -> None:
+def test_from_json_names_the_field(mutate: Callable[[dict], object], field: str, words: str) -> None:
     data = _good_json()
     mutate(data)
     with pytest.raises(MaterialError) as info:

@@ -126,7 +126,7 @@ def test_semicolon_csv_and_saunderson(tmp_path: Path) -> None:
     ri, r, rg = _triplet(s, k, 0.15)
     k1, k2 = 0.04, 0.6
     measured = [km.saunderson(x, k1, k2) for x in (ri, r, rg)]
-    lines = ["# D_mm = 0.15", f"# saunderson_k1: {k1}", f"# saunderson_k2: {k2}", "Wavelength;R_inf;R;Rg"]
+    lines = ["# D_mm = 0.15", f"# saunderson_k1: {k1}", f"# saunderson_k2: {k2}", "Wavelength (nm);R inf;R;Rg"]
     lines += [";".join([f"{w:g}"] + [repr(float(c[i])) for c in measured]) for i, w in enumerate(GRID)]
     path = tmp_path / "s.csv"
     path.write_text("\n".join(lines) + "\n")
