@@ -7,7 +7,7 @@ comes last — so overexposure loses the detail in the highlights, as the paper'
 [0, 2ⁿ] texture range with n doubling passes is replaced by a float texture (one pass).
 
 Eye highlights: two purely specular hemispheres of the cornea's 7.8 mm radius (converted with the
-head's mm per unit) at the ``left_eye``/``right_eye`` landmarks, exponent 2000, added on top of the
+head's mm per unit) at the ``left_eye``/``right_eye`` landmarks, exponent 500, added on top of the
 face's display value.
 
 Cosmetic layers: the skin albedo is detail × fitted diffuse; the texture-space KM outputs of the
@@ -32,7 +32,7 @@ from render.shaders import ShaderLibrary
 
 #: Cornea radius (Wyszecki & Stiles, via the paper), millimetres.
 CORNEA_RADIUS_MM = 7.8
-EYE_SHININESS = 2000.0
+EYE_SHININESS = 500.0
 
 
 def hemisphere(radius: float, rings: int = 8, segments: int = 32) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,107 @@
+"""The lightweight engine (render/lightweight.py) on llvmpipe: Phong × detail, clamping after modulation,
+shadows, ≤ 8 lights, eye highlights, cosmetic layers from KM textures."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from capture.phong import PhongParams
+from capture.pipeline import Face
+
+pytestmark = pytest.mark.gl
+SIZE = (320, 180)
+
+
+@pytest.fixture(scope="module")
+def head() -> Any:
+    from painting.head import load_head
+
+    return load_head()
+
+
+def _face(head: Any) -> Face:
+    from capture.pipeline import srgb_to_linear
+
+    alb = srgb_to_linear(head.albedo / 255.0)
+    detail = (alb / alb.reshape(-1, 3).mean(axis=0)).astype(np.float32)
+    params = PhongParams(diffuse=np.array([0.6, 0.42, 0.33]), specular=0.2, exponent=24.0, ambient_scale=1.0,
+                         flash_rgb=np.ones(3), ambient_rgb=np.full(3, 0.02))
+    return Face(params=params, detail=detail, data={})
+
+
+@pytest.fixture
+def engine(gl_ctx: Any, head: Any) -> Any:
+    from render.lightweight import LightweightRenderer
+
+    r = LightweightRenderer(gl_ctx, head, _face(head), shadow_size=512)
+    yield r
+    r.release()
+
+
+def _face_box(img: np.ndarray) -> np.ndarray:
+    h, w = img.shape[:2]
+    return img[h // 4: h // 2, w // 2 - w // 16: w // 2 + w // 16].astype(float)
+
+
+def test_renders_deterministically(engine: Any) -> None:
+    a = engine.render_image(SIZE)
+    b = engine.render_image(SIZE)
+    assert a.shape == (SIZE[1], SIZE[0], 3) and np.array_equal(a, b)
+    assert _face_box(a).mean() > 60  # the face is lit
+
+
+def test_overexposure_clamps_after_modulation(engine: Any) -> None:
+    base = _face_box(engine.render_image(SIZE))
+    engine.exposure = 12.0
+    hot = _face_box(engine.render_image(SIZE))
+    assert (hot >= 254).mean() > 0.5  # saturated
+    assert hot.std() < base.std()  # the detail disappears in the overexposed highlight
+
+
+def test_lights_limit_and_shadows(engine: Any) -> None:
+    from render.errors import RenderError
+    from render.lights import Light
+
+    engine.lights = [Light.directional(az, 20, 0.2) for az in range(-80, 80, 20)]
+    assert len(engine.lights) == 8
+    with_shadows = engine.render_image(SIZE)
+    engine.shadows_on = False
+    without = engine.render_image(SIZE)
+    assert not np.array_equal(with_shadows, without)
+    assert with_shadows.astype(float).mean() <= without.astype(float).mean()
+    engine.lights = engine.lights + [Light.directional(0, 0, 0.1)]
+    with pytest.raises(RenderError):
+        engine.render_image(SIZE)
+
+
+def test_eye_highlights_add_light(engine: Any) -> None:
+    from render.lights import Light
+
+    engine.lights = [Light.directional(10, 10, 1.0)]
+    on = engine.render_image((1280, 720)).astype(float)
+    engine.eye_highlights = False
+    off = engine.render_image((1280, 720)).astype(float)
+    assert np.all(on >= off - 1e-9) and (on - off).max() > 30
+
+
+def test_makeup_textures_apply(engine: Any, gl_ctx: Any) -> None:
+    red = np.zeros((4, 4, 4), np.float32)
+    red[..., 0] = 0.8
+    red[..., 3] = 1.0
+    zero = np.zeros((4, 4, 4), np.float32)
+    texs = [gl_ctx.texture((4, 4), 4, a.tobytes(), dtype="f4") for a in (red, zero, zero)]
+
+    class Makeup:
+        def bind(self, unit: int) -> None:
+            for i, t in enumerate(texs):
+                t.use(unit + i)
+
+    engine.makeup = Makeup()
+    img = _face_box(engine.render_image(SIZE))
+    for t in texs:
+        t.release()
+    # An opaque red layer (T = 0): red, no green or blue, no skin specular.
+    assert img[..., 0].mean() > 100 and img[..., 1].mean() < 5 and img[..., 2].mean() < 5
