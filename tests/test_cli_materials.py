@@ -102,3 +102,14 @@ def test_import_failures(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
 def test_help_without_subcommand(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys)
     assert code == 0 and "import" in out and "plot" in out
+
+
+def test_export_then_import(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    csv_path = tmp_path / "espresso.csv"
+    code, out, _ = run(capsys, "export", "foundation espresso", "--out", str(csv_path))
+    assert code == 0 and csv_path.read_text().startswith("# name: Foundation Espresso")
+    lib = tmp_path / "lib.json"
+    code, out, _ = run(capsys, "import", str(csv_path), "--library", str(lib), "--name", "Espresso again")
+    assert code == 0 and "+ Espresso again (foundation" in out
+    code, _, err = run(capsys, "export", "nothing", "--out", str(csv_path))
+    assert code == 2 and "no material named" in err

@@ -4,6 +4,7 @@
 - ``sheer materials show NAME [--library PATH]``: properties, provenance and a spectral table
 - ``sheer materials plot NAME --out FILE.png [--library PATH]``: R∞, R, Rg, S, K, R0 and T against wavelength
 - ``sheer materials import FILE [--library PATH] [--thickness-mm D] [--name NAME] [--category C]``
+- ``sheer materials export NAME --out FILE.csv [--library PATH]``
 
 Without ``--library`` the default library is used (read-only: ``import`` then needs ``--library``, and
 creates that file if it does not exist yet).
@@ -50,6 +51,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--category", help="material category (default: from the file, else 'other')")
     q.add_argument("--replace", action="store_true", help="replace materials of the same name")
     q.set_defaults(func=run_import)
+
+    q = msub.add_parser("export", help="write a material's measurement, S and K as CSV (re-importable)")
+    q.add_argument("name", help="material name (case-insensitive)")
+    q.add_argument("--out", type=Path, required=True, help="output CSV file")
+    q.add_argument("--library", type=Path, help=lib_help)
+    q.set_defaults(func=run_export)
 
 
 def _help(parser: argparse.ArgumentParser) -> int:
@@ -228,4 +235,16 @@ def run_import(args: argparse.Namespace) -> int:
         lib.add(m, replace=args.replace)
     lib.save(args.library)
     print(f"saved {len(result.accepted)} material{'s' if len(result.accepted) != 1 else ''} to {args.library}")
+    return 0
+
+
+def run_export(args: argparse.Namespace) -> int:
+    from km.errors import SheerError
+    from km.measurements import export_csv
+
+    if not args.out.parent.exists() and str(args.out.parent):
+        raise SheerError(f"{args.out.parent}: no such folder")
+    m = _library(args.library).get(args.name)
+    export_csv(m, args.out)
+    print(f"wrote {args.out}")
     return 0
