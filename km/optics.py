@@ -95,7 +95,7 @@ def layer_rt(S: ArrayLike, K: ArrayLike, X: ArrayLike) -> tuple[FloatArray, Floa
 
     The arguments broadcast; both results have the broadcast shape (wavelengths on the last axis).
 
-    Eq. 1–2 with ``sinh``/``cosh`` overflow for thick layers and are 0/0 at S = 0 or K = 0. With
+    Eq. 1–2 as printed overflow (``sinh``/``cosh``) for thick layers and are 0/0 at S = 0 or K = 0. With
     ``α = S + K``, ``β = bS = sqrt(K (K + 2S))``, ``y = βX``, ``e = exp(−y)`` and ``m = 1 − e²``
     (computed as ``−expm1(−2y)``), multiplying numerator and denominator by ``2e·S/(α+β)`` gives::
 
@@ -123,7 +123,7 @@ def layer_rt(S: ArrayLike, K: ArrayLike, X: ArrayLike) -> tuple[FloatArray, Floa
         # in forms that stay right when S or K is 0 or ∞ (S = ∞: κ = 0; K = ∞: κ = 1)
         kappa = 1.0 / (1.0 + S_ / K_)
         sigma = 1.0 / (1.0 + K_ / S_)
-        clear = alpha == 0.0  # S = K = 0: a clear layer; any (κ, σ) with S = 0 in mind works
+        clear = alpha == 0.0  # S = K = 0 (0/0 above): a clear layer, treated as κ = 0, σ = 1
         kappa = np.where(clear, 0.0, kappa)
         sigma = np.where(clear, 1.0, sigma)
         q = np.sqrt(kappa * (1.0 + sigma))  # β/α = sqrt(κ(2 − κ)) in [0, 1]
