@@ -1,1 +1,89 @@
-"""Sheer: painting package."""
+"""Painting cosmetics on a 3D head: the document the studio and the renderer observe (no Qt, no GL).
+
+Quick start::
+
+    from painting import Document, Brush
+    doc = Document.from_head(None)                     # the sample head; or a path to .glb/.obj/.ply
+    layer = doc.add_layer("Foundation 1", resolution=2048)   # material by library name
+    with doc.stroke(layer, Brush(radius_mm=8.0, hardness=0.5, strength=1.0, mode="add")) as s:
+        s.dab((x, y, z))                               # a surface point in mesh units; pressure=1.0
+    doc.undo(); doc.redo()
+    layer.thickness        # float32 (H, W) µm, read-only view
+    doc.atlas.position     # float32 (H, W, 3) mesh units per texel; doc.atlas.coverage bool (H, W)
+    doc.head.mm_per_unit
+
+Units: thickness µm; positions mesh units (exactly as trimesh loads the file); brush radius mm.
+Texture space: row 0 is the top row and covers v ∈ [0, 1/H) (see :mod:`painting.head`).
+
+Modules: :mod:`painting.head` (loading, metadata), :mod:`painting.atlas` (cleaning, UV check, xatlas,
+bake, cache), :mod:`painting.spatial` (texel grid), :mod:`painting.brush` (Brush, modes),
+:mod:`painting.document` (Document, Layer, Stroke, ChangeEvent), :mod:`painting.history` (undo),
+:mod:`painting.hit` (ray and depth picking), :mod:`painting.maps_io` (PNG16/EXR).
+
+Observing the document
+----------------------
+``unsubscribe = doc.subscribe(callback)`` calls ``callback(event)`` synchronously after every change,
+with a frozen :class:`ChangeEvent`:
+
+- ``kind="paint"``: texels of layer ``event.layer`` (a stable layer id) changed, only inside
+  ``event.tiles`` — (tile row, tile column) indices of 64×64-texel tiles (texels
+  ``[ty·64, ty·64+64) × [tx·64, tx·64+64)``). ``detail`` is "stroke" (one event per dab, while painting),
+  "fill", "import", "undo", "redo" or "rollback". A renderer re-uploads just those tiles.
+- ``kind="layers"``: the layer list or a layer field changed; ``detail`` is "added", "removed", "moved",
+  "name", "visible", "opacity" or "max_thickness".
+- ``kind="material"``: layer ``event.layer`` now uses another material.
+- ``kind="history"``: ``doc.can_undo`` / ``doc.can_redo`` may have changed.
+
+Callbacks must not edit the document re-entrantly during a stroke; exceptions propagate to the caller.
+
+Layers
+------
+``doc.layers`` (bottom to top), ``doc.add_layer(material, resolution=None, name=None, max_thickness=None,
+index=None)``, ``doc.remove_layer(layer)``, ``doc.move_layer(layer, index)``, ``doc.rename_layer``,
+``doc.set_layer(layer, name=…, visible=…, opacity=…, max_thickness=…, material=…)``, ``doc.fill``,
+``doc.set_thickness``, ``doc.export_layer`` / ``doc.import_layer``. A layer argument is a
+:class:`Layer` or an index into ``doc.layers``; ``doc.layer_by_id(id)`` finds one by id. Every edit is one
+undo step on the same stack as strokes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+_EXPORTS: dict[str, str] = {
+    "Document": "painting.document",
+    "Layer": "painting.document",
+    "Stroke": "painting.document",
+    "ChangeEvent": "painting.document",
+    "DocumentError": "painting.document",
+    "Brush": "painting.brush",
+    "BrushError": "painting.brush",
+    "MODES": "painting.brush",
+    "Hit": "painting.hit",
+    "PickError": "painting.hit",
+    "Atlas": "painting.atlas",
+    "AtlasError": "painting.atlas",
+    "UVLayout": "painting.atlas",
+    "CleanReport": "painting.atlas",
+    "Head": "painting.head",
+    "HeadError": "painting.head",
+    "HeadMetadata": "painting.head",
+    "load_head": "painting.head",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    import importlib
+
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'painting' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -1,0 +1,160 @@
+"""Picking the painted surface: from a camera ray (trimesh's ray queries) or from a depth-buffer value.
+
+Both give a :class:`Hit` on the document's paint layout (mesh units). The depth path lets the studio
+pick from the GPU depth buffer it already has: ``depth_hit`` unprojects (NDC x, y, depth) with the
+inverse view-projection matrix and snaps the point to the nearest surface triangle.
+
+Conventions: matrices are 4×4 numpy arrays acting on column vectors (``clip = P @ V @ [x, y, z, 1]``),
+OpenGL clip space (NDC z in [-1, 1]); a depth-buffer value ``d`` in [0, 1] is NDC ``z = 2d − 1`` (the
+default ``glDepthRange(0, 1)``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from km.errors import SheerError
+
+
+class PickError(SheerError, ValueError):
+    """Bad picking input (non-finite ray, zero direction, singular matrix…)."""
+
+
+@dataclass(frozen=True)
+class Hit:
+    """A point on the surface.
+
+    Attributes:
+        face: triangle of the paint layout (``doc.layout.faces``); ``head_face`` the head's triangle.
+        barycentric: (3,) weights of the triangle's corners.
+        point: (3,) mesh units. uv: (2,) paint-atlas UV. normal: (3,) unit, smooth (interpolated).
+        distance: along the ray (mesh units; for depth picks, from the unprojected point to the surface).
+    """
+
+    face: int
+    head_face: int
+    barycentric: np.ndarray
+    point: np.ndarray
+    uv: np.ndarray
+    normal: np.ndarray
+    distance: float
+
+
+def _mesh(doc: Any) -> Any:
+    if doc._mesh is None:
+        doc._mesh = doc.layout.trimesh()
+    return doc._mesh
+
+
+def _vec(value: Any, what: str) -> np.ndarray:
+    try:
+        v = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise PickError(f"{what} must be 3 numbers, got {value!r}") from None
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise PickError(f"{what} must be 3 finite numbers, got {value!r}")
+    return v
+
+
+def make_hit(doc: Any, face: int, point: np.ndarray, distance: float) -> Hit:
+    """A :class:`Hit` for ``point`` on layout triangle ``face``."""
+    import trimesh
+
+    layout = doc.layout
+    corners = layout.faces[face]
+    tri = layout.vertices[corners]
+    bary = trimesh.triangles.points_to_barycentric(tri[None], np.asarray(point, dtype=np.float64)[None])[0]
+    bary = np.clip(bary, 0.0, None)
+    bary = bary / max(float(bary.sum()), 1e-300)
+    uv = bary @ layout.uv[corners]
+    n = bary @ layout.normals[corners]
+    n = n / max(float(np.linalg.norm(n)), 1e-300)
+    return Hit(face=int(face), head_face=int(layout.face_map[face]), barycentric=bary,
+               point=np.asarray(point, dtype=np.float64), uv=uv, normal=n, distance=float(distance))
+
+
+def ray_hit(doc: Any, origin: Any, direction: Any) -> Hit | None:
+    """The first surface hit of the ray ``origin + t·direction`` (t ≥ 0, mesh units), or None."""
+    o = _vec(origin, "ray origin")
+    d = _vec(direction, "ray direction")
+    norm = float(np.linalg.norm(d))
+    if norm == 0:
+        raise PickError("ray direction must not be zero")
+    d = d / norm
+    mesh = _mesh(doc)
+    locations, _, tri = mesh.ray.intersects_location(o[None], d[None], multiple_hits=True)
+    if len(tri) == 0:
+        return None
+    t = (locations - o) @ d
+    ok = t >= 0
+    if not np.any(ok):
+        return None
+    k = int(np.argmin(np.where(ok, t, np.inf)))
+    return make_hit(doc, int(tri[k]), locations[k], float(t[k]))
+
+
+def unproject(ndc_xy: Any, depth: float, inv_view_proj: Any) -> np.ndarray:
+    """World point (mesh units) of NDC (x, y) in [-1, 1]² and depth-buffer value ``depth`` in [0, 1]."""
+    xy = np.asarray(ndc_xy, dtype=np.float64).reshape(-1)
+    m = np.asarray(inv_view_proj, dtype=np.float64)
+    if xy.shape != (2,) or not np.all(np.isfinite(xy)):
+        raise PickError(f"NDC position must be 2 finite numbers, got {ndc_xy!r}")
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise PickError("inverse view-projection must be a finite 4×4 matrix")
+    d = float(depth)
+    if not np.isfinite(d) or not 0.0 <= d <= 1.0:
+        raise PickError(f"depth must be in [0, 1], got {depth!r}")
+    clip = m @ np.array([xy[0], xy[1], 2.0 * d - 1.0, 1.0])
+    if abs(clip[3]) < 1e-300:
+        raise PickError("the point unprojects to infinity (w = 0)")
+    return clip[:3] / clip[3]
+
+
+def pixel_to_ndc(px: float, py: float, width: int, height: int) -> tuple[float, float]:
+    """NDC of the centre of pixel (column ``px``, row ``py`` counted from the *top*); for a row read
+    with ``glReadPixels`` (bottom first) pass ``height − 1 − row``."""
+    return (2.0 * (px + 0.5) / width - 1.0, 1.0 - 2.0 * (py + 0.5) / height)
+
+
+def depth_hit(doc: Any, ndc_xy: Any, depth: float, inv_view_proj: Any,
+              max_distance_mm: float = 2.0) -> Hit | None:
+    """Pick from a depth-buffer value: unproject, then snap to the nearest surface point. None for the
+    far plane (depth 1) or when the point is farther than ``max_distance_mm`` from the surface."""
+    import trimesh
+
+    if float(depth) >= 1.0:
+        return None
+    p = unproject(ndc_xy, depth, inv_view_proj)
+    closest, dist, tri = trimesh.proximity.closest_point(_mesh(doc), p[None])
+    if float(dist[0]) * float(doc.mm_per_unit) > max_distance_mm:
+        return None
+    return make_hit(doc, int(tri[0]), closest[0], float(dist[0]))
+
+
+def look_at(eye: Any, target: Any, up: Any = (0.0, 1.0, 0.0)) -> np.ndarray:
+    """A right-handed view matrix (OpenGL convention)."""
+    e, t, u = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
+    f = t - e
+    f /= np.linalg.norm(f)
+    s = np.cross(f, u)
+    s /= np.linalg.norm(s)
+    uu = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, uu, -f
+    m[:3, 3] = -m[:3, :3] @ e
+    return m
+
+
+def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    """An OpenGL perspective projection matrix."""
+    f = 1.0 / np.tan(np.radians(fovy_deg) / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0] = f / aspect
+    m[1, 1] = f
+    m[2, 2] = (far + near) / (near - far)
+    m[2, 3] = 2.0 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
