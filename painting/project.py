@@ -43,7 +43,6 @@ from painting.project_errors import (
     ProjectVersionError,
 )
 from painting.project_maps import (
-    MAX_MAP_SIDE,
     check_thickness,
     decode_exr,
     decode_png16,
@@ -68,8 +67,8 @@ PROJECT_JSON = "project.json"
 MAX_PROJECT_JSON_BYTES = 16 * 1024**2
 #: An embedded head file may not be larger than this (bytes).
 MAX_HEAD_FILE_BYTES = 256 * 1024**2
-#: Atlas side used by :func:`new_project` when no document says otherwise (texels).
-DEFAULT_ATLAS_SIDE = 2048
+#: Layer resolution of a new project (texels per side), as ``painting.Document``'s default.
+DEFAULT_RESOLUTION = 2048
 #: JSON nesting deeper than this is refused (a material is 4 levels deep).
 MAX_JSON_DEPTH = 32
 _HEAD_PREFIX = "head/"
@@ -107,7 +106,7 @@ class HeadRef:
 
 @dataclass
 class ProjectLayer:
-    """One cosmetic layer: material name, thickness map float32 (H, W) µm, display settings."""
+    """One cosmetic layer: material name, thickness map float32 (N, N) µm, display settings."""
 
     name: str
     material: str
@@ -116,6 +115,11 @@ class ProjectLayer:
     opacity: float = 1.0
     max_thickness_um: float = 100.0
     encoding: str = "exr-float32"
+
+    @property
+    def resolution(self) -> int:
+        """Texels per side of the map."""
+        return int(self.thickness.shape[0])
 
     def same_as(self, other: ProjectLayer) -> bool:
         """Equal settings and bit-identical maps."""
@@ -132,7 +136,8 @@ class Project:
     Attributes:
         name: display name.
         head: the head reference (and its bytes when embedded).
-        atlas_size: (height, width) of every thickness map, texels.
+        resolution: the document's default layer resolution (texels per side, a multiple of 64 in
+            64..8192); each layer has its own (``layer.resolution``), its map is that size square.
         layers: bottom layer first.
         materials: embedded material JSON (``km.Material.to_json()``) by name; see :meth:`material`.
         lights: plain JSON dicts (``type``, ``color``, ``intensity``, ``direction`` / ``position`` /
@@ -144,11 +149,14 @@ class Project:
         source_path: the file it was opened from, if any.
         source_schema_version: the version the file had (older ones are migrated on open).
         recovery: the ``recovery`` block of an autosave file, else None.
+        layout: the paint layout the maps were painted on (``source``: "mesh" or "xatlas",
+            ``sha256`` of its UVs and triangles; see :mod:`painting.project_document`), or None when
+            not known yet (a new project).
     """
 
     name: str
     head: HeadRef
-    atlas_size: tuple[int, int]
+    resolution: int
     layers: list[ProjectLayer] = field(default_factory=list)
     materials: dict[str, dict[str, Any]] = field(default_factory=dict)
     lights: list[dict[str, Any]] = field(default_factory=list)
@@ -158,6 +166,7 @@ class Project:
     source_path: Path | None = None
     source_schema_version: int = SCHEMA_VERSION
     recovery: dict[str, Any] | None = None
+    layout: dict[str, str] | None = None
 
     def material(self, name: str) -> Any:
         """The embedded material ``name`` as a ``km.Material``."""
@@ -170,23 +179,23 @@ class Project:
     def same_as(self, other: Project) -> bool:
         """Equal content (maps bit-exact), ignoring where each was loaded from."""
         return (
-            self.name == other.name and self.atlas_size == other.atlas_size
+            self.name == other.name and self.resolution == other.resolution
             and self.head.files == other.head.files and self.head.mesh == other.head.mesh
             and self.head.asset == other.head.asset and self.head.embedded == other.head.embedded
             and (self.head.data or {}) == (other.head.data or {})
             and len(self.layers) == len(other.layers)
             and all(a.same_as(b) for a, b in zip(self.layers, other.layers))
             and self.materials == other.materials and self.lights == other.lights
-            and self.camera == other.camera and self.look == other.look
+            and self.camera == other.camera and self.look == other.look and self.layout == other.layout
         )
 
     # ---- the painting document (issue 4); see painting.project_document for the adapter
 
-    def to_document(self, head_path: str | Path | None = None) -> Any:
+    def to_document(self, head_path: str | Path | None = None, **doc_kwargs: Any) -> Any:
         """A ``painting.Document`` with this project's layers (see :mod:`painting.project_document`)."""
         from painting.project_document import document_from_project
 
-        return document_from_project(self, head_path)
+        return document_from_project(self, head_path, **doc_kwargs)
 
     @classmethod
     def from_document(cls, doc: Any, **kwargs: Any) -> Project:
@@ -495,12 +504,12 @@ def _read(zf: SafeZipReader, label: str, project_dir: Path | None, head_path: st
     if missing:
         raise ProjectContainerError(f"{label}: missing entry {missing[0]!r}")
 
-    shape = (int(data["atlas"]["height"]), int(data["atlas"]["width"]))
     layers: list[ProjectLayer] = []
     for i, layer in enumerate(data["layers"]):
         entry = layer["map"]
         blob = zf.read(entry)
         at = f"{label}: entry {entry!r} (layer {i} {layer['name']!r})"
+        shape = (int(layer["resolution"]), int(layer["resolution"]))
         if layer["encoding"] == "exr-float32":
             thickness = decode_exr(blob, at, shape)
         else:
@@ -512,9 +521,9 @@ def _read(zf: SafeZipReader, label: str, project_dir: Path | None, head_path: st
 
     ref = _read_head(zf, label, head, project_dir, head_path, accept_head_change, verify_head)
     return Project(
-        name=data["name"], head=ref, atlas_size=shape, layers=layers, materials=data["materials"],
+        name=data["name"], head=ref, resolution=int(data["resolution"]), layers=layers, materials=data["materials"],
         lights=data["lights"], camera=data["camera"], look=data["look"], created_by=data["created_by"],
-        source_schema_version=source_version, recovery=data.get("recovery"),
+        source_schema_version=source_version, recovery=data.get("recovery"), layout=data["layout"],
     )
 
 
@@ -617,6 +626,7 @@ def project_json(project: Project, target_dir: Path | None, self_contained: bool
         layers.append({
             "name": layer.name, "material": layer.material, "visible": bool(layer.visible),
             "opacity": _number(layer.opacity), "max_thickness_um": _number(layer.max_thickness_um),
+            "resolution": int(layer.thickness.shape[0]) if np.ndim(layer.thickness) == 2 else 0,
             "map": f"layers/{i:03d}.{ext}", "encoding": layer.encoding,
             "scale_um": png16_scale(layer.thickness) if layer.encoding == "png16" else None,
         })
@@ -625,7 +635,7 @@ def project_json(project: Project, target_dir: Path | None, self_contained: bool
         "format": "sheer-project",
         "name": project.name,
         "created_by": _created_by(),
-        "atlas": {"width": int(project.atlas_size[1]), "height": int(project.atlas_size[0])},
+        "resolution": int(project.resolution),
         "head": {"name": head.name, "path": path_text, "asset": head.asset, "mesh": head.mesh,
                  "files": dict(sorted(head.files.items())), "embedded": bool(self_contained)},
         "layers": layers,
@@ -633,6 +643,7 @@ def project_json(project: Project, target_dir: Path | None, self_contained: bool
         "lights": copy.deepcopy(project.lights),
         "camera": copy.deepcopy(project.camera),
         "look": copy.deepcopy(project.look),
+        "layout": None if project.layout is None else dict(project.layout),
     }
     if project.recovery is not None:
         out["recovery"] = dict(project.recovery)
@@ -655,15 +666,13 @@ def _entries(project: Project, target_dir: Path | None, self_contained: bool) ->
     where = f"project '{project.name}'"
     validate_json(doc, where)  # never write a file this Sheer would refuse to open
     _check_semantics(doc, where)
-    shape = tuple(project.atlas_size)
     entries: list[tuple[str, bytes, bool]] = [
         ("mimetype", MIMETYPE.encode(), False),
         (PROJECT_JSON, json.dumps(doc, indent=1, ensure_ascii=False, allow_nan=False).encode("utf-8"), True),
     ]
     for layer, meta in zip(project.layers, doc["layers"]):
-        thickness = check_thickness(layer.thickness, f"{where}: layer {layer.name!r}", shape)  # type: ignore[arg-type]
-        if max(shape) > MAX_MAP_SIDE:
-            raise ProjectError(f"{where}: atlas {shape[1]}×{shape[0]} over the {MAX_MAP_SIDE} limit")
+        side = int(meta["resolution"])
+        thickness = check_thickness(layer.thickness, f"{where}: layer {layer.name!r}", (side, side))
         if layer.encoding == "exr-float32":
             entries.append((meta["map"], encode_exr(thickness), False))
         else:
@@ -720,16 +729,11 @@ def save_project(project: Project, path: str | Path, *, self_contained: bool | N
 
 
 def new_project(name: str = "Untitled", head_path: str | Path | None = None, look: str | None = None,
-                atlas_size: tuple[int, int] | None = None) -> Project:
+                resolution: int | None = None) -> Project:
     """An empty project on the head at ``head_path`` (default: the sample head).
 
-    ``atlas_size`` (H, W) defaults to the document's atlas when ``painting.Document`` is available,
-    else :data:`DEFAULT_ATLAS_SIDE` square.
+    ``resolution`` (texels per side) defaults to :data:`DEFAULT_RESOLUTION`, the document's default.
     """
     ref = make_head_ref(head_path)
-    if atlas_size is None:
-        from painting.project_document import atlas_size_for_head
-
-        atlas_size = atlas_size_for_head(ref.mesh_path)
-    return Project(name=name, head=ref, atlas_size=(int(atlas_size[0]), int(atlas_size[1])),
+    return Project(name=name, head=ref, resolution=int(resolution or DEFAULT_RESOLUTION),
                    look=None if look is None else {"name": look}, created_by=_created_by())

@@ -40,12 +40,12 @@ def export_project(path: str | Path, out_dir: str | Path, *, ora: bool = False) 
         atomic_write_bytes(out / f"{stem}.png", encode_png16(layer.thickness, scale))
         layers.append({"name": layer.name, "material": layer.material, "visible": layer.visible,
                        "opacity": layer.opacity, "max_thickness_um": layer.max_thickness_um,
-                       "exr": f"{stem}.exr", "png": f"{stem}.png", "scale_um": scale,
+                       "resolution": layer.resolution, "exr": f"{stem}.exr", "png": f"{stem}.png", "scale_um": scale,
                        "max_um": float(layer.thickness.max(initial=0.0))})
     manifest: dict[str, Any] = {
         "project": project.name, "source": str(Path(path).absolute()),
         "units": "thickness in micrometres; png value × scale_um = µm",
-        "atlas": {"width": project.atlas_size[1], "height": project.atlas_size[0]},
+        "resolution": project.resolution,
         "head": {"name": project.head.name, "files": project.head.files,
                  "path": None if project.head.mesh_path is None else str(project.head.mesh_path)},
         "layers": layers, "lights": project.lights, "camera": project.camera, "look": project.look,
@@ -72,15 +72,20 @@ def ora_bytes(project: Project) -> bytes:
     """An OpenRaster file of the project's layers (see the module docstring)."""
     from xml.sax.saxutils import quoteattr
 
-    h, w = project.atlas_size
+    # OpenRaster layers share one canvas: the largest layer resolution; smaller maps are upscaled
+    # (nearest texel) so that they cover the same UV square.
+    side = max([layer.resolution for layer in project.layers] + [project.resolution])
+    h = w = side
     entries: list[tuple[str, bytes, bool]] = [("mimetype", b"image/openraster", False)]
     stack = []
     merged = np.zeros((h, w), dtype=np.float64)
     for i, layer in enumerate(project.layers):
-        level = np.clip(layer.thickness / max(layer.max_thickness_um, 1e-9), 0.0, 1.0)
+        k = side // layer.resolution
+        thickness = np.repeat(np.repeat(layer.thickness, k, axis=0), k, axis=1) if k > 1 else layer.thickness
+        level = np.clip(thickness / max(layer.max_thickness_um, 1e-9), 0.0, 1.0)
         merged = np.maximum(merged, level * layer.opacity * layer.visible)
         grey = np.rint(level * 255).astype(np.uint8)
-        la = np.stack([grey, np.where(layer.thickness > 0, 255, 0).astype(np.uint8)], axis=-1)
+        la = np.stack([grey, np.where(thickness > 0, 255, 0).astype(np.uint8)], axis=-1)
         name = f"data/layer{i:03d}.png"
         entries.append((name, _png(la), False))
         stack.append(f'  <layer name={quoteattr(layer.name)} src="{name}" opacity="{layer.opacity:.4f}" '

@@ -72,7 +72,7 @@ def write_tiny_head(folder: str | Path, name: str = "head.obj") -> Path:
     return folder / name
 
 
-def sample_project(side: int = 16, layers: int = 2, seed: int = 0, embedded: bool = True,
+def sample_project(side: int = 64, layers: int = 2, seed: int = 0, embedded: bool = True,
                    name: str = "fuzz sample") -> Project:
     """A small valid project: ``layers`` layers of ``side``² texels (EXR, then PNG), two materials,
     a light, a camera and a look."""
@@ -87,7 +87,7 @@ def sample_project(side: int = 16, layers: int = 2, seed: int = 0, embedded: boo
     blush = tiny_material("Blush B", 2.0)
     blush["category"] = "blush"
     return Project(
-        name=name, head=tiny_head(embedded), atlas_size=(side, side), layers=out,
+        name=name, head=tiny_head(embedded), resolution=side, layers=out,
         materials={"Foundation F": tiny_material(), "Blush B": blush},
         lights=[{"type": "directional", "color": [1.0, 0.95, 0.9], "intensity": 3.0, "direction": [0.0, -0.5, -1.0]}],
         camera={"position": [0.0, 0.0, 5.0], "target": [0.0, 0.0, 0.0], "up": [0.0, 1.0, 0.0],
@@ -282,8 +282,8 @@ def classify_library(text: bytes) -> str:
 def run_fuzz(cases: int, seed: int = 0, library_share: float = 0.2) -> dict[str, Any]:
     """Run ``cases`` mutated projects and libraries; counts by outcome and mutation."""
     rng = random.Random(seed)
-    bases = [project_bytes(sample_project(16, 2, seed=0, embedded=True), self_contained=True),
-             project_bytes(sample_project(8, 3, seed=1, embedded=False), self_contained=False)]
+    bases = [project_bytes(sample_project(64, 2, seed=0, embedded=True), self_contained=True),
+             project_bytes(sample_project(64, 3, seed=1, embedded=False), self_contained=False)]
     library = sample_library_text()
     outcomes: Counter[str] = Counter()
     by_kind: Counter[str] = Counter()
@@ -313,7 +313,7 @@ def _crash_child(path: str, seed: int, ready: Any) -> None:
     """Save two alternating projects to ``path`` forever (until killed)."""
     from painting.project import save_project
 
-    versions = [sample_project(16, 2, seed=seed, embedded=True, name=f"generation {g}") for g in range(2)]
+    versions = [sample_project(64, 2, seed=seed, embedded=True, name=f"generation {g}") for g in range(2)]
     project_bytes(versions[0], self_contained=True)  # warm up (lazy imports, schema) before the clock starts
     ready.set()
     g = 0
@@ -339,7 +339,7 @@ def crash_runs(runs: int, seed: int = 0, folder: str | Path | None = None,
     from painting.project import save_project
 
     expected = {f"generation {g}" for g in range(2)} | {"initial"}
-    initial = sample_project(16, 2, seed=seed, embedded=True, name="initial")
+    initial = sample_project(64, 2, seed=seed, embedded=True, name="initial")
     stats: Counter[str] = Counter()
     failures: list[str] = []
     with tempfile.TemporaryDirectory(dir=folder) as tmp:
@@ -402,7 +402,7 @@ def _step_crash_child(path: str, step: int) -> None:
             return result
 
         setattr(modules[module_name], name, wrapped)
-    save_project(sample_project(16, 2, seed=1, embedded=True, name="generation 1"), path,
+    save_project(sample_project(64, 2, seed=1, embedded=True, name="generation 1"), path,
                  self_contained=True, clear_recovery=False)
     os._exit(0)
 
@@ -417,7 +417,7 @@ def crash_at_every_step(folder: str | Path | None = None, max_steps: int = 200) 
 
     ctx = multiprocessing.get_context("forkserver" if "forkserver" in multiprocessing.get_all_start_methods()
                                       else "spawn")
-    initial = sample_project(16, 2, seed=0, embedded=True, name="initial")
+    initial = sample_project(64, 2, seed=0, embedded=True, name="initial")
     failures: list[str] = []
     steps = 0
     with tempfile.TemporaryDirectory(dir=folder) as tmp:

@@ -30,6 +30,8 @@ from painting.project_errors import ProjectError
 
 #: Largest side of a thickness map (texels).
 MAX_MAP_SIDE = 8192
+#: Largest thickness a map may hold (µm), as ``painting.document.MAX_THICKNESS_UM``.
+MAX_THICKNESS_UM = 10_000.0
 #: The two encodings a layer map may use.
 ENCODINGS = ("exr-float32", "png16")
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
@@ -122,14 +124,16 @@ def check_thickness(arr: np.ndarray, where: str, shape: tuple[int, int] | None =
     if arr.ndim != 2:
         raise ProjectError(f"{where}: {arr.ndim}-D array, a 2-D (height, width) map expected")
     if shape is not None and arr.shape != tuple(shape):
-        raise ProjectError(f"{where}: size {arr.shape[1]}×{arr.shape[0]} does not match the atlas "
-                           f"{shape[1]}×{shape[0]}")
+        raise ProjectError(f"{where}: size {arr.shape[1]}×{arr.shape[0]} does not match the layer's "
+                           f"resolution {shape[1]}×{shape[0]}")
     finite = np.isfinite(arr)
     if not finite.all():
         bad = int(arr.size - np.count_nonzero(finite))
         raise ProjectError(f"{where}: {bad} texel(s) are NaN or infinite")
     if arr.size and float(arr.min()) < 0:
         raise ProjectError(f"{where}: negative thickness ({float(arr.min())} µm)")
+    if arr.size and float(arr.max()) > MAX_THICKNESS_UM:
+        raise ProjectError(f"{where}: thickness {float(arr.max())} µm over the {MAX_THICKNESS_UM:g} µm limit")
     return np.ascontiguousarray(arr)
 
 
@@ -137,7 +141,8 @@ def _check_size(where: str, width: int, height: int, shape: tuple[int, int]) -> 
     if width <= 0 or height <= 0 or width > MAX_MAP_SIDE or height > MAX_MAP_SIDE:
         raise ProjectError(f"{where}: map size {width}×{height} outside 1..{MAX_MAP_SIDE}")
     if (height, width) != tuple(shape):
-        raise ProjectError(f"{where}: size {width}×{height} does not match the atlas {shape[1]}×{shape[0]}")
+        raise ProjectError(f"{where}: size {width}×{height} does not match the layer's resolution "
+                           f"{shape[1]}×{shape[0]}")
 
 
 def decode_exr(data: bytes, where: str, shape: tuple[int, int]) -> np.ndarray:

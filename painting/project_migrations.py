@@ -11,10 +11,10 @@ see :func:`painting.project.save_project`); opening never writes.
 
 Version history (see ``docs/FORMAT.md``):
 
-1. The draft layout: ``head`` a path string with ``head_sha256`` of the mesh alone, a square atlas
-   ``resolution``, layers without opacity, EXR maps only.
-2. Current: a head object (path, asset, SHA-256 of every head file, embedded flag), a rectangular
-   ``atlas``, per-layer ``opacity``/``encoding``/``scale_um``, ``format``, ``created_by``, ``look``.
+1. The draft layout: ``head`` a path string with ``head_sha256`` of the mesh alone, one
+   ``resolution`` for every layer, layers without opacity, EXR maps only.
+2. Current: a head object (path, asset, SHA-256 of every head file, embedded flag), per-layer
+   ``resolution``/``opacity``/``encoding``/``scale_um``, ``format``, ``created_by``, ``look``.
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def _require(data: dict[str, Any], key: str, kind: type | tuple[type, ...]) -> A
 
 @migration(1)
 def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
-    """Draft → 2: head object, rectangular atlas, layer opacity/encoding/scale, format fields."""
+    """Draft → 2: head object, per-layer resolution/opacity/encoding/scale, format fields."""
     head = _require(data, "head", str)
     digest = _require(data, "head_sha256", str)
     resolution = _require(data, "resolution", int)
@@ -119,13 +119,14 @@ def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
         new.setdefault("opacity", 1.0)
         new.setdefault("encoding", "exr-float32")
         new.setdefault("scale_um", None)
+        new.setdefault("resolution", resolution)
         new_layers.append(new)
     out = {
         "schema_version": 2,
         "format": "sheer-project",
         "name": data.get("name", "Untitled"),
         "created_by": "migrated from schema_version 1",
-        "atlas": {"width": resolution, "height": resolution},
+        "resolution": resolution,
         "head": {"name": PurePosixPath(mesh).stem, "path": head, "asset": None, "mesh": mesh,
                  "files": {mesh: digest.lower()}, "embedded": False},
         "layers": new_layers,
@@ -133,6 +134,7 @@ def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
         "lights": data.get("lights", []),
         "camera": data.get("camera"),
         "look": None,
+        "layout": None,
     }
     extra = set(data) - {"schema_version", "name", "head", "head_sha256", "resolution", "layers",
                          "materials", "lights", "camera"}

@@ -26,7 +26,7 @@ from painting.project_fuzz import sample_project, write_tiny_head
 from painting.project_zip import SafeZipReader
 
 
-def _on_disk_project(tmp_path: Path, side: int = 16):
+def _on_disk_project(tmp_path: Path, side: int = 64):
     """A project whose head is a real (tiny) file in tmp_path/headdir."""
     mesh = write_tiny_head(tmp_path / "headdir")
     project = sample_project(side, 3, seed=3, embedded=False)
@@ -36,15 +36,15 @@ def _on_disk_project(tmp_path: Path, side: int = 16):
 
 def test_round_trip_is_identical_and_maps_bit_exact(tmp_path: Path) -> None:
     project = _on_disk_project(tmp_path)
-    # awkward float32 values must survive exactly: denormals, the largest float32, tiny steps
-    project.layers[0].thickness[0, :4] = [np.float32(1e-45), np.float32(3.4e38), np.float32(0.1), 0.0]
+    # awkward float32 values must survive exactly: denormals, the largest allowed value, tiny steps
+    project.layers[0].thickness[0, :4] = [np.float32(1e-45), np.float32(9999.999), np.float32(0.1), 0.0]
     path = tmp_path / "look.sheer"
     save_project(project, path)
     loaded = open_project(path)
     exr = [(a, b) for a, b in zip(project.layers, loaded.layers) if a.encoding == "exr-float32"]
     assert exr and all(a.same_as(b) for a, b in exr)
     for a, b in zip(project.layers, loaded.layers):
-        assert b.thickness.dtype == np.float32 and b.thickness.shape == (16, 16)
+        assert b.thickness.dtype == np.float32 and b.thickness.shape == (64, 64)
         if a.encoding == "png16":  # quantised: within half a step of the scale
             step = float(a.thickness.max()) / 65535
             assert np.max(np.abs(a.thickness - b.thickness)) <= step * 0.5 + 1e-6
@@ -65,7 +65,7 @@ def test_all_exr_project_round_trips_exactly(tmp_path: Path) -> None:
 
 
 def test_saving_is_deterministic_and_mimetype_first() -> None:
-    project = sample_project(8, 2)
+    project = sample_project(64, 2)
     a = project_bytes(project, self_contained=True)
     assert a == project_bytes(project, self_contained=True)
     import io
@@ -149,7 +149,7 @@ def test_schema_agrees_with_what_is_written_and_refused() -> None:
     jsonschema.Draft202012Validator.check_schema(schema())
     from painting.project import project_json
 
-    doc = project_json(sample_project(8, 2), None, True)
+    doc = project_json(sample_project(64, 2), None, True)
     validate_json(doc, "x")  # what we write is valid
     assert set(doc) == set(schema()["required"])
     layer_keys = set(schema()["properties"]["layers"]["items"]["required"])
@@ -159,13 +159,13 @@ def test_schema_agrees_with_what_is_written_and_refused() -> None:
 def test_save_refuses_a_project_it_could_not_open(tmp_path: Path) -> None:
     from painting.project import ProjectError
 
-    project = sample_project(8, 2)
+    project = sample_project(64, 2)
     project.layers[0].thickness[0, 0] = np.nan
     with pytest.raises(ProjectError, match="NaN"):
         save_project(project, tmp_path / "bad.sheer", self_contained=True)
     assert not (tmp_path / "bad.sheer").exists()
-    project = sample_project(8, 2)
-    project.layers.append(ProjectLayer("x", "No Such Material", np.zeros((8, 8), np.float32)))
+    project = sample_project(64, 2)
+    project.layers.append(ProjectLayer("x", "No Such Material", np.zeros((64, 64), np.float32)))
     with pytest.raises(ProjectError, match="unknown material 'No Such Material'"):
         save_project(project, tmp_path / "bad.sheer", self_contained=True)
     assert list(tmp_path.iterdir()) == []  # not even a temporary file is left
@@ -173,9 +173,9 @@ def test_save_refuses_a_project_it_could_not_open(tmp_path: Path) -> None:
 
 def test_save_keeps_a_backup(tmp_path: Path) -> None:
     path = tmp_path / "p.sheer"
-    first = sample_project(8, 2, name="first")
+    first = sample_project(64, 2, name="first")
     save_project(first, path, self_contained=True)
-    second = sample_project(8, 2, name="second")
+    second = sample_project(64, 2, name="second")
     save_project(second, path, self_contained=True)
     assert open_project(path).name == "second"
     assert open_project(path.with_name("p.sheer.bak")).name == "first"
@@ -197,12 +197,12 @@ def test_cli_new_info_validate_export(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "valid" in capsys.readouterr().out
 
     full = tmp_path / "full.sheer"
-    save_project(sample_project(16, 3), full, self_contained=True)
+    save_project(sample_project(64, 3), full, self_contained=True)
     assert main(["project", "info", str(full)]) == 0
     text = capsys.readouterr().out
     assert "Layer 0" in text and "Foundation F" in text
     assert main(["project", "info", "--json", str(full)]) == 0
-    assert json.loads(capsys.readouterr().out)["atlas"] == {"width": 16, "height": 16}
+    assert json.loads(capsys.readouterr().out)["resolution"] == 64
 
     dest = tmp_path / "exported"
     assert main(["project", "export", str(full), "--out", str(dest), "--ora"]) == 0

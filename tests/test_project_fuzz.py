@@ -26,8 +26,8 @@ from painting.project_fuzz import (
     sample_project,
 )
 
-EMBEDDED = project_bytes(sample_project(16, 2, seed=0, embedded=True), self_contained=True)
-REFERENCED = project_bytes(sample_project(8, 3, seed=1, embedded=False), self_contained=False)
+EMBEDDED = project_bytes(sample_project(64, 2, seed=0, embedded=True), self_contained=True)
+REFERENCED = project_bytes(sample_project(64, 3, seed=1, embedded=False), self_contained=False)
 LIBRARY = sample_library_text()
 FUZZ = settings(max_examples=120, deadline=None, database=None, derandomize=True,
                 suppress_health_check=[HealthCheck.too_slow])

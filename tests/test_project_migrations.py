@@ -30,7 +30,7 @@ def v1_document(mesh_digest: str) -> dict[str, Any]:
         "name": "Draft look",
         "head": "v1-head/head.obj",
         "head_sha256": mesh_digest,
-        "resolution": 8,
+        "resolution": 64,
         "layers": [{"name": "Base", "material": "Foundation F", "visible": True, "max_thickness_um": 40.0,
                     "map": "layers/000.exr"}],
         "materials": {"Foundation F": tiny_material()},
@@ -40,7 +40,7 @@ def v1_document(mesh_digest: str) -> dict[str, Any]:
 
 
 def v1_thickness() -> np.ndarray:
-    return (np.arange(64, dtype=np.float32).reshape(8, 8) / 4).astype(np.float32)
+    return (np.arange(4096, dtype=np.float32).reshape(64, 64) / 64).astype(np.float32)
 
 
 def v1_bytes(doc: dict[str, Any]) -> bytes:
@@ -64,7 +64,7 @@ def test_the_committed_v1_fixture_is_what_the_generator_makes() -> None:
 def test_v1_file_opens_migrated(tmp_path: Path) -> None:
     project = open_project(DATA / "v1-draft.sheer")
     assert project.source_schema_version == 1
-    assert project.atlas_size == (8, 8)
+    assert project.resolution == 64 and project.layers[0].resolution == 64
     assert project.head.files == {"head.obj": _mesh_digest()} and project.head.mesh == "head.obj"
     assert project.head.mesh_path == (DATA / "v1-head" / "head.obj").absolute()
     layer = project.layers[0]
@@ -79,7 +79,7 @@ def test_step_1_to_2_gives_a_valid_current_document() -> None:
     out = MIGRATIONS[1](copy.deepcopy(doc))
     assert out["schema_version"] == 2 == SCHEMA_VERSION
     validate_json(out, "migrated")
-    assert out["atlas"] == {"width": 8, "height": 8}
+    assert out["resolution"] == 64 and out["layers"][0]["resolution"] == 64 and out["layout"] is None
     assert out["head"] == {"name": "head", "path": "v1-head/head.obj", "asset": None, "mesh": "head.obj",
                            "files": {"head.obj": "a" * 64}, "embedded": False}
     assert doc == before

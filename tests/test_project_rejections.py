@@ -20,7 +20,7 @@ from painting.project_errors import ProjectContainerError, ProjectVersionError
 from painting.project_fuzz import sample_project
 from painting.project_maps import encode_exr
 
-BASE = project_bytes(sample_project(16, 2, seed=0), self_contained=True)
+BASE = project_bytes(sample_project(64, 2, seed=0), self_contained=True)
 
 
 def entries(blob: bytes = BASE) -> list[tuple[str, bytes]]:
@@ -182,9 +182,11 @@ def test_entry_declaring_a_false_size_is_caught() -> None:
     (lambda d: d["layers"][0].update(material="Mystery"), ["layers[0].material", "unknown material 'Mystery'"]),
     (lambda d: d["materials"]["Foundation F"]["S"].__setitem__(1, -2.0), ["materials['Foundation F']", "S[1]"]),
     (lambda d: d["materials"]["Foundation F"].update(name="Other"), ["materials['Foundation F'].name"]),
-    (lambda d: d["atlas"].update(width=0), ["atlas.width", "less than the minimum"]),
-    (lambda d: d["atlas"].update(width=100000), ["atlas.width", "greater than the maximum"]),
-    (lambda d: d["atlas"].update(width=True), ["atlas.width", "not of type 'integer'"]),
+    (lambda d: d.update(resolution=0), ["resolution", "less than the minimum"]),
+    (lambda d: d.update(resolution=100032), ["resolution", "greater than the maximum"]),
+    (lambda d: d.update(resolution=100), ["resolution", "not a multiple of 64"]),
+    (lambda d: d.update(resolution=True), ["resolution", "not of type 'integer'"]),
+    (lambda d: d.update(layout={"source": "magic", "sha256": "0" * 64}), ["layout"]),
     (lambda d: d["lights"][0].pop("direction"), ["lights[0]", "'direction' is a required property"]),
     (lambda d: d["lights"][0].update(direction=[0, 0, 0]), ["lights[0].direction", "must not be zero"]),
     (lambda d: d["lights"][0].update(type="laser"), ["lights[0].type", "'laser' is not one of"]),
@@ -228,29 +230,32 @@ def test_newer_version_is_refused_with_a_message_that_says_so() -> None:
 
 
 def test_map_values_nan_inf_negative() -> None:
-    for value, fragment in ((np.nan, "NaN or infinite"), (np.inf, "NaN or infinite"), (-1.0, "negative thickness")):
-        thickness = np.zeros((16, 16), np.float32)
+    for value, fragment in ((np.nan, "NaN or infinite"), (np.inf, "NaN or infinite"), (-1.0, "negative thickness"),
+                            (20000.0, "over the 10000 µm limit")):
+        thickness = np.zeros((64, 64), np.float32)
         thickness[3, 4] = value
         rejected(with_entry("layers/000.exr", encode_exr(thickness)), "'layers/000.exr'", "layer 0", fragment)
 
 
 def test_map_shape_dtype_and_size_caps() -> None:
-    rejected(with_entry("layers/000.exr", encode_exr(np.zeros((8, 16), np.float32))),
-             "'layers/000.exr'", "16×8 does not match the atlas 16×16")
+    rejected(with_entry("layers/000.exr", encode_exr(np.zeros((32, 64), np.float32))),
+             "'layers/000.exr'", "64×32 does not match the layer's resolution 64×64")
+    rejected(with_json(lambda d: d["layers"][0].update(resolution=128)), "'layers/000.exr'",
+             "64×64 does not match the layer's resolution 128×128")
     import OpenEXR
 
     half = io.BytesIO()
     OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
-                 {"Y": np.zeros((16, 16), np.float16)}).write(half)
+                 {"Y": np.zeros((64, 64), np.float16)}).write(half)
     rejected(with_entry("layers/000.exr", half.getvalue()), "'layers/000.exr'", "32-bit float expected")
     rgb = io.BytesIO()
     OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
-                 {"RGB": np.zeros((16, 16, 3), np.float32)}).write(rgb)
+                 {"RGB": np.zeros((64, 64, 3), np.float32)}).write(rgb)
     rejected(with_entry("layers/000.exr", rgb.getvalue()), "EXR channels", "exactly ['Y']")
     rejected(with_entry("layers/000.exr", b"\x76\x2f\x31\x01garbage"), "'layers/000.exr'", "EXR header")
     rejected(with_entry("layers/000.exr", b"not an exr"), "not an OpenEXR file")
     big = encode_exr(np.zeros((1, 9000), np.float32))
-    rejected(with_json(lambda d: d["atlas"].update(width=9000)), "atlas.width", "maximum")
+    rejected(with_json(lambda d: d["layers"][0].update(resolution=9024)), "layers[0].resolution", "maximum")
     rejected(with_entry("layers/000.exr", big), "9000×1", "outside 1..8192")
 
 
@@ -262,9 +267,9 @@ def test_png_map_checks() -> None:
         Image.fromarray(arr).save(buf, format="PNG")
         return buf.getvalue()
 
-    rejected(with_entry("layers/001.png", png(np.zeros((16, 16), np.uint8))), "'layers/001.png'",
+    rejected(with_entry("layers/001.png", png(np.zeros((64, 64), np.uint8))), "'layers/001.png'",
              "PNG mode L, 16-bit greyscale expected")
-    rejected(with_entry("layers/001.png", png(np.zeros((4, 16), np.uint16))), "16×4 does not match")
+    rejected(with_entry("layers/001.png", png(np.zeros((4, 64), np.uint16))), "64×4 does not match")
     rejected(with_entry("layers/001.png", b"\x89PNG\r\n\x1a\n" + b"\0" * 40), "cannot decode the PNG")
 
 

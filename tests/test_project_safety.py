@@ -44,7 +44,7 @@ def test_killing_a_saving_process_always_leaves_a_loadable_project(tmp_path: Pat
 
 def test_a_failing_save_leaves_the_old_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     path = tmp_path / "p.sheer"
-    save_project(sample_project(8, 2, name="old"), path, self_contained=True)
+    save_project(sample_project(64, 2, name="old"), path, self_contained=True)
     import painting.project as pp
 
     def explode(*args: object, **kwargs: object) -> None:
@@ -52,7 +52,7 @@ def test_a_failing_save_leaves_the_old_file(tmp_path: Path, monkeypatch: pytest.
 
     monkeypatch.setattr(pp, "write_container", explode)
     with pytest.raises(OSError):
-        save_project(sample_project(8, 2, name="new"), path, self_contained=True)
+        save_project(sample_project(64, 2, name="new"), path, self_contained=True)
     monkeypatch.undo()
     assert open_project(path).name == "old"
     assert [p.name for p in tmp_path.iterdir()] == ["p.sheer"]
@@ -61,13 +61,13 @@ def test_a_failing_save_leaves_the_old_file(tmp_path: Path, monkeypatch: pytest.
 def test_autosave_recovery_after_a_crash(tmp_path: Path) -> None:
     """A studio process autosaves then dies; the next session finds and recovers the work."""
     path = tmp_path / "look.sheer"
-    save_project(sample_project(8, 2, name="saved"), path, self_contained=True)
+    save_project(sample_project(64, 2, name="saved"), path, self_contained=True)
     script = (
         "import os, sys\n"
         "from painting.project_fuzz import sample_project\n"
         "from painting.recovery import Autosaver\n"
         "clock = [0.0]\n"
-        "a = Autosaver(lambda: sample_project(8, 2, name='unsaved work'), sys.argv[1], interval_s=60,"
+        "a = Autosaver(lambda: sample_project(64, 2, name='unsaved work'), sys.argv[1], interval_s=60,"
         " clock=lambda: clock[0])\n"
         "a.mark_dirty(); clock[0] = 61.0\n"
         "assert a.tick() is not None\n"
@@ -91,7 +91,7 @@ def test_autosave_recovery_after_a_crash(tmp_path: Path) -> None:
 def test_autosaver_interval_dirty_flag_and_close(tmp_path: Path) -> None:
     now = [0.0]
     path = tmp_path / "p.sheer"
-    saver = Autosaver(lambda: sample_project(8, 1, name="work"), path, interval_s=120, clock=lambda: now[0])
+    saver = Autosaver(lambda: sample_project(64, 1, name="work"), path, interval_s=120, clock=lambda: now[0])
     assert saver.tick() is None  # nothing changed
     saver.mark_dirty()
     now[0] = 100.0
@@ -110,7 +110,7 @@ def test_autosaver_interval_dirty_flag_and_close(tmp_path: Path) -> None:
 
 
 def test_untitled_work_is_recovered_from_the_recovery_folder(_recovery_dir: Path) -> None:
-    saver = Autosaver(lambda: sample_project(8, 1, name="untitled work"), None, interval_s=1, clock=lambda: 5.0)
+    saver = Autosaver(lambda: sample_project(64, 1, name="untitled work"), None, interval_s=1, clock=lambda: 5.0)
     saver.mark_dirty()
     written = saver.autosave_now()
     assert written.parent == _recovery_dir and written.name.startswith("untitled-")
@@ -130,7 +130,7 @@ def test_unwritable_folder_autosaves_to_the_recovery_folder(tmp_path: Path, _rec
     path = folder / "p.sheer"
     real_access = os.access
     monkeypatch.setattr(os, "access", lambda p, mode: False if Path(p) == folder else real_access(p, mode))
-    written = autosave(sample_project(8, 1), path)
+    written = autosave(sample_project(64, 1), path)
     assert written.parent == _recovery_dir and written.name.endswith("-p.sheer.recovery")
     assert find_recovery(path) is not None
     discard_recovery(path)

@@ -55,7 +55,7 @@ def run_new(args: argparse.Namespace) -> int:
         raise SheerError(f"{out}: already exists (use --force to replace it; the old file is kept as .bak)")
     project = new_project(args.name or out.stem, head_path=args.head, look=args.look)
     save_project(project, out, self_contained=args.self_contained)
-    print(f"wrote {out} (head '{project.head.name}', atlas {project.atlas_size[1]}×{project.atlas_size[0]})")
+    print(f"wrote {out} (head '{project.head.name}', layer resolution {project.resolution}²)")
     return 0
 
 
@@ -67,13 +67,14 @@ def _summary(project: object) -> dict:
         "name": project.name,
         "schema_version": project.source_schema_version,
         "created_by": project.created_by,
-        "atlas": {"width": project.atlas_size[1], "height": project.atlas_size[0]},
+        "resolution": project.resolution,
+        "layout": project.layout,
         "head": {"name": project.head.name, "embedded": project.head.embedded,
                  "path": None if project.head.mesh_path is None else str(project.head.mesh_path),
                  "asset": project.head.asset, "files": project.head.files},
         "layers": [{"name": layer.name, "material": layer.material, "visible": layer.visible,
                     "opacity": layer.opacity, "max_thickness_um": layer.max_thickness_um,
-                    "encoding": layer.encoding, "max_um": float(layer.thickness.max(initial=0.0)),
+                    "encoding": layer.encoding, "resolution": layer.resolution, "max_um": float(layer.thickness.max(initial=0.0)),
                     "mean_um": float(layer.thickness.mean()) if layer.thickness.size else 0.0}
                    for layer in project.layers],
         "materials": sorted(project.materials),
@@ -93,12 +94,12 @@ def run_info(args: argparse.Namespace) -> int:
     head = summary["head"]
     print(f"{args.file}: '{summary['name']}' (schema_version {summary['schema_version']}, {summary['created_by']})")
     print(f"  head: {head['name']} ({'embedded' if head['embedded'] else head['path'] or head['asset']})")
-    print(f"  atlas: {summary['atlas']['width']}×{summary['atlas']['height']} texels")
+    print(f"  default layer resolution: {summary['resolution']}² texels")
     print(f"  layers ({len(summary['layers'])}, bottom first):")
     for layer in summary["layers"]:
         print(f"    {layer['name']!r:24} {layer['material']!r:24} {'shown' if layer['visible'] else 'hidden':6} "
               f"opacity {layer['opacity']:.2f}  max {layer['max_um']:.2f} µm  mean {layer['mean_um']:.3f} µm "
-              f"[{layer['encoding']}]")
+              f"[{layer['resolution']}² {layer['encoding']}]")
     print(f"  materials: {', '.join(summary['materials']) or 'none'}")
     print(f"  lights: {summary['lights']}; camera: {'yes' if summary['camera'] else 'no'}; "
           f"look: {summary['look']['name'] if summary['look'] else 'none'}")
