@@ -455,10 +455,11 @@ def _resolve_head_path(head: dict[str, Any], project_dir: Path | None) -> Path |
         from resources import assets_search_path
 
         candidates += [folder / head["asset"] for folder in assets_search_path()]
+    candidates = [Path(os.path.normpath(c.absolute())) for c in candidates]
     for c in candidates:
         if c.is_file():
-            return c.absolute()
-    return candidates[0].absolute() if candidates else None
+            return c
+    return candidates[0] if candidates else None
 
 
 def read_project(source: str | Path | Any, *, name: str | None = None, project_dir: Path | None = None,

@@ -208,6 +208,16 @@ class Autosaver:
         """Record that the project changed since it was last saved (connect to the document's events)."""
         self.dirty = True
 
+    def watch(self, doc: object) -> Callable[[], None]:
+        """Mark dirty on every change event of a ``painting.Document`` (paint, layers, material);
+        returns the unsubscribe function."""
+
+        def on_event(event: object) -> None:
+            if getattr(event, "kind", "") != "history":
+                self.dirty = True
+
+        return doc.subscribe(on_event)  # type: ignore[attr-defined]
+
     def due(self) -> bool:
         """Unsaved changes and at least ``interval_s`` since the last save or autosave."""
         return self.dirty and self.clock() - self._last >= self.interval_s

@@ -77,3 +77,26 @@ def test_self_contained_sample_head_document(tmp_path: Path) -> None:
     save_project(painted, path)
     again = open_project(path).to_document(cache=False)
     assert np.array_equal(again.layers[0].thickness, doc.layers[0].thickness)
+
+
+def test_autosaver_watches_the_document(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from painting.recovery import Autosaver, find_recovery, recover
+
+    monkeypatch.setenv("SHEER_RECOVERY_DIR", str(tmp_path / "recovery"))
+    doc, base = _document(tmp_path)
+    now = [0.0]
+    path = tmp_path / "p.sheer"
+    saver = Autosaver(lambda: Project.from_document(doc, base=base), path, interval_s=60, clock=lambda: now[0])
+    unsubscribe = saver.watch(doc)
+    now[0] = 100.0
+    assert saver.tick() is None  # nothing painted yet
+    layer = doc.add_layer("Foundation F")
+    doc.fill(layer, 4.0)
+    assert saver.dirty
+    written = saver.tick()
+    assert written is not None and find_recovery(path) is not None
+    recovered = recover(find_recovery(path))
+    assert np.array_equal(recovered.layers[0].thickness, layer.thickness)
+    unsubscribe()
+    saver.close()
+    assert find_recovery(path) is None

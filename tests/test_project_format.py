@@ -189,9 +189,9 @@ def test_cli_new_info_validate_export(tmp_path: Path, capsys: pytest.CaptureFixt
 
     mesh = write_tiny_head(tmp_path / "h")
     out = tmp_path / "new.sheer"
-    assert main(["project", "new", "--out", str(out), "--head", str(mesh), "--look", "Evening"]) == 0
+    assert main(["project", "new", "--out", str(out), "--head", str(mesh), "--resolution", "64"]) == 0
     project = open_project(out)
-    assert project.look == {"name": "Evening"} and project.layers == []
+    assert project.look is None and project.layers == [] and project.resolution == 64
     assert main(["project", "new", "--out", str(out), "--head", str(mesh)]) == 2  # exists
     assert main(["project", "validate", str(out)]) == 0
     assert "valid" in capsys.readouterr().out
@@ -229,3 +229,21 @@ def test_cli_validate_reports_one_line_without_traceback(tmp_path: Path, capsys:
     assert main(["project", "validate", str(tmp_path / "missing.sheer")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no such project file" in err
+
+
+def test_cli_new_with_a_look_paints_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from app.cli import main
+    from resources import AssetNotFoundError, find_asset
+
+    try:
+        find_asset("heads/lee-perry-smith/head.glb")
+    except AssetNotFoundError:
+        pytest.skip("sample assets not available")
+    out = tmp_path / "natural.sheer"
+    assert main(["project", "new", "--out", str(out), "--look", "natural", "--resolution", "64"]) == 0
+    project = open_project(out)
+    assert project.look is not None and project.look["name"] == "natural"
+    assert len(project.layers) >= 2 and all(layer.thickness.max() > 0 for layer in project.layers)
+    assert all(layer.material in project.materials for layer in project.layers)
+    assert main(["project", "new", "--out", str(tmp_path / "x.sheer"), "--look", "no-such-look"]) == 2
+    assert "unknown look" in capsys.readouterr().err

@@ -22,7 +22,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     new = cmds.add_parser("new", help="create an empty project")
     new.add_argument("--out", required=True, help="the .sheer file to write")
     new.add_argument("--head", default=None, help="head mesh (default: the sample head)")
-    new.add_argument("--look", default=None, help="look name recorded in the project")
+    new.add_argument("--look", default=None,
+                     help="paint this look (a built-in name such as natural, or a look .json file) on the head")
+    new.add_argument("--resolution", type=int, default=1024,
+                     help="layer resolution, texels per side (multiple of 64; default 1024)")
     new.add_argument("--name", default=None, help="project name (default: the file name)")
     new.add_argument("--self-contained", action="store_true", help="embed the head's files")
     new.add_argument("--force", action="store_true", help="replace an existing file (kept as FILE.bak)")
@@ -53,9 +56,22 @@ def run_new(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not args.force:
         raise SheerError(f"{out}: already exists (use --force to replace it; the old file is kept as .bak)")
-    project = new_project(args.name or out.stem, head_path=args.head, look=args.look)
+    project = new_project(args.name or out.stem, head_path=args.head, resolution=args.resolution)
+    if args.look:
+        from painting.document import Document
+        from painting.head import load_head
+        from painting.looks import apply_look, load_look
+        from painting.project import Project
+
+        look = load_look(args.look)  # validated before the (slow) document is built
+        assert project.head.mesh_path is not None
+        doc = Document(load_head(project.head.mesh_path), resolution=args.resolution)
+        apply_look(doc, look)
+        meta = {"name": look.name, "description": look.description} if look.description else {"name": look.name}
+        project = Project.from_document(doc, name=project.name, head=project.head, look=meta)
     save_project(project, out, self_contained=args.self_contained)
-    print(f"wrote {out} (head '{project.head.name}', layer resolution {project.resolution}²)")
+    print(f"wrote {out} (head '{project.head.name}', {len(project.layers)} layers, "
+          f"resolution {project.resolution}²)")
     return 0
 
 
