@@ -510,6 +510,11 @@ def _read(zf: SafeZipReader, label: str, project_dir: Path | None, head_path: st
         entry = layer["map"]
         blob = zf.read(entry)
         at = f"{label}: entry {entry!r} (layer {i} {layer['name']!r})"
+        if layer["sha256"] is not None:
+            actual = hashlib.sha256(blob).hexdigest()
+            if actual != layer["sha256"]:
+                raise ProjectError(f"{at}: SHA-256 {actual[:12]}… does not match layers[{i}].sha256 "
+                                   f"({layer['sha256'][:12]}…): the map is damaged or belongs to another layer")
         shape = (int(layer["resolution"]), int(layer["resolution"]))
         if layer["encoding"] == "exr-float32":
             thickness = decode_exr(blob, at, shape)
@@ -608,9 +613,30 @@ def _number(x: float) -> float | int:
     return float(x)
 
 
-def project_json(project: Project, target_dir: Path | None, self_contained: bool) -> dict[str, Any]:
-    """The project.json dict for ``project`` saved into ``target_dir`` (head path made relative)."""
+def encode_maps(project: Project) -> list[bytes]:
+    """Each layer's map entry (EXR or PNG bytes), after checking the map (dtype, square shape, values)."""
+    out = []
+    for i, layer in enumerate(project.layers):
+        where = f"project '{project.name}': layer {i} {layer.name!r}"
+        if layer.encoding not in ("exr-float32", "png16"):
+            raise ProjectError(f"{where}: unknown encoding {layer.encoding!r}")
+        shape = np.shape(layer.thickness)
+        side = int(shape[0]) if len(shape) == 2 else 0
+        thickness = check_thickness(layer.thickness, where, (side, side))
+        if layer.encoding == "exr-float32":
+            out.append(encode_exr(thickness))
+        else:
+            out.append(encode_png16(thickness, png16_scale(thickness)))
+    return out
+
+
+def project_json(project: Project, target_dir: Path | None, self_contained: bool,
+                 maps: list[bytes] | None = None) -> dict[str, Any]:
+    """The project.json dict for ``project`` saved into ``target_dir`` (head path made relative);
+    ``maps`` are the encoded map entries (:func:`encode_maps`, computed when not given)."""
     head = project.head
+    if maps is None:
+        maps = encode_maps(project)
     path_text: str | None = None
     if not self_contained:
         if head.mesh_path is None:
@@ -630,6 +656,7 @@ def project_json(project: Project, target_dir: Path | None, self_contained: bool
             "resolution": int(layer.thickness.shape[0]) if np.ndim(layer.thickness) == 2 else 0,
             "map": f"layers/{i:03d}.{ext}", "encoding": layer.encoding,
             "scale_um": png16_scale(layer.thickness) if layer.encoding == "png16" else None,
+            "sha256": hashlib.sha256(maps[i]).hexdigest(),
         })
     out: dict[str, Any] = {
         "schema_version": SCHEMA_VERSION,
@@ -663,7 +690,8 @@ def _created_by() -> str:
 def _entries(project: Project, target_dir: Path | None, self_contained: bool) -> list[tuple[str, bytes, bool]]:
     """Validate ``project`` as it would be read back, then produce the zip entries."""
     head = embed_head(project.head) if self_contained else project.head
-    doc = project_json(project, target_dir, self_contained)
+    maps = encode_maps(project)
+    doc = project_json(project, target_dir, self_contained, maps)
     where = f"project '{project.name}'"
     validate_json(doc, where)  # never write a file this Sheer would refuse to open
     _check_semantics(doc, where)
@@ -671,13 +699,8 @@ def _entries(project: Project, target_dir: Path | None, self_contained: bool) ->
         ("mimetype", MIMETYPE.encode(), False),
         (PROJECT_JSON, json.dumps(doc, indent=1, ensure_ascii=False, allow_nan=False).encode("utf-8"), True),
     ]
-    for layer, meta in zip(project.layers, doc["layers"]):
-        side = int(meta["resolution"])
-        thickness = check_thickness(layer.thickness, f"{where}: layer {layer.name!r}", (side, side))
-        if layer.encoding == "exr-float32":
-            entries.append((meta["map"], encode_exr(thickness), False))
-        else:
-            entries.append((meta["map"], encode_png16(thickness, meta["scale_um"]), False))
+    for blob, meta in zip(maps, doc["layers"]):
+        entries.append((meta["map"], blob, False))
     if self_contained:
         assert head.data is not None
         for key in sorted(head.data):

@@ -120,6 +120,7 @@ def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
         new.setdefault("encoding", "exr-float32")
         new.setdefault("scale_um", None)
         new.setdefault("resolution", resolution)
+        new.setdefault("sha256", None)  # the draft had no map digests: unchecked until saved again
         new_layers.append(new)
     out = {
         "schema_version": 2,

@@ -53,8 +53,24 @@ def with_json(change: Callable[[dict[str, Any]], Any]) -> bytes:
     return rezip(out)
 
 
-def with_entry(name: str, data: bytes) -> bytes:
-    return rezip([(n, data if n == name else d) for n, d in entries()])
+def with_entry(name: str, data: bytes, fix_digest: bool = True, blob: bytes | None = None) -> bytes:
+    """Replace entry ``name``; for a layer map, also record its new SHA-256 in project.json (so the
+    check under test is reached) unless ``fix_digest`` is False."""
+    import hashlib
+
+    items = entries(BASE if blob is None else blob)
+    out = []
+    for n, d in items:
+        if n == name:
+            d = data
+        elif n == "project.json" and fix_digest and name.startswith("layers/"):
+            doc = json.loads(d)
+            for layer in doc["layers"]:
+                if layer["map"] == name:
+                    layer["sha256"] = hashlib.sha256(data).hexdigest()
+            d = json.dumps(doc).encode()
+        out.append((n, d))
+    return rezip(out)
 
 
 def rejected(blob: bytes, *fragments: str, kind: type[ProjectError] = ProjectError) -> str:
@@ -271,6 +287,19 @@ def test_png_map_checks() -> None:
              "PNG mode L, 16-bit greyscale expected")
     rejected(with_entry("layers/001.png", png(np.zeros((4, 64), np.uint16))), "64×4 does not match")
     rejected(with_entry("layers/001.png", b"\x89PNG\r\n\x1a\n" + b"\0" * 40), "cannot decode the PNG")
+
+
+def test_damaged_or_swapped_maps_are_caught_by_their_digest() -> None:
+    exr = dict(entries())["layers/000.exr"]
+    damaged = bytearray(exr)
+    damaged[-10] ^= 0x01
+    rejected(with_entry("layers/000.exr", bytes(damaged), fix_digest=False), "'layers/000.exr'",
+             "does not match layers[0].sha256", "damaged or belongs to another layer")
+    three = project_bytes(sample_project(64, 3, seed=4), self_contained=True)  # layers 000 and 002 are EXR
+    maps = dict(entries(three))
+    swapped = rezip([(n, maps["layers/002.exr"] if n == "layers/000.exr" else maps["layers/000.exr"]
+                      if n == "layers/002.exr" else d) for n, d in entries(three)])
+    rejected(swapped, "'layers/000.exr'", "does not match layers[0].sha256")
 
 
 def test_embedded_head_damage_is_detected() -> None:
