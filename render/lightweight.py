@@ -1,6 +1,8 @@
 """The lightweight engine (Paris et al. 2003, §5): a captured face rendered fast under any lights.
 
-Per light, Phong with the fitted skin parameters (:mod:`capture.phong`), shadow maps (the physical
+Per light, Phong with the fitted skin parameters (:mod:`capture.phong`), evaluated per vertex as the
+paper's fixed-function ``GL_LIGHTING`` did (the fragment shader only fetches the detail texture and one
+shadow comparison per light: on llvmpipe that is what keeps 8 lights within a few baseline frames), shadow maps (the physical
 renderer's :class:`render.lights.ShadowMaps`, PCF), up to 8 lights and optional SH environment irradiance
 (:class:`render.lights.Environment`), then the detail texture modulates the result and the sensor clamp
 comes last — so overexposure loses the detail in the highlights, as the paper's Fig. 10a. The paper's
@@ -81,11 +83,18 @@ class LightweightRenderer:
         self.eye_highlights = True
         self.makeup: Any = None
         self.pcf_radius = 2.5
-        self.program = self.shaders.program(ctx, "mesh.vert", "lightweight_face.frag")
+        self.cull_back_faces = True
+        #: lay down depth first, then shade each visible pixel once; None = when ≥ 2 lights cast shadows
+        self.depth_prepass: bool | None = None
+        self.depth_program = self.shaders.program(ctx, "shadow.vert", "shadow.frag")
+        self._programs: dict[tuple[int, int, int, int], Any] = {}
         self.eye_program = self.shaders.program(ctx, "lightweight_eye.vert", "lightweight_eye.frag")
         self.shadows = ShadowMaps(ctx, self.shaders, shadow_size)
-        det = np.ascontiguousarray(face.detail, dtype=np.float32)
-        self.detail = ctx.texture((det.shape[1], det.shape[0]), 3, det.tobytes(), dtype="f4")
+        # Half floats (RGBA16F): [0, 8] with 11 bits of mantissa, and llvmpipe fetches them faster than RGB32F.
+        det = np.asarray(face.detail, dtype=np.float32)
+        det = np.ascontiguousarray(np.concatenate([det, np.ones(det.shape[:2] + (1,), np.float32)], axis=2),
+                                   dtype=np.float16)
+        self.detail = ctx.texture((det.shape[1], det.shape[0]), 4, det.tobytes(), dtype="f2")
         self.detail.filter = (ctx.LINEAR, ctx.LINEAR)
         self._dummy = ctx.texture((1, 1), 4, np.zeros(4, np.float32).tobytes(), dtype="f4")
         self._eyes = self._eye_geometry()
@@ -119,7 +128,21 @@ class LightweightRenderer:
     @staticmethod
     def _write(prog: Any, name: str, data: np.ndarray) -> None:
         if name in prog:
-            prog[name].write(np.ascontiguousarray(data, dtype=np.float32).tobytes())
+            u = prog[name]
+            rows = np.asarray(data, dtype=np.float32)
+            if u.array_length > 1 or rows.shape[0] > 1:  # the compiler may shorten arrays used up to N
+                rows = rows[:u.array_length]
+            u.write(np.ascontiguousarray(rows).tobytes())
+
+    def program_for(self, n_lights: int, shadows: bool, env: bool, makeup: bool) -> Any:
+        """The face program specialised for this configuration (compiled once, cached)."""
+        key = (n_lights, int(shadows), int(env), int(makeup))
+        prog = self._programs.get(key)
+        if prog is None:
+            prog = self.shaders.program(self.ctx, "lightweight_face.vert", "lightweight_face.frag", {
+                "LW_NLIGHTS": n_lights, "LW_SHADOWS": key[1], "LW_ENV": key[2], "LW_MAKEUP": key[3]})
+            self._programs[key] = prog
+        return prog
 
     def _upload_lights(self, prog: Any) -> None:
         if len(self.lights) > MAX_LIGHTS:
@@ -152,18 +175,20 @@ class LightweightRenderer:
         """Draw a frame into ``fbo`` (which needs a depth attachment)."""
         ctx = self.ctx
         vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
-        if self.shadows_on and any(lt.shadows for lt in self.lights):
+        if len(self.lights) <= MAX_LIGHTS and self.shadows_on and any(lt.shadows for lt in self.lights):
             self.shadows.update(self.lights, self.gpu_head.centre, self.gpu_head.radius, self.gpu_head.draw)
         fbo.use()
         fbo.viewport = (vx, vy, w, h)
         fbo.clear(0.045, 0.047, 0.052, 1.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND | ctx.CULL_FACE)
-        prog = self.program
+        if len(self.lights) > MAX_LIGHTS:
+            raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
+        shadows = self.shadows_on and any(lt.shadows for lt in self.lights)
+        prog = self.program_for(len(self.lights), shadows, self.environment is not None, self.makeup is not None)
         vp = self.camera.view_projection(w / h)
         eye = tuple(float(x) for x in self.camera.eye())
         self._write(prog, "u_view_proj", vp.T.reshape(1, 16))
-        self._write(prog, "u_view", self.camera.view().T.reshape(1, 16))
         p = self.face.params
         self._set(prog, "u_diffuse", tuple(float(x) for x in p.diffuse))
         self._set(prog, "u_spec", float(p.specular))
@@ -182,10 +207,20 @@ class LightweightRenderer:
         self._set(prog, "u_r_top", 1)
         self._set(prog, "u_transmittance", 2)
         self._set(prog, "u_r_bottom", 3)
-        self._set(prog, "u_makeup", 1.0 if self.makeup is not None else 0.0)
         self.shadows.texture.use(4)
         self._set(prog, "u_shadow", 4)
+        prepass = self.depth_prepass
+        if prepass is None:
+            prepass = shadows and sum(1 for lt in self.lights if lt.shadows) >= 2
+        if prepass:
+            # Early depth: lay down depth cheaply, then shade each visible pixel once (depth "==").
+            fbo.color_mask = (False, False, False, False)
+            self._write(self.depth_program, "u_mvp", vp.T.reshape(1, 16))
+            self.gpu_head.draw(self.depth_program)
+            fbo.color_mask = (True, True, True, True)
+            ctx.depth_func = "<="
         self.gpu_head.draw(prog)
+        ctx.depth_func = "<"
         if self.eye_highlights and self._eyes is not None:
             ep = self.eye_program
             self._write(ep, "u_view_proj", vp.T.reshape(1, 16))
@@ -200,7 +235,7 @@ class LightweightRenderer:
             self._eyes[0].render()
             ctx.depth_func = "<"
             ctx.disable(ctx.BLEND)
-        ctx.disable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
 
     def render_image(self, size: tuple[int, int]) -> np.ndarray:
         """Render into an offscreen target (kept for the next call of the same size) and return uint8 sRGB
@@ -233,7 +268,8 @@ class LightweightRenderer:
             for obj in self._eyes:
                 obj.release()
             self._eyes = None
-        for obj in (self.program, self.eye_program, self.detail, self._dummy):
+        for obj in (*self._programs.values(), self.eye_program, self.depth_program, self.detail, self._dummy):
             obj.release()
+        self._programs.clear()
         self.shadows.release()
         self.gpu_head.release()

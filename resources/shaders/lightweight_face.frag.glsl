@@ -1,55 +1,74 @@
 #version 450 core
-// Lightweight face (Paris et al. 2003): per light Phong with the fitted skin parameters, modulated by the
-// detail texture *after* lighting; the sensor clamp comes only after the modulation (overexposure).
+// Lightweight face (Paris et al. 2003): Phong with the fitted skin parameters (lit per vertex, see
+// lightweight_face.vert.glsl), modulated by the detail texture *after* lighting; the sensor clamp comes
+// only after the modulation, so overexposure loses the detail in the highlights (the paper's Fig. 10a).
 // Cosmetic layers: the skin albedo is detail x diffuse; the texture-space KM outputs (R_top, T, R_bottom)
 // are applied as in the physical renderer: out = E (R_top + a T^2 / (1 - R_bottom a)).
+// Specialised at compile time (llvmpipe runs every instruction of a fragment shader, taken or not):
+// LW_NLIGHTS (0..8), LW_SHADOWS, LW_ENV, LW_MAKEUP (0/1).
+#ifndef LW_NLIGHTS
+#define LW_NLIGHTS 1
+#endif
+#ifndef LW_SHADOWS
+#define LW_SHADOWS 1
+#endif
+#ifndef LW_MAKEUP
+#define LW_MAKEUP 0
+#endif
 #include "common.glsl"
 #include "lighting.glsl"
-in vec3 v_pos;
-in vec3 v_normal;
-in vec4 v_tangent;
 in vec2 v_uv;
-in float v_depth;
-uniform sampler2D u_detail;        // float RGB, [0, 8]
+in vec3 v_e0;
+in vec3 v_s0;
+#if LW_NLIGHTS > 0 && LW_SHADOWS
+#define LW_PAIRS ((LW_NLIGHTS + 1) / 2)
+in vec4 v_ls[LW_PAIRS];
+in vec4 v_lpos[LW_NLIGHTS];
+#endif
+uniform sampler2D u_detail;        // RGBA16F, [0, 8]
 uniform sampler2D u_r_top;
 uniform sampler2D u_transmittance;
 uniform sampler2D u_r_bottom;
-uniform float u_makeup;            // 1 = apply the KM textures
 uniform vec3 u_diffuse;            // D (linear, photograph units)
 uniform float u_spec;              // i_s
-uniform float u_shininess;         // s
-uniform vec3 u_ambient;            // k A
-uniform vec3 u_eye;
 uniform float u_exposure;
 out vec4 o_colour;
+
+#if LW_SHADOWS
+// One hardware-filtered (2x2 PCF) comparison per light (lighting.glsl's 4 rotated taps cost 4x more on
+// llvmpipe, and with 8 lights that was most of the frame).
+float lw_shadow(int i) {
+    if (u_shadow_par[i].x < 0.5) return 1.0;
+    vec3 p = v_lpos[i].xyz / v_lpos[i].w * 0.5 + 0.5;
+    if (p.x <= 0.0 || p.x >= 1.0 || p.y <= 0.0 || p.y >= 1.0 || p.z >= 1.0) return 1.0;
+    vec4 tile = u_shadow_tile[i];
+    return texture(u_shadow, vec3(tile.xy + p.xy * tile.zw, p.z));
+}
+#endif
+
 void main() {
-    vec3 N = normalize(v_normal);
-    vec3 V = normalize(u_eye - v_pos);
-    vec3 E = vec3(0.0);      // irradiance for the diffuse term
-    vec3 S = vec3(0.0);      // specular
-    for (int i = 0; i < u_nlights; ++i) {
-        vec3 L = light_direction(i, v_pos);
-        float ndl = dot(N, L);
-        if (ndl <= 0.0) continue;
-        float sh = shadow_factor(i, v_pos, N, L);
-        vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
-        E += Ei * ndl;
-        vec3 R = reflect(-L, N);
-        S += Ei * pow(max(dot(R, V), 0.0), u_shininess);
+    vec3 E = v_e0;
+    vec3 S = v_s0;
+#if LW_NLIGHTS > 0 && LW_SHADOWS
+    for (int i = 0; i < LW_NLIGHTS; ++i) {
+        vec3 c = u_light_col[i].rgb * lw_shadow(i);
+        vec2 ls = (i & 1) == 0 ? v_ls[i >> 1].xy : v_ls[i >> 1].zw;
+        E += c * ls.x;
+        S += c * ls.y;
     }
-    E += u_ambient + sh_irradiance(N);
+#endif
     vec3 detail = texture(u_detail, v_uv).rgb;
     vec3 albedo = detail * u_diffuse;
     vec3 spec = u_spec * S * detail;
-    if (u_makeup > 0.5) {
-        vec4 rt = texture(u_r_top, v_uv);
-        if (rt.a > 0.0) {
-            vec3 T = texture(u_transmittance, v_uv).rgb;
-            vec3 Rb = texture(u_r_bottom, v_uv).rgb;
-            albedo = rt.rgb + albedo * T * T / max(vec3(1.0) - Rb * albedo, vec3(1e-4));
-            spec *= T * T;
-        }
+#if LW_MAKEUP
+    vec4 rt = texture(u_r_top, v_uv);
+    if (rt.a > 0.0) {
+        vec3 T = texture(u_transmittance, v_uv).rgb;
+        vec3 Rb = texture(u_r_bottom, v_uv).rgb;
+        albedo = rt.rgb + albedo * T * T / max(vec3(1.0) - Rb * albedo, vec3(1e-4));
+        spec *= T * T;
     }
+#endif
     vec3 c = (E * albedo + spec) * u_exposure;
     o_colour = vec4(linear_to_srgb(clamp(c, 0.0, 1.0)), 1.0);
 }

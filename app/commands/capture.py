@@ -1,0 +1,76 @@
+"""``sheer capture``: turn a flash photograph of a face and its 3D head into a relightable face
+(Paris et al. 2003).
+
+    sheer capture --head PATH --photo PATH (--camera FILE | --points FILE) [--probe PATH] [--mask PATH]
+                  --out FACE_DIR
+
+- ``--camera FILE``: JSON ``{"P": [[…4], […4], […4]]}``, the 3×4 projection matrix (pixels ← mesh units).
+- ``--points FILE``: JSON ``{"points": [{"name": …, "image": [x, y], "mesh": [x, y, z]}, …]}`` (≥ 6);
+  image pixels x right, y down, top-left pixel centre at (0.5, 0.5).
+- ``--probe PATH``: a photograph of a mirror ball cropped to the ball (same camera and flash); without
+  it, a white flash on the camera axis and no ambient light are assumed.
+- ``--mask PATH``: a painted skin mask (white = skin) of the photograph's size; without it, the mask is
+  computed from the head's landmarks and a skin-colour model.
+
+Writes FACE_DIR/face.json (parameters, light, camera, residuals), detail.exr (float32 detail texture in the
+head's UV space), report.png (photo | fitted render | difference) and skin_mask.png.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("capture", help="capture a relightable face from a photograph and a head",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head")
+    p.add_argument("--photo", required=True, metavar="PATH", help="the flash photograph (PNG/JPEG, sRGB)")
+    cam = p.add_mutually_exclusive_group(required=True)
+    cam.add_argument("--camera", metavar="FILE", help="projection matrix JSON")
+    cam.add_argument("--points", metavar="FILE", help="2D-3D correspondences JSON (at least 6)")
+    p.add_argument("--probe", metavar="PATH", help="mirror-ball photograph, cropped to the ball")
+    p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
+    p.add_argument("--texture-size", type=int, default=1024, metavar="N", help="detail texture side (texels)")
+    p.add_argument("--starts", type=int, default=0, metavar="N",
+                   help="also run the Phong fit from N random starts and report the spread (paper: 200)")
+    p.add_argument("--out", required=True, metavar="FACE_DIR", help="output folder")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from capture.camera import load_camera, load_points
+    from capture.mask import load_mask
+    from capture.pipeline import CaptureError, capture, read_photo, write_face
+    from capture.probe import analyse_probe
+    from painting.head import load_head
+
+    if not 16 <= args.texture_size <= 8192:
+        raise CaptureError(f"--texture-size must be between 16 and 8192, got {args.texture_size}")
+    if args.starts < 0:
+        raise CaptureError(f"--starts must be ≥ 0, got {args.starts}")
+
+    def say(msg: str) -> None:
+        print(f"capture: {msg}", file=sys.stderr, flush=True)
+
+    head = load_head(args.head)
+    say(f"head {head.name}: {len(head.faces)} triangles, {head.mm_per_unit:g} mm per unit")
+    photo = read_photo(args.photo)
+    h, w = photo.shape[:2]
+    say(f"photo {args.photo}: {w}×{h}")
+    if args.camera:
+        camera = load_camera(args.camera, w, h)
+        say("camera from the projection matrix")
+    else:
+        camera = load_points(args.points, w, h)
+        say(f"camera from correspondences: RMS reprojection error {camera.reprojection_error_px:.2f} px")
+    probe = None
+    if args.probe:
+        probe = analyse_probe(read_photo(args.probe), source=args.probe)
+    mask = load_mask(args.mask, (h, w)) if args.mask else None
+    result = capture(head, photo, camera, probe=probe, mask=mask, texture_size=args.texture_size,
+                     progress=say, robustness_starts=args.starts)
+    out = write_face(result, args.out, head_path=head.path)
+    say(f"wrote {out}/face.json, detail.exr, report.png, skin_mask.png")
+    return 0
