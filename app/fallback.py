@@ -27,6 +27,7 @@ from km.errors import SheerError
 
 WAVELENGTHS = np.arange(400.0, 701.0, 10.0)
 TILE = 64
+BLOCK = 16
 
 
 class FallbackLibraryError(SheerError, ValueError):
@@ -52,18 +53,40 @@ def km_layer_rt(S: np.ndarray, K: np.ndarray, x_mm: np.ndarray | float) -> tuple
     return sh / den, b / den
 
 
-def spectrum_to_rgb(spectrum: np.ndarray, wavelengths: np.ndarray = WAVELENGTHS) -> np.ndarray:
-    """Linear RGB of a reflectance spectrum (uses km.colour when available, else three broad bands)."""
-    try:
-        from km import spectrum_to_rgb as real
+def _lobe(w: np.ndarray, mu: float, s1: float, s2: float) -> np.ndarray:
+    return np.exp(-0.5 * ((w - mu) / np.where(w < mu, s1, s2)) ** 2)
 
-        return np.clip(np.asarray(real(spectrum, wavelengths), float), 0.0, 1.0)
-    except Exception:
-        s = np.asarray(spectrum, float)
-        w = np.asarray(wavelengths, float)
-        bands = [(580.0, 700.0), (490.0, 580.0), (400.0, 490.0)]
-        out = [s[..., (w >= lo) & (w <= hi)].mean(axis=-1) for lo, hi in bands]
-        return np.clip(np.stack(out, axis=-1), 0.0, 1.0)
+
+def cie_xyz_cmf(w: np.ndarray) -> np.ndarray:
+    """CIE 1931 2° colour-matching functions, the analytic multi-lobe fit of Wyman, Sloan & Shirley (2013);
+    shape (..., 3) for wavelengths ``w`` in nm."""
+    w = np.asarray(w, float)
+    x = 1.056 * _lobe(w, 599.8, 37.9, 31.0) + 0.362 * _lobe(w, 442.0, 16.0, 26.7) - 0.065 * _lobe(w, 501.1, 20.4, 26.2)
+    y = 0.821 * _lobe(w, 568.8, 46.9, 40.5) + 0.286 * _lobe(w, 530.9, 16.3, 31.1)
+    z = 1.217 * _lobe(w, 437.0, 11.8, 36.0) + 0.681 * _lobe(w, 459.0, 26.0, 13.8)
+    return np.stack([x, y, z], axis=-1)
+
+
+_XYZ_TO_SRGB = np.array([[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]])
+_RGB_MATRICES: dict[bytes, np.ndarray] = {}
+
+
+def spectrum_to_rgb(spectrum: np.ndarray, wavelengths: np.ndarray = WAVELENGTHS) -> np.ndarray:
+    """Linear sRGB of a reflectance spectrum, white-balanced so that a perfect reflector is (1, 1, 1).
+
+    Fast and dependency-free (the studio calls it for every swatch and look-up table): the analytic CIE
+    fit above under an equal-energy illuminant, then a von Kries scaling in RGB. ``km.colour`` is the
+    reference; this agrees with it to within a few ΔE on cosmetic colours."""
+    w = np.asarray(wavelengths, float)
+    key = w.tobytes()
+    m = _RGB_MATRICES.get(key)
+    if m is None:
+        cmf = cie_xyz_cmf(w)
+        weights = np.gradient(w)[:, None] if w.size > 1 else np.ones((1, 1))
+        m = (cmf * weights) @ _XYZ_TO_SRGB.T  # (n, 3): spectrum → unbalanced linear RGB
+        m = m / m.sum(axis=0, keepdims=True)  # white → (1, 1, 1)
+        _RGB_MATRICES[key] = m
+    return np.clip(np.asarray(spectrum, float) @ m, 0.0, 1.0)
 
 
 def _smooth_spectrum(rgb: tuple[float, float, float]) -> np.ndarray:
@@ -267,10 +290,38 @@ class FallbackDocument:
         self.head = head
         self.resolution = resolution
         self.position, self.coverage = _bake_positions(head, resolution)
+        nb = resolution // BLOCK
+        pos = self.position.reshape(nb, BLOCK, nb, BLOCK, 3)
+        cov = self.coverage.reshape(nb, BLOCK, nb, BLOCK, 1)
+        self._bmin = np.where(cov, pos, np.inf).min(axis=(1, 3))
+        self._bmax = np.where(cov, pos, -np.inf).max(axis=(1, 3))
         self.layers: list[FallbackLayer] = []
         self._undo: list[tuple[str, Any]] = []
         self._redo: list[tuple[str, Any]] = []
         self._subs: list[Callable[[ChangeEvent], None]] = []
+
+    def blocks_near(self, q: np.ndarray, r: float) -> list[tuple[slice, slice]]:
+        """Slices of the BLOCK² texel blocks whose 3D bounding box is within ``r`` of ``q``."""
+        gap = np.maximum(np.maximum(self._bmin - q, q - self._bmax), 0.0)
+        near = np.nonzero(np.sum(gap * gap, axis=-1) <= r * r)
+        return [(slice(i * BLOCK, (i + 1) * BLOCK), slice(j * BLOCK, (j + 1) * BLOCK)) for i, j in zip(*near)]
+
+    def front_point(self, x: float, y: float, cell: float = 0.02) -> np.ndarray | None:
+        """The front-most covered surface point near (x, y) seen along −Z (from the face)."""
+        if not hasattr(self, "_front"):
+            p = self.position[self.coverage]
+            ij = np.floor(p[:, :2] / cell).astype(np.int64)
+            key = (ij[:, 1] + 100_000) * 200_000 + (ij[:, 0] + 100_000)
+            order = np.lexsort((p[:, 2], key))
+            key_sorted = key[order]
+            last = np.r_[key_sorted[1:] != key_sorted[:-1], True]
+            self._front = (key_sorted[last], p[order][last])
+        keys, pts = self._front
+        k = (int(np.floor(y / cell)) + 100_000) * 200_000 + (int(np.floor(x / cell)) + 100_000)
+        i = int(np.searchsorted(keys, k))
+        if i >= len(keys) or keys[i] != k:
+            return None
+        return pts[i].astype(float)
 
     @classmethod
     def from_head(cls, path: str | Path | None = None, resolution: int = 512) -> FallbackDocument:
@@ -347,6 +398,15 @@ class FallbackDocument:
                 setattr(self.layers[index], k, v)
         self.edit_layers(change)
 
+    def set_thickness(self, layer: FallbackLayer, values: np.ndarray) -> None:
+        """Replace the whole map (one undo step)."""
+        if values.shape != layer.thickness.shape:
+            raise SheerError(f"map is {values.shape}, the layer {layer.thickness.shape}")
+        with self.stroke(layer, FallbackBrush()) as s:
+            s._remember(slice(0, values.shape[0]), slice(0, values.shape[1]))
+            layer.thickness[...] = np.clip(values, 0.0, layer.max_thickness)
+        self._emit(ChangeEvent("layers"))
+
     def clear_history(self) -> None:
         self._undo.clear()
         self._redo.clear()
@@ -415,30 +475,28 @@ class _Stroke:
             points.append(p - 2.0 * float((p - o) @ n) * n)
         r = b.radius_mm * max(min(pressure, 1.0), 0.05) / doc.head.mm_per_unit
         touched: list[tuple[int, int]] = []
+        h = min(max(b.hardness, 0.0), 0.99)
         for q in points:
-            d = np.linalg.norm(doc.position - q.astype(np.float32), axis=-1)
-            mask = (d < r) & doc.coverage
-            if not mask.any():
-                continue
-            ys, xs = np.nonzero(mask)
-            rows, cols = slice(int(ys.min()), int(ys.max()) + 1), slice(int(xs.min()), int(xs.max()) + 1)
-            touched += self._remember(rows, cols)
-            t = d[rows, cols] / r
-            h = min(max(b.hardness, 0.0), 0.99)
-            x = np.clip((t - h) / (1.0 - h), 0.0, 1.0)
-            fall = np.where(mask[rows, cols], 1.0 - x * x * (3.0 - 2.0 * x), 0.0).astype(np.float32)
-            sub = self.layer.thickness[rows, cols]
-            amount = fall * b.strength * pressure
-            if b.mode == "erase":
-                sub -= amount * self.layer.max_thickness * 0.5
-            elif b.mode == "smooth":
-                from scipy.ndimage import uniform_filter
+            for sl in doc.blocks_near(q, r):
+                d = np.linalg.norm(doc.position[sl] - q.astype(np.float32), axis=-1)
+                mask = (d < r) & doc.coverage[sl]
+                if not mask.any():
+                    continue
+                touched += self._remember(sl[0], sl[1])
+                x = np.clip((d / r - h) / (1.0 - h), 0.0, 1.0)
+                fall = np.where(mask, 1.0 - x * x * (3.0 - 2.0 * x), 0.0).astype(np.float32)
+                sub = self.layer.thickness[sl]
+                amount = fall * b.strength * pressure
+                if b.mode == "erase":
+                    sub -= amount * self.layer.max_thickness * 0.5
+                elif b.mode == "smooth":
+                    from scipy.ndimage import uniform_filter
 
-                blurred = uniform_filter(sub, size=5)
-                sub += (blurred - sub) * np.clip(amount, 0.0, 1.0)
-            else:
-                sub += amount * self.layer.max_thickness * 0.25
-            np.clip(sub, 0.0, self.layer.max_thickness, out=sub)
+                    blurred = uniform_filter(sub, size=5)
+                    sub += (blurred - sub) * np.clip(amount, 0.0, 1.0)
+                else:
+                    sub += amount * self.layer.max_thickness * 0.25
+                np.clip(sub, 0.0, self.layer.max_thickness, out=sub)
         touched = sorted(set(touched))
         if touched:
             doc._emit(ChangeEvent("paint", doc.layers.index(self.layer), touched))

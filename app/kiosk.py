@@ -198,7 +198,7 @@ class KioskWindow(QWidget):
         self.last_error: str | None = None
         self.snapshots: list[Path] = []
         self.library = seams.load_library()
-        self.doc = seams.open_document(head, resolution)
+        self.doc = seams.open_document(head, resolution, self.library)
         self.look = "natural"
         self.viewport = self._make_viewport(resolution)
         self.stack = QStackedWidget()
@@ -241,7 +241,7 @@ class KioskWindow(QWidget):
     def _make_viewport(self, resolution: int) -> Any:
         from app.viewport import Viewport
 
-        vp = Viewport(self.doc.head, resolution)
+        vp = Viewport(self.doc.head, int(self.doc.resolution))
         vp.paint_enabled = False
         vp.gl_failed.connect(lambda msg: self.fail(msg))
         return vp

@@ -136,6 +136,21 @@ class LibraryDock(QWidget):
             s.setSuffix(suffix)
             s.editingFinished.connect(lambda a=attr, w=s: self.edit(a, float(w.value())))
             self.spins[attr] = s
+        self.scales: dict[str, QDoubleSpinBox] = {}
+        for arr, tip in (("K", "absorption × (darker / deeper shade)"), ("S", "scattering × (more coverage)")):
+            sp = QDoubleSpinBox()
+            sp.setRange(0.1, 10.0)
+            sp.setSingleStep(0.1)
+            sp.setValue(1.0)
+            sp.setPrefix("× ")
+            sp.setToolTip(tip)
+            sp.editingFinished.connect(lambda a=arr, w=sp: self.scale_spectrum(a, float(w.value())))
+            self.scales[arr] = sp
+        scale_row = QHBoxLayout()
+        scale_row.addWidget(QLabel("K"))
+        scale_row.addWidget(self.scales["K"])
+        scale_row.addWidget(QLabel("S"))
+        scale_row.addWidget(self.scales["S"])
         form = QFormLayout()
         form.addRow("Name", self.name_edit)
         form.addRow("Category", self.category_edit)
@@ -143,6 +158,7 @@ class LibraryDock(QWidget):
         form.addRow("Max thickness", self.spins["max_thickness_um"])
         form.addRow("Roughness", self.spins["roughness"])
         form.addRow("IOR", self.spins["ior"])
+        form.addRow("Scale spectra", scale_row)
         # plots
         pg.setConfigOptions(antialias=True)
         self.refl_plot = pg.PlotWidget()
@@ -382,6 +398,17 @@ class LibraryDock(QWidget):
             self.load_fields()
             return
         self.undo_stack.push(_SetAttr(self, self.current, attr, old, EDITABLE[attr](value)))
+
+    def scale_spectrum(self, which: str, factor: float) -> None:
+        """Multiply the current material's K (absorption) or S (scattering) by ``factor``; undoable."""
+        self.scales[which].blockSignals(True)
+        self.scales[which].setValue(1.0)
+        self.scales[which].blockSignals(False)
+        if self._loading or self.current is None or abs(factor - 1.0) < 1e-6 or which not in ("S", "K"):
+            return
+        m = self.library.get(self.current)
+        old = np.asarray(getattr(m, which), float)
+        self.undo_stack.push(_SetAttr(self, self.current, which, old, old * factor))
 
     def _rename(self) -> None:
         if self._loading or self.current is None:

@@ -60,7 +60,7 @@ class StudioWindow(QMainWindow):
         self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)
         self.settings: StudioSettings = load_settings(self.qsettings)
         self.library = seams.load_library()
-        self.doc = seams.open_document(head_path, resolution)
+        self.doc = seams.open_document(head_path, resolution, self.library)
         self.project_path: Path | None = None
         self.project_name = "Untitled"
         self._stroke: Any = None
@@ -71,7 +71,7 @@ class StudioWindow(QMainWindow):
             self.doc.clear_history()
         self.doc.subscribe(self._on_doc_event)
 
-        self.viewport = Viewport(self.doc.head, resolution)
+        self.viewport = Viewport(self.doc.head, int(self.doc.resolution))
         self.setCentralWidget(self.viewport)
         self.viewport.stroke_begin.connect(self._stroke_begin)
         self.viewport.stroke_move.connect(self._stroke_move)
@@ -203,9 +203,7 @@ class StudioWindow(QMainWindow):
         self.render_combo = QComboBox()
         self.render_combo.addItems(["fast", "reference"])
         self.debug_combo = QComboBox()
-        from app.preview_renderer import DEBUG_VIEWS
-
-        self.debug_combo.addItems(list(DEBUG_VIEWS))
+        self.debug_combo.addItems(seams.debug_views())
         self.split_slider = QSlider(Qt.Orientation.Horizontal)
         self.split_slider.setRange(0, 100)
         self.split_slider.setMaximumWidth(140)
@@ -260,6 +258,7 @@ class StudioWindow(QMainWindow):
         vp.brush_radius_units = s.brush_radius_mm / self.doc.head.mm_per_unit
         vp.set_overlay(s.overlay)
         vp.roughness = self._top_roughness()
+        vp.environment = s.environment
         if s.debug_view == 2:
             self._push_thickness_view()
         self._update_actions()
@@ -353,7 +352,7 @@ class StudioWindow(QMainWindow):
     def _push_thickness_view(self) -> None:
         if self.doc.layers:
             lay = self.doc.layers[self.selected_layer]
-            self.viewport.set_thickness_view(lay.thickness, float(lay.max_thickness))
+            self.viewport.set_thickness_view(lay.thickness, float(lay.max_thickness), self.selected_layer)
         else:
             self.viewport.set_thickness_view(None, 1.0)
 
@@ -580,9 +579,7 @@ class StudioWindow(QMainWindow):
             return False
         scale = 65535.0 if arr.dtype == np.uint16 else 255.0
         new = (arr.astype(np.float32) / scale * float(lay.max_thickness)).astype(np.float32)
-        with self.doc.stroke(lay, seams.make_brush(1.0, 0.5, 1.0, "add", False)) as s:
-            s._remember(slice(0, new.shape[0]), slice(0, new.shape[1]))
-            lay.thickness[...] = new
+        seams.set_thickness(self.doc, lay, new)
         self.refresh_layers()
         return True
 

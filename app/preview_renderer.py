@@ -30,22 +30,26 @@ void main() {
 
 FRAG = """
 #version 330
-uniform sampler2D u_albedo;     // sRGB texture, mipmapped
-uniform sampler2D u_makeup;     // rgb = made-up linear albedo (low res), a = detail weight (T^2)
+uniform sampler2D u_albedo;     // sRGB texture
+uniform sampler2D u_makeup;     // rgb = made-up albedo - skin * a (linear, low res), a = detail weight (T^2)
 uniform sampler2D u_thick;      // selected layer thickness / max (debug)
 uniform vec3 u_eye; uniform vec3 u_light_dir; uniform vec3 u_light_col; uniform vec3 u_ambient;
 uniform float u_rough; uniform float u_split; uniform float u_viewport_w; uniform int u_debug;
-uniform int u_reference; uniform vec4 u_brush; uniform float u_exposure; uniform float u_lo_level;
+uniform int u_reference; uniform vec4 u_brush; uniform float u_exposure;
 in vec3 v_pos; in vec3 v_normal; in vec2 v_uv;
 out vec4 f_color;
-vec3 to_linear(vec3 c) { return pow(c, vec3(2.2)); }
+// cheap transfer functions (llvmpipe's pow is slow): polynomial sRGB decode, sqrt-chain encode
+vec3 to_linear(vec3 c) { return c * (c * (c * 0.305306011 + 0.682171111) + 0.012522878); }
+vec3 to_srgb(vec3 x) {
+    vec3 s1 = sqrt(x); vec3 s2 = sqrt(s1); vec3 s3 = sqrt(s2);
+    return 0.662002687 * s1 + 0.684122060 * s2 - 0.323583601 * s3 - 0.0225411470 * x;
+}
 void main() {
     vec3 n = normalize(v_normal);
     vec3 hi = to_linear(texture(u_albedo, v_uv).rgb);
-    vec3 lo = to_linear(textureLod(u_albedo, v_uv, u_lo_level).rgb);
     vec4 mk = texture(u_makeup, v_uv);
     bool before = gl_FragCoord.x < u_split * u_viewport_w;
-    vec3 albedo = before ? hi : clamp(mk.rgb + (hi - lo) * mk.a, 0.0, 1.0);
+    vec3 albedo = before ? hi : clamp(hi * mk.a + mk.rgb, 0.0, 1.0);
     vec3 l = normalize(u_light_dir);
     vec3 v = normalize(u_eye - v_pos);
     float ndl = dot(n, l);
@@ -57,10 +61,11 @@ void main() {
     vec3 col = albedo * (u_light_col * diff + u_ambient) + u_light_col * spec;
     if (u_debug == 1) col = albedo;
     else if (u_debug == 2) { float t = texture(u_thick, v_uv).r; col = mix(hi * 0.3, vec3(t, t * 0.4, 1.0 - t), step(0.001, t)); }
-    else if (u_debug == 3) col = mk.rgb;
+    else if (u_debug == 3) col = clamp(hi * mk.a + mk.rgb, 0.0, 1.0);
     else if (u_debug == 4) col = n * 0.5 + 0.5;
-    col = vec3(1.0) - exp(-col * u_exposure);
-    col = pow(col, vec3(1.0 / 2.2));
+    col *= u_exposure;
+    col = col / (1.0 + col);
+    col = to_srgb(clamp(col, 0.0, 1.0));
     if (u_debug == 4) col = n * 0.5 + 0.5;
     if (u_brush.w > 0.0) {
         float d = length(v_pos - u_brush.xyz);
@@ -178,15 +183,13 @@ class PreviewRenderer:
         self.pick_vao = ctx.vertex_array(self.pick_prog, [(self.vbo, "3f 20x", "in_pos")], self.ibo)
         albedo = head.albedo if head.albedo is not None else np.full((4, 4, 3), 200, np.uint8)
         self.albedo = ctx.texture(albedo.shape[1::-1], 3, np.ascontiguousarray(albedo).tobytes())
-        self.albedo.build_mipmaps()
-        self.albedo.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-        self.lo_level = float(max(np.log2(albedo.shape[0] / doc_resolution), 0.0))
+        self.albedo.filter = (moderngl.LINEAR, moderngl.LINEAR)
         from PIL import Image
 
         small = np.asarray(Image.fromarray(albedo).resize((doc_resolution, doc_resolution), Image.BILINEAR))
         skin = (small.astype(np.float32) / 255.0) ** 2.2
         self.compositor = MakeupCompositor(skin)
-        rgba = np.concatenate([skin, np.ones(skin.shape[:2] + (1,), np.float32)], axis=-1)
+        rgba = np.concatenate([np.zeros_like(skin), np.ones(skin.shape[:2] + (1,), np.float32)], axis=-1)
         self.makeup = ctx.texture((doc_resolution, doc_resolution), 4, rgba.astype("f2").tobytes(), dtype="f2")
         self.thick = ctx.texture((doc_resolution, doc_resolution), 1, dtype="f4")
         self._pick_fbo: Any = None
@@ -207,10 +210,11 @@ class PreviewRenderer:
             if rows.start >= rows.stop or cols.start >= cols.stop:
                 continue
             block = self.compositor.composite(layers, rows, cols)
+            block[..., :3] -= self.compositor.skin[rows, cols] * block[..., 3:4]
             self.makeup.write(np.ascontiguousarray(block.astype("f2")).tobytes(),
                               viewport=(cols.start, rows.start, cols.stop - cols.start, rows.stop - rows.start))
 
-    def set_debug_thickness(self, thickness: np.ndarray | None, tmax: float) -> None:
+    def set_debug_thickness(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
         data = np.zeros((self.res, self.res), np.float32) if thickness is None else thickness / max(tmax, 1e-6)
         self.thick.write(np.ascontiguousarray(data, dtype="f4").tobytes())
 
@@ -239,7 +243,6 @@ class PreviewRenderer:
         self._set(p, "u_viewport_w", float(w))
         self._set(p, "u_debug", int(debug))
         self._set(p, "u_reference", int(reference))
-        self._set(p, "u_lo_level", self.lo_level)
         self._set(p, "u_brush", tuple(brush) if brush else (0.0, 0.0, 0.0, 0.0))
         self._set(p, "u_albedo", 0)
         self._set(p, "u_makeup", 1)

@@ -41,10 +41,12 @@ def load_project_into(doc: Any, library: Any, path: Path) -> str:
             library.add(project.material(lay.material))
     for i in reversed(range(len(doc.layers))):
         doc.remove_layer(i)
-    for lay in project.layers:
+    from app import seams
+
+    for i, lay in enumerate(project.layers):
         new = doc.add_layer(lay.material, name=lay.name, max_thickness=float(lay.max_thickness_um))
-        new.thickness[...] = _resample(np.asarray(lay.thickness), new.thickness.shape[0])
-        new.visible, new.opacity = bool(lay.visible), float(lay.opacity)
+        seams.set_thickness(doc, new, _resample(np.asarray(lay.thickness), new.thickness.shape[0]))
+        doc.set_layer(i, visible=bool(lay.visible), opacity=float(lay.opacity))
     doc.clear_history()
     return str(project.name)
 

@@ -9,7 +9,6 @@ API. :func:`backends` says which one is in use (shown in the About box and the b
 from __future__ import annotations
 
 import importlib
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -49,22 +48,92 @@ def load_library() -> Any:
     return FallbackLibrary.default()
 
 
-def open_document(head_path: str | Path | None = None, resolution: int = 512) -> Any:
-    """The painting document for a head (the stand-in until ``painting.Document`` lands)."""
+def real_document_available() -> bool:
+    import os
+
+    return os.environ.get("SHEER_DOCUMENT", "auto").strip().lower() != "stand-in" and _has("painting", "Document")
+
+
+def open_document(head_path: str | Path | None = None, resolution: int = 512, library: Any = None) -> Any:
+    """The painting document for a head: ``painting.Document`` (through :mod:`app.doc_adapter`) when this
+    build has it, else the stand-in."""
+    if real_document_available():
+        from km.errors import SheerError
+
+        try:
+            from app.doc_adapter import DocumentAdapter
+
+            doc = DocumentAdapter.from_head(head_path, resolution, library)
+            _USED["document"] = "painting.Document"
+            return doc
+        except SheerError:
+            raise
+        except Exception as exc:
+            import logging
+
+            logging.getLogger("sheer.app").warning("painting.Document failed (%s); using the stand-in", exc)
     _USED["document"] = "stand-in"
     return FallbackDocument.from_head(head_path, resolution)
 
 
 def make_brush(radius_mm: float, hardness: float, strength: float, mode: str, mirror: bool) -> Any:
+    if _USED.get("document") == "painting.Document":
+        from app.doc_adapter import make_brush as real
+
+        return real(radius_mm, hardness, strength, mode, mirror)
     return FallbackBrush(radius_mm=radius_mm, hardness=hardness, strength=strength, mode=mode, mirror=mirror)
 
 
+def set_thickness(doc: Any, layer: Any, values: np.ndarray) -> None:
+    """Replace a layer's whole map as one undo step."""
+    doc.set_thickness(layer, np.asarray(values, np.float32))
+
+
+def _viewport_choice() -> str:
+    """``SHEER_VIEWPORT=preview`` forces the stand-in renderer; ``real`` insists on ``render.Renderer``."""
+    import os
+
+    return os.environ.get("SHEER_VIEWPORT", "auto").strip().lower()
+
+
+def real_renderer_available() -> bool:
+    return _viewport_choice() != "preview" and _has("render.renderer", "Renderer")
+
+
 def create_renderer(ctx: Any, head: Any, resolution: int) -> Any:
-    """The viewport renderer drawing into the widget's framebuffer."""
+    """The viewport renderer drawing into the widget's framebuffer: ``render.Renderer`` through
+    :mod:`app.render_adapter` when this build has it, else the stand-in preview."""
     from app.preview_renderer import PreviewRenderer
 
+    if real_renderer_available():
+        try:
+            from app.render_adapter import RealViewportRenderer
+
+            r = RealViewportRenderer(ctx, head, resolution)
+            _USED["renderer"] = "render.Renderer"
+            return r
+        except Exception as exc:
+            if _viewport_choice() == "real":
+                raise
+            import logging
+
+            logging.getLogger("sheer.app").warning("render.Renderer failed (%s); using the preview", exc)
     _USED["renderer"] = "stand-in preview"
     return PreviewRenderer(ctx, head, resolution)
+
+
+def debug_views() -> list[str]:
+    """Names of the viewport's debug views (index 0 is the normal image)."""
+    if real_renderer_available():
+        try:
+            from app.render_adapter import debug_views as real
+
+            return real()
+        except Exception:
+            pass
+    from app.preview_renderer import DEBUG_VIEWS
+
+    return list(DEBUG_VIEWS)
 
 
 def materials_by_category(library: Any) -> dict[str, list[str]]:
@@ -100,19 +169,27 @@ LOOKS: dict[str, list[tuple[str, str, list[tuple[float, float]], float, int]]] =
 }
 
 
-def _front_points(head: Any, xy: list[tuple[float, float]]) -> Iterator[np.ndarray]:
-    mesh = head.trimesh()
+def _front_points(doc: Any, xy: list[tuple[float, float]]) -> list[np.ndarray]:
+    """Surface points seen from the front at (x, y) anchors (mesh units)."""
+    if hasattr(doc, "front_point"):
+        pts = [doc.front_point(x, y) for x, y in xy]
+        return [p for p in pts if p is not None]
+    mesh = doc.head.trimesh()
     origins = np.array([[x, y, 10.0] for x, y in xy])
     dirs = np.tile([0.0, 0.0, -1.0], (len(xy), 1))
     locs, ray_idx, _ = mesh.ray.intersects_location(origins, dirs, multiple_hits=False)
-    for i in np.argsort(ray_idx):
-        yield locs[i]
+    return [locs[i] for i in np.argsort(ray_idx)]
 
 
 def apply_look(doc: Any, library: Any, name: str) -> None:
     """Replace the document's layers with the look ``name`` (unknown → SheerError)."""
     from km.errors import SheerError
 
+    if hasattr(doc, "apply_look"):
+        for i in reversed(range(len(doc.layers))):
+            doc.remove_layer(i)
+        doc.apply_look(name)
+        return
     if name not in LOOKS:
         raise SheerError(f"unknown look '{name}' (known: {', '.join(LOOKS)})")
     for i in reversed(range(len(doc.layers))):
@@ -126,7 +203,7 @@ def apply_look(doc: Any, library: Any, name: str) -> None:
         mat = library.get(material)
         layer = doc.add_layer(material, name=category.title(), max_thickness=float(mat.max_thickness_um))
         brush = make_brush(radius, 0.3, 0.6, "add", False)
-        points = list(_front_points(doc.head, xy))
+        points = _front_points(doc, xy)
         with doc.stroke(layer, brush) as s:
             for _ in range(passes):
                 for p in points:

@@ -62,7 +62,8 @@ class Viewport(QOpenGLWidget):
         self.ctx: Any = None
         self.renderer: Any = None
         self._pending_layers: tuple[list[Any], list[tuple[int, int]] | None] | None = None
-        self._pending_thick: tuple[np.ndarray | None, float] | None = None
+        self._pending_thick: tuple[np.ndarray | None, float, int] | None = None
+        self.environment = "none"
         self._ring: np.ndarray | None = None
         self._drag: str | None = None
         self._last = QPointF()
@@ -124,6 +125,8 @@ class Viewport(QOpenGLWidget):
         if self._pending_thick is not None:
             self.renderer.set_debug_thickness(*self._pending_thick)
             self._pending_thick = None
+        if hasattr(self.renderer, "environment"):
+            self.renderer.environment = self.environment
         fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
         ring = None
         if self._ring is not None and self.paint_enabled:
@@ -152,8 +155,8 @@ class Viewport(QOpenGLWidget):
         self._pending_layers = (layers, tiles)
         self.update()
 
-    def set_thickness_view(self, thickness: np.ndarray | None, tmax: float) -> None:
-        self._pending_thick = (None if thickness is None else thickness.copy(), tmax)
+    def set_thickness_view(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
+        self._pending_thick = (None if thickness is None else thickness.copy(), tmax, index)
         self.update()
 
     def frame_head(self) -> None:

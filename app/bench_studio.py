@@ -1,0 +1,111 @@
+"""``sheer bench studio --json``: start-up to first frame, orbit frame rate at 1280×720 (fast mode) and
+dab-to-frame latency, measured on the real studio window (xcb; re-runs itself under ``xvfb-run`` when
+there is no display)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+
+def main(argv: list[str]) -> int:
+    t_start = time.perf_counter()
+    p = argparse.ArgumentParser(prog="sheer bench studio", description=__doc__)
+    p.add_argument("--json", action="store_true", help="print one JSON object (the only format)")
+    p.add_argument("--frames", type=int, default=40, help="orbit frames to time")
+    p.add_argument("--dabs", type=int, default=20, help="dabs to time")
+    args = p.parse_args(argv)
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        xvfb = shutil.which("xvfb-run")
+        if xvfb is None:
+            from km.errors import SheerError
+
+            raise SheerError("the studio benchmark needs a display (or xvfb-run)")
+        cmd = [xvfb, "-a", "-s", "-screen 0 1920x1080x24", sys.executable, "-m", "app", "bench", "studio", *argv]
+        return subprocess.call(cmd)
+
+    import tempfile
+
+    from PySide6.QtCore import QSettings
+    from PySide6.QtWidgets import QApplication
+
+    from app.studio_app import make_application
+
+    make_application()
+    from app import seams
+    from app.main_window import StudioWindow
+
+    ini = os.path.join(tempfile.mkdtemp(prefix="sheer-bench-"), "bench.ini")
+    win = StudioWindow(qsettings=QSettings(ini, QSettings.Format.IniFormat))
+    win.resize(1500, 900)
+    win.show()
+    vp = win.viewport
+    deadline = time.perf_counter() + 60
+    while vp.first_frame_time is None and time.perf_counter() < deadline:
+        QApplication.processEvents()
+    startup = (vp.first_frame_time or time.perf_counter()) - t_start
+
+    # orbit at 1280×720, fast mode
+    win.settings.render_mode = "fast"
+    win.apply()
+    vp.setFixedSize(1280, 720)
+    win.resize(1280 + 700, 720 + 200)
+    for _ in range(20):
+        QApplication.processEvents()
+    times = []
+    for i in range(args.frames + 3):
+        t0 = time.perf_counter()
+        vp.orbit_by(2.0)
+        vp.repaint()
+        vp.makeCurrent()
+        vp.ctx.finish()
+        vp.doneCurrent()
+        if i >= 3:
+            times.append(time.perf_counter() - t0)
+    orbit_fps = 1.0 / statistics.median(times)
+    size = vp.pixel_size()
+
+    # dab → frame on screen
+    vp.orbit_by(-vp.camera.yaw)
+    vp.repaint()
+    cx, cy = size[0] // 2, size[1] // 2
+    vp.makeCurrent()
+    hit = vp.renderer.pick(cx, cy, size, vp.camera)
+    vp.doneCurrent()
+    win.add_layer(next(iter(win.library)).name)
+    lat = []
+    if hit is not None:
+        import numpy as np
+
+        win._stroke_begin(hit, 1.0)
+        for i in range(args.dabs):
+            t0 = time.perf_counter()
+            vp.makeCurrent()
+            p = vp.renderer.pick(cx + i, cy, size, vp.camera)
+            vp.doneCurrent()
+            win._stroke_move(p if p is not None else np.asarray(hit), 1.0)
+            vp.repaint()
+            vp.makeCurrent()
+            vp.ctx.finish()
+            vp.doneCurrent()
+            lat.append(time.perf_counter() - t0)
+        win._stroke_end()
+    result = {
+        "startup_to_first_frame_s": round(startup, 3),
+        "orbit_fps": round(orbit_fps, 1),
+        "orbit_frame_ms": round(1000.0 / orbit_fps, 2),
+        "viewport_px": list(size),
+        "dab_to_frame_ms": round(statistics.median(lat) * 1000.0, 1) if lat else None,
+        "render_mode": "fast",
+        "backends": seams.backends(),
+        "targets": {"startup_to_first_frame_s": 3.0, "orbit_fps": 15.0, "dab_to_frame_ms": 100.0},
+    }
+    win.close()
+    print(json.dumps(result))
+    return 0
