@@ -706,7 +706,7 @@ class Stroke:
         pts = [last]
         for i in range(1, pieces):
             q = last + (p - last) * (i / pieces)
-            k, _ = index.nearest(q, r)
+            k, _ = index.nearest(q, max(r, 0.5 * length))
             pts.append(index.point(k) if k >= 0 else q)
         pts.append(p)
         return [(pts[i], pts[i + 1], n) for i in range(pieces)]

@@ -52,9 +52,9 @@ class HeadMetadata:
             subject's left.
         midplane_point, midplane_normal: the mirror plane of the face (mesh units; unit normal).
         albedo, normal_map, specular_map, roughness_map: texture file paths relative to the mesh's
-            folder (or absolute), or None.
-        skin_mask: a greyscale image in UV space (white = skin), relative path, or None (then every
-            covered texel counts as skin).
+            folder, else to the sidecar's folder (or absolute), or None (see :func:`resolve_texture_path`).
+        skin_mask: a greyscale image in UV space (white = skin), relative path as above, or None (then
+            every covered texel counts as skin).
         credit: credit line to show wherever the head is shown or exported.
     """
 
@@ -206,6 +206,28 @@ def sidecar_candidates(mesh_path: Path) -> list[Path]:
     ]
 
 
+def find_sidecar(mesh_path: Path) -> Path | None:
+    """The sidecar file used for ``mesh_path`` (the first of :func:`sidecar_candidates` that exists)."""
+    for candidate in sidecar_candidates(mesh_path):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None) -> Path:
+    """Where a texture path of the sidecar points: absolute paths as they are; a relative path is
+    looked up beside the mesh first, then beside the sidecar file (so a read-only sample head can take
+    a mask shipped in ``resources/heads/``). Returns the mesh-relative path when neither exists (the
+    reader then names it in its error)."""
+    p = Path(rel)
+    if p.is_absolute():
+        return p
+    beside_mesh = mesh_path.parent / p
+    if not beside_mesh.exists() and sidecar is not None and (sidecar.parent / p).exists():
+        return sidecar.parent / p
+    return beside_mesh
+
+
 def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> HeadMetadata:
     """Read the sidecar of ``mesh_path``; without one, an uncalibrated default (scale guessed from the
     bounding box, assuming a 230 mm tall head, no landmarks, ``calibrated=False``)."""
@@ -300,11 +322,12 @@ def load_head(path: str | Path | None = None) -> Head:
     vertices, faces, uv, normals = load_mesh_arrays(mesh_path)
     meta = load_metadata(mesh_path, vertices)
 
+    sidecar = find_sidecar(mesh_path)
+
     def texture(rel: str | None, mode: str) -> np.ndarray | None:
         if rel is None:
             return None
-        p = Path(rel)
-        return _read_image(p if p.is_absolute() else mesh_path.parent / p, mode)
+        return _read_image(resolve_texture_path(rel, mesh_path, sidecar), mode)
 
     mask = texture(meta.skin_mask, "L")
     return Head(

@@ -134,7 +134,7 @@ def _write_png16(p: Path, q: np.ndarray, text: dict[str, str]) -> None:
     info = PngInfo()
     for k, v in text.items():
         info.add_text(k, v)
-    img = Image.fromarray(np.ascontiguousarray(q.astype("<u2")), mode="I;16")
+    img = Image.fromarray(np.ascontiguousarray(q.astype("<u2")))  # uint16 -> mode "I;16"
     try:
         with atomic_writer(p) as fh:
             img.save(fh, format="PNG", pnginfo=info)
