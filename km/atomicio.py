@@ -42,12 +42,7 @@ def atomic_writer(path: str | Path, mode: str = "wb", keep_backup: bool = False,
             except OSError:
                 pass
             if keep_backup:
-                backup = target.with_name(target.name + ".bak")
-                backup_tmp = target.with_name(f".{target.name}.bak.tmp")
-                shutil.copy2(target, backup_tmp)
-                with open(backup_tmp, "rb") as bfh:
-                    os.fsync(bfh.fileno())
-                os.replace(backup_tmp, backup)
+                _keep_backup(target)
         else:
             os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, target)
@@ -73,6 +68,23 @@ def atomic_write_with(path: str | Path, writer: Callable[[IO], None], keep_backu
     """Call ``writer(fileobj)`` on a binary temporary file, then replace ``path`` atomically."""
     with atomic_writer(path, "wb", keep_backup=keep_backup) as fh:
         writer(fh)
+
+
+def _keep_backup(target: Path) -> None:
+    """Make ``<target>.bak`` the current ``target``: a hard link when the file system allows it (no
+    copy of a large project on every save), else a copy; fsynced, and put in place by a rename, so
+    the previous ``.bak`` is replaced atomically too."""
+    backup = target.with_name(target.name + ".bak")
+    backup_tmp = target.with_name(f".{target.name}.bak.tmp")
+    with contextlib.suppress(FileNotFoundError):
+        backup_tmp.unlink()  # left by an interrupted save
+    try:
+        os.link(target, backup_tmp)
+    except OSError:
+        shutil.copy2(target, backup_tmp)
+        with open(backup_tmp, "rb") as bfh:
+            os.fsync(bfh.fileno())
+    os.replace(backup_tmp, backup)
 
 
 def _umask() -> int:

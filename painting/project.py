@@ -225,12 +225,13 @@ def head_file_set(mesh_path: Path) -> dict[str, Path]:
     """The files that make up the head at ``mesh_path``: key (path relative to the mesh's folder) → path.
 
     The mesh, its metadata sidecar (keyed ``<mesh>.sheer-head.json`` wherever it was found) and the
-    textures the metadata names with relative paths inside the mesh's folder.
+    textures the metadata names with relative paths (found beside the mesh or beside the sidecar, as
+    :func:`painting.head.resolve_texture_path` does), keyed by that relative path.
     """
-    from painting.head import SIDECAR_SUFFIX, load_metadata, sidecar_candidates
+    from painting.head import SIDECAR_SUFFIX, find_sidecar, load_metadata, resolve_texture_path
 
     files: dict[str, Path] = {mesh_path.name: mesh_path}
-    sidecar = next((c for c in sidecar_candidates(mesh_path) if c.is_file()), None)
+    sidecar = find_sidecar(mesh_path)
     if sidecar is not None:
         files[mesh_path.name + SIDECAR_SUFFIX] = sidecar
         meta = load_metadata(mesh_path)
@@ -238,8 +239,9 @@ def head_file_set(mesh_path: Path) -> dict[str, Path]:
             if rel is None:
                 continue
             key = rel.replace(os.sep, "/")
-            if check_entry_name(key) is None and (mesh_path.parent / key).is_file():
-                files[key] = mesh_path.parent / key
+            path = resolve_texture_path(rel, mesh_path, sidecar)
+            if check_entry_name(key) is None and path.is_file():
+                files[key] = path
     return files
 
 

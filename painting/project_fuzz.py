@@ -375,7 +375,8 @@ def crash_runs(runs: int, seed: int = 0, folder: str | Path | None = None,
     return {**dict(stats), "failures": len(failures), "failure_examples": failures[:10]}
 
 
-_STEP_CALLS = (("os", "fsync"), ("os", "replace"), ("os", "chmod"), ("os", "unlink"), ("shutil", "copy2"))
+_STEP_CALLS = (("os", "fsync"), ("os", "replace"), ("os", "chmod"), ("os", "unlink"), ("os", "link"),
+               ("shutil", "copy2"))
 
 
 def _step_crash_child(path: str, step: int) -> None:
@@ -409,7 +410,7 @@ def _step_crash_child(path: str, step: int) -> None:
 
 def crash_at_every_step(folder: str | Path | None = None, max_steps: int = 200) -> dict[str, Any]:
     """Crash a save just before and just after each of its file-system calls (fsync, replace, chmod,
-    unlink, copy2), one run per point, over an existing project; open the file and its .bak each time.
+    unlink, link, copy2), one run per point, over an existing project; open the file and its .bak each time.
 
     Returns steps (crash points covered), failures (with messages).
     """
