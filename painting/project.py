@@ -424,6 +424,9 @@ def _check_semantics(data: dict[str, Any], where: str) -> None:
     for i, light in enumerate(data["lights"]):
         if "direction" in light and not any(light["direction"]):
             raise ProjectError(f"{where}: lights[{i}].direction: must not be zero")
+        if "environment" in light and check_entry_name(light["environment"]):
+            raise ProjectError(f"{where}: lights[{i}].environment: {check_entry_name(light['environment'])} "
+                               "(a sample-asset path such as environments/studio.exr)")
     cam = data["camera"]
     if cam is not None:
         if cam["far"] <= cam["near"]:

@@ -76,3 +76,32 @@ def test_accepted_mutants_are_really_valid() -> None:
 def test_bench_driver_reports_zero_other_exceptions(seed: int) -> None:
     result = run_fuzz(300, seed)
     assert result["cases"] == 300 and result["outcomes"].get("other", 0) == 0, result["other_examples"]
+
+
+_FLOATS = st.floats(min_value=0.0, max_value=10_000.0, allow_nan=False, allow_infinity=False, width=32)
+
+
+@settings(max_examples=40, deadline=None, database=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(
+    layers=st.lists(st.tuples(st.text(min_size=1, max_size=40), st.sampled_from(["Foundation F", "Blush B"]),
+                              st.booleans(), st.floats(0.0, 1.0), st.floats(0.001, 10_000.0),
+                              st.lists(_FLOATS, min_size=1, max_size=8), st.sampled_from([64, 128])),
+                    max_size=3),
+    name=st.text(min_size=1, max_size=60),
+)
+def test_any_valid_project_round_trips_exactly(layers: list, name: str) -> None:
+    """Property: save → open gives back the same project, maps bit-exact (EXR layers)."""
+    import numpy as np
+
+    from painting.project import ProjectLayer
+
+    project = sample_project(64, 0, name=name, embedded=True)
+    for lname, material, visible, opacity, max_um, values, side in layers:
+        thickness = np.zeros((side, side), np.float32)
+        flat = thickness.reshape(-1)
+        flat[: len(values) * 97: 97] = np.asarray(values, np.float32)  # spread the drawn values
+        project.layers.append(ProjectLayer(lname, material, thickness, visible, opacity, max_um))
+    blob = project_bytes(project, self_contained=True)
+    again = read_project(io.BytesIO(blob), name="p", verify_head=False)
+    assert again.same_as(project)

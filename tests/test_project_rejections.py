@@ -206,6 +206,8 @@ def test_entry_declaring_a_false_size_is_caught() -> None:
     (lambda d: d["lights"][0].pop("direction"), ["lights[0]", "'direction' is a required property"]),
     (lambda d: d["lights"][0].update(direction=[0, 0, 0]), ["lights[0].direction", "must not be zero"]),
     (lambda d: d["lights"][0].update(type="laser"), ["lights[0].type", "'laser' is not one of"]),
+    (lambda d: d["lights"].append({"type": "environment", "color": [1, 1, 1], "intensity": 1,
+                                   "environment": "../../etc/passwd"}), ["lights[1].environment", "'..'"]),
     (lambda d: d["camera"].update(far=0.01), ["camera.far", "greater than camera.near"]),
     (lambda d: d["camera"].update(position=[0, 0]), ["camera"]),
     (lambda d: d["head"]["files"].update({"../x": "0" * 64}), ["head.files"]),
