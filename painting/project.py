@@ -27,7 +27,7 @@ import math
 import os
 import shutil
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -156,7 +156,7 @@ class Project:
 
     name: str
     head: HeadRef
-    resolution: int
+    resolution: int = 2048
     layers: list[ProjectLayer] = field(default_factory=list)
     materials: dict[str, dict[str, Any]] = field(default_factory=dict)
     lights: list[dict[str, Any]] = field(default_factory=list)
@@ -167,6 +167,12 @@ class Project:
     source_schema_version: int = SCHEMA_VERSION
     recovery: dict[str, Any] | None = None
     layout: dict[str, str] | None = None
+    #: Deprecated spelling from before per-layer resolutions: (H, W) of the maps; sets ``resolution``.
+    atlas_size: InitVar[tuple[int, int] | None] = None
+
+    def __post_init__(self, atlas_size: tuple[int, int] | None) -> None:
+        if atlas_size is not None:
+            self.resolution = int(atlas_size[0])
 
     def material(self, name: str) -> Any:
         """The embedded material ``name`` as a ``km.Material``."""
