@@ -599,7 +599,7 @@ def open_project(path: str | Path, *, head_path: str | Path | None = None, accep
     """
     p = Path(path)
     if not p.is_file():
-        raise ProjectError(f"{p}: no such project file")
+        raise ProjectError(f"{p}: {'not a regular file' if p.exists() else 'no such project file'}")
     project = read_project(p, name=str(p), project_dir=p.absolute().parent, head_path=head_path,
                            accept_head_change=accept_head_change, verify_head=verify_head)
     project.source_path = p.absolute()

@@ -48,6 +48,14 @@ MAX_NAME_LENGTH = 255
 FIXED_DATE_TIME = (2020, 1, 1, 0, 0, 0)
 
 
+def _tail(fh: IO[bytes]) -> bytes:
+    """The last 64 KiB + 22 bytes of a file (where the end-of-central-directory record is)."""
+    fh.seek(0, 2)
+    size = fh.tell()
+    fh.seek(max(0, size - (65535 + 22)))
+    return fh.read()
+
+
 def check_entry_name(name: str) -> str | None:
     """Why ``name`` is not an acceptable entry name, or None when it is."""
     if not name:
@@ -80,6 +88,7 @@ class SafeZipReader:
     def __init__(self, source: str | Path | IO[bytes], *, name: str | None = None,
                  max_total: int | None = None) -> None:
         self.name = name or str(source)
+        self._precheck(source)
         try:
             self._zip = zipfile.ZipFile(source, "r")  # type: ignore[arg-type]
         except FileNotFoundError:
@@ -91,6 +100,29 @@ class SafeZipReader:
         except BaseException:
             self._zip.close()
             raise
+
+    def _precheck(self, source: str | Path | IO[bytes]) -> None:
+        """Read the end-of-central-directory record before :mod:`zipfile` parses the directory, so a
+        forged directory announcing millions of entries is refused without being parsed."""
+        try:
+            if isinstance(source, (str, Path)):
+                with open(source, "rb") as fh:
+                    tail = _tail(fh)
+            else:
+                pos = source.tell()
+                tail = _tail(source)
+                source.seek(pos)
+        except OSError as exc:
+            raise ProjectContainerError(f"{self.name}: cannot read ({exc})") from None
+        at = tail.rfind(b"PK\x05\x06")
+        if at < 0 or len(tail) - at < 22:
+            return  # zipfile will say it is not a zip
+        entries = int.from_bytes(tail[at + 10:at + 12], "little")
+        cd_size = int.from_bytes(tail[at + 12:at + 16], "little")
+        if entries != 0xFFFF and entries > MAX_ENTRIES:
+            raise ProjectContainerError(f"{self.name}: {entries} entries, over the limit of {MAX_ENTRIES}")
+        if cd_size != 0xFFFFFFFF and cd_size > MAX_ENTRIES * (46 + MAX_NAME_LENGTH + 2 * 65535):
+            raise ProjectContainerError(f"{self.name}: central directory of {cd_size:,} bytes is too large")
 
     def _fail(self, entry: str, problem: str) -> ProjectContainerError:
         return ProjectContainerError(f"{self.name}: entry {entry!r}: {problem}")

@@ -165,6 +165,22 @@ def test_zip_bomb_ratio_and_total_size(monkeypatch: pytest.MonkeyPatch) -> None:
     rejected(BASE, "entries, over the limit of 5")
 
 
+def test_forged_entry_count_is_refused_before_parsing() -> None:
+    blob = bytearray(BASE)
+    at = blob.rfind(b"PK\x05\x06")
+    blob[at + 8:at + 12] = (60000).to_bytes(2, "little") * 2  # entries on this disk / in total
+    rejected(bytes(blob), "60000 entries, over the limit")
+
+
+def test_a_folder_or_fifo_is_not_a_project(tmp_path: Path) -> None:
+    with pytest.raises(ProjectError, match="not a regular file"):
+        open_project(tmp_path)
+    fifo = tmp_path / "fifo.sheer"
+    os.mkfifo(fifo)
+    with pytest.raises(ProjectError, match="not a regular file"):
+        open_project(fifo)
+
+
 def test_entry_declaring_a_false_size_is_caught() -> None:
     """A forged header declaring a small size cannot make the reader return more (nor less) bytes."""
     items = entries()
