@@ -155,16 +155,17 @@ def list_recoveries() -> list[RecoveryInfo]:
     return sorted(found, key=lambda info: info.saved_at, reverse=True)
 
 
-def recover(info: RecoveryInfo | str | Path) -> object:
+def recover(info: RecoveryInfo | str | Path, **open_kwargs: object) -> object:
     """Open a recovery file as a project (``source_path`` = the original file, or None when untitled).
 
     The recovery file is left in place until the recovered project is saved (which removes it) or
-    :func:`discard_recovery` is called.
+    :func:`discard_recovery` is called. ``open_kwargs`` go to :func:`painting.project.open_project`
+    (``head_path=`` to relink, ``accept_head_change=True``).
     """
     from painting.project import open_project
 
     path = info.path if isinstance(info, RecoveryInfo) else Path(info)
-    project = open_project(path)
+    project = open_project(path, **open_kwargs)  # type: ignore[arg-type]
     block = project.recovery or {}
     project.recovery = None
     project.source_path = Path(block["original"]) if block.get("original") else None
@@ -226,9 +227,15 @@ class Autosaver:
         """Call periodically; autosaves when :meth:`due`. Returns the recovery file when it wrote one."""
         return self.autosave_now() if self.due() else None
 
-    def autosave_now(self) -> Path:
-        """Write the recovery file now."""
-        path = autosave(self.snapshot(), self.project_path, session_id=self.session_id)
+    def autosave_now(self, project: object | None = None) -> Path:
+        """Write the recovery file now, of ``project`` or else of ``snapshot()``.
+
+        Writing a large project takes a moment (about 1 s for four 2048² layers): the studio can take
+        the snapshot on the UI thread when :meth:`due` (``Project.from_document`` copies the maps) and
+        pass it to this method on a worker thread.
+        """
+        path = autosave(self.snapshot() if project is None else project, self.project_path,
+                        session_id=self.session_id)
         self.last_autosave = path
         self.dirty = False
         self._last = self.clock()
