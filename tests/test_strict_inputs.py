@@ -427,3 +427,37 @@ def test_look_files_lax(case: str, tmp_path: Path) -> None:
     path = tmp_path / "look.json"
     path.write_bytes(LOOK_LAX[case])
     raises_clean(lambda: looks.load_look(path), "look.json")
+
+
+# ------------------------------------------------------------------------------------------- thickness maps
+
+
+def _exr(arr: np.ndarray) -> bytes:
+    from painting.project_maps import encode_exr
+
+    return encode_exr(arr)
+
+
+MAP_CASES = {
+    "garbage.png": (_noise(200), ""),
+    "garbage.exr": (b"\x76\x2f\x31\x01" + _noise(200), ""),
+    "nan.exr": (_exr(np.full((64, 64), np.nan, np.float32)), ""),
+    "negative.exr": (_exr(np.full((64, 64), -1.0, np.float32)), ""),
+    "wrong size.exr": (_exr(np.zeros((32, 64), np.float32)), ""),
+    "wide.png": (png_header_only(20_000, 1), ""),
+}
+
+
+@pytest.mark.parametrize("name", sorted(MAP_CASES))
+def test_thickness_map_import(name: str, tmp_path: Path) -> None:
+    maps_io = _capture("painting.maps_io")
+    path = tmp_path / name
+    path.write_bytes(MAP_CASES[name][0])
+    raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64), scale_um=1.0), name)
+
+
+@pytest.mark.xfail(strict=True, reason=LAX + "DecompressionBombError escapes painting.maps_io._read_png")
+def test_thickness_map_decompression_bomb(tmp_path: Path) -> None:
+    maps_io = _capture("painting.maps_io")
+    path = _bomb_png(tmp_path)
+    raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64), scale_um=1.0), "bomb.png")
