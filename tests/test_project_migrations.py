@@ -140,3 +140,15 @@ def test_newer_file_is_refused() -> None:
     doc["schema_version"] = SCHEMA_VERSION + 1
     with pytest.raises(ProjectVersionError, match=f"newer Sheer \\(schema_version {SCHEMA_VERSION + 1}"):
         read_project(io.BytesIO(v1_bytes(doc)), name="p.sheer", verify_head=False)
+
+
+def test_cli_upgrade(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from app.cli import main
+
+    shutil.copytree(DATA, tmp_path / "d")
+    path = tmp_path / "d" / "v1-draft.sheer"
+    assert main(["project", "upgrade", str(path)]) == 0
+    assert "upgraded from schema_version 1 to 2" in capsys.readouterr().out
+    assert project_version(path) == 2 and (tmp_path / "d" / "v1-draft.sheer.v1.bak").is_file()
+    assert main(["project", "upgrade", str(path)]) == 0
+    assert "nothing to do" in capsys.readouterr().out

@@ -5,6 +5,8 @@
 - ``validate FILE``: every check of ``docs/FORMAT.md``; exit 0 when valid, 2 with a one-line reason.
 - ``export FILE --out DIR [--ora]``: each layer's map as EXR float32 (exact) and 16-bit PNG, the
   materials, and ``manifest.json``; ``--ora`` adds ``layers.ora`` (OpenRaster, for GIMP and Krita).
+- ``upgrade FILE``: rewrite a project from an older Sheer in the current format (the original is
+  kept as ``FILE.v<N>.bak``).
 """
 
 from __future__ import annotations
@@ -45,6 +47,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     exp.add_argument("--out", required=True, help="output folder (created)")
     exp.add_argument("--ora", action="store_true", help="also write layers.ora (OpenRaster)")
     exp.set_defaults(func=run_export)
+
+    up = cmds.add_parser("upgrade", help="rewrite an older project in the current format (keeps FILE.v<N>.bak)")
+    up.add_argument("file")
+    up.set_defaults(func=run_upgrade)
 
 
 def run_new(args: argparse.Namespace) -> int:
@@ -143,4 +149,18 @@ def run_export(args: argparse.Namespace) -> int:
 
     manifest = export_project(args.file, args.out, ora=args.ora)
     print(f"wrote {len(manifest['layers'])} layer maps and manifest.json to {args.out}")
+    return 0
+
+
+def run_upgrade(args: argparse.Namespace) -> int:
+    from painting.project import SCHEMA_VERSION, open_project, save_project
+
+    project = open_project(args.file)
+    old = project.source_schema_version
+    if old == SCHEMA_VERSION:
+        print(f"{args.file}: already schema_version {SCHEMA_VERSION}; nothing to do")
+        return 0
+    save_project(project, args.file)
+    print(f"{args.file}: upgraded from schema_version {old} to {SCHEMA_VERSION} (original kept as "
+          f"{args.file}.v{old}.bak)")
     return 0
