@@ -193,3 +193,84 @@ class RealViewportRenderer:
                   self.vbo, self.ibo):
             o.release()
         self.r.release()
+
+
+class DualRenderer:
+    """The real renderer when the view is still, the stand-in preview while it moves.
+
+    Orbiting and painting need a frame every few tens of milliseconds; on a software rasteriser the full
+    renderer (SSS, shadows, layered specular) takes several times that. While the view moves the viewport
+    draws the preview (texture-space KM composite, one light) at reduced resolution, and 250 ms after the
+    last change it draws the full renderer again. Picking always uses the preview's GPU position pass.
+
+    ``real`` may arrive later (:meth:`attach_real`): the viewport shows the preview until then, so the
+    first frame does not wait for the full renderer's start-up (its colour tables import colour-science).
+    """
+
+    def __init__(self, real: RealViewportRenderer | None, preview: Any) -> None:
+        self.real, self.preview = real, preview
+        self.interactive = False
+        self._env = "none"
+        self._layers: list[tuple[np.ndarray, Any, float]] | None = None
+        self._thick: tuple[np.ndarray | None, float, int] | None = None
+
+    @property
+    def name(self) -> str:
+        if self.real is None:
+            return "preview (full renderer starting)"
+        return "preview (moving)" if self.interactive else self.real.name
+
+    @property
+    def environment(self) -> str:
+        return self._env
+
+    @environment.setter
+    def environment(self, value: str) -> None:
+        self._env = value
+        if self.real is not None:
+            self.real.environment = value
+
+    def attach_real(self, real: RealViewportRenderer) -> None:
+        self.real = real
+        real.environment = self._env
+        if self._layers is not None:
+            real.set_layers(self._layers, None)
+        if self._thick is not None:
+            real.set_debug_thickness(*self._thick)
+
+    def set_layers(self, layers: list[tuple[np.ndarray, Any, float]],
+                   tiles: list[tuple[int, int]] | None = None, tile: int = 64) -> None:
+        self._layers = layers
+        self.preview.set_layers(layers, tiles, tile)
+        if self.real is not None:
+            self.real.set_layers(layers, tiles, tile)
+
+    def set_debug_thickness(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
+        self._thick = (thickness, tmax, index)
+        self.preview.set_debug_thickness(thickness, tmax, index)
+        if self.real is not None:
+            self.real.set_debug_thickness(thickness, tmax, index)
+
+    def render(self, fbo: Any, size: tuple[int, int], camera: OrbitCamera, lighting: Lighting, **kw: Any) -> None:
+        if self.interactive or self.real is None:
+            kw["debug"] = 0  # the preview's debug views differ from the renderer's: show the image
+            self.preview.render(fbo, size, camera, lighting, **kw)
+        else:
+            self.real.render(fbo, size, camera, lighting, **kw)
+
+    def pick(self, x: int, y: int, size: tuple[int, int], camera: OrbitCamera) -> np.ndarray | None:
+        return self.preview.pick(x, y, size, camera)
+
+    def release(self) -> None:
+        self.preview.release()
+        if self.real is not None:
+            self.real.release()
+
+
+def preload_real_renderer(progress: Any = None, cancelled: Any = None) -> bool:
+    """Import what ``render.Renderer`` needs (colour-science's tables via ``km.colour``) off the GUI thread."""
+    import importlib
+
+    for name in ("render.renderer", "km.colour"):
+        importlib.import_module(name)
+    return True

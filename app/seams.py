@@ -100,18 +100,19 @@ def real_renderer_available() -> bool:
     return _viewport_choice() != "preview" and _has("render.renderer", "Renderer")
 
 
-def create_renderer(ctx: Any, head: Any, resolution: int) -> Any:
+def create_renderer(ctx: Any, head: Any, resolution: int, lazy: bool = False) -> Any:
     """The viewport renderer drawing into the widget's framebuffer: ``render.Renderer`` through
-    :mod:`app.render_adapter` when this build has it, else the stand-in preview."""
+    :mod:`app.render_adapter` when this build has it, else the stand-in preview. ``lazy``: the real
+    renderer is attached later (see :class:`app.render_adapter.DualRenderer`)."""
     from app.preview_renderer import PreviewRenderer
 
     if real_renderer_available():
         try:
-            from app.render_adapter import RealViewportRenderer
+            from app.render_adapter import DualRenderer, RealViewportRenderer
 
-            r = RealViewportRenderer(ctx, head, resolution)
-            _USED["renderer"] = "render.Renderer"
-            return r
+            real = RealViewportRenderer(ctx, head, resolution) if not lazy else None
+            _USED["renderer"] = "render.Renderer (stand-in preview while moving)"
+            return DualRenderer(real, PreviewRenderer(ctx, head, resolution))
         except Exception as exc:
             if _viewport_choice() == "real":
                 raise

@@ -18,6 +18,9 @@ def make_application(argv: list[str] | None = None) -> object:
     from app.viewport import default_surface_format
 
     pin_singletons()
+    import os
+
+    os.environ.setdefault("MPLBACKEND", "Agg")  # colour-science imports pyplot; never a GUI backend
 
     app = QApplication.instance()
     if app is None:

@@ -7,6 +7,9 @@
   the head or right drag orbits, middle (or Shift+right) drag pans, the wheel zooms, Ctrl+left drag moves
   the key light. Hovering shows the brush ring on the surface. Tablet pressure is read from
   ``QTabletEvent`` and applied to the mouse events Qt synthesises from it.
+- While the view moves or a stroke is painted, frames are rendered at ``interactive_scale`` (default
+  0.5) of the widget's resolution into an offscreen target and scaled up; 250 ms after the last change a
+  full-resolution frame is drawn. Picking uses the last frame's resolution.
 """
 
 from __future__ import annotations
@@ -16,13 +19,31 @@ import time
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import QPointF, Qt, Signal
+from PySide6.QtCore import QPointF, Qt, QTimer, Signal
 from PySide6.QtGui import QMouseEvent, QSurfaceFormat, QTabletEvent, QWheelEvent
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 from PySide6.QtWidgets import QLabel, QWidget
 
 from app.camera import OrbitCamera
 from app.preview_renderer import Lighting
+
+_BLIT_VERT = """
+#version 330
+out vec2 v_uv;
+void main() {
+    vec2 p = vec2(gl_VertexID & 1, gl_VertexID >> 1);
+    v_uv = p;
+    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
+}
+"""
+
+_BLIT_FRAG = """
+#version 330
+uniform sampler2D u_src;
+in vec2 v_uv;
+out vec4 f_color;
+void main() { f_color = texture(u_src, v_uv); }
+"""
 
 
 def default_surface_format() -> QSurfaceFormat:
@@ -41,6 +62,7 @@ class Viewport(QOpenGLWidget):
     light_moved = Signal(float, float)
     frame_drawn = Signal(float)
     gl_failed = Signal(str)
+    renderer_ready = Signal()
 
     def __init__(self, head: Any, resolution: int, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -71,8 +93,19 @@ class Viewport(QOpenGLWidget):
         self._tablet = False
         self.frame_ms = 0.0
         self.frames = 0
+        self.interactive_scale = 0.5
+        self._interacting = False
+        self._last_scale = 1.0
+        self._off: Any = None
+        self._blit: Any = None
+        self._settle = QTimer(self)
+        self._settle.setSingleShot(True)
+        self._settle.setInterval(250)
+        self._settle.timeout.connect(self._settled)
         self.first_frame_time: float | None = None
         self.gl_error_at_release: str | None = None
+        self.full_quality_ready = False
+        self.full_quality_time: float | None = None
         self.overlay = QLabel(self)
         self.overlay.setStyleSheet("color: #e8e8e8; background: rgba(0,0,0,120); padding: 3px;")
         self.overlay.move(6, 6)
@@ -86,12 +119,78 @@ class Viewport(QOpenGLWidget):
 
         try:
             self.ctx = moderngl.create_context()
-            self.renderer = seams.create_renderer(self.ctx, self.head, self.resolution)
+            self.renderer = seams.create_renderer(self.ctx, self.head, self.resolution, lazy=True)
         except Exception as exc:  # shown by the window as a message, never a traceback
             self.renderer = None
             self.gl_failed.emit(f"OpenGL could not start: {exc}")
             return
         self.context().aboutToBeDestroyed.connect(self.release_gl)
+        if getattr(self.renderer, "real", True) is None:
+            from app.render_adapter import preload_real_renderer
+            from app.workers import run_task
+
+            run_task(None, "Starting the renderer", preload_real_renderer, lambda _r: self._attach_real(),
+                     lambda msg: self._attach_real(), show_progress=False)
+        else:
+            self.full_quality_ready = True
+
+    def _attach_real(self) -> None:
+        """Create the full renderer (GUI thread, our context current) once its imports are loaded."""
+        import logging
+
+        from app.render_adapter import RealViewportRenderer
+
+        if self.renderer is None or self.ctx is None:
+            return
+        self.makeCurrent()
+        try:
+            self.renderer.attach_real(RealViewportRenderer(self.ctx, self.head, self.resolution))
+        except Exception as exc:
+            logging.getLogger("sheer.app").warning("the full renderer could not start (%s); preview only", exc)
+        finally:
+            self.doneCurrent()
+        self.full_quality_ready = True
+        self.full_quality_time = time.perf_counter()
+        self.renderer_ready.emit()
+        self.update()
+
+    def _offscreen(self, size: tuple[int, int]) -> Any:
+        """A colour + depth target of ``size`` for interactive (reduced-resolution) frames."""
+        if self._off is None or self._off.size != size:
+            self._release_offscreen()
+            self._off = self.ctx.framebuffer([self.ctx.texture(size, 4)], self.ctx.depth_renderbuffer(size))
+            self._off.color_attachments[0].filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        return self._off
+
+    def _upscale(self, fbo: Any, full: tuple[int, int]) -> None:
+        if self._blit is None:
+            prog = self.ctx.program(vertex_shader=_BLIT_VERT, fragment_shader=_BLIT_FRAG)
+            self._blit = (prog, self.ctx.vertex_array(prog, []))
+        prog, vao = self._blit
+        fbo.use()
+        self.ctx.viewport = (0, 0, *full)
+        self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND)
+        self._off.color_attachments[0].use(0)
+        prog["u_src"].value = 0
+        vao.render(self.ctx.TRIANGLE_STRIP, vertices=4)
+
+    def _release_offscreen(self) -> None:
+        if self._off is not None:
+            self.ctx.detect_framebuffer(self.defaultFramebufferObject()).use()
+            for a in (*self._off.color_attachments, self._off.depth_attachment):
+                a.release()
+            self._off.release()
+            self._off = None
+
+    def begin_interaction(self) -> None:
+        """Render at ``interactive_scale`` until the view has been still for a moment, then at full size."""
+        if self.interactive_scale < 1.0:
+            self._interacting = True
+            self._settle.start()
+
+    def _settled(self) -> None:
+        self._interacting = False
+        self.update()
 
     def release_gl(self) -> None:
         """Release every GL object while our context is current."""
@@ -99,6 +198,11 @@ class Viewport(QOpenGLWidget):
             return
         self.makeCurrent()
         try:
+            self._release_offscreen()
+            if self._blit is not None:
+                for o in reversed(self._blit):
+                    o.release()
+                self._blit = None
             if self.ctx is not None:
                 self.gl_error_at_release = str(self.ctx.error)
             if self.renderer is not None:
@@ -131,9 +235,18 @@ class Viewport(QOpenGLWidget):
         ring = None
         if self._ring is not None and self.paint_enabled:
             ring = (*self._ring.tolist(), self.brush_radius_units)
-        self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting, split=self.split,
+        full = self.pixel_size()
+        scale = self.interactive_scale if self._interacting else 1.0
+        size = (max(int(full[0] * scale), 1), max(int(full[1] * scale), 1)) if scale < 1.0 else full
+        target = fbo if size == full else self._offscreen(size)
+        if hasattr(self.renderer, "interactive"):
+            self.renderer.interactive = self._interacting
+        self.renderer.render(target, size, self.camera, self.lighting, split=self.split,
                              debug=self.debug, reference=self.reference, roughness=self.roughness,
                              brush=ring)
+        self._last_scale = size[0] / full[0]
+        if target is not fbo:
+            self._upscale(fbo, full)
         if self.overlay.isVisible():
             self.ctx.finish()
         self.frame_ms = (time.perf_counter() - t0) * 1000.0
@@ -176,10 +289,12 @@ class Viewport(QOpenGLWidget):
     def pick(self, pos: QPointF) -> np.ndarray | None:
         if self.renderer is None:
             return None
-        r = self.devicePixelRatioF()
+        r = self.devicePixelRatioF() * self._last_scale
+        w, h = self.pixel_size()
+        size = (max(int(w * self._last_scale), 1), max(int(h * self._last_scale), 1))
         self.makeCurrent()
         try:
-            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r), self.pixel_size(), self.camera)
+            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r), size, self.camera)
         finally:
             self.doneCurrent()
 
@@ -220,6 +335,8 @@ class Viewport(QOpenGLWidget):
         pos = event.position()
         dx, dy = pos.x() - self._last.x(), pos.y() - self._last.y()
         self._last = pos
+        if self._drag is not None:
+            self.begin_interaction()
         if self._drag == "orbit":
             self.camera.orbit(-dx * 0.4, dy * 0.4)
         elif self._drag == "pan":
@@ -251,10 +368,12 @@ class Viewport(QOpenGLWidget):
         self.update()
 
     def wheelEvent(self, event: QWheelEvent) -> None:
+        self.begin_interaction()
         steps = event.angleDelta().y() / 120.0
         self.camera.zoom(math.pow(0.9, steps))
         self.update()
 
     def orbit_by(self, dyaw: float, dpitch: float = 0.0) -> None:
+        self.begin_interaction()
         self.camera.orbit(dyaw, dpitch)
         self.update()

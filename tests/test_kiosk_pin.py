@@ -47,7 +47,7 @@ def test_pin_is_stored_hashed() -> None:
 def test_looks_products_and_snapshot(kiosk: object, qtbot: object) -> None:
     kiosk.start_button.click()
     assert kiosk.stack.currentWidget() is kiosk.main_page
-    qtbot.waitUntil(lambda: kiosk.viewport.frames > 0, timeout=15000)
+    qtbot.waitUntil(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready, timeout=60000)
     kiosk.look_buttons["evening"].click()
     assert kiosk.look == "evening"
     before = kiosk.product_labels["lipstick"].text()

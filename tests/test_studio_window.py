@@ -32,7 +32,7 @@ def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[o
     win.show()
     from pytestqt.qtbot import QtBot
 
-    QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0, timeout=15000)
+    QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0 and win.viewport.full_quality_ready, timeout=60000)
     yield win
     win.close()
     assert win.viewport.gl_error_at_release == "GL_NO_ERROR"
