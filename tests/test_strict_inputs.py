@@ -461,3 +461,66 @@ def test_thickness_map_decompression_bomb(tmp_path: Path) -> None:
     maps_io = _capture("painting.maps_io")
     path = _bomb_png(tmp_path)
     raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64), scale_um=1.0), "bomb.png")
+
+
+# ------------------------------------------------------------------------------------------- face folders
+
+
+def _face_folder(tmp_path: Path, face_json: bytes) -> Path:
+    import io
+
+    import OpenEXR
+
+    folder = tmp_path / "face"
+    folder.mkdir()
+    (folder / "face.json").write_bytes(face_json)
+    buf = io.BytesIO()
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"RGB": np.ones((8, 8, 3), np.float32)}).write(buf)
+    (folder / "detail.exr").write_bytes(buf.getvalue())
+    return folder
+
+
+def _face_json(case: str, version: int) -> bytes:
+    return {"not json": b"{", "newer": b'{"schema_version": 999}', "array": b"[]", "deep": DEEP_JSON.encode(),
+            "no phong": f'{{"schema_version": {version}}}'.encode(),
+            "bad phong": f'{{"schema_version": {version}, "phong": {{"x": "y"}}}}'.encode()}[case]
+
+
+@pytest.mark.parametrize("case", ["not json", "newer"])
+def test_face_folders(case: str, tmp_path: Path) -> None:
+    pipeline = _capture("capture.pipeline")
+    folder = _face_folder(tmp_path, _face_json(case, pipeline.FACE_SCHEMA_VERSION))
+    raises_clean(lambda: pipeline.load_face(folder), "face")
+
+
+@pytest.mark.parametrize("case", ["array", "deep", "no phong", "bad phong"])
+@pytest.mark.xfail(strict=True, reason=LAX + "capture.pipeline.load_face: a non-object, deeply nested or "
+                                             "incomplete face.json escapes as AttributeError/RecursionError/KeyError")
+def test_face_folders_lax(case: str, tmp_path: Path) -> None:
+    pipeline = _capture("capture.pipeline")
+    folder = _face_folder(tmp_path, _face_json(case, pipeline.FACE_SCHEMA_VERSION))
+    raises_clean(lambda: pipeline.load_face(folder), "face")
+
+
+# ------------------------------------------------------------------------------------------- kiosk settings
+
+
+@pytest.mark.parametrize("case", [
+    pytest.param("deep", marks=pytest.mark.xfail(strict=True, reason=LAX + "RecursionError escapes KioskConfig.load")),
+    pytest.param("nan", marks=pytest.mark.xfail(strict=True, reason=LAX + "KioskConfig.load keeps NaN idle_seconds")),
+    "garbage",
+])
+def test_kiosk_config_falls_back_to_sane_defaults(case: str, tmp_path: Path) -> None:
+    """The kiosk's config is read unattended: a broken file must give finite, bounded settings."""
+    kiosk = _capture("app.kiosk")
+    path = tmp_path / "kiosk.json"
+    path.write_bytes({"deep": DEEP_JSON.encode(), "nan": b'{"idle_seconds": NaN, "look_seconds": Infinity}',
+                      "garbage": _noise(100)}[case])
+    try:
+        cfg = kiosk.KioskConfig.load(path)
+    except SheerError:
+        return
+    except Exception as exc:
+        pytest.fail(f"raised {type(exc).__name__}: {exc}")
+    assert 5.0 <= cfg.idle_seconds <= 3600.0 and 2.0 <= cfg.look_seconds <= 120.0
