@@ -174,31 +174,6 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
                      l2_luv=float(np.sqrt((d ** 2).sum())), evaluations=nev)
 
 
-def refine_exponent(photo_rgb: np.ndarray, geo: Geometry, s0: float, flash_rgb: np.ndarray,
-                    ambient_rgb: np.ndarray, factor: float = 3.0, stride: int = 8) -> tuple[float, int]:
-    """Refine the exponent around the saturation estimate ``s0``: a bounded 1-D search (Brent) of log s in
-    [s0/factor, s0·factor], refitting D and i_s at each s (a profile search, so s never moves together with
-    the other parameters — the instability the paper warns about). Uses every ``stride``-th pixel.
-
-    Not in the paper: its saturation estimate alone is sensitive to the skin texture's colour variation
-    around the highlight (we measured 10–150 % errors on the synthetic ground truth); the search keeps
-    the paper's order (s first, then the rest) and returns (s, evaluations).
-    """
-    idx = np.arange(0, len(photo_rgb), stride)
-    g = geo.subset(idx)
-    count = 0
-
-    def cost(logs: float) -> float:
-        nonlocal count
-        count += 1
-        r = fit_phong(photo_rgb[idx], g, float(np.exp(logs)), flash_rgb, ambient_rgb, levels=(4, 1))
-        return r.rms_luv
-
-    lo, hi = np.log(max(s0 / factor, 1.0)), np.log(s0 * factor)
-    res = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.01})
-    return float(np.exp(res.x)), count
-
-
 def robustness(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: np.ndarray,
                ambient_rgb: np.ndarray, starts: int = 200, seed: int = 0,
                max_pixels: int = 6000) -> dict[str, Any]:

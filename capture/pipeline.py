@@ -30,7 +30,7 @@ from km.errors import SheerError
 
 from .camera import Camera
 from .mask import landmark_region, refine_by_skin_colour
-from .phong import FitResult, Geometry, PhongParams, delta_e2000, fit_phong, refine_exponent, shade
+from .phong import FitResult, Geometry, PhongParams, delta_e2000, fit_phong, shade
 from .probe import ProbeAnalysis
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
@@ -166,7 +166,7 @@ class CaptureResult:
             "schema_version": FACE_SCHEMA_VERSION,
             "phong": self.params.to_json(),
             "light_dir_world": self.light_dir_world.tolist(),
-            "exponent": {"s": e.s, "s_saturation": e.s_saturation, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
+            "exponent": {"s": e.s, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
                          "alpha_right_deg": e.alpha_right_deg, "spec_over_diffuse": e.spec_over_diffuse},
             "residual": {"rms_luv_per_pixel": self.fit.rms_luv, "l2_luv": self.fit.l2_luv,
                          "evaluations": self.fit.evaluations,
@@ -189,8 +189,7 @@ def _log(progress: Callable[[str], None] | None, msg: str) -> None:
 
 def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None = None,
             mask: np.ndarray | None = None, texture_size: int = 1024,
-            progress: Callable[[str], None] | None = None, robustness_starts: int = 0,
-            refine_s: bool = True) -> CaptureResult:
+            progress: Callable[[str], None] | None = None, robustness_starts: int = 0) -> CaptureResult:
     """Run the whole capture.
 
     Args:
@@ -202,7 +201,6 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
         texture_size: the detail texture's side (texels).
         progress: called with one line per step.
         robustness_starts: if > 0, also run the fit from this many random starts (paper: 200).
-        refine_s: refine the saturation estimate of s by a profile search (:func:`capture.phong.refine_exponent`).
     """
     t_all = time.perf_counter()
     timings: dict[str, float] = {}
@@ -255,13 +253,9 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
     # Exponent.
     t = time.perf_counter()
     exp_est = estimate_exponent(pix.normals[sel], pix.view[sel], light_world, colours, R[0])
-    _log(progress, f"specular exponent from saturation s = {exp_est.s:.1f} (Eq. 3 alone: {exp_est.s_eq3:.1f}; "
+    _log(progress, f"specular exponent s = {exp_est.s:.1f} (Eq. 3 alone: {exp_est.s_eq3:.1f}; "
                    f"fastest saturation change at {exp_est.alpha_deg:.2f}°)")
     geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], light_world)
-    if refine_s:
-        exp_est.s_saturation = exp_est.s
-        exp_est.s, _ = refine_exponent(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
-        _log(progress, f"specular exponent refined by a profile search: s = {exp_est.s:.1f}")
     timings["exponent"] = time.perf_counter() - t
 
     # Phong fit.

@@ -2,8 +2,8 @@
 parameters under a known flash near the camera, and a mirror-ball probe made from an HDR environment plus
 the same point light.
 
-The ground-truth detail texture is the head's albedo (linearised) divided by its mean over the face
-(the landmark region of :mod:`capture.mask` as the camera sees it), so it averages 1 on skin, like a real ratio image. The photograph is the CPU render
+The ground-truth detail texture is the head's albedo (linearised) divided by its mean over the skin pixels
+of the photograph (the mask :func:`capture.pipeline.compute_skin_mask` computes), so it averages 1 on skin, like a real ratio image. The photograph is the CPU render
 ``clip(detail ⊙ Phong)`` (modulation after lighting, clamping after modulation), 8-bit sRGB quantised.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 from .camera import Camera, look_at
 from .mask import landmark_region
 from .phong import Geometry, PhongParams, shade
-from .pipeline import linear_to_srgb, pixel_data, sample_texture, srgb_to_linear, to_uint8
+from .pipeline import compute_skin_mask, linear_to_srgb, pixel_data, sample_texture, srgb_to_linear, to_uint8
 from .probe import synthetic_probe
 
 
@@ -69,7 +69,7 @@ def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongPara
         env_scale = 0.04 / max(float(np.mean(env)), 1e-9)  # a dim room: mean radiance 0.04 of the flash
     ambient = env.reshape(-1, 3).mean(axis=0) * env_scale
     if params is None:
-        params = PhongParams(diffuse=np.array([0.62, 0.42, 0.33]), specular=0.25, exponent=24.0,
+        params = PhongParams(diffuse=np.array([0.46, 0.31, 0.245]), specular=0.18, exponent=24.0,
                              ambient_scale=1.0, flash_rgb=flash, ambient_rgb=ambient)
     else:
         params.flash_rgb = flash
@@ -82,9 +82,20 @@ def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongPara
     mean = sample_texture(alb, pix.uv)[face].mean(axis=0)
     detail = (alb / np.maximum(mean, 1e-4)).astype(np.float32)
     geo = Geometry.from_vectors(pix.normals, pix.view, light)
-    det_px = sample_texture(detail, pix.uv)
-    img = np.zeros((size, size, 3))
-    img[pix.rows, pix.cols] = np.clip(shade(params, geo, clip=False) * det_px, 0, 1)
+    lit = shade(params, geo, clip=False)
+
+    def render(det: np.ndarray) -> np.ndarray:
+        out = np.zeros((size, size, 3))
+        out[pix.rows, pix.cols] = np.clip(lit * sample_texture(det, pix.uv), 0, 1)
+        return out
+
+    img = render(detail)
+    # Renormalise so the detail averages exactly 1 over the skin pixels the capture will use (the skin
+    # mask it computes from this photograph): "the diffuse colour" is then well defined.
+    skin = compute_skin_mask(head, cam, srgb_to_linear(to_uint8(linear_to_srgb(img)) / 255.0), pix)
+    used = skin[pix.rows, pix.cols]
+    detail = (detail / sample_texture(detail, pix.uv)[used].mean(axis=0)).astype(np.float32)
+    img = render(detail)
     probe = synthetic_probe(env, cam.R, light, flash, size=probe_size, env_scale=env_scale)
     return SyntheticScene(camera=cam, photo_srgb8=to_uint8(linear_to_srgb(img)),
                           probe_srgb8=to_uint8(linear_to_srgb(probe)), params=params, light_dir_world=light,
