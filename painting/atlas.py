@@ -40,7 +40,7 @@ MAX_DEGENERATE_AREA_FRACTION = 1e-3
 MIN_RESOLUTION = 64
 MAX_RESOLUTION = 8192
 TILE = 64
-_CACHE_VERSION = 3
+_CACHE_VERSION = 4
 
 
 class AtlasError(SheerError, ValueError):
@@ -484,31 +484,37 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     face, bary = rasterize(tri, res, res, conservative=True)
     report("bake", 0.6)
     covered = face >= 0
-    fidx = face[covered]
-    b = bary[covered]
-    corners = layout.faces[fidx]
-    position = np.zeros((res, res, 3), dtype=np.float32)
-    normal = np.zeros((res, res, 3), dtype=np.float32)
-    position[covered] = np.einsum("ij,ijk->ik", b, layout.vertices[corners]).astype(np.float32)
-    n = np.einsum("ij,ijk->ik", b, layout.normals[corners])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-    normal[covered] = n.astype(np.float32)
+    cov_flat = np.flatnonzero(covered.reshape(-1))
+    fidx = face.reshape(-1)[cov_flat]
+    # Interpolate per coordinate (1D arrays; numpy is slow on (n, 3) rows).
+    bflat = bary.reshape(-1, 3)
+    weights = [bflat[cov_flat, k] for k in range(3)]
+    del bary, bflat
+    corner = [layout.faces[fidx, k] for k in range(3)]
+    position = np.zeros((res * res, 3), dtype=np.float32)
+    normal = np.zeros((res * res, 3), dtype=np.float32)
+    ncomp = []
+    for axis in range(3):
+        vcol = np.ascontiguousarray(layout.vertices[:, axis])
+        ncol = np.ascontiguousarray(layout.normals[:, axis])
+        position[cov_flat, axis] = sum(weights[k] * vcol[corner[k]] for k in range(3))
+        ncomp.append(sum(weights[k] * ncol[corner[k]] for k in range(3)))
+    length = np.sqrt(ncomp[0] ** 2 + ncomp[1] ** 2 + ncomp[2] ** 2)
+    np.maximum(length, 1e-12, out=length)
+    for axis in range(3):
+        normal[cov_flat, axis] = ncomp[axis] / length
+    del ncomp, weights, corner
+    position = position.reshape(res, res, 3)
+    normal = normal.reshape(res, res, 3)
     chart = np.full((res, res), -1, dtype=np.int32)
-    chart[covered] = layout.chart_of_face[fidx]
-    del bary, b
+    chart.reshape(-1)[cov_flat] = layout.chart_of_face[fidx]
     report("bake", 0.8)
     padded = np.zeros((res, res), dtype=bool)
     pad_dst = np.zeros(0, dtype=np.int64)
     pad_src = np.zeros(0, dtype=np.int64)
     if padding > 0 and covered.any() and not covered.all():
-        from scipy import ndimage
-
-        dist, (ri, ci) = ndimage.distance_transform_edt(~covered, return_indices=True)
-        padded = (~covered) & (dist <= padding)
-        dst = np.flatnonzero(padded)
-        src = (ri.reshape(-1)[dst] * res + ci.reshape(-1)[dst]).astype(np.int64)
-        order = np.argsort(src, kind="stable")
-        pad_dst, pad_src = dst[order].astype(np.int64), src[order]
+        pad_dst, pad_src = _padding_sources(covered, padding)
+        padded.reshape(-1)[pad_dst] = True
         for arr in (position, normal):
             flat = arr.reshape(-1, 3)
             flat[pad_dst] = flat[pad_src]
@@ -524,12 +530,44 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     return atlas
 
 
+def _padding_sources(covered: np.ndarray, padding: int) -> tuple[np.ndarray, np.ndarray]:
+    """Uncovered texels within ``padding`` texels (Euclidean, centre to centre) of a covered one, and
+    their nearest covered texel: (dst, src) flat indices sorted by src.
+
+    Same result as ``scipy.ndimage.distance_transform_edt(..., return_indices=True)`` restricted to the
+    band (ties aside), but only the band is searched: a square dilation bounds it and a cKDTree over the
+    covered texels on the chart borders (the nearest covered texel is always one) finds the sources.
+    """
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+
+    res_w = covered.shape[1]
+    square = np.ones((3, 3), dtype=bool)
+    band = ndimage.binary_dilation(covered, structure=square, iterations=padding) & ~covered
+    border = covered & ~ndimage.binary_erosion(covered, structure=square, border_value=0)
+    br, bc = np.nonzero(border)
+    qr, qc = np.nonzero(band)
+    if len(br) == 0 or len(qr) == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    tree = cKDTree(np.stack([br, bc], axis=1).astype(np.float64))
+    dist, k = tree.query(np.stack([qr, qc], axis=1).astype(np.float64), distance_upper_bound=padding + 1e-9)
+    ok = dist <= padding
+    dst = (qr[ok] * res_w + qc[ok]).astype(np.int64)
+    src = (br[k[ok]] * res_w + bc[k[ok]]).astype(np.int64)
+    order = np.argsort(src, kind="stable")
+    return dst[order], src[order]
+
+
 def _texel_size_mm(position: np.ndarray, covered: np.ndarray, mm_per_unit: float) -> float:
-    both = covered[:, :-1] & covered[:, 1:]
+    """Median 3D distance between horizontally adjacent covered texels (every 4th row), in mm."""
+    pos = position[::4]
+    cov = covered[::4]
+    both = cov[:, :-1] & cov[:, 1:]
     if not both.any():
         return float("nan")
-    d = np.linalg.norm(position[:, 1:] - position[:, :-1], axis=2)[both]
-    return float(np.median(d)) * mm_per_unit
+    d2 = sum((pos[:, 1:, k][both] - pos[:, :-1, k][both]).astype(np.float64) ** 2 for k in range(3))
+    return float(np.median(np.sqrt(d2))) * mm_per_unit
 
 
 _FIELDS = ("position", "normal", "face", "chart", "coverage", "padded", "pad_dst", "pad_src")

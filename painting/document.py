@@ -135,7 +135,7 @@ class Document:
         self._subscribers: list[Callable[[ChangeEvent], None]] = []
         self._stroke: Stroke | None = None
         self._mesh: Any = None
-        self._scratches: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self._scratches: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     @classmethod
     def from_head(cls, path: str | Path | None = None, **kwargs: Any) -> Document:
@@ -167,11 +167,17 @@ class Document:
             self._atlases[res] = bake(self.layout, res, progress=self._progress, cache=self._cache)
         return self._atlases[res]
 
-    def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(mask, base, saved) flat scratch maps for strokes at ``res`` (all zero between strokes)."""
+    def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray]:
+        """(mask, base) flat float32 scratch maps for strokes at ``res`` (mask is zero between strokes).
+
+        Filled explicitly so the pages are resident: a dab never pays for first-touch page faults."""
         if res not in self._scratches:
             n = res * res
-            self._scratches[res] = (np.zeros(n, np.float32), np.zeros(n, np.float32), np.zeros(n, bool))
+            mask = np.empty(n, np.float32)
+            mask.fill(0.0)
+            base = np.empty(n, np.float32)
+            base.fill(0.0)
+            self._scratches[res] = (mask, base)
         return self._scratches[res]
 
     @property
@@ -539,11 +545,14 @@ class Stroke:
         res = layer.resolution
         self._W = res
         self._data = layer._data.reshape(-1)
-        # Scratch maps shared by the document's strokes at this resolution (reset tile-wise at the end of
-        # each stroke), so a stroke costs nothing proportional to the map size.
-        self._mask, self._base, self._saved = doc._scratch(res)
-        self._touched = np.zeros((res // TILE, res // TILE), dtype=bool)
-        self._tile_mark = np.zeros((res // TILE) ** 2, dtype=bool)
+        # Scratch maps shared by the document's strokes at this resolution, reset tile-wise at the end of
+        # each stroke, so a stroke costs nothing proportional to the map size. ``base`` receives a whole
+        # 64² tile of the layer the first time the stroke touches the tile (the undo record and the
+        # values dabs composite over); ``mask`` is the stroke's coverage.
+        self._mask, self._base = doc._scratch(res)
+        self._nt = res // TILE
+        self._touched = np.zeros(self._nt * self._nt, dtype=bool)
+        self._tile_mark = np.zeros(self._nt * self._nt, dtype=bool)
         self._amount = layer.default_thickness if brush.amount_um is None else float(brush.amount_um)
 
     # ---- context manager
@@ -563,29 +572,20 @@ class Stroke:
         self._commit()
 
     def _tiles(self) -> np.ndarray:
-        return np.argwhere(self._touched).astype(np.int32)
+        ids = np.flatnonzero(self._touched)
+        return np.stack([ids // self._nt, ids % self._nt], axis=1).astype(np.int32)
 
-    def _old_tiles(self, tiles: np.ndarray) -> np.ndarray:
-        res = self._W
-        nt = res // TILE
-        ty, tx = tiles[:, 0], tiles[:, 1]
-
-        def view(a: np.ndarray) -> np.ndarray:
-            return a.reshape(nt, TILE, nt, TILE)[ty, :, tx, :]
-
-        return np.where(view(self._saved), view(self._base), view(self._data))
+    def _view(self, a: np.ndarray) -> np.ndarray:
+        return a.reshape(self._nt, TILE, self._nt, TILE)
 
     def _reset_scratch(self, tiles: np.ndarray) -> None:
-        nt = self._W // TILE
-        ty, tx = tiles[:, 0], tiles[:, 1]
-        self._mask.reshape(nt, TILE, nt, TILE)[ty, :, tx, :] = 0.0
-        self._saved.reshape(nt, TILE, nt, TILE)[ty, :, tx, :] = False
+        self._view(self._mask)[tiles[:, 0], :, tiles[:, 1], :] = 0.0
 
     def _commit(self) -> None:
         tiles = self._tiles()
         if len(tiles) == 0:
             return
-        old = self._old_tiles(tiles).astype(np.float32)
+        old = self._view(self._base)[tiles[:, 0], :, tiles[:, 1], :]  # a copy (fancy indexing)
         self._reset_scratch(tiles)
         label = f"{self.detail} on {self.layer.name}"
         self.doc._push(Step(label, deltas=[TileDelta(self.layer, tiles, old)]))
@@ -594,38 +594,41 @@ class Stroke:
         tiles = self._tiles()
         if len(tiles) == 0:
             return
-        old = self._old_tiles(tiles).astype(np.float32)
-        nt = self._W // TILE
-        self._data.reshape(nt, TILE, nt, TILE)[tiles[:, 0], :, tiles[:, 1], :] = old
+        ty, tx = tiles[:, 0], tiles[:, 1]
+        self._view(self._data)[ty, :, tx, :] = self._view(self._base)[ty, :, tx, :]
         self._reset_scratch(tiles)
         self.doc._emit(ChangeEvent("paint", self.layer.id, tuple(map(tuple, tiles.tolist())), "rollback"))
 
     # ---- texel writes
-    def _save(self, flat: np.ndarray) -> None:
-        new = flat[~self._saved[flat]]
+    def _prepare(self, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[tuple[int, int], ...]]:
+        """Before writing covered texels ``flat``: the padding texels they feed (dst, src), and the touched
+        tiles, whose old values are saved in ``base`` if this stroke had not touched them yet."""
+        dst, src = self.atlas.pads_of(flat)
+        res = self._W
+        nt = self._nt
+        both = np.concatenate([flat, dst]) if len(dst) else flat
+        # Mark tiles in a small boolean table instead of np.unique (no sort of the texel list).
+        mark = self._tile_mark
+        mark[(both // (res * TILE)) * nt + (both % res) // TILE] = True
+        ids = np.flatnonzero(mark)
+        mark[ids] = False
+        new = ids[~self._touched[ids]]
         if len(new):
-            self._base[new] = self._data[new]
-            self._saved[new] = True
+            ty, tx = new // nt, new % nt
+            self._view(self._base)[ty, :, tx, :] = self._view(self._data)[ty, :, tx, :]
+            self._touched[new] = True
+        return dst, src, tuple(zip((ids // nt).tolist(), (ids % nt).tolist()))
+
+    def _store(self, flat: np.ndarray, values: np.ndarray, dst: np.ndarray, src: np.ndarray) -> None:
+        self._data[flat] = values
+        if len(dst):
+            self._data[dst] = self._data[src]
 
     def _write(self, flat: np.ndarray, values: np.ndarray) -> tuple[tuple[int, int], ...]:
         """Write covered texels and the padding texels they feed; returns the touched tiles."""
-        self._save(flat)
-        self._data[flat] = values
-        dst, src = self.atlas.pads_of(flat)
-        if len(dst):
-            self._save(dst)
-            self._data[dst] = self._data[src]
-            flat = np.concatenate([flat, dst])
-        res = self._W
-        nt = res // TILE
-        # Mark tiles in a small boolean table instead of np.unique (no sort of the texel list).
-        mark = self._tile_mark
-        mark[(flat // (res * TILE)) * nt + (flat % res) // TILE] = True
-        tile_ids = np.flatnonzero(mark)
-        mark[tile_ids] = False
-        ty, tx = tile_ids // nt, tile_ids % nt
-        self._touched[ty, tx] = True
-        return tuple(zip(ty.tolist(), tx.tolist()))
+        dst, src, tiles = self._prepare(flat)
+        self._store(flat, values, dst, src)
+        return tiles
 
     # ---- dabs
     def dab(self, point: Any, pressure: float = 1.0, normal: Any = None) -> tuple[tuple[int, int], ...]:
@@ -759,7 +762,7 @@ class Stroke:
         return index.flat[idx], w, idx
 
     def _composite(self, flat: np.ndarray, alpha: np.ndarray) -> tuple[tuple[int, int], ...]:
-        self._save(flat)
+        dst, src, tiles = self._prepare(flat)
         m = self._mask[flat]
         m += (np.float32(1.0) - m) * alpha
         self._mask[flat] = m
@@ -768,14 +771,15 @@ class Stroke:
         mode = self.brush.mode
         if mode == "add":
             top = np.float32(self.layer.max_thickness)
-            values = np.minimum(base + s * np.float32(self._amount) * m, top)
+            values = np.minimum(base + (s * np.float32(self._amount)) * m, top)
             values = np.where(base > top, base, values)
         elif mode == "erase":
             values = base * (np.float32(1.0) - s * m)
         else:  # set
             target = np.float32(min(self._amount, self.layer.max_thickness))
             values = base + (target - base) * (s * m)
-        return self._write(flat, values.astype(np.float32))
+        self._store(flat, values.astype(np.float32, copy=False), dst, src)
+        return tiles
 
     def _smooth(self, flat: np.ndarray, alpha: np.ndarray, sidx: np.ndarray, r: float,
                 index: Any) -> tuple[tuple[int, int], ...]:
@@ -816,13 +820,8 @@ class Stroke:
         c = np.flatnonzero(self._data != new)
         if len(c) == 0:
             return
-        self._save(c)
+        _, _, tiles = self._prepare(c)
         self._data[c] = new[c]
-        res = self._W
-        nt = res // TILE
-        ids = np.unique((c // (res * TILE)) * nt + (c % res) // TILE)
-        self._touched[ids // nt, ids % nt] = True
-        tiles = tuple(zip((ids // nt).tolist(), (ids % nt).tolist()))
         self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
 
 

@@ -102,6 +102,9 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
     best = np.full(height * width, np.inf)
     bary_out = np.zeros((height * width, 3))
     a, b, c, area2 = _edge_coeffs(tri)
+    ac = [np.ascontiguousarray(a[:, k]) for k in range(3)]
+    bc_ = [np.ascontiguousarray(b[:, k]) for k in range(3)]
+    cc = [np.ascontiguousarray(c[:, k]) for k in range(3)]
     valid = np.abs(area2) > 1e-12
     centroid = tri.mean(axis=1)
     pad = 0.5 if conservative else 0.0
@@ -112,18 +115,30 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
             tri_idx, rows, cols = tri_idx[keep], rows[keep], cols[keep]
         x = cols + 0.5
         y = rows + 0.5
-        ea, eb, ec = a[tri_idx], b[tri_idx], c[tri_idx]
-        e = ea * x[:, None]
-        e += eb * y[:, None]
-        e += ec
-        strict = np.all(e >= 0, axis=1)
-        if conservative:
-            loose = np.all(e + 0.5 * (np.abs(ea) + np.abs(eb)) >= 0, axis=1) & ~strict
+        # One 1D array per edge: numpy is far slower on (n, 3) arrays (inner loops of length 3).
+        e = []
+        loose = None
+        strict = None
+        for k in range(3):
+            ak, bk = ac[k][tri_idx], bc_[k][tri_idx]
+            ek = ak * x
+            ek += bk * y
+            ek += cc[k][tri_idx]
+            e.append(ek)
+            inside_k = ek >= 0
+            strict = inside_k if strict is None else strict & inside_k
+            if conservative:
+                lk = ek + 0.5 * (np.abs(ak) + np.abs(bk)) >= 0
+                loose = lk if loose is None else loose & lk
+        assert strict is not None
+        if conservative and loose is not None:
+            loose &= ~strict
             if loose.any():
                 border.append((tri_idx[loose], rows[loose], cols[loose], np.zeros(0)))
         tri_idx, rows, cols = tri_idx[strict], rows[strict], cols[strict]
         # The edge function of edge k is twice the area of the sub-triangle opposite vertex k.
-        bc = e[strict] / np.abs(area2[tri_idx])[:, None]
+        inv = 1.0 / np.abs(area2[tri_idx])
+        bc = np.stack([e[0][strict] * inv, e[1][strict] * inv, e[2][strict] * inv], axis=1)
         flat = rows * width + cols
         if depth is not None:
             key = np.einsum("ij,ij->i", bc, depth[tri_idx])
