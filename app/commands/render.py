@@ -44,7 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     src.add_argument("--project", metavar="FILE", help="a .sheer project to render")
     src.add_argument("--look", metavar="NAME", help="a built-in look (bare, natural, evening, red-lip) or a look JSON")
     p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH", help="image size (default 1280x720)")
-    p.add_argument("--mode", choices=("fast", "reference", "off"), default="fast", help="subsurface scattering")
+    p.add_argument("--mode", choices=("fast", "reference", "off", "lightweight"), default="fast",
+                   help="subsurface scattering, or the lightweight engine for a captured face (needs --face)")
+    p.add_argument("--face", metavar="FACE_DIR", help="a face folder written by 'sheer capture' (--mode lightweight)")
     p.add_argument("--light", type=_light, action="append", metavar="AZ,EL[,INTENSITY]", help="a directional light")
     p.add_argument("--env", metavar="NAME", help="HDR environment (e.g. studio, city) or an EXR path")
     p.add_argument("--env-intensity", type=float, default=0.4, metavar="E", help="mean irradiance of --env")
@@ -88,6 +90,13 @@ def run(args: argparse.Namespace) -> int:
             raise SheerError(f"--{name.replace('_', '-')} must be a finite number")
     if args.light and len(args.light) > 8:
         raise SheerError(f"at most 8 --light options, got {len(args.light)}")
+    face = None
+    if args.mode == "lightweight":  # issue 7: the captured face in the lightweight engine
+        if not args.face:
+            raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
+        from capture.pipeline import load_face
+
+        face = load_face(args.face)
 
     from painting.head import load_head
 
@@ -133,13 +142,18 @@ def run(args: argparse.Namespace) -> int:
             if doc is not None:
                 renderer.sync_document(doc)
             s = renderer.settings
-            s.mode, s.exposure, s.debug_view, s.debug_layer = args.mode, args.exposure, args.debug_view, args.debug_layer
+            s.exposure, s.debug_view, s.debug_layer = args.exposure, args.debug_view, args.debug_layer
+            if face is None:
+                s.mode = args.mode
             renderer.camera.yaw, renderer.camera.pitch = args.yaw, args.pitch
             if args.light:
                 renderer.lights = [Light.directional(az, el, inten) for az, el, inten in args.light]
             if args.env:
                 renderer.set_environment(args.env, args.env_intensity)
-            image = renderer.render_image(args.size)
+            if face is None:
+                image = renderer.render_image(args.size)
+            else:
+                image = _render_lightweight(ctx, head, face, renderer, doc, args)
         finally:
             renderer.release()
     finally:
@@ -153,6 +167,23 @@ def run(args: argparse.Namespace) -> int:
         raise SheerError(f"{out}: cannot write the image: {exc.strerror or exc}") from None
     print(f"wrote {out} ({args.size[0]}×{args.size[1]}, {args.mode})", file=sys.stderr)
     return 0
+
+
+def _render_lightweight(ctx: Any, head: Any, face: Any, renderer: Any, doc: Any, args: argparse.Namespace) -> Any:
+    """The lightweight engine (render/lightweight.py) with the same camera, lights, environment and the
+    physical renderer's texture-space KM outputs as the makeup (issue 7)."""
+    from render.lightweight import LightweightRenderer
+
+    lw = LightweightRenderer(ctx, head, face)
+    try:
+        lw.camera = renderer.camera
+        lw.lights = list(renderer.lights)
+        lw.environment = renderer.environment
+        lw.exposure = args.exposure
+        lw.makeup = renderer.km if doc is not None else None
+        return lw.render_image(args.size)
+    finally:
+        lw.release()
 
 
 def _library() -> Any:
