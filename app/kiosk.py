@@ -185,6 +185,17 @@ class _ActivityFilter(QObject):
         return False
 
 
+class _TouchPage(QWidget):
+    """A page that reacts to a touch anywhere on it."""
+
+    def __init__(self, on_touch: Callable[[], Any]) -> None:
+        super().__init__()
+        self.on_touch = on_touch
+
+    def mousePressEvent(self, event: Any) -> None:  # noqa: N802
+        self.on_touch()
+
+
 class KioskWindow(QWidget):
     """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle."""
 
@@ -215,7 +226,9 @@ class KioskWindow(QWidget):
         self.setStyleSheet("QWidget { background: #1d1b1c; color: #f4efe9; font-size: 22px; }"
                            "QPushButton { background: #3a3536; border-radius: 14px; padding: 10px; }"
                            "QPushButton:checked { background: #b0605f; }"
-                           "QSlider::handle:horizontal { width: 48px; background: #e0c0b0; border-radius: 10px; }")
+                           "QSlider::groove:horizontal { height: 20px; background: #3a3536; border-radius: 10px; }"
+                           "QSlider::handle:horizontal { width: 56px; margin: -18px 0; background: #e0c0b0;"
+                           " border-radius: 14px; }")
         # reduced action set: only the exit (PIN) and before/after, as shortcuts
         for spec in KIOSK_ACTIONS:
             sc = QShortcut(QKeySequence(spec.shortcut), self)
@@ -247,7 +260,7 @@ class KioskWindow(QWidget):
         return vp
 
     def _build_start(self) -> QWidget:
-        page = QWidget()
+        page = _TouchPage(self.guard(self.show_main))
         title = QLabel("Sheer")
         title.setStyleSheet("font-size: 64px; font-weight: 300;")
         title.setAlignment(Qt.AlignmentFlag.AlignCenter)
@@ -255,12 +268,13 @@ class KioskWindow(QWidget):
         self.start_message.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.start_message.setWordWrap(True)
         self.start_button = big_button("Start", 120)
+        self.start_button.setMaximumWidth(640)
         self.start_button.clicked.connect(self.guard(self.show_main))
         lay = QVBoxLayout(page)
         lay.addStretch(2)
         lay.addWidget(title)
         lay.addWidget(self.start_message)
-        lay.addWidget(self.start_button)
+        lay.addWidget(self.start_button, 0, Qt.AlignmentFlag.AlignHCenter)
         lay.addStretch(3)
         return page
 

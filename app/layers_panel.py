@@ -46,7 +46,9 @@ def material_rgb(material: Any, thickness_um: float | None = None,
 def swatch_icon(rgb: tuple[int, int, int], size: int = 28) -> QIcon:
     pm = QPixmap(size, size)
     pm.fill(QColor(*rgb))
-    return QIcon(pm)
+    icon = QIcon(pm)
+    icon.addPixmap(pm, QIcon.Mode.Selected)  # keep the true colour on the selected row
+    return icon
 
 
 class LayerList(QListWidget):

@@ -293,6 +293,11 @@ class LibraryDock(QWidget):
         if self._loading or not name or name not in self.library:
             return
         self.current = name
+        for i in range(self.list.count()):
+            if self.list.item(i).text() == name and self.list.currentRow() != i:
+                self.list.blockSignals(True)
+                self.list.setCurrentRow(i)
+                self.list.blockSignals(False)
         self.load_fields()
         self.update_views()
 

@@ -77,6 +77,7 @@ class StudioWindow(QMainWindow):
         self.viewport.stroke_move.connect(self._stroke_move)
         self.viewport.stroke_end.connect(self._stroke_end)
         self.viewport.light_moved.connect(self._light_moved)
+        self.viewport.renderer_ready.connect(self.apply)
         self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
 
         self.layers_panel = LayersPanel()

@@ -156,6 +156,10 @@ class RealViewportRenderer:
             self.quad_prog["u_src"].value = 0
             self.quad_prog["u_right"].value = float(split) * 2.0 - 1.0
             self.quad_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
+            x = int(split * w)
+            self.ctx.scissor = (max(x - 1, 0), 0, 2, h)
+            fbo.clear(1.0, 1.0, 1.0, 1.0)
+            self.ctx.scissor = None
         if brush is not None:
             mvp = np.ascontiguousarray((camera.projection(w / max(h, 1)) @ camera.view()).T, dtype="f4")
             self.ctx.enable(moderngl.DEPTH_TEST)

@@ -1,0 +1,71 @@
+"""``python -m app.screenshots OUT_DIR``: grab real screenshots of the running studio and kiosk (for the
+README). Run under a display (or ``xvfb-run -a -s "-screen 0 1920x1080x24"``)."""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+
+def _wait(cond: object, timeout: float = 90.0) -> None:
+    from PySide6.QtWidgets import QApplication
+
+    end = time.time() + timeout
+    while not cond() and time.time() < end:  # type: ignore[operator]
+        QApplication.processEvents()
+        time.sleep(0.01)
+    for _ in range(20):
+        QApplication.processEvents()
+
+
+def main(argv: list[str]) -> int:
+    out = Path(argv[0] if argv else "docs/images")
+    out.mkdir(parents=True, exist_ok=True)
+    from PySide6.QtCore import QSettings
+
+    from app.studio_app import make_application
+
+    make_application()
+    from app.kiosk import KioskConfig, KioskWindow, hash_pin
+    from app.main_window import StudioWindow
+
+    tmp = Path(tempfile.mkdtemp(prefix="sheer-shots-"))
+    win = StudioWindow(qsettings=QSettings(str(tmp / "s.ini"), QSettings.Format.IniFormat))
+    win.resize(1600, 1000)
+    win.show()
+    vp = win.viewport
+    _wait(lambda: vp.frames > 0 and vp.full_quality_ready)
+    win.library_dock.select("Lipstick Nude") if "Lipstick Nude" in win.library else None
+    vp.repaint()
+    _wait(lambda: True)
+    win.grab().save(str(out / "studio_main.png"))
+    win._set(split=0.5)
+    vp.repaint()
+    _wait(lambda: True)
+    vp.grabFramebuffer().save(str(out / "studio_before_after.png"))
+    win._set(split=0.0)
+    win.close()
+
+    cfg = KioskConfig(pin_hash=hash_pin("0000"), snapshot_dir=str(tmp / "photos"), fullscreen=False)
+    kiosk = KioskWindow(cfg)
+    kiosk.resize(1600, 1000)
+    kiosk.show()
+    _wait(lambda: kiosk.isVisible())
+    kiosk.grab().save(str(out / "kiosk_start.png"))
+    kiosk.show_main()
+    kiosk.set_look("evening")
+    kiosk.set_light("warm indoor")
+    _wait(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready)
+    kiosk.viewport.repaint()
+    _wait(lambda: True)
+    kiosk.grab().save(str(out / "kiosk_tryon.png"))
+    kiosk._allow_close = True
+    kiosk.close()
+    print("\n".join(str(p) for p in sorted(out.glob("*_*.png")) if p.name.startswith(("studio_", "kiosk_"))))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
