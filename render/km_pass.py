@@ -322,11 +322,11 @@ class KMTextureSpace:
         return out[0], out[1], out[2]
 
     def release(self) -> None:
+        from render.glutil import release_all
+
         progs = [o for pair in self._programs.values() for o in pair[::-1]]
         self._programs = {}
-        for obj in (self.fbo, self.r_top, self.transmittance, self.r_bottom, *progs, self.ubo,
-                    *self.thickness_textures):
-            if obj is not None:
-                obj.release()
+        release_all(self.ctx, (self.fbo, self.r_top, self.transmittance, self.r_bottom, *progs, self.ubo,
+                               *self.thickness_textures))
         self.thickness_textures = []
         self.fbo = None

@@ -256,5 +256,6 @@ class ShadowMaps:
         self._key = None
 
     def release(self) -> None:
-        for obj in (self.fbo, self.texture, self.program):
-            obj.release()
+        from render.glutil import release_all
+
+        release_all(self.ctx, (self.fbo, self.texture, self.program))

@@ -41,7 +41,80 @@ REFERENCE_TAPS = 13
 SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
 
 # texture units of the lit pass
-_U_KM, _U_MASK, _U_LUT, _U_THICK, _U_SHADOW = 4, 7, 8, 9, 17
+_U_KM, _U_MASK, _U_LUT, _U_THICK, _U_SHADOW, _U_IRR = 4, 7, 8, 9, 17, 25
+#: dilation passes of the texture-space irradiance (texels padded beyond chart borders)
+IRRADIANCE_PADDING = 4
+
+
+class TextureIrradiance:
+    """Diffuse irradiance (lights with PCF shadows + SH environment, normal-mapped) in the head's texture
+    space, plus each light's shadow visibility for the specular term. Lights are fixed to the head, so
+    this is recomputed only when the lights, the environment or the normal strength change (orbiting the
+    camera or painting reuses it); each frame then fetches E instead of shading lights and shadows per
+    pixel. ``version`` counts recomputations."""
+
+    def __init__(self, ctx: Any, shaders: ShaderLibrary, size: int = 1024) -> None:
+        self.ctx = ctx
+        self.size = size
+        self.program = shaders.program(ctx, "uvspace.vert", "irradiance.frag")
+        self.dilate = shaders.program(ctx, "fullscreen.vert", "dilate.frag")
+        self.dilate_quad = ctx.vertex_array(self.dilate, [])
+        self.sets = []
+        for _ in range(2):
+            texs = [ctx.texture((size, size), 4, dtype="f2"), ctx.texture((size, size), 4),
+                    ctx.texture((size, size), 4)]
+            for t in texs:
+                t.repeat_x = t.repeat_y = False
+                t.filter = (ctx.LINEAR, ctx.LINEAR)
+            self.sets.append((texs, ctx.framebuffer(texs)))
+        self.current = 0
+        self._key: Any = None
+        self.version = 0
+
+    @property
+    def textures(self) -> list[Any]:
+        return self.sets[self.current][0]
+
+    def update(self, key: Any, gpu_head: GpuHead, setup: Any) -> bool:
+        """Recompute if ``key`` changed; ``setup(program)`` sets the lighting uniforms. Returns True if
+        it recomputed."""
+        if key == self._key:
+            return False
+        self._key = key
+        ctx = self.ctx
+        texs, fbo = self.sets[0]
+        fbo.use()
+        fbo.viewport = (0, 0, self.size, self.size)
+        ctx.scissor = None
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
+        setup(self.program)
+        gpu_head.normal.use(1)
+        self.program["u_normal_map"].value = 1
+        gpu_head.draw(self.program)
+        src = 0
+        for _ in range(IRRADIANCE_PADDING):
+            dst = 1 - src
+            for i, t in enumerate(self.sets[src][0]):
+                t.use(i)
+            for i in range(3):
+                self.dilate[f"u_src{i}"].value = i
+            self.sets[dst][1].use()
+            self.sets[dst][1].viewport = (0, 0, self.size, self.size)
+            self.dilate_quad.render(vertices=3)
+            src = dst
+        self.current = src
+        self.version += 1
+        return True
+
+    def invalidate(self) -> None:
+        self._key = None
+
+    def release(self) -> None:
+        from render.glutil import release_all
+
+        release_all(self.ctx, [o for texs, fbo in self.sets for o in (fbo, *texs)]
+                    + [self.dilate_quad, self.dilate, self.program])
 
 
 @dataclass
@@ -61,6 +134,7 @@ class RenderSettings:
         skin_roughness (Beckmann m), skin_f0 (Fresnel at normal incidence), spec_intensity (rho_s).
         normal_strength: tangent-space normal map strength. background: linear RGB.
         shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
+        irradiance_size: side of the texture-space irradiance cache (texels).
     """
 
     mode: str = "fast"
@@ -79,6 +153,7 @@ class RenderSettings:
     background: tuple[float, float, float] = (0.045, 0.047, 0.052)
     shadow_size: int = 1024
     pcf_radius: float = 2.5
+    irradiance_size: int = 1024
 
     def validate(self) -> None:
         if self.mode not in MODES:
@@ -155,6 +230,7 @@ class Renderer:
         self.environment: Environment | None = None
         self.km = KMTextureSpace(ctx, self.shaders, dtype=km_dtype)
         self.shadows = ShadowMaps(ctx, self.shaders, self.settings.shadow_size)
+        self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
         self._frame_programs: dict[int, Any] = {}
         self._fast_programs: dict[int, Any] = {}
         self._gauss = self.shaders.program(ctx, "fullscreen.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
@@ -280,7 +356,7 @@ class Renderer:
             t[name] = tex
             t[name + "_fbo"] = self.ctx.framebuffer([tex])
         t["gbuffer"].use()
-        for obj in old:
+        for obj in old:  # not bound: the new G-buffer is
             obj.release()
         self._targets = t
         self._size = size
@@ -315,7 +391,7 @@ class Renderer:
             n = max(u.array_length, 1)
             arr = np.asarray(data, dtype=np.float32)
             arr = arr.reshape(-1, *arr.shape[2:]) if arr.ndim > 2 else arr
-            u.write(np.ascontiguousarray(arr[:n] if arr.ndim > 1 or n > 1 else arr).tobytes())
+            u.write(np.ascontiguousarray(arr[:n]).tobytes())
 
     # -- the frame --------------------------------------------------------------------------------
     def _screen_rect(self, view_proj: np.ndarray, size: tuple[int, int]) -> tuple[int, int, int, int]:
@@ -362,6 +438,22 @@ class Renderer:
         shadowed = [lt for lt in self.lights if lt.shadows]
         if shadowed:
             self.shadows.update(self.lights, self.gpu_head.centre, self.gpu_head.radius, self.gpu_head.draw)
+        if self.irradiance.size != s.irradiance_size:
+            self.irradiance.release()
+            self.irradiance = TextureIrradiance(ctx, self.shaders, s.irradiance_size)
+        env = self.environment
+        irr_key = (tuple((lt.kind, tuple(lt.vector), tuple(lt.colour), lt.intensity, lt.shadows,
+                          lt.reference_distance) for lt in self.lights),
+                   None if env is None else env.coefficients.tobytes(), s.normal_strength, s.pcf_radius,
+                   s.shadow_size)
+
+        def setup_irradiance(p: Any) -> None:
+            self.shadows.texture.use(_U_SHADOW)
+            self._set(p, "u_shadow", _U_SHADOW)
+            self._set(p, "u_normal_strength", float(s.normal_strength))
+            self._upload_lights(p)
+
+        self.irradiance.update(irr_key, self.gpu_head, setup_irradiance)
 
         # 2. lit pass into the G-buffer
         n = len(self.km.active)
@@ -380,15 +472,16 @@ class Renderer:
         self.t_lut.use(_U_LUT)
         for slot in range(n):
             self.km.thickness_textures[slot].use(_U_THICK + slot)
-        self.shadows.texture.use(_U_SHADOW)
+        for j, tex in enumerate(self.irradiance.textures):
+            tex.use(_U_IRR + j)
         units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
-                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_skin_mask": _U_MASK, "u_t_lut": _U_LUT}
+                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_skin_mask": _U_MASK, "u_t_lut": _U_LUT,
+                 "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2}
         for name, unit in units.items():
             self._set(prog, name, unit)
         if n and "u_layer_thick" in prog:
             u = prog["u_layer_thick"]
             u.value = list(range(_U_THICK, _U_THICK + u.array_length)) if u.array_length > 1 else _U_THICK
-        self._set(prog, "u_shadow", _U_SHADOW)
         self._write(prog, "u_view_proj", view_proj.T.reshape(1, 16))
         self._write(prog, "u_view", view.T.reshape(1, 16))
         self._set(prog, "u_eye", tuple(float(x) for x in self.camera.eye()))
@@ -631,6 +724,13 @@ class Renderer:
         a = np.frombuffer(raw, np.float32 if linear else np.uint8).reshape(h, w, 3)
         return np.ascontiguousarray(a[::-1])
 
+    def skin_pixel_mask(self) -> np.ndarray:
+        """bool (H, W), top row first: the last frame's skin pixels (before SSS; for tests and ΔE)."""
+        tex = self._targets["diffuse"]
+        w, h = tex.size
+        a = np.frombuffer(tex.read(), np.float16).reshape(h, w, 4)[..., 3]
+        return np.ascontiguousarray(a[::-1] > 0)
+
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
         objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
@@ -638,9 +738,11 @@ class Renderer:
                            *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)
-        for obj in objs:
-            obj.release()
+        from render.glutil import release_all
+
+        release_all(self.ctx, objs)
         self._quads, self._frame_programs, self._fast_programs, self._targets = {}, {}, {}, {}
         self.km.release()
+        self.irradiance.release()
         self.shadows.release()
         self.gpu_head.release()

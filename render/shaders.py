@@ -46,6 +46,9 @@ class ShaderLibrary:
         A ``#version`` line is added if the file has none. ``#line`` directives keep compiler messages
         pointing at the right file line (file index = order of first inclusion).
         """
+        for key in defines or {}:
+            if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key):
+                raise RenderError(f"bad shader define name {key!r}")
         seen: list[str] = []
         body = self._expand(name, seen, stack=[])
         lines = body.splitlines()
@@ -54,8 +57,6 @@ class ShaderLibrary:
             version, lines = lines[0], lines[1:]
         header = [version]
         for key, value in (defines or {}).items():
-            if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key):
-                raise RenderError(f"bad shader define name {key!r}")
             header.append(f"#define {key} {value}")
         return "\n".join(header + lines) + "\n"
 

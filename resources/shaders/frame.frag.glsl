@@ -25,6 +25,9 @@ uniform sampler2D u_trans;       // unit 5
 uniform sampler2D u_rbottom;     // unit 6
 uniform sampler2D u_skin_mask;   // unit 7
 uniform sampler2D u_t_lut;       // unit 8: per layer (row) T_rgb(X), X in [0, u_lut_max[i]]
+uniform sampler2D u_irr;         // unit 25: texture-space irradiance E (rgb), see irradiance.frag
+uniform sampler2D u_vis0;        // unit 26: shadow visibility of lights 0-3
+uniform sampler2D u_vis1;        // unit 27: lights 4-7
 #if NL > 0
 uniform sampler2D u_layer_thick[NL];  // units 9.. : µm
 #endif
@@ -88,17 +91,18 @@ void main() {
                        smooth_rough, smooth_cov);
     float skin_rho = u_spec_intensity * (u_has_maps.x != 0 ? texture(u_spec_map, v_uv).r : 1.0);
 
-    vec3 E = sh_irradiance(N);
+    // diffuse irradiance (lights, shadows, environment) from the texture-space cache
+    vec3 E = texture(u_irr, v_uv).rgb;
+    vec4 vis0 = texture(u_vis0, v_uv);
+    vec4 vis1 = u_nlights > 4 ? texture(u_vis1, v_uv) : vec4(1.0);
     vec3 spec = vec3(0.0);
     for (int i = 0; i < u_nlights; ++i) {
         vec3 L = light_direction(i, v_pos);
         float ndl = dot(N, L);
-        float ndl_g = dot(Ng, L);
-        if (ndl_g <= -0.2 && ndl <= 0.0) continue;
-        float sh = shadow_factor(i, v_pos, Ng, L);
-        vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
-        E += Ei * max(ndl, 0.0);
         if (ndl <= 0.0) continue;
+        float sh = i < 4 ? vis0[i] : vis1[i - 4];
+        if (sh <= 0.0) continue;
+        vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
         // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
         // highlight below attenuated by the transmittance of the layer above it
         vec3 s = vec3(skin_rho * kelemen(N, L, V, max(skin_m, 0.05), u_skin_f0));

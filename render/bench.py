@@ -1,0 +1,148 @@
+"""``sheer bench render [--size 1280x720] [--frames N] --json``: frame times and texture-space KM times.
+
+Prints one JSON object: median frame times (``ctx.finish()`` after each frame, after warm-up frames) of
+the baseline (same mesh and albedo texture, one Lambert light, no post-processing), the fast and the
+reference modes, their ratios, the mean ΔE2000 between fast and reference on skin pixels, and the KM
+update times for full 2048² four-layer maps (the ``evening`` look painted at 2048², a realistic map:
+foundation over the face, blush, eyeshadow, lipstick) and for one 64² dirty tile. Extra keys:
+``km_full_2048_dense_ms`` (worst case: all four layers non-zero on every texel), per-tap fast timings,
+``size``, ``frames`` and the GL renderer string. Lights stay fixed, so shadow maps are cached after the
+first frame (as when orbiting in the studio), and so is the texture-space irradiance (see
+:class:`render.renderer.TextureIrradiance`); ``fast_relight_ms`` is a fast frame that recomputes both
+(a light being dragged). Every mode uses the same single key light as the baseline (no environment).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+
+def _median_ms(ctx: Any, fn: Callable[[], None], frames: int, warmup: int = 2) -> float:
+    for _ in range(warmup):
+        fn()
+    ctx.finish()
+    times = []
+    for _ in range(frames):
+        t = time.perf_counter()
+        fn()
+        ctx.finish()
+        times.append((time.perf_counter() - t) * 1000.0)
+    return float(np.median(times))
+
+
+def _srgb_to_linear(img: np.ndarray) -> np.ndarray:
+    c = img.astype(np.float64) / 255.0
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def mean_de2000(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
+    """Mean ΔE2000 between two uint8 sRGB images over ``mask`` (km's colour maths)."""
+    from km.colour import delta_e2000, linear_rgb_to_lab
+
+    la = linear_rgb_to_lab(_srgb_to_linear(a[mask]))
+    lb = linear_rgb_to_lab(_srgb_to_linear(b[mask]))
+    return float(np.mean(delta_e2000(la, lb)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    from app.commands.render import _size
+
+    p = argparse.ArgumentParser(prog="sheer bench render", description=__doc__)
+    p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH")
+    p.add_argument("--frames", type=int, default=15, help="timed frames per mode (median)")
+    p.add_argument("--km-resolution", type=int, default=2048)
+    p.add_argument("--json", action="store_true", help="print JSON (the only output format)")
+    args = p.parse_args(argv)
+    from km.errors import SheerError
+
+    if args.frames < 1:
+        raise SheerError("--frames must be ≥ 1")
+
+    import moderngl
+
+    from painting import Document
+    from painting.looks import apply_look
+    from render.km_pass import LayerInput
+    from render.renderer import Renderer
+
+    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    w, h = args.size
+    doc = Document.from_head(resolution=args.km_resolution)
+    apply_look(doc, "evening")
+    r = Renderer(ctx, doc.head, layout=doc.layout)
+    from render.lights import Light
+
+    r.lights = [Light.directional(35.0, 25.0, 1.5)]
+    colour = ctx.texture((w, h), 4)
+    depth = ctx.depth_renderbuffer((w, h))
+    fbo = ctx.framebuffer([colour], depth)
+    out: dict[str, Any] = {"size": f"{w}x{h}", "frames": args.frames, "gl_renderer": ctx.info["GL_RENDERER"]}
+    try:
+        # texture-space KM
+        layers = [LayerInput(lay.material_object, np.array(lay.thickness), lay.opacity, lay.visible, lay.name)
+                  for lay in doc.layers]
+        out["km_layers"] = len(layers)
+        out["km_full_2048_ms"] = _median_ms(ctx, lambda: r.set_layers(layers), max(3, args.frames // 3), 1)
+        ys, xs = np.nonzero(layers[0].thickness > 0)
+        tile = (int(xs[len(xs) // 2]) // 64, int(ys[len(ys) // 2]) // 64)
+        out["km_tile_64_ms"] = _median_ms(ctx, lambda: r.update_tiles(0, None, [tile]), args.frames, 2)
+        rng = np.random.default_rng(0)
+        dense = [LayerInput(lay.material, (1.0 + rng.random(lay.thickness.shape, np.float32) * 20.0))
+                 for lay in layers]
+        out["km_full_2048_dense_ms"] = _median_ms(ctx, lambda: r.set_layers(dense), 2, 1)
+        r.set_layers(layers)
+
+        # frames
+        out["baseline_ms"] = _median_ms(ctx, lambda: r.render_baseline(fbo), args.frames)
+        r.settings.mode = "fast"
+        out["fast_ms"] = _median_ms(ctx, lambda: r.render(fbo), args.frames)
+        for taps in (11, 25):
+            r.settings.taps = taps
+            out[f"fast_{taps}_taps_ms"] = _median_ms(ctx, lambda: r.render(fbo), max(3, args.frames // 3))
+        r.settings.taps = 17
+
+        def relight() -> None:
+            r.shadows.invalidate()
+            r.irradiance.invalidate()
+            r.render(fbo)
+
+        out["fast_relight_ms"] = _median_ms(ctx, relight, max(3, args.frames // 3))
+        r.settings.mode = "reference"
+        out["reference_ms"] = _median_ms(ctx, lambda: r.render(fbo), args.frames)
+        r.settings.mode = "off"
+        out["no_sss_ms"] = _median_ms(ctx, lambda: r.render(fbo), max(3, args.frames // 3))
+        out["fast_over_baseline"] = out["fast_ms"] / out["baseline_ms"]
+        out["reference_over_baseline"] = out["reference_ms"] / out["baseline_ms"]
+
+        # fast vs reference on skin pixels
+        r.settings.mode = "fast"
+        img_fast = r.render_image((w, h))
+        mask = r.skin_pixel_mask()
+        r.settings.mode = "reference"
+        img_ref = r.render_image((w, h))
+        out["fast_vs_reference_de2000"] = mean_de2000(img_fast, img_ref, mask)
+        out["skin_pixels"] = int(mask.sum())
+    finally:
+        r.release()
+        fbo.release()
+        colour.release()
+        depth.release()
+        ctx.release()
+    keys = ["baseline_ms", "fast_ms", "reference_ms", "fast_over_baseline", "reference_over_baseline",
+            "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms"]
+    ordered = {k: round(out[k], 3) if isinstance(out[k], float) else out[k] for k in keys}
+    ordered.update({k: (round(v, 3) if isinstance(v, float) else v) for k, v in out.items() if k not in keys})
+    json.dump(ordered, sys.stdout, indent=2)
+    print()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,38 @@
+#version 450 core
+// Texture-space diffuse irradiance (the idea of d'Eon et al. 2007): per texel of the head's UV space,
+// the irradiance E from every light (PCF-shadowed) and the environment (SH), with the normal map.
+// Lights are fixed to the head, so this is recomputed only when a light or the environment changes;
+// frames then fetch E instead of shading lights and shadows per pixel.
+// o_irr: rgb = E (display units), a = 1 where covered. o_vis0/o_vis1: shadow visibility of lights 0-3, 4-7.
+#include "common.glsl"
+#include "lighting.glsl"
+in vec3 v_pos;
+in vec3 v_normal;
+in vec4 v_tangent;
+in vec2 v_uv;
+uniform sampler2D u_normal_map;
+uniform float u_normal_strength;
+layout(location = 0) out vec4 o_irr;
+layout(location = 1) out vec4 o_vis0;
+layout(location = 2) out vec4 o_vis1;
+
+void main() {
+    vec3 Ng = normalize(v_normal);
+    vec3 nt = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
+    nt.xy *= u_normal_strength;
+    vec3 T = normalize(v_tangent.xyz - Ng * dot(Ng, v_tangent.xyz));
+    vec3 B = cross(Ng, T) * v_tangent.w;
+    vec3 N = normalize(T * nt.x + B * nt.y + Ng * max(nt.z, 1e-3));
+    vec3 E = sh_irradiance(N);
+    float vis[8] = float[](1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
+    for (int i = 0; i < u_nlights; ++i) {
+        vec3 L = light_direction(i, v_pos);
+        float ndl = dot(N, L);
+        float sh = shadow_factor(i, v_pos, Ng, L);
+        vis[i] = sh;
+        E += light_irradiance_normal(i, v_pos) * sh * max(ndl, 0.0);
+    }
+    o_irr = vec4(E, 1.0);
+    o_vis0 = vec4(vis[0], vis[1], vis[2], vis[3]);
+    o_vis1 = vec4(vis[4], vis[5], vis[6], vis[7]);
+}

@@ -1,0 +1,106 @@
+"""The texture-space KM pass on the GPU against ``km`` (spectral, per texel)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import km
+from km.colour import spectrum_to_rgb
+from km.optics import layer_rt, stack
+from render.km_pass import KMTextureSpace, LayerInput, default_wavelengths
+from render.shaders import ShaderLibrary
+
+pytestmark = pytest.mark.gl
+MATERIALS = ("Foundation Ivory", "Blush Berry", "Eyeshadow Plum", "Lipstick Classic Red")
+
+
+def km_reference(materials: list[object], maps: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(R_top, T, R_bottom) in linear sRGB per texel with km's own maths (float64)."""
+    wl = default_wavelengths()
+    pairs = []
+    for mat, x in zip(materials, maps):
+        s = np.interp(wl, mat.wavelengths, mat.S)
+        k = np.interp(wl, mat.wavelengths, mat.K)
+        pairs.append(layer_rt(s, k, x[..., None].astype(np.float64) * 1e-3))
+    r_top, r_bottom, t = stack(pairs[::-1])  # km stacks top first
+    return (spectrum_to_rgb(r_top, wl), spectrum_to_rgb(t, wl), spectrum_to_rgb(r_bottom, wl))
+
+
+@pytest.fixture
+def km_pass(gl_ctx: object):
+    p = KMTextureSpace(gl_ctx, ShaderLibrary(), dtype="f4")
+    yield p
+    p.release()
+
+
+def test_gpu_matches_km_spectrally(km_pass: KMTextureSpace) -> None:
+    lib = km.default_library()
+    mats = [lib.get(n) for n in MATERIALS]
+    rng = np.random.default_rng(7)
+    maps = [(rng.random((8, 16)) * m.max_thickness_um).astype(np.float32) for m in mats]
+    maps[1][:, :4] = 0.0  # some texels without a layer
+    maps[2][2, :] = 0.0
+    for m in maps:
+        m[0, 0] = 0.0
+    maps[0][0, 1] = 1e-3  # very thin
+    km_pass.set_layers([LayerInput(m, x) for m, x in zip(mats, maps)])
+    got = km_pass.read()
+    want = km_reference(mats, maps)
+    for g, w, name in zip(got, want, ("R_top", "T", "R_bottom")):
+        np.testing.assert_allclose(g, w, atol=1e-4, err_msg=name)
+
+
+def test_tiles_update_only_their_texels_and_match_a_full_update(km_pass: KMTextureSpace) -> None:
+    lib = km.default_library()
+    mats = [lib.get("Foundation Ivory"), lib.get("Lipstick Classic Red")]
+    maps = [np.full((128, 192), 10.0, np.float32), np.zeros((128, 192), np.float32)]
+    km_pass.set_layers([LayerInput(m, x) for m, x in zip(mats, maps)])
+    before = km_pass.read()
+    new = maps[1].copy()
+    new[64:128, 64:128] = 25.0  # tile (column 1, row 1)
+    new[0:10, 0:10] = 25.0      # tile (0, 0), not reported: must stay as it was
+    km_pass.update_tiles(1, new, [(1, 1)])
+    after = km_pass.read()
+    ref = km_reference(mats, [maps[0], np.where(np.arange(128)[:, None] >= 64, new, 0) * (np.arange(192) >= 64)])
+    for a, b, r in zip(after, before, ref):
+        np.testing.assert_allclose(a[64:128, 64:128], r[64:128, 64:128], atol=1e-4)
+        np.testing.assert_array_equal(a[:64], b[:64])
+        np.testing.assert_array_equal(a[:, :64], b[:, :64])
+
+
+def test_no_layers_is_the_identity(km_pass: KMTextureSpace) -> None:
+    km_pass.set_layers([])
+    r_top, t, r_bottom = km_pass.read()
+    assert r_top.shape == (1, 1, 3)
+    np.testing.assert_array_equal(r_top, 0.0)
+    np.testing.assert_array_equal(t, 1.0)
+    np.testing.assert_array_equal(r_bottom, 0.0)
+
+
+def test_white_non_absorbing_layer_conserves_energy(km_pass: KMTextureSpace) -> None:
+    wl = default_wavelengths()
+
+    class White:
+        name = "white"
+        wavelengths = wl
+        S = np.full(len(wl), 50.0)
+        K = np.zeros(len(wl))
+
+    x = np.linspace(0.0, 200.0, 64, dtype=np.float32).reshape(4, 16)
+    km_pass.set_layers([LayerInput(White(), x)])
+    r_top, t, _ = km_pass.read()
+    np.testing.assert_allclose(r_top + t, 1.0, atol=1e-4)
+
+
+def test_bad_layers_are_refused(km_pass: KMTextureSpace) -> None:
+    from render.errors import RenderError
+
+    mat = km.default_library().get("Foundation Ivory")
+    with pytest.raises(RenderError, match="2D"):
+        km_pass.set_layers([LayerInput(mat, np.zeros(5, np.float32))])
+    with pytest.raises(RenderError, match="other layers"):
+        km_pass.set_layers([LayerInput(mat, np.zeros((4, 4), np.float32)),
+                            LayerInput(mat, np.zeros((8, 8), np.float32))])
+    with pytest.raises(RenderError, match="opacity"):
+        km_pass.set_layers([LayerInput(mat, np.zeros((4, 4), np.float32), opacity=2.0)])
