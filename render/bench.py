@@ -51,9 +51,17 @@ def mean_de2000(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
     return float(np.mean(delta_e2000(la, lb)))
 
 
-def main(argv: list[str] | None = None) -> int:
-    from app.commands.render import _size
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"size must look like 1280x720, got {text!r}") from None
+    if not (16 <= w <= 8192 and 16 <= h <= 8192):
+        raise argparse.ArgumentTypeError(f"size must be between 16x16 and 8192x8192, got {text!r}")
+    return w, h
 
+
+def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="sheer bench render", description=__doc__)
     p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH")
     p.add_argument("--frames", type=int, default=15, help="timed frames per mode (median)")
