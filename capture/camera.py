@@ -6,9 +6,10 @@ grid has x right, y down, and the centre of the top-left pixel at (0.5, 0.5).
 
 From ≥ 6 correspondences: the normalised direct linear transform (Hartley & Zisserman, Alg. 7.1), the
 RQ decomposition into K, R, t, then a non-linear refinement of the reprojection error with
-``scipy.optimize.least_squares`` on (focal length, principal point, rotation vector, translation), with
-square pixels and zero skew (a photographic camera; it also keeps a few hand-picked points from
-over-fitting).
+``scipy.optimize.least_squares`` on (focal length, rotation vector, translation) — square pixels, zero
+skew and the principal point at the image centre unless asked (a photographic camera; it also keeps a
+few hand-picked points from over-fitting) — started from the DLT and from six axis-aligned views, the
+best solution with every point in front of the camera kept.
 """
 
 from __future__ import annotations
@@ -156,19 +157,29 @@ def dlt(points2d: np.ndarray, points3d: np.ndarray) -> np.ndarray:
     return P
 
 
-def _residuals(params: np.ndarray, x: np.ndarray, X: np.ndarray) -> np.ndarray:
+def _residuals(params: np.ndarray, x: np.ndarray, X: np.ndarray, pp: tuple[float, float] | None = None,
+               f_prior: float | None = None) -> np.ndarray:
     f, cx, cy = params[:3]
+    if pp is not None:
+        cx, cy = pp
     R = Rotation.from_rotvec(params[3:6]).as_matrix()
     t = params[6:9]
     xc = X @ R.T + t
     proj = np.stack([f * xc[:, 0] / xc[:, 2] + cx, f * xc[:, 1] / xc[:, 2] + cy], axis=1)
-    return (proj - x).ravel()
+    res = (proj - x).ravel()
+    if f_prior is not None:
+        # A weak prior on the focal length (1 px of residual per factor e): a face's landmarks are nearly
+        # planar, so focal length and distance trade off and the fit otherwise runs off to infinity.
+        res = np.append(res, np.log(max(f, 1e-9) / f_prior))
+    return res
 
 
 def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: int,
-              source: str = "correspondences") -> Camera:
+              source: str = "correspondences", free_principal_point: bool = False) -> Camera:
     """A camera from ≥ 6 2D (pixels) ↔ 3D (mesh units) correspondences: DLT, then refinement.
 
+    The principal point is held at the image centre unless ``free_principal_point`` (a handful of face
+    landmarks cannot separate it from the rotation: left free it drifts to far off-axis cameras).
     Returns a :class:`Camera` whose ``reprojection_error_px`` is the RMS error (pixels) after refinement.
     Raises :class:`CameraError` (naming ``source``) for too few, non-finite or degenerate points.
     """
@@ -183,15 +194,44 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
     sv = np.linalg.svd(X - X.mean(axis=0), compute_uv=False)
     if sv[2] < 1e-6 * sv[0]:
         raise CameraError(f"{source}: the 3D points are coplanar or collinear; pick points at several depths")
+    starts = []
     P = dlt(x, X)
     cam0 = Camera.from_projection(P, width, height)
-    K = cam0.K
-    f0 = float(0.5 * (K[0, 0] + K[1, 1]))
-    p0 = np.concatenate([[f0, K[0, 2], K[1, 2]], Rotation.from_matrix(cam0.R).as_rotvec(), cam0.t])
-    if not np.all(np.isfinite(p0)) or f0 <= 0:
-        raise CameraError(f"{source}: the correspondences do not determine a camera (degenerate DLT)")
-    res = least_squares(_residuals, p0, args=(x, X), method="lm" if len(x) * 2 >= 9 else "trf")
-    p = res.x
+    f0 = float(0.5 * (cam0.K[0, 0] + cam0.K[1, 1]))
+    if np.all(np.isfinite(cam0.K)) and f0 > 0:
+        starts.append(np.concatenate([[f0, cam0.K[0, 2], cam0.K[1, 2]], Rotation.from_matrix(cam0.R).as_rotvec(),
+                                      cam0.t]))
+    # With few, nearly planar points (a face's landmarks) the DLT can land on the mirror solution behind
+    # the points; also start from cameras looking at the points from each axis direction, framed so the
+    # points' extent matches the image points' extent.
+    centre = X.mean(axis=0)
+    extent3 = float(np.ptp(X, axis=0).max())
+    extent2 = float(np.ptp(x, axis=0).max())
+    for axis in np.vstack([np.eye(3), -np.eye(3)]):
+        dist = 10.0 * extent3
+        up = np.array([0.0, 1.0, 0.0]) if abs(axis[1]) < 0.9 else np.array([0.0, 0.0, 1.0])
+        cam = look_at(centre + axis * dist, centre, up, 30.0, width, height)
+        f = extent2 * dist / max(extent3, 1e-12)
+        starts.append(np.concatenate([[f, width / 2, height / 2], Rotation.from_matrix(cam.R).as_rotvec(), cam.t]))
+    pp = None if free_principal_point else (width / 2.0, height / 2.0)
+    f_prior = 2.0 * max(width, height)  # a portrait lens: ~70 mm on a full-frame camera
+    best = None
+    for p0 in starts:
+        try:
+            r = least_squares(_residuals, p0, args=(x, X, pp, f_prior), method="trf")
+        except ValueError:
+            continue
+        depth = (X @ Rotation.from_rotvec(r.x[3:6]).as_matrix().T + r.x[6:9])[:, 2]
+        if r.x[0] <= 0 or np.any(depth <= 0):
+            continue  # the points must lie in front of the camera
+        if best is None or r.cost < best.cost:
+            best = r
+    if best is None:
+        raise CameraError(f"{source}: the correspondences do not determine a camera with the points in front of it")
+    res = best
+    p = res.x.copy()
+    if pp is not None:
+        p[1:3] = pp
     K = np.array([[p[0], 0, p[1]], [0, p[0], p[2]], [0, 0, 1.0]])
     R = Rotation.from_rotvec(p[3:6]).as_matrix()
     rms = float(np.sqrt(np.mean(_residuals(p, x, X).reshape(-1, 2) ** 2 @ np.ones(2))))

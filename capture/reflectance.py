@@ -17,6 +17,9 @@ from scipy.spatial import cKDTree
 
 from km.errors import SheerError
 
+#: The exponent's upper bound (skin is never a mirror; beyond this the highlight is below a pixel).
+MAX_EXPONENT = 1000.0
+
 
 class ReflectanceError(SheerError, ValueError):
     """Too few skin samples to build a reflectance map or to measure the highlight."""
@@ -202,7 +205,7 @@ def _fit_saturation_curve(alpha: np.ndarray, prof: np.ndarray, weight: np.ndarra
     best = None
     for s_start in (s0 / 2, s0, 2 * s0):  # a few starts: the curve's shape is what fixes s
         r = least_squares(resid, np.array([sat_d0, np.log(r0), np.log(max(s_start, 1.0))]),
-                          bounds=([0.0, np.log(1e-3), 0.0], [1.0, np.log(20.0), np.log(5000.0)]))
+                          bounds=([0.0, np.log(1e-3), 0.0], [1.0, np.log(20.0), np.log(MAX_EXPONENT)]))
         if best is None or r.cost < best.cost:
             best = r
     assert best is not None
