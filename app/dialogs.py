@@ -13,6 +13,8 @@ from PySide6.QtWidgets import QMessageBox, QWidget
 
 log = logging.getLogger("sheer.app")
 AUTO_DISMISS_MS: int | None = None
+#: In auto-dismiss mode, the answer :func:`ask` returns (else its default).
+AUTO_ANSWER: str | None = None
 HISTORY: list[tuple[str, str, str]] = []
 
 
@@ -36,3 +38,18 @@ def error(parent: QWidget | None, title: str, text: str, detail: str = "") -> No
 
 def info(parent: QWidget | None, title: str, text: str, detail: str = "") -> None:
     _show(parent, "info", title, text, detail)
+
+
+def ask(parent: QWidget | None, title: str, text: str, choices: dict[str, str], default: str) -> str:
+    """A question with buttons ``choices`` (key -> label); returns the key chosen (``default`` on Esc)."""
+    HISTORY.append(("question", title, text))
+    if AUTO_DISMISS_MS is not None:
+        return AUTO_ANSWER if AUTO_ANSWER in choices else default
+    box = QMessageBox(QMessageBox.Icon.Question, title, text, QMessageBox.StandardButton.NoButton, parent)
+    buttons = {key: box.addButton(label, QMessageBox.ButtonRole.ActionRole) for key, label in choices.items()}
+    box.setDefaultButton(buttons[default])
+    box.setEscapeButton(buttons[default])
+    box.exec()
+    clicked = box.clickedButton()
+    box.deleteLater()
+    return next((k for k, b in buttons.items() if b is clicked), default)

@@ -110,6 +110,15 @@ class StudioWindow(QMainWindow):
         self.apply()
         self.setWindowModified(False)
         self._update_title()
+        from app import project_io
+
+        self.autosaver = project_io.make_autosaver(self._snapshot, None, self.settings.autosave_minutes * 60.0)
+        self.autosave_timer = QTimer(self)
+        self.autosave_timer.setInterval(10_000)
+        self.autosave_timer.timeout.connect(self._autosave_tick)
+        if self.autosaver is not None:
+            self.autosave_timer.start()
+        QTimer.singleShot(0, self.offer_recovery)
 
     # ------------------------------------------------------------------ construction
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
@@ -333,6 +342,8 @@ class StudioWindow(QMainWindow):
 
     def _on_doc_event(self, event: Any) -> None:
         self.setWindowModified(True)
+        if getattr(self, "autosaver", None) is not None:
+            self.autosaver.mark_dirty()
         if event.kind == "paint":
             self.viewport.set_layers(layer_tuples(self.doc, self.library), list(event.tiles))
             if self.settings.debug_view == 2:
@@ -478,6 +489,9 @@ class StudioWindow(QMainWindow):
             dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
             return False
         self.project_path = Path(path)
+        if self.autosaver is not None:
+            self.autosaver.project_path = self.project_path.absolute()
+            self.autosaver.dirty = False
         self.settings.add_recent(str(path))
         self.layers_panel.set_materials(self.library)
         self.library_dock.refresh_list()
@@ -504,11 +518,75 @@ class StudioWindow(QMainWindow):
             dialogs.error(self, "Save project", f"The project could not be saved: {exc}")
             return False
         self.project_path, self.project_name = saved, saved.stem
+        if self.autosaver is not None:
+            self.autosaver.saved(saved)
         self.settings.add_recent(str(saved))
         self.setWindowModified(False)
         self._update_title()
         self._update_actions()
         return True
+
+    # ------------------------------------------------------------------ autosave and recovery
+    def _snapshot(self) -> Any:
+        from app import project_io
+
+        return project_io.snapshot(self.doc, self.library, self.project_name)
+
+    def _autosave_tick(self) -> None:
+        """Every few seconds: when unsaved changes are due, snapshot here and write in a worker."""
+        a = self.autosaver
+        if a is None or not a.due() or getattr(self, "_autosaving", False):
+            return
+        try:
+            project = self._snapshot()
+        except Exception as exc:  # never interrupt the user for an autosave
+            log.warning("autosave snapshot failed: %s", exc)
+            return
+        self._autosaving = True
+
+        def done(path: Any) -> None:
+            self._autosaving = False
+            self.statusBar().showMessage(f"Autosaved to {path}", 3000)
+
+        def failed(msg: str) -> None:
+            self._autosaving = False
+            log.warning("autosave failed: %s", msg)
+
+        run_task(self, "Autosave", lambda p, c: a.autosave_now(project), done, failed, show_progress=False)
+
+    def offer_recovery(self) -> None:
+        """After a crash: offer the newest recovery file left by a session that did not end normally."""
+        from app import project_io
+        from km.errors import SheerError
+
+        pending = project_io.pending_recoveries()
+        if not pending:
+            return
+        info = pending[0]
+        what = info.original.name if info.original else "untitled work"
+        answer = dialogs.ask(self, "Recover unsaved work",
+                             f"Sheer did not close normally. Recover {what} autosaved at {info.saved_at}?",
+                             {"recover": "Recover", "discard": "Discard", "later": "Later"}, "later")
+        if answer == "discard":
+            info.path.unlink(missing_ok=True)
+            return
+        if answer != "recover":
+            return
+        try:
+            from painting.recovery import recover
+
+            project = recover(info)
+            self.project_name = project_io.load_project_into(self.doc, self.library, project)
+        except (SheerError, OSError, ValueError) as exc:
+            dialogs.error(self, "Recover unsaved work", f"The recovery file could not be opened: {exc}")
+            return
+        self.project_path = info.original
+        self.layers_panel.set_materials(self.library)
+        self.library_dock.refresh_list()
+        self.refresh_layers()
+        self.setWindowModified(True)
+        self._update_title()
+        info.path.unlink(missing_ok=True)
 
     # ------------------------------------------------------------------ exports
     def _ask_folder(self, title: str) -> str:
@@ -647,6 +725,15 @@ class StudioWindow(QMainWindow):
     # ------------------------------------------------------------------ close
     def closeEvent(self, event: QCloseEvent) -> None:
         self._stroke_end()
+        if self.isWindowModified() and self.doc.layers:
+            answer = dialogs.ask(self, "Unsaved changes", f"Save the changes to {self.project_name}?",
+                                 {"save": "Save", "discard": "Discard", "cancel": "Cancel"}, "save")
+            if answer == "cancel" or (answer == "save" and not self.save_project()):
+                event.ignore()
+                return
+        self.autosave_timer.stop()
+        if self.autosaver is not None:
+            self.autosaver.close()
         save_settings(self.qsettings, self.settings)
         self.qsettings.setValue("window/geometry", self.saveGeometry())
         self.qsettings.setValue("window/state", self.saveState())

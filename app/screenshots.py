@@ -28,6 +28,9 @@ def main(argv: list[str]) -> int:
     from app.studio_app import make_application
 
     make_application()
+    from app import dialogs
+
+    dialogs.AUTO_DISMISS_MS, dialogs.AUTO_ANSWER = 0, "discard"
     from app.kiosk import KioskConfig, KioskWindow, hash_pin
     from app.main_window import StudioWindow
 

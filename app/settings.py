@@ -38,6 +38,7 @@ class StudioSettings:
     environment: str = "none"
     split: float = 0.0
     overlay: bool = False
+    autosave_minutes: float = 3.0
     recent_files: list[str] = field(default_factory=list)
 
     def clamp(self) -> None:
@@ -53,6 +54,7 @@ class StudioSettings:
         if self.environment not in ENVIRONMENTS:
             self.environment = "none"
         self.split = min(max(self.split, 0.0), 1.0)
+        self.autosave_minutes = min(max(self.autosave_minutes, 0.25), 120.0)
 
     def add_recent(self, path: str, limit: int = 8) -> None:
         self.recent_files = [path, *[p for p in self.recent_files if p != path]][:limit]

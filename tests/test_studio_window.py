@@ -20,12 +20,16 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 @pytest.fixture(scope="module")
 def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
+    import os
+
     from PySide6.QtCore import QSettings
 
     from app import dialogs
     from app.main_window import StudioWindow
 
     dialogs.AUTO_DISMISS_MS = 30
+    old_recovery = os.environ.get("SHEER_RECOVERY_DIR")
+    os.environ["SHEER_RECOVERY_DIR"] = str(tmp_path_factory.mktemp("recovery"))
     ini = tmp_path_factory.mktemp("settings") / "studio.ini"
     win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
     win.resize(800, 600)
@@ -34,7 +38,13 @@ def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[o
 
     QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0 and win.viewport.full_quality_ready, timeout=60000)
     yield win
+    dialogs.AUTO_ANSWER = "discard"
     win.close()
+    dialogs.AUTO_ANSWER = None
+    if old_recovery is None:
+        os.environ.pop("SHEER_RECOVERY_DIR", None)
+    else:
+        os.environ["SHEER_RECOVERY_DIR"] = old_recovery
     assert win.viewport.gl_error_at_release == "GL_NO_ERROR"
     win.deleteLater()
 
@@ -154,3 +164,61 @@ def test_about_and_shortcut_sheet(window: object) -> None:
     window.show_shortcuts()
     keys = {row[2] for row in shortcut_sheet()}
     assert {"[", "]", "Shift+[", "Shift+]", "E", "S", "X", "Ctrl+Z", "Ctrl+Shift+Z", "F"} <= keys
+
+
+def test_brush_shortcuts(window: object, qtbot: object) -> None:
+    from PySide6.QtCore import Qt
+
+    window.activateWindow()
+    window.raise_()
+    qtbot.waitUntil(window.isActiveWindow, timeout=5000)
+    window.viewport.setFocus()
+    r0, s0 = window.settings.brush_radius_mm, window.settings.brush_strength
+    qtbot.keyClick(window.viewport, Qt.Key.Key_BracketRight)
+    assert window.settings.brush_radius_mm == pytest.approx(r0 * 1.2)
+    qtbot.keyClick(window.viewport, Qt.Key.Key_BracketLeft)
+    assert window.settings.brush_radius_mm == pytest.approx(r0)
+    window.actions_by_id["brush.weaker"].trigger()
+    assert window.settings.brush_strength == pytest.approx(s0 - 0.1)
+    window.actions_by_id["brush.stronger"].trigger()
+    qtbot.keyClick(window.viewport, Qt.Key.Key_E)
+    assert window.settings.brush_mode == "erase"
+    qtbot.keyClick(window.viewport, Qt.Key.Key_S)
+    assert window.settings.brush_mode == "smooth"
+    qtbot.keyClick(window.viewport, Qt.Key.Key_S)
+    assert window.settings.brush_mode == "add"
+    qtbot.keyClick(window.viewport, Qt.Key.Key_X)
+    assert window.settings.brush_mirror
+    qtbot.keyClick(window.viewport, Qt.Key.Key_X)
+    assert not window.settings.brush_mirror
+
+
+def test_project_save_open_and_autosave(window: object, tmp_path: Path) -> None:
+    from app import project_io
+
+    path = tmp_path / "look.sheer"
+    names = [lay.name for lay in window.doc.layers]
+    maps = [np.array(lay.thickness) for lay in window.doc.layers]
+    assert window.save_project(path=path)
+    assert path.is_file() and not window.isWindowModified()
+    assert "look" in window.windowTitle()
+    window.add_layer("Blush Peach")
+    assert window.open_project(path)
+    assert [lay.name for lay in window.doc.layers] == names
+    for lay, m in zip(window.doc.layers, maps):
+        assert np.allclose(lay.thickness, m, atol=1e-3)
+    saver = project_io.make_autosaver(window._snapshot, path, 0.01)
+    written = saver.autosave_now()
+    assert written.is_file()
+    saver.close()
+    assert not written.exists()
+
+
+def test_export_rendered_image(window: object, qtbot: object, tmp_path: Path) -> None:
+    from PIL import Image
+
+    results: list[object] = []
+    window.export_image(tmp_path / "render.png", (320, 240), on_done=results.append)
+    qtbot.waitUntil(lambda: len(results) == 1, timeout=120000)
+    img = np.asarray(Image.open(tmp_path / "render.png"))
+    assert img.shape == (240, 320, 3) and img.std() > 5
