@@ -15,7 +15,6 @@ from __future__ import annotations
 import hashlib
 import io
 import os
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -411,15 +410,18 @@ class Atlas:
             self._index = TexelIndex.build(self)
         return self._index
 
-    def pads_of(self, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Padding texels fed by the covered texels ``flat``: (dst, src) flat index arrays."""
+    def pads_of(self, flat: np.ndarray, has_pad: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Padding texels fed by the covered texels ``flat``: (dst, src) flat index arrays.
+        ``has_pad`` (optional, bool like ``flat``) says which of them feed any (a shortcut)."""
         if len(self.pad_src) == 0 or len(flat) == 0:
             empty = np.zeros(0, dtype=np.int64)
             return empty, empty
-        if self._has_pad is None:
-            self._has_pad = np.zeros(self.resolution * self.resolution, dtype=bool)
-            self._has_pad[self.pad_src] = True
-        flat = flat[self._has_pad[flat]]
+        if has_pad is None:
+            if self._has_pad is None:
+                self._has_pad = np.zeros(self.resolution * self.resolution, dtype=bool)
+                self._has_pad[self.pad_src] = True
+            has_pad = self._has_pad[flat]
+        flat = flat[has_pad]
         lo = np.searchsorted(self.pad_src, flat, side="left")
         hi = np.searchsorted(self.pad_src, flat, side="right")
         n = hi - lo
@@ -479,7 +481,6 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
         except Exception:  # a truncated or stale cache file: bake again
             pass
     report("bake", 0.0)
-    t0 = time.perf_counter()
     tri = layout.uv[layout.faces] * float(res)
     face, bary = rasterize(tri, res, res, conservative=True)
     report("bake", 0.6)
@@ -525,7 +526,7 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
                   padded=padded, pad_dst=pad_dst, pad_src=pad_src, padding=padding, texel_mm=texel_mm,
                   mm_per_unit=layout.mm_per_unit)
     report("bake", 1.0)
-    if cache and res >= 512 and time.perf_counter() - t0 > 0.5:
+    if cache and res >= 512:
         _save_cached(path, atlas)
     return atlas
 

@@ -600,16 +600,23 @@ class Stroke:
         self.doc._emit(ChangeEvent("paint", self.layer.id, tuple(map(tuple, tiles.tolist())), "rollback"))
 
     # ---- texel writes
-    def _prepare(self, flat: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[tuple[int, int], ...]]:
-        """Before writing covered texels ``flat``: the padding texels they feed (dst, src), and the touched
-        tiles, whose old values are saved in ``base`` if this stroke had not touched them yet."""
-        dst, src = self.atlas.pads_of(flat)
+    def _prepare(self, flat: np.ndarray, sidx: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, tuple[tuple[int, int], ...]]:
+        """Before writing covered texels ``flat`` (``sidx``: their spatial-index entries, a shortcut):
+        the padding texels they feed (dst, src), and the touched tiles, whose old values are saved in
+        ``base`` if this stroke had not touched them yet."""
+        index = self.atlas.index if sidx is not None else None
+        dst, src = self.atlas.pads_of(flat, None if index is None else index.has_pad[sidx])
         res = self._W
         nt = self._nt
-        both = np.concatenate([flat, dst]) if len(dst) else flat
         # Mark tiles in a small boolean table instead of np.unique (no sort of the texel list).
         mark = self._tile_mark
-        mark[(both // (res * TILE)) * nt + (both % res) // TILE] = True
+        if index is not None:
+            mark[index.tile[sidx]] = True
+        else:
+            mark[(flat // (res * TILE)) * nt + (flat % res) // TILE] = True
+        if len(dst):
+            mark[(dst // (res * TILE)) * nt + (dst % res) // TILE] = True
         ids = np.flatnonzero(mark)
         mark[ids] = False
         new = ids[~self._touched[ids]]
@@ -693,7 +700,7 @@ class Stroke:
             if brush.mode == "smooth":
                 tiles = self._smooth(flat, w * np.float32(alpha), sidx, r, index)
             else:
-                tiles = self._composite(flat, w * np.float32(alpha))
+                tiles = self._composite(flat, w * np.float32(alpha), sidx)
         if tiles:
             self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles
@@ -761,8 +768,9 @@ class Stroke:
             idx, w = idx[first], w[first]
         return index.flat[idx], w, idx
 
-    def _composite(self, flat: np.ndarray, alpha: np.ndarray) -> tuple[tuple[int, int], ...]:
-        dst, src, tiles = self._prepare(flat)
+    def _composite(self, flat: np.ndarray, alpha: np.ndarray,
+                   sidx: np.ndarray | None = None) -> tuple[tuple[int, int], ...]:
+        dst, src, tiles = self._prepare(flat, sidx)
         m = self._mask[flat]
         m += (np.float32(1.0) - m) * alpha
         self._mask[flat] = m

@@ -30,6 +30,8 @@ class TexelIndex:
         x, y, z: float32 (N,) texel positions, cell-sorted (separate arrays: numpy is several times
             faster on long 1D arrays than on (N, 3) rows). nx, ny, nz: float32 (N,) unit normals.
         flat: int64 (N,) flat texel index (row·W + column) of each sorted texel.
+        tile: int32 (N,) its 64² tile (tile row · tiles per row + tile column).
+        has_pad: bool (N,) whether it feeds padding texels.
     """
 
     origin: np.ndarray
@@ -43,6 +45,8 @@ class TexelIndex:
     ny: np.ndarray
     nz: np.ndarray
     flat: np.ndarray
+    tile: np.ndarray
+    has_pad: np.ndarray
 
     @classmethod
     def build(cls, atlas: Any, cell_mm: float = CELL_MM) -> TexelIndex:
@@ -69,8 +73,13 @@ class TexelIndex:
         ncell = dims[0] * dims[1] * dims[2]
         cell_start = np.searchsorted(keys, np.arange(ncell + 1, dtype=np.int64)).astype(np.int64)
         cols = [np.ascontiguousarray(a[order, k], dtype=np.float32) for a in (pos, nrm) for k in range(3)]
+        flat = flat[order].astype(np.int64)
+        res = int(atlas.resolution)
+        tile = ((flat // (res * 64)) * (res // 64) + (flat % res) // 64).astype(np.int32)
+        has_pad = np.zeros(res * res, dtype=bool)
+        has_pad[atlas.pad_src] = True
         return cls(origin=origin, cell=cell, dims=dims, cell_start=cell_start, x=cols[0], y=cols[1],
-                   z=cols[2], nx=cols[3], ny=cols[4], nz=cols[5], flat=flat[order].astype(np.int64))
+                   z=cols[2], nx=cols[3], ny=cols[4], nz=cols[5], flat=flat, tile=tile, has_pad=has_pad[flat])
 
     def __len__(self) -> int:
         return len(self.flat)
