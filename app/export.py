@@ -38,9 +38,19 @@ def layer_tuples(doc: Any, library: Any) -> list[tuple[np.ndarray, Any, float]]:
 
 
 def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: None,
-                cancelled: IsCancelled = lambda: False) -> Path:
-    """Each layer's thickness as a 16-bit PNG (value = thickness / scale_um × 65535) and manifest.json."""
+                cancelled: IsCancelled = lambda: False, fmt: str = "png") -> Path:
+    """Each layer's thickness map and ``manifest.json``: ``fmt="png"`` 16-bit PNG (value = thickness /
+    scale_um × 65535, scale also in the PNG's text), or ``"exr"`` 32-bit float OpenEXR (µm)."""
     from PIL import Image
+
+    if fmt not in ("png", "exr"):
+        raise SheerError(f"map format must be png or exr, got {fmt!r}")
+    try:
+        from painting.maps_io import write_thickness
+    except ImportError:
+        write_thickness = None
+    if fmt == "exr" and write_thickness is None:
+        raise SheerError("EXR export needs painting.maps_io, which this build lacks")
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -55,12 +65,19 @@ def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: 
             base += "_"
         used.add(base)
         scale = float(max(lay.max_thickness, float(np.max(lay.thickness)) if lay.thickness.size else 0.0, 1e-6))
-        q = np.clip(np.round(lay.thickness / scale * 65535.0), 0, 65535).astype(np.uint16)
-        Image.fromarray(q).save(folder / f"{base}.png")
-        entries.append({"file": f"{base}.png", "name": lay.name, "material": lay.material,
+        name = f"{base}.{fmt}"
+        if write_thickness is not None:
+            write_thickness(folder / name, np.asarray(lay.thickness, np.float32),
+                            scale_um=scale if fmt == "png" else None, credit=getattr(doc.head, "credit", ""))
+        else:
+            q = np.clip(np.round(lay.thickness / scale * 65535.0), 0, 65535).astype(np.uint16)
+            Image.fromarray(q).save(folder / name)
+        entries.append({"file": name, "name": lay.name, "material": lay.material,
                         "visible": bool(lay.visible), "opacity": float(lay.opacity),
-                        "max_thickness_um": float(lay.max_thickness), "scale_um": scale,
-                        "encoding": "uint16 PNG; thickness_um = value / 65535 * scale_um",
+                        "max_thickness_um": float(lay.max_thickness),
+                        "scale_um": scale if fmt == "png" else None,
+                        "encoding": "uint16 PNG; thickness_um = value / 65535 * scale_um" if fmt == "png"
+                        else "float32 OpenEXR; thickness in µm",
                         "size": list(lay.thickness.shape)})
     manifest = {"schema_version": 1, "head": str(doc.head.path), "credit": doc.head.credit,
                 "texture_space": "row 0 = top of image = v 0 (UVs as trimesh loads them)",

@@ -362,6 +362,7 @@ class KioskWindow(QWidget):
 
             load_project_into(self.doc, self.library, Path(project))
             self.look = "project"
+            self._sync()
         else:
             self.set_look("natural")
 

@@ -103,6 +103,14 @@ def duncan_mix(a: Any, b: Any, fraction_b: float, name: str) -> Any:
     sb = np.interp(wl, np.asarray(b.wavelengths, float), np.asarray(b.S, float))
     kb = np.interp(wl, np.asarray(b.wavelengths, float), np.asarray(b.K, float))
     c = float(np.clip(fraction_b, 0.0, 1.0))
+    try:
+        from km.optics import mix
+
+        S, K = mix([(1.0 - c, np.asarray(a.S, float), np.asarray(a.K, float)), (c, sb, kb)])
+        return a.replace(name=name, S=S, K=K, measurement=None, source="modelled",
+                         provenance=f"Duncan mix: {1 - c:.0%} {a.name} + {c:.0%} {b.name}")
+    except ImportError:
+        pass
     return a.replace(name=name, S=(1 - c) * np.asarray(a.S, float) + c * sb,
                      K=(1 - c) * np.asarray(a.K, float) + c * kb, measurement=None, source="modelled",
                      provenance=f"Duncan mix: {1 - c:.0%} {a.name} + {c:.0%} {b.name}")

@@ -137,6 +137,7 @@ class StudioWindow(QMainWindow):
         handlers = {
             "file.new": self.new_project, "file.open": self.open_project, "file.save": self.save_project,
             "file.save_as": lambda: self.save_project(ask=True), "file.export_maps": self.ask_export_maps,
+            "file.export_maps_exr": lambda: self.ask_export_maps("exr"),
             "file.export_image": self.ask_export_image, "file.export_gltf": self.ask_export_gltf,
             "file.quit": self.close, "edit.undo": self.undo, "edit.redo": self.redo,
             "brush.smaller": lambda: self._brush(radius=1 / 1.2), "brush.larger": lambda: self._brush(radius=1.2),
@@ -592,13 +593,13 @@ class StudioWindow(QMainWindow):
     def _ask_folder(self, title: str) -> str:
         return QFileDialog.getExistingDirectory(self, title)
 
-    def ask_export_maps(self) -> None:
+    def ask_export_maps(self, fmt: str = "png") -> None:
         folder = self._ask_folder("Export layer maps to folder")
         if folder:
-            self.export_maps(Path(folder))
+            self.export_maps(Path(folder), fmt=fmt)
 
-    def export_maps(self, folder: Path, on_done: Any = None) -> None:
-        run_task(self, "Exporting layer maps", lambda p, c: export_maps(self.doc, folder, p, c),
+    def export_maps(self, folder: Path, on_done: Any = None, fmt: str = "png") -> None:
+        run_task(self, "Exporting layer maps", lambda p, c: export_maps(self.doc, folder, p, c, fmt),
                  on_done or (lambda r: self.statusBar().showMessage(f"Maps exported: {r}", 6000)),
                  lambda m: dialogs.error(self, "Export maps", m))
 
@@ -638,14 +639,25 @@ class StudioWindow(QMainWindow):
                  lambda m: dialogs.error(self, "Export image", m))
 
     def ask_import_map(self, index: int) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Import thickness map", "", "16-bit PNG (*.png)")
+        path, _ = QFileDialog.getOpenFileName(self, "Import thickness map", "",
+                                              "Thickness maps (*.png *.exr)")
         if path:
             self.import_map(index, Path(path))
 
     def import_map(self, index: int, path: Path) -> bool:
         from PIL import Image, UnidentifiedImageError
 
+        from km.errors import SheerError
+
         lay = self.doc.layers[index]
+        if hasattr(self.doc, "import_layer"):
+            try:
+                self.doc.import_layer(index, path)
+            except (SheerError, OSError, ValueError) as exc:
+                dialogs.error(self, "Import map", f"The map could not be imported: {exc}")
+                return False
+            self.refresh_layers()
+            return True
         try:
             with Image.open(path) as im:
                 arr = np.asarray(im)
@@ -663,6 +675,15 @@ class StudioWindow(QMainWindow):
         return True
 
     def ask_export_map(self, index: int) -> None:
+        if hasattr(self.doc, "export_layer"):
+            name, _ = QFileDialog.getSaveFileName(self, "Export thickness map",
+                                                  f"{self.doc.layers[index].name}.png",
+                                                  "16-bit PNG (*.png);;OpenEXR (*.exr)")
+            if name:
+                run_task(self, "Exporting map", lambda p, c: self.doc.export_layer(index, Path(name)),
+                         lambda r: self.statusBar().showMessage(f"Map exported: {name}", 6000),
+                         lambda m: dialogs.error(self, "Export map", m))
+            return
         folder = self._ask_folder("Export this layer's map to folder")
         if folder:
             lay = self.doc.layers[index]

@@ -80,6 +80,23 @@ def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
     assert "no-such-look" in (kiosk.last_error or "")
 
 
+def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
+    from app import project_io
+    from app.kiosk import FRIENDLY
+
+    kiosk.set_look("red-lip")
+    path = project_io.save_document(kiosk.doc, kiosk.library, tmp_path / "shop.sheer", "shop")
+    kiosk.set_look("bare")
+    kiosk.guard(lambda: kiosk._load(str(path)))()
+    assert kiosk.look == "project" and len(kiosk.doc.layers) >= 1
+    bad = tmp_path / "broken.sheer"
+    bad.write_bytes(b"PK\x03\x04 definitely not a project")
+    kiosk.show_main()
+    kiosk.guard(lambda: kiosk._load(str(bad)))()
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.start_message.text() == FRIENDLY
+
+
 def test_pin_guard(kiosk: object, qtbot: object) -> None:
     from PySide6.QtCore import Qt
 

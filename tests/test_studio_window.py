@@ -148,8 +148,24 @@ def test_export_maps_and_gltf(window: object, qtbot: object, tmp_path: Path) -> 
     assert len(manifest["layers"]) == len(window.doc.layers)
     first = Image.open(tmp_path / "maps" / manifest["layers"][0]["file"])
     assert first.mode.startswith("I;16") or first.mode == "I"
+    window.export_maps(tmp_path / "exr", on_done=results.append, fmt="exr")
+    qtbot.waitUntil(lambda: len(results) == 2, timeout=20000)
+    assert len(list((tmp_path / "exr").glob("*.exr"))) == len(window.doc.layers)
+    results.clear()
+    # a layer's map back in: identical within the 16-bit quantisation; a bad file: an error, no change
+    from app import dialogs
+
+    lay0 = np.array(window.doc.layers[0].thickness)
+    assert window.import_map(0, tmp_path / "maps" / manifest["layers"][0]["file"])
+    assert np.allclose(window.doc.layers[0].thickness, lay0, atol=manifest["layers"][0]["scale_um"] / 30000)
+    bad = tmp_path / "bad.png"
+    bad.write_text("not an image")
+    dialogs.HISTORY.clear()
+    assert not window.import_map(0, bad)
+    assert dialogs.HISTORY[-1][0] == "error"
+    window.undo()
     window.export_gltf(tmp_path / "face.glb", on_done=results.append)
-    qtbot.waitUntil(lambda: len(results) == 2, timeout=60000)
+    qtbot.waitUntil(lambda: len(results) == 1, timeout=60000)
     scene = trimesh.load(tmp_path / "face.glb")
     geom = list(scene.geometry.values())[0]
     assert len(geom.faces) == len(window.doc.head.faces)
