@@ -101,7 +101,7 @@ class OrbitCamera:
         pts = np.array(list(landmarks.values()), dtype=float) if landmarks and len(landmarks) >= 3 else None
         if pts is not None:
             centre = (pts.min(0) + pts.max(0)) / 2.0
-            radius = 1.6 * float(np.linalg.norm(pts.max(0) - pts.min(0))) / 2.0
+            radius = 1.3 * float(np.linalg.norm(pts.max(0) - pts.min(0))) / 2.0
         else:
             lo, hi = v.min(0), v.max(0)
             top = v[v[:, 1] > hi[1] - 0.45 * (hi[1] - lo[1])]

@@ -75,7 +75,7 @@ class Light:
 def default_lights() -> list[Light]:
     """A soft portrait rig: key light high at the subject's left, a dim fill, a rim light."""
     return [
-        Light.directional(35.0, 25.0, 1.5, (1.0, 0.96, 0.9)),
+        Light.directional(35.0, 25.0, 1.2, (1.0, 0.96, 0.9)),
         Light.directional(-45.0, 5.0, 0.35, (0.9, 0.95, 1.0), shadows=False),
         Light.directional(150.0, 35.0, 0.4, (1.0, 1.0, 1.0), shadows=False),
     ]

@@ -579,6 +579,7 @@ class Renderer:
             self._set(cp, name, unit)
         self._set(cp, "u_w0", w0)
         self._set(cp, "u_mode", mode)
+        self._set(cp, "u_origin", (int(vx), int(vy)))
         self._display_common(cp, tonemap, debug)
         self._to_target(fbo, (vx, vy, w, h), rect, cp)
         ctx.scissor = None

@@ -34,7 +34,7 @@ def _light(text: str) -> tuple[float, float, float]:
         raise argparse.ArgumentTypeError(f"light must be AZ,EL[,INTENSITY] in degrees, got {text!r}")
     if len(vals) == 3 and vals[2] < 0:
         raise argparse.ArgumentTypeError(f"light intensity must be ≥ 0, got {text!r}")
-    return (vals[0], vals[1], vals[2] if len(vals) == 3 else 1.5)
+    return (vals[0], vals[1], vals[2] if len(vals) == 3 else 1.2)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -49,10 +49,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--face", metavar="FACE_DIR", help="a face folder written by 'sheer capture' (--mode lightweight)")
     p.add_argument("--light", type=_light, action="append", metavar="AZ,EL[,INTENSITY]", help="a directional light")
     p.add_argument("--env", metavar="NAME", help="HDR environment (e.g. studio, city) or an EXR path")
-    p.add_argument("--env-intensity", type=float, default=0.4, metavar="E", help="mean irradiance of --env")
+    p.add_argument("--env-intensity", type=float, default=0.3, metavar="E", help="mean irradiance of --env")
     p.add_argument("--yaw", type=float, default=0.0, metavar="DEG", help="camera yaw (positive: subject's left)")
     p.add_argument("--pitch", type=float, default=0.0, metavar="DEG", help="camera pitch")
-    p.add_argument("--exposure", type=float, default=1.0, help="exposure multiplier")
+    p.add_argument("--exposure", type=float, default=0.85, help="exposure multiplier")
     p.add_argument("--debug-view", default="none",
                    choices=("none", "albedo", "thickness", "r_top", "transmittance", "irradiance", "unlit"))
     p.add_argument("--debug-layer", type=int, default=0, help="layer index for --debug-view thickness")

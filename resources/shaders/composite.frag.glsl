@@ -16,20 +16,23 @@ uniform int u_debug;
 uniform vec3 u_background;
 uniform float u_exposure;
 uniform int u_tonemap;
+uniform ivec2 u_origin;       // the viewport's origin in the target framebuffer
 out vec4 o_colour;
 void main() {
-    vec4 f = textureLod(u_factor, v_uv, 0.0);
+    // full-resolution inputs fetched at this pixel (no filtering: cheaper on llvmpipe)
+    ivec2 p = ivec2(gl_FragCoord.xy) - u_origin;
+    vec4 f = texelFetch(u_factor, p, 0);
     if (f.a <= 0.0) {
         o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb(u_background), 1.0);
         return;
     }
-    vec3 outer = textureLod(u_outer, v_uv, 0.0).rgb;
+    vec3 outer = texelFetch(u_outer, p, 0).rgb;
     if (u_debug != 0) { o_colour = vec4(linear_to_srgb(outer), 1.0); return; }
-    vec4 src = textureLod(u_src, v_uv, 0.0);
+    vec4 src = texelFetch(u_src, p, 0);
     vec3 d = src.rgb;
     if (src.a > 0.0) {
         if (u_mode == 1) {
-            d = src.rgb * u_w0 + textureLod(u_accum, v_uv, 0.0).rgb;
+            d = src.rgb * u_w0 + texelFetch(u_accum, p, 0).rgb;
         } else if (u_mode == 2) {
             vec4 wide = textureLod(u_accum, v_uv, 0.0);
             if (wide.a > 1e-3) d = src.rgb * u_w0 + wide.rgb / wide.a;
