@@ -23,6 +23,8 @@ from painting.history import DEFAULT_BUDGET_BYTES, History, Step, TileDelta
 
 #: A dab point must lie within this distance of the surface (mm), plus one texel.
 SURFACE_TOLERANCE_MM = 2.0
+#: Upper bound of neighbour pairs one smoothing dab considers (bounds its time and memory).
+SMOOTH_MAX_PAIRS = 500_000
 #: Largest thickness a layer may hold (µm).
 MAX_THICKNESS_UM = 10_000.0
 
@@ -792,11 +794,16 @@ class Stroke:
     def _smooth(self, flat: np.ndarray, alpha: np.ndarray, sidx: np.ndarray, r: float,
                 index: Any) -> tuple[tuple[int, int], ...]:
         """One symmetric diffusion step over 3D neighbours (cKDTree pairs within smooth_radius·r): the
-        sum of thickness over the dab is conserved up to float rounding."""
+        sum of thickness over the dab is conserved up to float rounding.
+
+        The neighbourhood is capped at about :data:`SMOOTH_MAX_PAIRS` pairs per dab (on fine maps the
+        radius shrinks towards a few texels; repeated dabs diffuse further)."""
         from scipy.spatial import cKDTree
 
         pos = np.stack([index.x[sidx], index.y[sidx], index.z[sidx]], axis=1)
-        rs = max(self.brush.smooth_radius * r, 1.01 * self.atlas.texel_mm / self.doc.mm_per_unit)
+        texel = self.atlas.texel_mm / self.doc.mm_per_unit
+        cap = texel * math.sqrt(SMOOTH_MAX_PAIRS / (math.pi * max(len(flat), 1)))
+        rs = max(min(self.brush.smooth_radius * r, cap), 1.01 * texel)
         pairs = cKDTree(pos).query_pairs(rs, output_type="ndarray")
         if len(pairs) == 0:
             return ()
