@@ -10,23 +10,33 @@ thickness maps in µm, S and K per mm, wavelengths in nm, angles in degrees at t
 
 Studio API (the renderer takes a ``moderngl.Context`` and renders into a framebuffer it is given)::
 
-    from render import Renderer, RenderSettings, Light, OrbitCamera, LayerInput
+    from render import Renderer, Light
 
-    r = Renderer(ctx, head)                   # head: painting.head.Head; uploads mesh + textures
-    r.set_layers([LayerInput(material, thickness_um)])   # bottom layer first; km.Material, float32 (H, W)
-    r.update_tiles(i, thickness_um, [(tx, ty), ...])     # re-upload + re-evaluate 64² tiles of layer i
-    r.settings.mode = "fast"                  # or "reference"; .taps 11/17/25, .debug_view, .exposure…
-    r.camera.yaw, r.camera.pitch, r.camera.distance = 20.0, 5.0, 9.0   # degrees, mesh units
-    r.lights = [Light.directional(azimuth=30, elevation=20, intensity=3.0)]
-    r.set_environment("studio", intensity=0.5)            # HDR EXR by name or path, or None
-    r.render(fbo, (0, 0, w, h))               # fbo = ctx.detect_framebuffer(...) in paintGL; viewport px
-    z = r.depth_at(x, y)                      # NDC depth in [0, 1] at pixel (origin top-left) or None
-    p = r.pick(x, y)                          # surface point (mesh units) under the pixel or None
-    m = r.inverse_view_projection()           # 4×4 float64 of the last frame (column vectors)
+    r = Renderer.for_document(ctx, doc)       # doc: painting.Document (head, UV layout, layers)
+    unsubscribe = r.attach(doc)               # follow doc's ChangeEvents: "paint" → only the touched
+                                              # 64² tiles are re-evaluated; other kinds → full sync
+    # or without a document: r = Renderer(ctx, head); r.set_layers([LayerInput(material, thickness_um)])
+    r.settings.mode = "fast"                  # "reference" | "off"; .taps 11/17/25; .exposure; .makeup
+                                              # (False = before/after); .debug_view (render.DEBUG_VIEWS:
+                                              # albedo, thickness (+ .debug_layer), r_top, transmittance,
+                                              # irradiance, unlit)
+    r.camera.yaw, r.camera.pitch, r.camera.distance = 20.0, 5.0, 9.0   # degrees, mesh units (.target, .fov_y)
+    r.lights = [Light.directional(azimuth=30, elevation=20, intensity=1.2)]   # ≤ 8, head space
+    r.set_environment("studio", intensity=0.3)            # HDR EXR by name or path, or None
+    r.render(fbo, (0, 0, w, h))               # fbo = ctx.detect_framebuffer(...) in paintGL; viewport px.
+                                              # Leaves fbo bound; writes colour only (sRGB-encoded).
+    z = r.depth_at(x, y)                      # window depth [0, 1] of the last frame at pixel (x, y),
+                                              # origin top-left, or None (background)
+    p = r.pick(x, y)                          # surface point (mesh units) under the pixel, or None
+    m = r.inverse_view_projection()           # 4×4 float64 of the last frame (column vectors);
+                                              # r.unproject(x, y, z) does the maths
     r.release()                               # frees every GPU object (call with the context current)
 
-Document observation: :meth:`Renderer.sync_document` reads a ``painting.Document``'s layers;
-:meth:`Renderer.update_tiles` takes the touched 64² tiles that the document's change events carry.
+Costs to know: lights are fixed to the head, so shadow maps and the texture-space irradiance are cached
+and recomputed only when a light, the environment or the normal strength changes (a few hundred ms on
+llvmpipe); orbiting and painting reuse them. A dab costs the KM evaluation of its tiles (≈ 5–10 ms per
+64² tile) plus one frame. ``r.render_image((w, h))`` renders offscreen and returns uint8 pixels (top
+row first); ``r.skin_pixel_mask()`` gives the last frame's skin pixels.
 
 Reusable pieces (for other engines, e.g. a lightweight Phong engine):
 
@@ -38,8 +48,13 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
 - :mod:`render.lights` — ``Light`` (directional or point, colour, intensity), ``ShadowMaps`` (PCF depth
   maps for up to 8 lights), ``Environment`` (equirectangular EXR → 9 SH coefficients of irradiance).
 - :mod:`render.km_pass` — ``KMTextureSpace``: the spectral texture-space KM evaluation.
+- :mod:`render.renderer` — ``TextureIrradiance`` (UV-space irradiance cache, padded across seams),
+  ``fast_kernel`` (pre-integrated separable SSS kernel), ``SKIN_GAUSSIANS`` (d'Eon 2007 profile).
+- :mod:`render.glutil` — ``release_all`` (release GL objects without leaving a deleted framebuffer bound).
 - shader includes: ``common.glsl`` (sRGB, tone map, constants), ``lighting.glsl`` (lights, PCF
-  shadows, SH irradiance), ``specular.glsl`` (Beckmann / Schlick / Kelemen).
+  shadows from the atlas, SH irradiance), ``specular.glsl`` (Beckmann / Schlick / Kelemen),
+  ``km.glsl`` (KM layer and stacking); vertex shaders ``mesh.vert`` (world space), ``uvspace.vert``
+  (the mesh unwrapped into its UV space), ``fullscreen.vert`` (a full-screen triangle).
 """
 
 from __future__ import annotations
