@@ -44,6 +44,36 @@ index=None)``, ``doc.remove_layer(layer)``, ``doc.move_layer(layer, index)``, ``
 ``doc.set_thickness``, ``doc.export_layer`` / ``doc.import_layer``. A layer argument is a
 :class:`Layer` or an index into ``doc.layers``; ``doc.layer_by_id(id)`` finds one by id. Every edit is one
 undo step on the same stack as strokes.
+
+Layer fields: ``id`` (stable), ``name``, ``material`` (library name), ``material_object`` (the library's
+Material), ``visible``, ``opacity`` ([0, 1], scales thickness: ``effective_thickness()``),
+``max_thickness`` (µm, the most "add" builds up to), ``default_thickness`` (µm), ``resolution``,
+``thickness``.
+
+Strokes and undo
+----------------
+``with doc.stroke(layer, brush, mirror=None) as s: s.dab(point, pressure=1.0, normal=None)``. A stroke
+is one undo step holding only the 64² tiles it touched (their previous values); undo/redo swap them
+back bit-exactly. ``doc.history`` has ``nbytes``, ``peak_bytes``, ``budget_bytes`` (default 256 MB;
+oldest steps dropped). A new edit clears redo. If the ``with`` block raises, the stroke is rolled back.
+Bad input raises :class:`DocumentError` (a ``km.errors.SheerError``) and leaves the document unchanged.
+See :mod:`painting.brush` for the modes (add, erase, smooth, set, fill), falloff, spacing, pressure,
+mirror and back-face rejection.
+
+Atlas
+-----
+``doc.layout`` (:class:`painting.atlas.UVLayout`: the paint UVs — the file's own when valid, else an
+xatlas unwrap — with ``vertex_map`` to the file's vertices, ``face_map``, charts, ``clean`` report and
+``check`` verdict). ``doc.atlas`` / ``doc.atlas_at(res)`` (:class:`painting.atlas.Atlas`): ``position``,
+``normal``, ``face`` (layout triangle), ``chart``, ``coverage`` (conservative), ``padded`` (texels
+dilated beyond chart borders, copies of ``pad_src``), ``texel_mm``. Bakes are cached on disk
+(:func:`painting.atlas.cache_dir`).
+
+Picking
+-------
+``doc.hit(origin, direction)`` → :class:`Hit` (``face``, ``head_face``, ``barycentric``, ``point``,
+``uv``, ``normal``, ``distance``) or None; ``doc.pick_depth(ndc_xy, depth, inv_view_proj)`` does the same
+from a GL depth-buffer value (see :mod:`painting.hit`; both agree to well under 0.01 mm).
 """
 
 from __future__ import annotations

@@ -239,3 +239,22 @@ def test_set_thickness_is_undoable() -> None:
     assert np.array_equal(layer.thickness, values)
     doc.undo()
     assert not layer.thickness.any()
+
+
+def test_with_the_default_material_library() -> None:
+    from test_painting_helpers import sample_atlas, sample_head, sample_layout
+
+    import km
+
+    library = km.default_library()
+    doc = Document(sample_head(), sample_layout(), library=library, resolution=256)
+    doc._atlases[256] = sample_atlas(256)
+    material = next(iter(library))
+    layer = doc.add_layer(material.name)
+    assert layer.material == material.name and layer.material_object is material
+    assert layer.max_thickness == material.max_thickness_um
+    with doc.stroke(layer, Brush(radius_mm=10.0, hardness=1.0)) as s:
+        s.dab(doc.head.landmark("left_cheek"))
+    assert layer.thickness.max() == pytest.approx(min(material.thickness_um, material.max_thickness_um))
+    with pytest.raises(DocumentError, match="no material named"):
+        doc.add_layer("Definitely Not A Material")
