@@ -12,6 +12,7 @@ Pipeline::
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import os
@@ -574,6 +575,10 @@ def _texel_size_mm(position: np.ndarray, covered: np.ndarray, mm_per_unit: float
 _FIELDS = ("position", "normal", "face", "chart", "coverage", "padded", "pad_dst", "pad_src")
 
 
+#: The atlas cache keeps its newest files within this many bytes.
+CACHE_LIMIT_BYTES = 3 * 1024**3
+
+
 def _save_cached(path: Path, atlas: Atlas) -> None:
     from km.atomicio import atomic_write_bytes
 
@@ -583,11 +588,24 @@ def _save_cached(path: Path, atlas: Atlas) -> None:
         np.savez(buf, resolution=atlas.resolution, padding=atlas.padding, texel_mm=atlas.texel_mm,
                  **{k: getattr(atlas, k) for k in _FIELDS})
         atomic_write_bytes(path, buf.getvalue())
+        _prune_cache(path.parent, keep=path)
     except OSError:
         pass  # the cache is an optimisation only
 
 
+def _prune_cache(folder: Path, keep: Path) -> None:
+    """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``)."""
+    files = sorted(folder.glob("*.npz"), key=lambda f: f.stat().st_mtime, reverse=True)
+    total = 0
+    for f in files:
+        total += f.stat().st_size
+        if total > CACHE_LIMIT_BYTES and f != keep:
+            f.unlink(missing_ok=True)
+
+
 def _load_cached(path: Path, mm_per_unit: float) -> Atlas:
+    with contextlib.suppress(OSError):
+        os.utime(path)  # most recently used: pruned last
     with np.load(path) as data:
         values = {k: data[k] for k in _FIELDS}
         return Atlas(resolution=int(data["resolution"]), padding=int(data["padding"]),
