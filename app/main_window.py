@@ -96,7 +96,14 @@ class StudioWindow(QMainWindow):
         self.statusBar().addPermanentWidget(self.status)
         self.frame_label = QLabel()
         self.statusBar().addWidget(self.frame_label)
-        self.viewport.frame_drawn.connect(lambda ms: self.frame_label.setText(f"frame {ms:.1f} ms"))
+        # the frame time is shown twice a second: relabelling on every frame would make Qt recompose the
+        # window each time (costly on a software rasteriser)
+        self._frame_ms = 0.0
+        self.viewport.frame_drawn.connect(lambda ms: setattr(self, "_frame_ms", ms))
+        self._frame_timer = QTimer(self)
+        self._frame_timer.setInterval(500)
+        self._frame_timer.timeout.connect(self._show_frame_time)
+        self._frame_timer.start()
 
         geo = self.qsettings.value("window/geometry")
         if isinstance(geo, QByteArray):
@@ -227,6 +234,11 @@ class StudioWindow(QMainWindow):
         self.render_combo.currentTextChanged.connect(lambda t: self._set(render_mode=t))
         self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
         self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
+
+    def _show_frame_time(self) -> None:
+        text = f"frame {self._frame_ms:.1f} ms"
+        if self.frame_label.text() != text:
+            self.frame_label.setText(text)
 
     # ------------------------------------------------------------------ settings → everything
     def _set(self, **changes: Any) -> None:

@@ -217,6 +217,8 @@ class DualRenderer:
         self._env = "none"
         self._layers: list[tuple[np.ndarray, Any, float]] | None = None
         self._thick: tuple[np.ndarray | None, float, int] | None = None
+        self._deferred: set[tuple[int, int]] | None = None
+        self._deferred_all = False
 
     @property
     def name(self) -> str:
@@ -244,10 +246,28 @@ class DualRenderer:
 
     def set_layers(self, layers: list[tuple[np.ndarray, Any, float]],
                    tiles: list[tuple[int, int]] | None = None, tile: int = 64) -> None:
+        """The preview updates at once; the full renderer's texture-space pass is deferred while the view
+        moves (the dirty tiles are merged and evaluated before its next frame)."""
         self._layers = layers
         self.preview.set_layers(layers, tiles, tile)
-        if self.real is not None:
-            self.real.set_layers(layers, tiles, tile)
+        if self.real is None:
+            return
+        if tiles is None:
+            self._deferred = None
+            self._deferred_all = True
+        elif not self._deferred_all:
+            self._deferred = set(tiles) | (self._deferred or set())
+        if not self.interactive:
+            self._flush()
+
+    def _flush(self) -> None:
+        if self.real is None or self._layers is None:
+            return
+        if self._deferred_all:
+            self.real.set_layers(self._layers, None)
+        elif self._deferred:
+            self.real.set_layers(self._layers, sorted(self._deferred))
+        self._deferred, self._deferred_all = None, False
 
     def set_debug_thickness(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
         self._thick = (thickness, tmax, index)
@@ -260,6 +280,7 @@ class DualRenderer:
             kw["debug"] = 0  # the preview's debug views differ from the renderer's: show the image
             self.preview.render(fbo, size, camera, lighting, **kw)
         else:
+            self._flush()
             self.real.render(fbo, size, camera, lighting, **kw)
 
     def pick(self, x: int, y: int, size: tuple[int, int], camera: OrbitCamera) -> np.ndarray | None:
