@@ -260,6 +260,8 @@ def _read_image(path: Path, mode: str) -> np.ndarray:
             return np.asarray(im.convert(mode))
     except FileNotFoundError:
         raise HeadError(f"{path}: texture file not found") from None
+    except Image.DecompressionBombError as exc:
+        raise HeadError(f"{path}: image too large to decode safely: {exc}") from None
     except (UnidentifiedImageError, OSError) as exc:
         raise HeadError(f"{path}: cannot decode texture: {exc}") from None
 

@@ -160,6 +160,8 @@ def _read_png(p: Path) -> tuple[np.ndarray, dict[str, Any]]:
                 raise MapError(f"{p}: expected a greyscale PNG, got mode {mode}")
     except FileNotFoundError:
         raise MapError(f"{p}: file not found") from None
+    except Image.DecompressionBombError as exc:
+        raise MapError(f"{p}: image too large to decode safely: {exc}") from None
     except (UnidentifiedImageError, OSError) as exc:
         raise MapError(f"{p}: cannot read PNG: {exc}") from None
     return raw, info

@@ -78,3 +78,27 @@ def test_document_export_import_layer(tmp_path: Path) -> None:
     with pytest.raises(MapError, match="expected 256×256"):
         doc.import_layer(other, small)
     assert np.array_equal(other.thickness, before)
+
+
+def _png_header(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b"")
+
+
+def test_huge_images_are_refused_cleanly(tmp_path: Path) -> None:
+    from painting.head import HeadError, _read_image
+
+    bomb = tmp_path / "bomb.png"
+    bomb.write_bytes(_png_header(30_000, 30_000))
+    with pytest.raises(MapError, match="bomb.png"):
+        read_thickness(bomb, scale_um=1.0)
+    with pytest.raises(MapError, match="bomb.png"):
+        read_mask(bomb)
+    with pytest.raises(HeadError, match="bomb.png"):
+        _read_image(bomb, "RGB")
