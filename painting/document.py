@@ -541,8 +541,8 @@ class Stroke:
         self.detail = detail
         self.atlas = doc.atlas_at(layer.resolution)
         self.dabs = 0
-        self._last: np.ndarray | None = None
-        self._last_mirror: np.ndarray | None = None
+        self._last: tuple[np.ndarray, np.ndarray] | None = None  # last dab (point, normal)
+        self._last_mirror: tuple[np.ndarray, np.ndarray] | None = None
         self._open = False
         res = layer.resolution
         self._W = res
@@ -678,7 +678,7 @@ class Stroke:
         alpha = brush.flow * (pr if brush.pressure_strength else 1.0)
         n0 = n_user if n_user is not None else index.normal(k)
         if self._last is not None and brush.mode != "fill" \
-                and float(np.linalg.norm(p - self._last)) < brush.spacing * r:
+                and float(np.linalg.norm(p - self._last[0])) < brush.spacing * r:
             return ()
         pieces = self._path(self._last, p, n0, r, index)
         if self.mirror:
@@ -688,8 +688,8 @@ class Stroke:
                 pm = index.point(km_)
                 nm = self.doc.mirror_vector(n0) if n_user is not None else index.normal(km_)
                 pieces += self._path(self._last_mirror, pm, nm, r, index)
-                self._last_mirror = pm
-        self._last = p
+                self._last_mirror = (pm, nm)
+        self._last = (p, n0)
         self.dabs += 1
         if brush.mode == "fill":
             chart = int(self.atlas.chart.reshape(-1)[index.flat[k]])
@@ -707,21 +707,32 @@ class Stroke:
             self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles
 
-    def _path(self, last: np.ndarray | None, p: np.ndarray, n: np.ndarray, r: float,
+    def _path(self, last: tuple[np.ndarray, np.ndarray] | None, p: np.ndarray, n: np.ndarray, r: float,
               index: Any) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Capsules (a, b, normal) from the last dab to ``p``: one sphere for the first dab; long gaps
-        are split into pieces no longer than the radius with the joints snapped to the surface."""
+        """Capsules (a, b, normal) from the last dab (point, normal) to ``p``: one sphere for the first
+        dab; long gaps are split into pieces no longer than the radius with the joints snapped to the
+        surface. A piece faces the mean of its end normals (so a quick stroke round the nose keeps the
+        texels facing either end)."""
         if last is None:
             return [(p, p, n)]
-        length = float(np.linalg.norm(p - last))
+        q0, n_last = last
+        length = float(np.linalg.norm(p - q0))
         pieces = max(1, int(math.ceil(length / r)))
-        pts = [last]
+        pts = [q0]
+        normals = [n_last]
         for i in range(1, pieces):
-            q = last + (p - last) * (i / pieces)
+            q = q0 + (p - q0) * (i / pieces)
             k, _ = index.nearest(q, max(r, 0.5 * length))
             pts.append(index.point(k) if k >= 0 else q)
+            normals.append(index.normal(k) if k >= 0 else n)
         pts.append(p)
-        return [(pts[i], pts[i + 1], n) for i in range(pieces)]
+        normals.append(n)
+        out = []
+        for i in range(pieces):
+            m = normals[i] + normals[i + 1]
+            norm = float(np.linalg.norm(m))
+            out.append((pts[i], pts[i + 1], m / norm if norm > 1e-9 else normals[i + 1]))
+        return out
 
     def _weights(self, pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], r: float,
                  index: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
