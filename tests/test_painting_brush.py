@@ -211,3 +211,22 @@ def test_spacing_skips_close_dabs_and_pressure_scales() -> None:
         s.dab(p, pressure=0.25)
         assert s.dab(p) == ()  # closer than spacing × radius: skipped
     assert np.isclose(layer.thickness.max(), 5.0)  # 20 µm × pressure 0.25
+
+
+def test_upper_lip_brush_does_not_paint_the_lower_lip_through_the_mouth() -> None:
+    doc = make_doc(512)
+    layer = doc.add_layer("Lipstick 1")
+    p = _surface_point(doc, "upper_lip")
+    flat, pos, nrm = texel_positions(doc.atlas)
+    near = np.linalg.norm(pos - p, axis=1) * doc.mm_per_unit < 6.0
+    # The lower lip's texels facing up towards the upper lip, inside the brush sphere.
+    lower_inner = near & (pos[:, 1] < doc.head.landmark("lip_centre")[1]) & (nrm[:, 1] > 0.3)
+    assert lower_inner.sum() >= 5
+    with doc.stroke(layer, Brush(radius_mm=6.0, hardness=1.0)) as s:
+        s.dab(p)
+    t = layer.thickness.reshape(-1)[flat]
+    assert not t[lower_inner].any()
+    assert t[near].any()
+    with doc.stroke(layer, Brush(radius_mm=6.0, hardness=1.0, max_angle_deg=180.0)) as s:
+        s.dab(p)  # without back-face rejection they would be painted
+    assert layer.thickness.reshape(-1)[flat][lower_inner].all()
