@@ -27,10 +27,13 @@ class DocumentAdapter:
         self.doc = doc
 
     @classmethod
-    def from_head(cls, path: str | Path | None, resolution: int, library: Any) -> DocumentAdapter:
+    def from_head(cls, path: str | Path | None, resolution: int, library: Any,
+                  progress: Callable[[str, float], None] | None = None) -> DocumentAdapter:
+        """Load the head and build the document (cleaning, UV check or xatlas unwrap, bake): ``progress``
+        gets (stage, fraction); safe to call from a worker thread."""
         from painting import Document
 
-        return cls(Document.from_head(path, resolution=resolution, library=library))
+        return cls(Document.from_head(path, resolution=resolution, library=library, progress=progress))
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self.doc, name)

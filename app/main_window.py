@@ -55,12 +55,12 @@ log = logging.getLogger("sheer.app")
 
 class StudioWindow(QMainWindow):
     def __init__(self, head_path: str | Path | None = None, look: str = "natural", resolution: int = 512,
-                 qsettings: QSettings | None = None) -> None:
+                 qsettings: QSettings | None = None, document: Any = None, library: Any = None) -> None:
         super().__init__()
         self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)
         self.settings: StudioSettings = load_settings(self.qsettings)
-        self.library = seams.load_library()
-        self.doc = seams.open_document(head_path, resolution, self.library)
+        self.library = library if library is not None else seams.load_library()
+        self.doc = document if document is not None else seams.open_document(head_path, resolution, self.library)
         self.project_path: Path | None = None
         self.project_name = "Untitled"
         self._stroke: Any = None

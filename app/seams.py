@@ -54,7 +54,8 @@ def real_document_available() -> bool:
     return os.environ.get("SHEER_DOCUMENT", "auto").strip().lower() != "stand-in" and _has("painting", "Document")
 
 
-def open_document(head_path: str | Path | None = None, resolution: int = 512, library: Any = None) -> Any:
+def open_document(head_path: str | Path | None = None, resolution: int = 512, library: Any = None,
+                  progress: Any = None) -> Any:
     """The painting document for a head: ``painting.Document`` (through :mod:`app.doc_adapter`) when this
     build has it, else the stand-in."""
     if real_document_available():
@@ -63,12 +64,14 @@ def open_document(head_path: str | Path | None = None, resolution: int = 512, li
         try:
             from app.doc_adapter import DocumentAdapter
 
-            doc = DocumentAdapter.from_head(head_path, resolution, library)
+            doc = DocumentAdapter.from_head(head_path, resolution, library, progress)
             _USED["document"] = "painting.Document"
             return doc
         except SheerError:
             raise
         except Exception as exc:
+            if type(exc).__name__ == "Cancelled":  # app.workers.Cancelled from the progress callback
+                raise
             import logging
 
             logging.getLogger("sheer.app").warning("painting.Document failed (%s); using the stand-in", exc)

@@ -36,11 +36,21 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     from km.errors import SheerError
 
     app = make_application()
-    from app import dialogs
+    from app import dialogs, seams
     from app.main_window import StudioWindow
 
     try:
-        win = StudioWindow(head_path=Path(head) if head else None, look=look, resolution=resolution)
+        library = seams.load_library()
+    except SheerError as exc:
+        dialogs.error(None, "Sheer Studio", f"The material library could not be read: {exc}")
+        return 2
+    outcome = open_document_with_progress(head, resolution, library)
+    if isinstance(outcome, str):
+        if outcome != "cancelled":
+            dialogs.error(None, "Sheer Studio", f"The head could not be opened: {outcome}")
+        return 2 if outcome != "cancelled" else 0
+    try:
+        win = StudioWindow(look=look, resolution=resolution, document=outcome, library=library)
     except SheerError as exc:
         dialogs.error(None, "Sheer Studio", f"The studio could not start: {exc}")
         return 2
@@ -48,3 +58,39 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     if project:
         win.open_project(Path(project))
     return int(app.exec())  # type: ignore[attr-defined]
+
+
+def open_document_with_progress(head: str | None, resolution: int, library: object) -> object:
+    """Build the painting document in a worker thread (mesh cleaning, UV check or unwrap, bake) with a
+    progress dialog and Cancel; returns the document, or an error message (``"cancelled"``)."""
+    from PySide6.QtCore import QEventLoop
+
+    from app import seams
+    from app.workers import Cancelled, run_task
+
+    outcome: dict[str, object] = {}
+    loop = QEventLoop()
+
+    active = [True]
+
+    def job(progress: object, cancelled: object) -> object:
+        def report(stage: str, fraction: float) -> None:
+            # the document keeps this callback for later (lazy) bakes: only report while opening
+            if not active[0]:
+                return
+            if cancelled():  # type: ignore[operator]
+                raise Cancelled()
+            progress(float(fraction), str(stage))  # type: ignore[operator]
+
+        try:
+            return seams.open_document(Path(head) if head else None, resolution, library, progress=report)
+        finally:
+            active[0] = False
+
+    def finish(key: str, value: object) -> None:
+        outcome[key] = value
+        loop.quit()
+
+    run_task(None, "Opening the head", job, lambda d: finish("doc", d), lambda m: finish("error", m))
+    loop.exec()
+    return outcome.get("doc", outcome.get("error", "cancelled"))

@@ -82,6 +82,7 @@ def run_task(parent: QWidget | None, title: str, job: Job, on_done: Callable[[An
     def finish() -> None:
         _RUNNING.discard(task)
         if dialog is not None:
+            dialog.canceled.disconnect(task.cancel)  # closing the dialog emits canceled
             dialog.close()
             dialog.deleteLater()
 
