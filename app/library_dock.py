@@ -81,6 +81,21 @@ class _Add(QUndoCommand):
         self.dock.changed(None)
 
 
+class _Remove(QUndoCommand):
+    def __init__(self, dock: LibraryDock, material: Any) -> None:
+        super().__init__(f"delete {material.name}")
+        self.dock, self.material = dock, material
+
+    def redo(self) -> None:
+        self.dock.library.remove(self.material.name)
+        self.dock.current = None
+        self.dock.changed(None)
+
+    def undo(self) -> None:
+        self.dock.library.add(self.material)
+        self.dock.changed(self.material.name)
+
+
 class _AddMany(QUndoCommand):
     def __init__(self, dock: LibraryDock, materials: list[Any], title: str) -> None:
         super().__init__(title)
@@ -215,6 +230,11 @@ class LibraryDock(QWidget):
         mix.addWidget(self.mix_amount, 1)
         mix.addWidget(self.mix_swatch)
         # buttons
+        self.duplicate_button = QPushButton("Duplicate")
+        self.delete_button = QPushButton("Delete")
+        self.duplicate_button.clicked.connect(self.duplicate_current)
+        self.delete_button.clicked.connect(self.delete_current)
+        self.in_use: Any = lambda name: False  # the window tells which materials its layers use
         self.import_button = QPushButton("Import Measurement…")
         self.undo_button = QPushButton("Undo")
         self.redo_button = QPushButton("Redo")
@@ -228,7 +248,8 @@ class LibraryDock(QWidget):
         self.import_button.clicked.connect(self._ask_import)
         self.save_button.clicked.connect(lambda: self.save())
         buttons = QHBoxLayout()
-        for b in (self.import_button, self.undo_button, self.redo_button, self.save_button):
+        for b in (self.duplicate_button, self.delete_button, self.import_button, self.undo_button,
+                  self.redo_button, self.save_button):
             buttons.addWidget(b)
         filt = QHBoxLayout()
         filt.addWidget(self.search, 2)
@@ -434,6 +455,24 @@ class LibraryDock(QWidget):
             self.name_edit.setText(self.current)
             return
         self.undo_stack.push(_Rename(self, self.current, new))
+
+    def duplicate_current(self) -> None:
+        if self.current is None:
+            return
+        base = f"{self.current} copy"
+        name, n = base, 2
+        while name in self.library:
+            name, n = f"{base} {n}", n + 1
+        self.undo_stack.push(_Add(self, self.library.get(self.current).replace(name=name)))
+
+    def delete_current(self) -> None:
+        if self.current is None:
+            return
+        if self.in_use(self.current):
+            dialogs.error(self, "Delete material",
+                          f"'{self.current}' is used by a layer; change that layer's material first.")
+            return
+        self.undo_stack.push(_Remove(self, self.library.get(self.current)))
 
     def create_variant(self) -> None:
         other = self.mix_with.currentText()

@@ -86,6 +86,7 @@ class StudioWindow(QMainWindow):
         skin = self._skin_colour()
         self.library_dock = LibraryDock(self.library, skin)
         self.library_dock.material_changed.connect(self._material_changed)
+        self.library_dock.in_use = lambda name: any(lay.material == name for lay in self.doc.layers)
         self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
         self._add_dock("Material Library", self.library_dock, Qt.DockWidgetArea.RightDockWidgetArea)
 

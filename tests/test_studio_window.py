@@ -238,3 +238,24 @@ def test_export_rendered_image(window: object, qtbot: object, tmp_path: Path) ->
     qtbot.waitUntil(lambda: len(results) == 1, timeout=120000)
     img = np.asarray(Image.open(tmp_path / "render.png"))
     assert img.shape == (240, 320, 3) and img.std() > 5
+
+
+def test_library_duplicate_delete_mix_undo(window: object) -> None:
+    dock = window.library_dock
+    names = list(window.library.names())
+    used = window.doc.layers[0].material
+    dock.select(used)
+    dock.duplicate_current()
+    assert len(window.library.names()) == len(names) + 1
+    copy_name = dock.current
+    dock.delete_current()
+    assert copy_name not in window.library
+    dock.select(used)
+    dock.delete_current()  # in use by a layer: refused
+    assert used in window.library
+    dock.mix_amount.setValue(30)
+    dock.create_variant()
+    assert len(window.library.names()) == len(names) + 1
+    for _ in range(3):
+        dock.undo_stack.undo()
+    assert list(window.library.names()) == names
