@@ -9,7 +9,10 @@ conversion is linear, so ``rgb = Σ_λ M[λ]·R(λ)``; M comes from ``km.colour.
 identity, so white reflectance maps to (1, 1, 1)).
 
 Outputs (textures in the head's UV space, same size as the thickness maps; row 0 = v 0):
-``r_top`` RGBA (a = 1 where any layer is present), ``transmittance`` RGBA, ``r_bottom`` RGBA.
+``r_top`` RGBA (a = coverage of skin-smoothing layers such as foundation), ``transmittance`` RGBA (a = the
+roughness of that smoothing layer), ``r_bottom`` RGBA, and ``spec0``/``spec1`` (per-layer specular
+weights of layers 0–3 / 4–7: coverage × luminance transmittance of the layers above, for the
+bottom-up layered specular of the lit pass).
 Thickness maps are float32 µm; a layer's ``opacity`` scales its thickness. Only dirty 64² tiles are
 re-evaluated by :meth:`KMTextureSpace.update_tiles`.
 """
@@ -26,6 +29,23 @@ from render.errors import RenderError
 
 MAX_LAYERS = 8
 TILE = 64
+#: material categories whose coverage smooths the skin (their roughness replaces the skin's)
+SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
+#: luminance weights of linear sRGB
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def layer_spec_params(material: Any) -> tuple[float, float, float, float]:
+    """(Beckmann roughness, Fresnel F0 from the IOR, smooths skin 1/0, coverage scale µm) of a material.
+
+    Coverage of a layer of thickness X is 1 − exp(−X / scale), scale = 0.3 × the material's usual
+    thickness (clamped to 0.5–10 µm): a layer's gloss and smoothing fade in as it builds up."""
+    rough = float(getattr(material, "roughness", 0.3))
+    ior = float(getattr(material, "ior", 1.5))
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
+    usual = float(getattr(material, "thickness_um", getattr(material, "default_thickness_um", 10.0)) or 10.0)
+    smooth = 1.0 if getattr(material, "category", "") in SMOOTHING_CATEGORIES else 0.0
+    return (rough, f0, smooth, float(np.clip(0.3 * usual, 0.5, 10.0)))
 
 
 @dataclass
@@ -135,7 +155,10 @@ class KMTextureSpace:
         self.r_top: Any = None
         self.transmittance: Any = None
         self.r_bottom: Any = None
+        self.spec0: Any = None
+        self.spec1: Any = None
         self.fbo: Any = None
+        self.layer_spec = np.zeros((MAX_LAYERS, 4), np.float32)
         self.version = 0
         self._alloc((1, 1))
         self._clear_outputs()
@@ -144,14 +167,15 @@ class KMTextureSpace:
     def _alloc(self, size: tuple[int, int]) -> None:
         if size == self.size and self.fbo is not None:
             return
-        old = (self.fbo, self.r_top, self.transmittance, self.r_bottom)
+        old = (self.fbo, self.r_top, self.transmittance, self.r_bottom, self.spec0, self.spec1)
         self.r_top, self.transmittance, self.r_bottom = (
             self.ctx.texture(size, 4, dtype=self.dtype) for _ in range(3))
-        for t in (self.r_top, self.transmittance, self.r_bottom):
+        self.spec0, self.spec1 = (self.ctx.texture(size, 4, dtype="f2") for _ in range(2))
+        for t in (self.r_top, self.transmittance, self.r_bottom, self.spec0, self.spec1):
             t.repeat_x = t.repeat_y = False
         # create the new framebuffer before releasing the old one, and bind it: moderngl re-binds the
         # "current" framebuffer after creating one, which must not be a deleted object
-        self.fbo = self.ctx.framebuffer([self.r_top, self.transmittance, self.r_bottom])
+        self.fbo = self.ctx.framebuffer([self.r_top, self.transmittance, self.r_bottom, self.spec0, self.spec1])
         self.fbo.use()
         for obj in old:
             if obj is not None:
@@ -196,12 +220,15 @@ class KMTextureSpace:
     def _upload_params(self) -> None:
         nw = len(self.wavelengths)
         data = np.zeros((MAX_LAYERS * nw + nw, 4), np.float32)
+        self.layer_spec[:] = 0.0
         for slot, i in enumerate(self.active):
+            self.layer_spec[slot] = layer_spec_params(self.layers[i].material)
             s, k = material_sk(self.layers[i].material, self.wavelengths)
             data[slot * nw:(slot + 1) * nw, 0] = s
             data[slot * nw:(slot + 1) * nw, 1] = k
             data[slot * nw:(slot + 1) * nw, 2] = np.sqrt(k * k + 2 * k * s)
         data[MAX_LAYERS * nw:, :3] = self.matrix
+        data[MAX_LAYERS * nw:, 3] = self.matrix @ LUMINANCE
         self.ubo.write(data.tobytes())
 
     def set_layers(self, layers: list[LayerInput]) -> None:
@@ -299,6 +326,9 @@ class KMTextureSpace:
         if "u_scale" in program:
             u = program["u_scale"]
             program["u_scale"].write(scales[:max(u.array_length, 1)].tobytes())
+        if "u_layer_spec" in program:
+            u = program["u_layer_spec"]
+            u.write(self.layer_spec[:max(u.array_length, 1)].tobytes())
         if "u_thick" in program:
             u = program["u_thick"]
             u.value = list(range(u.array_length)) if u.array_length > 1 else 0
@@ -311,6 +341,11 @@ class KMTextureSpace:
         self.r_top.use(start_unit)
         self.transmittance.use(start_unit + 1)
         self.r_bottom.use(start_unit + 2)
+
+    def bind_spec(self, unit0: int, unit1: int) -> None:
+        """Bind the per-layer specular weights (layers 0–3, 4–7)."""
+        self.spec0.use(unit0)
+        self.spec1.use(unit1)
 
     def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(R_top, T, R_bottom) as float32 (H, W, 3) arrays, row 0 = v 0 (for tests and export)."""
@@ -326,7 +361,8 @@ class KMTextureSpace:
 
         progs = [o for pair in self._programs.values() for o in pair[::-1]]
         self._programs = {}
-        release_all(self.ctx, (self.fbo, self.r_top, self.transmittance, self.r_bottom, *progs, self.ubo,
+        release_all(self.ctx, (self.fbo, self.r_top, self.transmittance, self.r_bottom, self.spec0, self.spec1,
+                               *progs, self.ubo,
                                *self.thickness_textures))
         self.thickness_textures = []
         self.fbo = None

@@ -15,7 +15,7 @@ import numpy as np
 from render.camera import OrbitCamera
 from render.errors import RenderError
 from render.gpu_head import GpuHead
-from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput, layer_rt_np, material_sk
+from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights
 from render.shaders import ShaderLibrary
 
@@ -37,11 +37,9 @@ SKIN_GAUSSIANS: tuple[tuple[float, float, float, float], ...] = (
     (7.41, 0.078, 0.0, 0.0),
 )
 REFERENCE_TAPS = 13
-#: material categories whose coverage smooths the skin (their roughness replaces the skin's)
-SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
 
 # texture units of the lit pass
-_U_KM, _U_MASK, _U_LUT, _U_THICK, _U_SHADOW, _U_IRR = 4, 7, 8, 9, 17, 25
+_U_KM, _U_MASK, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 7, 8, 9, 17, 24, 25
 #: dilation passes of the texture-space irradiance (texels padded beyond chart borders)
 IRRADIANCE_PADDING = 4
 
@@ -241,11 +239,7 @@ class Renderer:
         mask_img = (np.full((1, 1), 255, np.uint8) if mask is None
                     else np.ascontiguousarray(np.where(mask, 255, 0).astype(np.uint8)))
         self.skin_mask = ctx.texture((mask_img.shape[1], mask_img.shape[0]), 1, mask_img.tobytes(), alignment=1)
-        self.t_lut = ctx.texture((256, MAX_LAYERS), 4, np.ones((MAX_LAYERS, 256, 4), np.float32).tobytes(),
-                                 dtype="f4")
-        self.t_lut.repeat_x = self.t_lut.repeat_y = False
-        self._lut_max = np.ones(MAX_LAYERS, np.float32)
-        self._layer_spec = np.zeros((MAX_LAYERS, 4), np.float32)
+        self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
         self._targets: dict[str, Any] = {}
         self._size: tuple[int, int] = (0, 0)
         self.last = FrameInfo()
@@ -304,26 +298,10 @@ class Renderer:
         self.set_layers(layers)
 
     def _update_layer_tables(self) -> None:
-        lut = np.ones((MAX_LAYERS, 256, 4), np.float32)
-        self._layer_spec[:] = 0.0
         self._lut_max[:] = 1.0
-        wl = self.km.wavelengths
         for slot, i in enumerate(self.km.active):
-            lay = self.km.layers[i]
-            mat = lay.material
-            xmax = float(getattr(mat, "max_thickness_um", 100.0) or 100.0)
-            xs = np.linspace(0.0, xmax, 256)
-            s, k = material_sk(mat, wl)
-            _, t = layer_rt_np(s[None, :], k[None, :], xs[:, None] * 1e-3)
-            lut[slot, :, :3] = t @ self.km.matrix
-            self._lut_max[slot] = xmax
-            rough = float(getattr(mat, "roughness", 0.3))
-            ior = float(getattr(mat, "ior", 1.5))
-            f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
-            default_t = float(getattr(mat, "thickness_um", getattr(mat, "default_thickness_um", 10.0)) or 10.0)
-            smooth = 1.0 if getattr(mat, "category", "") in SMOOTHING_CATEGORIES else 0.0
-            self._layer_spec[slot] = (rough, f0, smooth, float(np.clip(0.3 * default_t, 0.5, 10.0)))
-        self.t_lut.write(lut.tobytes())
+            mat = self.km.layers[i].material
+            self._lut_max[slot] = float(getattr(mat, "max_thickness_um", 100.0) or 100.0)
 
     # -- environment ------------------------------------------------------------------------------
     def set_environment(self, name_or_path: str | None, intensity: float = 0.5) -> None:
@@ -469,13 +447,13 @@ class Renderer:
         self.gpu_head.bind_textures(0)
         self.km.bind(_U_KM)
         self.skin_mask.use(_U_MASK)
-        self.t_lut.use(_U_LUT)
+        self.km.bind_spec(_U_SPEC0, _U_SPEC1)
         for slot in range(n):
             self.km.thickness_textures[slot].use(_U_THICK + slot)
         for j, tex in enumerate(self.irradiance.textures):
             tex.use(_U_IRR + j)
         units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
-                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_skin_mask": _U_MASK, "u_t_lut": _U_LUT,
+                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_skin_mask": _U_MASK, "u_spec0": _U_SPEC0, "u_spec1": _U_SPEC1,
                  "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2}
         for name, unit in units.items():
             self._set(prog, name, unit)
@@ -495,7 +473,7 @@ class Renderer:
                                        int(self.head.skin_mask is not None)))
         self._set(prog, "u_debug", DEBUG_VIEWS[s.debug_view])
         self._set(prog, "u_debug_layer", int(s.debug_layer))
-        self._write(prog, "u_layer_spec", self._layer_spec)
+        self._write(prog, "u_layer_spec", self.km.layer_spec)
         self._write(prog, "u_lut_max", self._lut_max)
         opac = np.zeros(MAX_LAYERS, np.float32)
         for slot, i in enumerate(self.km.active):
@@ -735,7 +713,7 @@ class Renderer:
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
         objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
-                           self._gauss, self._composite, self.skin_mask, self.t_lut,
+                           self._gauss, self._composite, self.skin_mask,
                            *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)

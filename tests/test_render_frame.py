@@ -230,3 +230,22 @@ def test_renders_into_a_viewport_of_a_given_framebuffer(r: Renderer, gl_ctx: Any
         from render.glutil import release_all
 
         release_all(gl_ctx, [fbo, colour])
+
+
+def test_follows_document_paint_events_tile_by_tile(r: Renderer, doc: Any) -> None:
+    from painting import Brush
+
+    unsubscribe = r.attach(doc)
+    try:
+        layer = doc.layers[-1]
+        versions = r.km.version
+        with doc.stroke(layer, Brush(radius_mm=4.0, hardness=0.5, strength=1.0, mode="add", amount_um=15.0)) as s:
+            s.dab(doc.head.landmark("chin"))
+        assert r.km.version > versions  # tiles re-evaluated through the event
+        incremental = r.km.read()
+        r.sync_document(doc)  # a full evaluation gives the same maps
+        for a, b in zip(incremental, r.km.read()):
+            np.testing.assert_allclose(a, b, atol=2e-3)
+        doc.undo()
+    finally:
+        unsubscribe()

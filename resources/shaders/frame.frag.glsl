@@ -24,7 +24,8 @@ uniform sampler2D u_rtop;        // unit 4
 uniform sampler2D u_trans;       // unit 5
 uniform sampler2D u_rbottom;     // unit 6
 uniform sampler2D u_skin_mask;   // unit 7
-uniform sampler2D u_t_lut;       // unit 8: per layer (row) T_rgb(X), X in [0, u_lut_max[i]]
+uniform sampler2D u_spec0;       // unit 8: per-layer specular weights, layers 0-3 (km.frag)
+uniform sampler2D u_spec1;       // unit 16: layers 4-7
 uniform sampler2D u_irr;         // unit 25: texture-space irradiance E (rgb), see irradiance.frag
 uniform sampler2D u_vis0;        // unit 26: shadow visibility of lights 0-3
 uniform sampler2D u_vis1;        // unit 27: lights 4-7
@@ -63,23 +64,22 @@ void main() {
 
     // makeup in texture space
     vec3 rtop = vec3(0.0), tr = vec3(1.0), rbot = vec3(0.0);
+    // foundation smoothing (from the KM pass): coverage of smoothing layers flattens the normal detail
+    // and their roughness replaces the skin's
+    float smooth_cov = 0.0, smooth_rough = u_skin_roughness;
+    vec4 A0 = vec4(0.0), A1 = vec4(0.0);
     if (u_makeup_on > 0.5) {
-        rtop = texture(u_rtop, v_uv_paint).rgb;
-        tr = texture(u_trans, v_uv_paint).rgb;
+        vec4 rt_full = texture(u_rtop, v_uv_paint);
+        vec4 t_full = texture(u_trans, v_uv_paint);
+        rtop = rt_full.rgb;
+        tr = t_full.rgb;
         rbot = texture(u_rbottom, v_uv_paint).rgb;
+        smooth_cov = rt_full.a;
+        smooth_rough = smooth_cov > 0.0 ? t_full.a : u_skin_roughness;
+        A0 = texture(u_spec0, v_uv_paint);
+        if (NL > 4) A1 = texture(u_spec1, v_uv_paint);
     }
 
-    // foundation smoothing: coverage of smoothing layers flattens the normal detail and sets roughness
-    float smooth_cov = 0.0;
-    float smooth_rough = u_skin_roughness;
-    float X[8];
-#if NL > 0
-    for (int i = 0; i < NL; ++i) {
-        X[i] = u_makeup_on > 0.5 ? max(texture(u_layer_thick[i], v_uv_paint).r, 0.0) * u_opacity[i] : 0.0;
-        float c = 1.0 - exp(-X[i] / max(u_layer_spec[i].w, 1e-3));
-        if (u_layer_spec[i].z > 0.5 && c > smooth_cov) { smooth_cov = c; smooth_rough = u_layer_spec[i].x; }
-    }
-#endif
     vec3 nt = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
     nt.xy *= u_normal_strength * (1.0 - 0.7 * smooth_cov);
     vec3 T = normalize(v_tangent.xyz - Ng * dot(Ng, v_tangent.xyz));
@@ -105,13 +105,12 @@ void main() {
         vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
         // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
         // highlight below attenuated by the transmittance of the layer above it
-        vec3 s = vec3(skin_rho * kelemen(N, L, V, max(skin_m, 0.05), u_skin_f0));
+        vec3 s = tr * (skin_rho * kelemen(N, L, V, max(skin_m, 0.05), u_skin_f0));
 #if NL > 0
         for (int k = 0; k < NL; ++k) {
-            if (X[k] <= 0.0) continue;
-            vec3 tk = texture(u_t_lut, vec2(clamp(X[k] / u_lut_max[k], 0.0, 1.0), (float(k) + 0.5) / 8.0)).rgb;
-            float ck = 1.0 - exp(-X[k] / max(u_layer_spec[k].w, 1e-3));
-            s = s * tk + vec3(ck * u_spec_intensity * kelemen(N, L, V, max(u_layer_spec[k].x, 0.05), u_layer_spec[k].y));
+            float a = k < 4 ? A0[k] : A1[k - 4];
+            if (a <= 0.0) continue;
+            s += vec3(a * u_spec_intensity * kelemen(N, L, V, max(u_layer_spec[k].x, 0.05), u_layer_spec[k].y));
         }
 #endif
         spec += s * Ei * ndl;
@@ -129,7 +128,10 @@ void main() {
         else if (u_debug == 2) {
 #if NL > 0
             int k = clamp(u_debug_layer, 0, NL - 1);
-            c = X[k] > 0.0 ? heat(X[k] / max(u_lut_max[k], 1e-3)) : vec3(0.02);
+            float Xk = 0.0;
+            for (int i = 0; i < NL; ++i)
+                if (i == k) Xk = max(texture(u_layer_thick[i], v_uv_paint).r, 0.0) * u_opacity[i];
+            c = Xk > 0.0 ? heat(Xk / max(u_lut_max[k], 1e-3)) : vec3(0.02);
 #endif
         }
         else if (u_debug == 3) c = rtop;

@@ -5,8 +5,9 @@
 
 layout(std140, binding = 0) uniform KMParams {
     vec4 u_skb[MAX_LAYERS * NW];   // per layer, per wavelength: S, K (per mm), beta = sqrt(K^2 + 2KS)
-    vec4 u_rgb[NW];                // wavelength -> linear sRGB weights (xyz)
+    vec4 u_rgb[NW];                // wavelength -> linear sRGB weights (xyz); w: luminance weight
 };
+uniform vec4 u_layer_spec[MAX_LAYERS];   // roughness, F0, smooths skin (1/0), coverage scale (µm)
 uniform sampler2D u_thick[MAX_LAYERS];  // µm
 uniform float u_scale[MAX_LAYERS];       // µm -> mm times opacity
 uniform int u_nlayers;  // == NL (the program is specialised per layer count)
@@ -14,6 +15,11 @@ uniform int u_nlayers;  // == NL (the program is specialised per layer count)
 layout(location = 0) out vec4 o_rtop;
 layout(location = 1) out vec4 o_t;
 layout(location = 2) out vec4 o_rbottom;
+// specular weights for the lit pass (Huang 2013 Sec. 3.3, bottom-up): layer k's highlight is weighted
+// by its coverage c_k = 1 - exp(-X_k / scale_k) and attenuated by the luminance transmittance of every
+// layer above it; the skin's highlight is attenuated by T (o_t.rgb).
+layout(location = 3) out vec4 o_spec0;   // layers 0-3
+layout(location = 4) out vec4 o_spec1;   // layers 4-7
 
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
@@ -28,9 +34,12 @@ void main() {
     }
     if (!any_layer) {
         o_rtop = vec4(0.0); o_t = vec4(1.0, 1.0, 1.0, 0.0); o_rbottom = vec4(0.0);
+        o_spec0 = vec4(0.0); o_spec1 = vec4(0.0);
         return;
     }
     vec3 rt = vec3(0.0), tt = vec3(0.0), rb = vec3(0.0);
+    float tl[NL + 1];  // per layer: luminance of its own transmittance
+    for (int i = 0; i < NL; ++i) tl[i] = 0.0;
     for (int w = 0; w < NW; ++w) {
         float R = 0.0, Rb = 0.0, T = 1.0;
         for (int i = 0; i < NL; ++i) {
@@ -38,9 +47,21 @@ void main() {
             vec4 skb = u_skb[i * NW + w];
             vec2 rt0 = km_layer(skb.x, skb.y, skb.z, X[i]);
             km_put_on_top(rt0.x, rt0.y, R, Rb, T);
+            tl[i] += u_rgb[w].w * rt0.y;
         }
         vec3 m = u_rgb[w].xyz;
         rt += m * R; tt += m * T; rb += m * Rb;
     }
-    o_rtop = vec4(rt, 1.0); o_t = vec4(tt, 1.0); o_rbottom = vec4(rb, 1.0);
+    float A[8] = float[](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    float above = 1.0, smooth_cov = 0.0, smooth_rough = 0.0;
+    for (int i = NL - 1; i >= 0; --i) {
+        vec4 ls = u_layer_spec[i];
+        float c = 1.0 - exp(-X[i] / max(ls.w, 1e-3));
+        A[i] = c * above;
+        above *= clamp(tl[i], 0.0, 1.0);
+        if (ls.z > 0.5 && c > smooth_cov) { smooth_cov = c; smooth_rough = ls.x; }
+    }
+    o_rtop = vec4(rt, smooth_cov); o_t = vec4(tt, smooth_rough); o_rbottom = vec4(rb, 1.0);
+    o_spec0 = vec4(A[0], A[1], A[2], A[3]);
+    o_spec1 = vec4(A[4], A[5], A[6], A[7]);
 }
