@@ -488,6 +488,9 @@ class KioskWindow(QWidget):
         from PySide6.QtWidgets import QApplication
 
         QApplication.instance().removeEventFilter(self._filter)
+        from app.workers import wait_all
+
+        wait_all(20000)
         self.viewport.release_gl()
         event.accept()
 
