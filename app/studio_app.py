@@ -28,6 +28,13 @@ def make_application(argv: list[str] | None = None) -> object:
         app = QApplication(argv or [sys.argv[0]])
     app.setOrganizationName(ORGANISATION)
     app.setApplicationName(APPLICATION)
+    from PySide6.QtGui import QIcon
+
+    from resources import resource_path
+
+    icon = resource_path("icons", "sheer.png")
+    if icon.is_file():
+        app.setWindowIcon(QIcon(str(icon)))
     return app
 
 
