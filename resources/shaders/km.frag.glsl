@@ -43,7 +43,9 @@ void main() {
     for (int w = 0; w < NW; ++w) {
         float R = 0.0, Rb = 0.0, T = 1.0;
         for (int i = 0; i < NL; ++i) {
-            // X = 0 gives R0 = 0, T = 1 exactly: no branch needed
+            // X = 0 gives R0 = 0, T = 1 exactly: skipping is only faster (regions of one layer are
+            // coherent, so llvmpipe skips whole blocks)
+            if (X[i] <= 0.0) continue;
             vec4 skb = u_skb[i * NW + w];
             vec2 rt0 = km_layer(skb.x, skb.y, skb.z, X[i]);
             km_put_on_top(rt0.x, rt0.y, R, Rb, T);
@@ -52,6 +54,8 @@ void main() {
         vec3 m = u_rgb[w].xyz;
         rt += m * R; tt += m * T; rb += m * Rb;
     }
+    for (int i = 0; i < NL; ++i)
+        if (X[i] <= 0.0) tl[i] = 1.0;
     float A[8] = float[](0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     float above = 1.0, smooth_cov = 0.0, smooth_rough = 0.0;
     for (int i = NL - 1; i >= 0; --i) {
