@@ -56,7 +56,8 @@ class CleanReport:
         welded_vertices: vertices that share a position with another one (split by UV seams or normals);
             they are merged for adjacency and smooth normals only (the paint atlas keeps the split).
         degenerate_faces: triangles with (near) zero 3D area or repeated corners, dropped.
-        flipped_faces: triangles whose winding was made consistent with their neighbours / outward.
+        flipped_faces: triangles whose winding was made consistent with their neighbours / outward
+            (``flipped``: bool per kept triangle).
         components: connected pieces of the welded mesh.
         watertight: the welded mesh is closed.
     """
@@ -68,6 +69,7 @@ class CleanReport:
     flipped_faces: int = 0
     components: int = 1
     watertight: bool = False
+    flipped: np.ndarray | None = field(default=None, repr=False)
 
     def summary(self) -> str:
         """One line for logs and the studio's status bar."""
@@ -146,6 +148,16 @@ class UVLayout:
             self._key = h.hexdigest()[:20]
         return self._key
 
+    def source_uv(self, head: Any) -> np.ndarray:
+        """The file's own UVs per layout triangle corner, float64 (F, 3, 2) (for textures authored on
+        them, e.g. the albedo, when the paint layout is an xatlas unwrap; layout triangle ``i`` is the
+        head's triangle ``face_map[i]``, with corners 1 and 2 swapped where cleaning flipped it)."""
+        corners = np.asarray(head.faces)[self.face_map]
+        if self.clean.flipped is not None and self.clean.flipped.any():
+            corners = corners.copy()
+            corners[self.clean.flipped] = corners[self.clean.flipped][:, [0, 2, 1]]
+        return np.asarray(head.uv, dtype=np.float64)[corners]
+
     def trimesh(self) -> Any:
         """The layout as an (unprocessed) ``trimesh.Trimesh``."""
         import trimesh
@@ -196,6 +208,7 @@ def clean_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
     after = np.asarray(mesh.faces)
     flipped = ~np.all(before == after, axis=1)
     report.flipped_faces = int(flipped.sum())
+    report.flipped = flipped
     kept = faces[face_index].copy()
     kept[flipped] = kept[flipped][:, [0, 2, 1]]
     report.components = int(len(mesh.split(only_watertight=False))) if len(mesh.faces) < 500_000 else 1

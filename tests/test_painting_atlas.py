@@ -61,6 +61,9 @@ def test_mirrored_overlapping_uvs_are_detected_and_unwrapped(tmp_path: Path) -> 
     assert layout.source == "xatlas"
     assert ("unwrap", 1.0) in stages
     assert np.allclose(layout.vertices, v[layout.vertex_map])  # new -> original vertex map
+    # Triangles keep their order and corners: layout triangle i is the file's triangle face_map[i].
+    assert np.allclose(layout.vertices[layout.faces], v[f[layout.face_map]])
+    assert np.allclose(layout.source_uv(_Head(v, f, uv)), uv[f[layout.face_map]])
     assert check_uvs(layout.vertices, layout.faces, layout.uv)[0].overlapping_texels == 0
     # The same mesh through the file loader and a document: paintable.
     obj = _write_obj(tmp_path / "mirrored.obj", v, f, uv)
