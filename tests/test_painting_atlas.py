@@ -166,3 +166,18 @@ def test_canonical_face_loads_with_the_right_uvs_and_paints() -> None:
         assert near.any() and np.all(t[near] == 8.0)
     hit = doc.hit(doc.head.landmark("nose_tip") + np.array([0, 0, 5.0]), (0, 0, -1))
     assert hit is not None and np.linalg.norm(hit.point - doc.head.landmark("nose_tip")) < 0.05
+
+
+def test_cleaning_drops_degenerate_and_fixes_winding() -> None:
+    from painting.atlas import clean_mesh
+
+    v, f = _grid(6)
+    f = f.copy()
+    f[:5] = f[:5][:, [0, 2, 1]]  # five triangles wound the wrong way
+    bad = np.array([[0, 0, 1], [3, 4, 3]])  # repeated corners
+    kept, index, normals, report = clean_mesh(v, np.concatenate([f, bad]))
+    assert report.degenerate_faces == 2 and len(kept) == len(f)
+    assert report.flipped_faces == 5 and report.flipped is not None and report.flipped[:5].all()
+    n = np.cross(v[kept[:, 1]] - v[kept[:, 0]], v[kept[:, 2]] - v[kept[:, 0]])
+    assert np.all(np.sign(n[:, 2]) == np.sign(n[0, 2]))  # one consistent orientation
+    assert np.allclose(np.linalg.norm(normals, axis=1), 1.0)
