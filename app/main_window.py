@@ -483,6 +483,9 @@ class StudioWindow(QMainWindow):
             dialogs.error(self, "New project", str(exc))
             return
         self.doc.clear_history()
+        if self.autosaver is not None:
+            self.autosaver.close()
+            self.autosaver.project_path = None
         self.project_path, self.project_name = None, "Untitled"
         self.setWindowModified(False)
         self._update_title()

@@ -39,6 +39,7 @@ def load_project_into(doc: Any, library: Any, source: Path | Any) -> str:
     from painting.project import open_project
 
     project = open_project(source) if isinstance(source, str | Path) else source
+    _check_same_head(project, doc)
     for lay in project.layers:
         if lay.material not in library and lay.material in project.materials:
             library.add(project.material(lay.material))
@@ -50,6 +51,19 @@ def load_project_into(doc: Any, library: Any, source: Path | Any) -> str:
         doc.set_layer(i, visible=bool(lay.visible), opacity=float(lay.opacity))
     doc.clear_history()
     return str(project.name)
+
+
+def _check_same_head(project: Any, doc: Any) -> None:
+    """Refuse a project painted on another head (its maps would land on the wrong mesh)."""
+    from km.errors import SheerError
+    from painting.project import make_head_ref
+
+    ref = make_head_ref(doc.head.path)
+    key_mine = ref.files.get(ref.mesh)
+    key_theirs = project.head.files.get(project.head.mesh)
+    if key_mine is not None and key_theirs is not None and key_mine != key_theirs:
+        raise SheerError(f"the project '{project.name}' was painted on another head ({project.head.name}); "
+                         f"start Sheer with that head (sheer --head MESH --project FILE) to open it")
 
 
 def snapshot(doc: Any, library: Any, name: str) -> Any:
