@@ -204,8 +204,10 @@ def _fit_saturation_curve(alpha: np.ndarray, prof: np.ndarray, weight: np.ndarra
 
     best = None
     for s_start in (s0 / 2, s0, 2 * s0):  # a few starts: the curve's shape is what fixes s
-        r = least_squares(resid, np.array([sat_d0, np.log(r0), np.log(max(s_start, 1.0))]),
-                          bounds=([0.0, np.log(1e-3), 0.0], [1.0, np.log(20.0), np.log(MAX_EXPONENT)]))
+        lo = np.array([0.0, np.log(1e-3), 0.0])
+        hi = np.array([1.0, np.log(20.0), np.log(MAX_EXPONENT)])
+        x0 = np.clip(np.array([sat_d0, np.log(r0), np.log(max(s_start, 1.0))]), lo + 1e-9, hi - 1e-9)
+        r = least_squares(resid, x0, bounds=(lo, hi))
         if best is None or r.cost < best.cost:
             best = r
     assert best is not None
