@@ -211,6 +211,7 @@ class KioskWindow(QWidget):
         self.library = seams.load_library()
         self.doc = seams.open_document(head, resolution, self.library)
         self.look = "natural"
+        self._look_cache: dict[str, list[tuple[str, str, float, Any]]] = {}
         self.viewport = self._make_viewport(resolution)
         self.stack = QStackedWidget()
         self.start_page = self._build_start()
@@ -367,7 +368,20 @@ class KioskWindow(QWidget):
             self.set_look("natural")
 
     def set_look(self, name: str) -> None:
-        seams.apply_look(self.doc, self.library, name)
+        """Apply a built-in look; painted once, then replayed from a cache (instant in attract mode)."""
+        import numpy as np
+
+        cached = self._look_cache.get(name)
+        if cached is None:
+            seams.apply_look(self.doc, self.library, name)
+            self._look_cache[name] = [(lay.material, lay.name, float(lay.max_thickness), np.array(lay.thickness))
+                                      for lay in self.doc.layers]
+        else:
+            for i in reversed(range(len(self.doc.layers))):
+                self.doc.remove_layer(i)
+            for material, lname, max_t, thick in cached:
+                lay = self.doc.add_layer(material, name=lname, max_thickness=max_t)
+                seams.set_thickness(self.doc, lay, thick)
         self.doc.clear_history()
         self.look = name
         for n, b in self.look_buttons.items():
