@@ -471,9 +471,6 @@ class StudioWindow(QMainWindow):
     def _update_title(self) -> None:
         self.setWindowTitle(f"{self.project_name}[*] — Sheer Studio")
 
-    def setWindowModified(self, modified: bool) -> None:  # noqa: N802 (Qt name)
-        super().setWindowModified(modified)
-
     def new_project(self) -> None:
         from km.errors import SheerError
 
