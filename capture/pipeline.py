@@ -252,7 +252,7 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
 
     # Exponent.
     t = time.perf_counter()
-    exp_est = estimate_exponent(pix.normals[sel], pix.view[sel], light_world, colours, R[0])
+    exp_est = estimate_exponent(pix.normals[sel], pix.view[sel], light_world, colours, R[0], flash_rgb=flash_rgb)
     _log(progress, f"specular exponent s = {exp_est.s:.1f} (Eq. 3 alone: {exp_est.s_eq3:.1f}; "
                    f"fastest saturation change at {exp_est.alpha_deg:.2f}°)")
     geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], light_world)

@@ -145,6 +145,13 @@ def eq3_exponent(alpha_rad: float) -> float:
     return float(num / (8 * z2 * (z - 1) * (z + 1)))
 
 
+def _robust_mean(x: np.ndarray) -> float:
+    """The paper's robust mean: the mean of the samples within one standard deviation of the mean."""
+    m = float(x.mean())
+    keep = np.abs(x - m) <= x.std() + 1e-12
+    return float(x[keep].mean()) if keep.any() else m
+
+
 def _saturation(rgb: np.ndarray) -> np.ndarray:
     mx = rgb.max(axis=-1)
     return (mx - rgb.min(axis=-1)) / np.maximum(mx, 1e-9)
@@ -216,7 +223,7 @@ def _fit_saturation_curve(alpha: np.ndarray, prof: np.ndarray, weight: np.ndarra
 
 def estimate_exponent(normals: np.ndarray, view: np.ndarray, light: np.ndarray, colours: np.ndarray,
                       right: np.ndarray, max_deg: float = 30.0, bin_deg: float = 0.5,
-                      correct: bool = True) -> ExponentEstimate:
+                      correct: bool = True, flash_rgb: np.ndarray | None = None) -> ExponentEstimate:
     """The specular exponent from the saturation of the skin samples around the highlight.
 
     Each skin sample lies on the Gaussian sphere at its normal; its angle α to the highlight's normal
@@ -239,9 +246,13 @@ def estimate_exponent(normals: np.ndarray, view: np.ndarray, light: np.ndarray, 
         normals, view: (S, 3) unit normals and unit directions to the camera of the skin samples.
         light: (3,) unit direction to the flash. colours: (S, 3) linear RGB.
         right: (3,) the camera's x axis (world).
+        flash_rgb: the flash colour; the samples are white-balanced to it first (None: white flash).
     """
     # Sensor-saturated samples are white whatever the reflectance: they carry no saturation information.
     unclipped = np.asarray(colours).max(axis=1) < 0.98
+    if flash_rgb is not None:
+        # White-balance to the flash (its hue is known from the probe), so its reflection is neutral.
+        colours = np.asarray(colours) / np.maximum(np.asarray(flash_rgb, dtype=float), 1e-6)[None, :]
     if unclipped.sum() >= 100:
         normals, view, colours = normals[unclipped], view[unclipped], np.asarray(colours)[unclipped]
     half = view + np.asarray(light, dtype=float)[None, :]
@@ -263,7 +274,7 @@ def estimate_exponent(normals: np.ndarray, view: np.ndarray, light: np.ndarray, 
             sel = b == k
             cnt[k] = sel.sum()
             if cnt[k] >= 5:
-                prof_sat[k] = np.median(sat[sel])
+                prof_sat[k] = _robust_mean(sat[sel])
         ok = np.isfinite(prof_sat)
         if ok.sum() < 20:
             raise ReflectanceError("too few skin samples around the highlight to measure the exponent")

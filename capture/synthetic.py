@@ -4,7 +4,9 @@ the same point light.
 
 The ground-truth detail texture is the head's albedo (linearised) divided by its mean over the skin pixels
 of the photograph (the mask :func:`capture.pipeline.compute_skin_mask` computes), so it averages 1 on skin, like a real ratio image. The photograph is the CPU render
-``clip(detail ⊙ Phong)`` (modulation after lighting, clamping after modulation), 8-bit sRGB quantised.
+``clip(detail ⊙ (ambient + diffuse) + specular)`` — dichromatic, as the paper assumes (§4.2): the light
+scattered by the skin carries its texture, the oily surface's white reflection does not — 8-bit sRGB
+quantised. (The lightweight engine modulates everything by the detail, as the paper's GL_MODULATE.)
 """
 
 from __future__ import annotations
@@ -82,11 +84,15 @@ def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongPara
     mean = sample_texture(alb, pix.uv)[face].mean(axis=0)
     detail = (alb / np.maximum(mean, 1e-4)).astype(np.float32)
     geo = Geometry.from_vectors(pix.normals, pix.view, light)
-    lit = shade(params, geo, clip=False)
+    specular = params.specular
+    params.specular = 0.0
+    body = shade(params, geo, clip=False)  # light scattered by the skin: modulated by the texture
+    params.specular = specular
+    surface = shade(params, geo, clip=False) - body  # the oily surface's white reflection: not modulated
 
     def render(det: np.ndarray) -> np.ndarray:
         out = np.zeros((size, size, 3))
-        out[pix.rows, pix.cols] = np.clip(lit * sample_texture(det, pix.uv), 0, 1)
+        out[pix.rows, pix.cols] = np.clip(body * sample_texture(det, pix.uv) + surface, 0, 1)
         return out
 
     img = render(detail)
