@@ -247,10 +247,10 @@ class LibraryDock(QWidget):
         self.redo_button.setEnabled(False)
         self.import_button.clicked.connect(self._ask_import)
         self.save_button.clicked.connect(lambda: self.save())
-        buttons = QHBoxLayout()
-        for b in (self.duplicate_button, self.delete_button, self.import_button, self.undo_button,
-                  self.redo_button, self.save_button):
-            buttons.addWidget(b)
+        buttons = QGridLayout()
+        for i, b in enumerate((self.duplicate_button, self.delete_button, self.import_button,
+                               self.undo_button, self.redo_button, self.save_button)):
+            buttons.addWidget(b, i // 3, i % 3)
         filt = QHBoxLayout()
         filt.addWidget(self.search, 2)
         filt.addWidget(self.category, 1)

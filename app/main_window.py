@@ -87,8 +87,9 @@ class StudioWindow(QMainWindow):
         self.library_dock = LibraryDock(self.library, skin)
         self.library_dock.material_changed.connect(self._material_changed)
         self.library_dock.in_use = lambda name: any(lay.material == name for lay in self.doc.layers)
-        self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
-        self._add_dock("Material Library", self.library_dock, Qt.DockWidgetArea.RightDockWidgetArea)
+        layers_dock = self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
+        library_dock = self._add_dock("Material Library", self.library_dock, Qt.DockWidgetArea.RightDockWidgetArea)
+        self.resizeDocks([layers_dock, library_dock], [250, 380], Qt.Orientation.Horizontal)
 
         self.actions_by_id: dict[str, QAction] = {}
         self._build_actions()

@@ -165,10 +165,15 @@ class RealViewportRenderer:
             self.ctx.enable(moderngl.DEPTH_TEST)
             self.ctx.depth_func = "<="
             fbo.color_mask = (False, False, False, False)
+            fbo.depth_mask = True
+            fbo.use()
+            self.ctx.viewport = (0, 0, w, h)
             fbo.clear(depth=1.0)
             self.depth_prog["u_mvp"].write(mvp.tobytes())
             self.depth_vao.render(moderngl.TRIANGLES)
             fbo.color_mask = (True, True, True, True)
+            fbo.use()  # moderngl applies a framebuffer's masks when it is bound
+            self.ctx.viewport = (0, 0, w, h)
             self.ctx.enable(moderngl.BLEND)
             self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             self.ring_prog["u_mvp"].write(mvp.tobytes())

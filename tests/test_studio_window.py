@@ -259,3 +259,17 @@ def test_library_duplicate_delete_mix_undo(window: object) -> None:
     for _ in range(3):
         dock.undo_stack.undo()
     assert list(window.library.names()) == names
+
+
+def test_brush_ring_follows_the_surface(window: object, qtbot: object) -> None:
+    from PySide6.QtCore import QPoint
+
+    vp = window.viewport
+    vp._interacting = False
+    vp._ring = None
+    plain = grab(window).astype(int)
+    qtbot.mouseMove(vp, QPoint(vp.width() // 2, int(vp.height() * 0.45)))
+    assert vp._ring is not None, "hovering the head should place the brush ring on the surface"
+    vp._interacting = False
+    with_ring = grab(window).astype(int)
+    assert (np.abs(with_ring - plain).max(axis=-1) > 40).sum() > 30
