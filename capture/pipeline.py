@@ -392,6 +392,13 @@ class Face:
     data: dict[str, Any]
 
 
+def face_albedo(face: Face) -> np.ndarray:
+    """The captured skin albedo for the physical renderer: detail × fitted diffuse colour, as 8-bit sRGB
+    (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip)."""
+    lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
+    return to_uint8(linear_to_srgb(lin))
+
+
 def load_face(folder: str | Path) -> Face:
     """Read a face folder written by :func:`write_face`."""
     import OpenEXR

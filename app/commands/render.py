@@ -46,7 +46,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH", help="image size (default 1280x720)")
     p.add_argument("--mode", choices=("fast", "reference", "off", "lightweight"), default="fast",
                    help="subsurface scattering, or the lightweight engine for a captured face (needs --face)")
-    p.add_argument("--face", metavar="FACE_DIR", help="a face folder written by 'sheer capture' (--mode lightweight)")
+    p.add_argument("--face", metavar="FACE_DIR",
+                   help="a face folder written by 'sheer capture': rendered by --mode lightweight, or its "
+                        "captured albedo (detail × fitted diffuse) used by the other modes")
     p.add_argument("--light", type=_light, action="append", metavar="AZ,EL[,INTENSITY]", help="a directional light")
     p.add_argument("--env", metavar="NAME", help="HDR environment (e.g. studio, city) or an EXR path")
     p.add_argument("--env-intensity", type=float, default=0.3, metavar="E", help="mean irradiance of --env")
@@ -91,9 +93,9 @@ def run(args: argparse.Namespace) -> int:
     if args.light and len(args.light) > 8:
         raise SheerError(f"at most 8 --light options, got {len(args.light)}")
     face = None
-    if args.mode == "lightweight":  # issue 7: the captured face in the lightweight engine
-        if not args.face:
-            raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
+    if args.mode == "lightweight" and not args.face:
+        raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
+    if args.face:  # issue 7: a captured face (lightweight engine, or its albedo in the physical one)
         from capture.pipeline import load_face
 
         face = load_face(args.face)
@@ -126,6 +128,16 @@ def run(args: argparse.Namespace) -> int:
             load_look("bare")
         head = load_head(args.head)
         _check_head(head)
+
+    if face is not None and args.mode != "lightweight":
+        import dataclasses
+
+        from capture.pipeline import face_albedo
+
+        head = dataclasses.replace(head, albedo=face_albedo(face))  # skin albedo = detail × fitted diffuse
+        if doc is not None:
+            doc.head = head
+        face = None
 
     import moderngl
     from PIL import Image
