@@ -133,6 +133,9 @@ class RenderSettings:
         normal_strength: tangent-space normal map strength. background: linear RGB.
         shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
         irradiance_size: side of the texture-space irradiance cache (texels).
+        cull_back_faces: skip triangles facing away (the head and the baseline alike).
+        reference_full_resolution: run every Gaussian of the reference mode at full resolution (default:
+            Gaussians wider than 3 pixels run on the half-resolution grid, like the fast mode's wide lobes).
     """
 
     mode: str = "fast"
@@ -152,6 +155,8 @@ class RenderSettings:
     shadow_size: int = 1024
     pcf_radius: float = 2.5
     irradiance_size: int = 1024
+    reference_full_resolution: bool = False
+    cull_back_faces: bool = True
 
     def validate(self) -> None:
         if self.mode not in MODES:
@@ -443,7 +448,8 @@ class Renderer:
         ctx.scissor = None
         gb.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND | ctx.CULL_FACE)
+        ctx.disable(ctx.BLEND)
+        self._cull(True)
         self.gpu_head.bind_textures(0)
         self.km.bind(_U_KM)
         self.skin_mask.use(_U_MASK)
@@ -482,6 +488,7 @@ class Renderer:
         self._upload_lights(prog)
         self.gpu_head.draw(prog)
         ctx.disable(ctx.DEPTH_TEST)
+        self._cull(False)
 
         # 3-6. SSS, composite, display
         tonemap = {"raw": -1, "none": 0, "aces": 1}[s.tonemap]
@@ -523,29 +530,49 @@ class Renderer:
         elif debug == 0 and s.mode == "reference":
             mode = 1
             w0 = tuple(float(x) for x in SKIN_GAUSSIANS[0][1:])
-            t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR)
             gp = self._gauss
-            acc = t["accum_fbo"]
-            acc.use()
-            acc.viewport = (0, 0, w, h)
-            ctx.scissor = None
-            acc.clear(0.0, 0.0, 0.0, 0.0)
-            ctx.scissor = (rx, ry, rw, rh)
-            for var, *wt in SKIN_GAUSSIANS[1:]:
-                sigma = math.sqrt(var) * s.sss_width
-                self._blur_common(gp, px_per_mm, t["diffuse"], (1.0, 0.0))
-                self._set(gp, "u_sigma_mm", sigma)
-                self._set(gp, "u_weight", (1.0, 1.0, 1.0))
-                t["tmp_fbo"].use()
-                ctx.disable(ctx.BLEND)
-                self._quad(gp).render(vertices=3)
-                self._blur_common(gp, px_per_mm, t["tmp"], (0.0, 1.0))
-                self._set(gp, "u_weight", tuple(float(x) for x in wt))
-                acc.use()
-                ctx.enable(ctx.BLEND)
-                ctx.blend_func = ctx.ONE, ctx.ONE
-                self._quad(gp).render(vertices=3)
+            hw, hh = t["half_a"].size
+            hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
+            mm_per_px = (self.camera.distance * 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / h
+                         * self.gpu_head.mm_per_unit)
+            gaussians = [(math.sqrt(var) * s.sss_width, wt) for var, *wt in SKIN_GAUSSIANS[1:]]
+            half = [g for g in gaussians if not s.reference_full_resolution and g[0] / mm_per_px >= 3.0]
+            full = [g for g in gaussians if g not in half]
+            whalf = np.sum([g[1] for g in half], axis=0) if half else np.zeros(3)
+            for fbo_name, size in (("accum_fbo", (w, h)), ("half_b_fbo", (hw, hh))):
+                t[fbo_name].use()
+                t[fbo_name].viewport = (0, 0, *size)
+                ctx.scissor = None
+                t[fbo_name].clear(0.0, 0.0, 0.0, 0.0)
+            for group, tmp_fbo, acc, size, rect_, scale in (
+                    (full, t["tmp_fbo"], t["accum_fbo"], (w, h), (rx, ry, rw, rh), 1.0),
+                    (half, t["half_a_fbo"], t["half_b_fbo"], (hw, hh), hrect, 0.5)):
+                t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
+                for sigma, wt in group:
+                    self._blur_common(gp, px_per_mm, t["diffuse"], (1.0, 0.0))
+                    self._set(gp, "u_sigma_mm", sigma)
+                    self._set(gp, "u_weight", (1.0, 1.0, 1.0))
+                    self._set(gp, "u_premultiplied", 0)
+                    tmp_fbo.use()
+                    tmp_fbo.viewport = (0, 0, *size)
+                    ctx.scissor = rect_
+                    ctx.disable(ctx.BLEND)
+                    self._quad(gp).render(vertices=3)
+                    src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
+                    self._blur_common(gp, px_per_mm * scale, src_tex, (0.0, 1.0))
+                    self._set(gp, "u_weight", tuple(float(x) for x in wt))
+                    self._set(gp, "u_premultiplied", 0 if scale == 1.0 else 1)
+                    self._set(gp, "u_cov", 1.0 / max(len(group), 1))
+                    acc.use()
+                    acc.viewport = (0, 0, *size)
+                    ctx.scissor = rect_
+                    ctx.enable(ctx.BLEND)
+                    ctx.blend_func = ctx.ONE, ctx.ONE
+                    self._quad(gp).render(vertices=3)
             ctx.disable(ctx.BLEND)
+            t["half_b"].use(4)
+            self._set(self._composite, "u_accum_half", 4)
+            self._set(self._composite, "u_whalf", tuple(float(x) for x in whalf))
             accum = t["accum"]
         else:
             accum = t["accum"]
@@ -603,6 +630,16 @@ class Renderer:
             self._quad(prog).render(vertices=3)
         ctx.scissor = None
 
+    def _cull(self, on: bool) -> None:
+        """Back-face culling for closed heads (``settings.cull_back_faces``; the mesh winds counter-clockwise
+        like its normals): about halves the fragments shaded. Open meshes seen from behind need it off."""
+        if on and self.settings.cull_back_faces:
+            self.ctx.front_face = "ccw"
+            self.ctx.cull_face = "back"
+            self.ctx.enable(self.ctx.CULL_FACE)
+        else:
+            self.ctx.disable(self.ctx.CULL_FACE)
+
     def _upload_lights(self, prog: Any) -> None:
         n = len(self.lights)
         vec = np.zeros((MAX_LIGHTS, 4), np.float32)
@@ -651,7 +688,9 @@ class Renderer:
         self._set(prog, "u_light_dir", tuple(float(x) for x in d / np.linalg.norm(d)))
         self.gpu_head.albedo.use(0)
         self._set(prog, "u_albedo", 0)
+        self._cull(True)
         self.gpu_head.draw(prog)
+        self._cull(False)
         self.ctx.disable(self.ctx.DEPTH_TEST)
 
     # -- picking ----------------------------------------------------------------------------------

@@ -128,3 +128,22 @@ def test_every_builtin_look_loads() -> None:
     for name in BUILTIN_LOOKS:
         for layer in load_look(name).layers:
             lib.get(layer.material)
+
+
+def test_renders_a_project(tmp_path: Path, capsys: pytest.CaptureFixture[str], gl_ctx: object) -> None:
+    from painting import Document
+    from painting.looks import apply_look
+    from painting.project import save_project
+    from painting.project_document import project_from_document
+
+    doc = Document.from_head(resolution=256)
+    apply_look(doc, "red-lip")
+    project = tmp_path / "look.sheer"
+    save_project(project_from_document(doc), project)
+    out = tmp_path / "p.png"
+    code, err = _run(capsys, "--project", str(project), "--size", "160x120", "--out", str(out))
+    assert code == 0, err
+    img = np.asarray(Image.open(out)).astype(int)
+    assert (img[..., 0] - img[..., 1] > 80).sum() > 20  # red lips
+    code, err = _run(capsys, "--project", str(tmp_path / "missing.sheer"), "--out", str(out))
+    assert code == 2 and "missing.sheer" in err

@@ -11,6 +11,8 @@ uniform sampler2D u_accum;    // mode 1: sum of weighted Gaussians (full res); m
 uniform sampler2D u_factor;   // rgb: out-scatter factor; a = linear depth (0 = background)
 uniform sampler2D u_outer;
 uniform vec3 u_w0;
+uniform sampler2D u_accum_half; // mode 1: the Gaussians summed on the half-resolution grid (premultiplied)
+uniform vec3 u_whalf;          // their total weight (fallback where no skin sample is near)
 uniform int u_mode;
 uniform int u_debug;
 uniform vec3 u_background;
@@ -32,7 +34,9 @@ void main() {
     vec3 d = src.rgb;
     if (src.a > 0.0) {
         if (u_mode == 1) {
-            d = src.rgb * u_w0 + texelFetch(u_accum, p, 0).rgb;
+            vec4 half_sum = textureLod(u_accum_half, v_uv, 0.0);
+            vec3 wide = half_sum.a > 1e-3 ? half_sum.rgb / half_sum.a : src.rgb * u_whalf;
+            d = src.rgb * u_w0 + texelFetch(u_accum, p, 0).rgb + wide;
         } else if (u_mode == 2) {
             vec4 wide = textureLod(u_accum, v_uv, 0.0);
             if (wide.a > 1e-3) d = src.rgb * u_w0 + wide.rgb / wide.a;
