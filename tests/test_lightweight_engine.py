@@ -105,3 +105,15 @@ def test_makeup_textures_apply(engine: Any, gl_ctx: Any) -> None:
         t.release()
     # An opaque red layer (T = 0): red, no green or blue, no skin specular.
     assert img[..., 0].mean() > 100 and img[..., 1].mean() < 5 and img[..., 2].mean() < 5
+
+
+def test_hdr_environment_adds_light(engine: Any) -> None:
+    from capture.synthetic import read_env
+    from render.lights import Environment, Light
+    from resources import find_asset
+
+    engine.lights = [Light.directional(90, 0, 0.5)]
+    dark = engine.render_image(SIZE).astype(float)
+    engine.environment = Environment.from_image(read_env(str(find_asset("environments/studio.exr"))), "studio", 0.5)
+    lit = engine.render_image(SIZE).astype(float)
+    assert _face_box(lit).mean() > _face_box(dark).mean() + 5
