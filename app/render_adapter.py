@@ -175,7 +175,9 @@ class RealViewportRenderer:
             fbo.use()  # moderngl applies a framebuffer's masks when it is bound
             self.ctx.viewport = (0, 0, w, h)
             self.ctx.enable(moderngl.BLEND)
-            self.ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            # colour blended over the frame, the frame's alpha kept (Qt composes the widget with it)
+            self.ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ZERO, moderngl.ONE)
+            self.ctx.blend_equation = moderngl.FUNC_ADD
             self.ring_prog["u_mvp"].write(mvp.tobytes())
             self.ring_prog["u_brush"].value = tuple(float(x) for x in brush)
             self.ring_vao.render(moderngl.TRIANGLES)

@@ -40,10 +40,16 @@ def main(argv: list[str]) -> int:
     win.show()
     vp = win.viewport
     _wait(lambda: vp.frames > 0 and vp.full_quality_ready)
-    win.library_dock.select("Lipstick Nude") if "Lipstick Nude" in win.library else None
+    if "Lipstick Nude" in win.library:
+        win.library_dock.select("Lipstick Nude")
+    from PySide6.QtCore import QPointF
+
+    vp._ring = vp.pick(QPointF(vp.width() * 0.62, vp.height() * 0.62))  # the brush ring on a cheek
+    vp._interacting = False
     vp.repaint()
     _wait(lambda: True)
     win.grab().save(str(out / "studio_main.png"))
+    vp._ring = None
     win._set(split=0.5)
     vp.repaint()
     _wait(lambda: True)
