@@ -67,7 +67,7 @@ class LightweightRenderer:
     """
 
     def __init__(self, ctx: Any, head: Any, face: Any, shaders: ShaderLibrary | None = None,
-                 shadow_size: int = 1024) -> None:
+                 shadow_size: int = 512) -> None:
         self.ctx = ctx
         self.head = head
         self.face = face
