@@ -256,8 +256,10 @@ class KMTextureSpace:
         self._alloc(size)
         self._set_thickness_textures(len(self.active), size)
         for slot, i in enumerate(self.active):
-            a = np.ascontiguousarray(np.nan_to_num(layers[i].thickness, nan=0.0), dtype=np.float32)
-            self.thickness_textures[slot].write(np.clip(a, 0.0, None).tobytes())
+            a = np.array(layers[i].thickness, dtype=np.float32, order="C")  # one copy, cleaned in place
+            np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
+            np.maximum(a, 0.0, out=a)
+            self.thickness_textures[slot].write(a)
         self._upload_params()
         self.fbo.use()
         self.fbo.viewport = (0, 0, *size)
@@ -294,10 +296,10 @@ class KMTextureSpace:
                                          dtype=np.float32)
             tex.write(block.tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
             rects.append((x0, y0, x1 - x0, y1 - y0))
-        for r in rects:
-            self.fbo.scissor = r
+        for r in rects:  # the viewport is the tile: only its texels are rasterised
+            self.fbo.viewport = r
             self._draw((w, h))
-        self.fbo.scissor = None
+        self.fbo.viewport = (0, 0, w, h)
         self.version += 1
 
     def refresh_materials(self) -> None:
