@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pyqtgraph as pg
 from PySide6.QtCore import QStandardPaths, Qt, Signal
 from PySide6.QtGui import QUndoCommand, QUndoStack
 from PySide6.QtWidgets import (
@@ -183,23 +182,14 @@ class LibraryDock(QWidget):
         form.addRow("IOR", self.spins["ior"])
         form.addRow("Scale spectra", scale_row)
         # plots
-        pg.setConfigOptions(antialias=True)
-        self.refl_plot = pg.PlotWidget()
-        self.refl_plot.setLabel("bottom", "wavelength", units="nm")
-        self.refl_plot.setLabel("left", "reflectance / transmittance (fraction)")
-        self.refl_plot.setYRange(0, 1)
-        self.refl_plot.addLegend(offset=(5, 5))
-        self.coef_plot = pg.PlotWidget()
-        self.coef_plot.setLabel("bottom", "wavelength", units="nm")
-        self.coef_plot.setLabel("left", "S, K (per mm)")
-        self.coef_plot.addLegend(offset=(5, 5))
-        for p in (self.refl_plot, self.coef_plot):
-            p.setMinimumHeight(150)
-            p.showGrid(x=True, y=True, alpha=0.2)
+        # the pyqtgraph plots are built after the viewport's first frame (build_plots): importing
+        # pyqtgraph costs about a second of start-up
+        self.refl_plot: Any = None
+        self.coef_plot: Any = None
+        self.refl_holder = QVBoxLayout()
+        self.coef_holder = QVBoxLayout()
         self.readout = QLabel("Hover a plot for values")
         self.readout.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-        self.refl_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.refl_plot, pos))
-        self.coef_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.coef_plot, pos))
         self.thickness = QSlider(Qt.Orientation.Horizontal)
         self.thickness.setRange(1, 200)
         self.thickness.setValue(10)
@@ -258,8 +248,8 @@ class LibraryDock(QWidget):
         lay.addLayout(filt)
         lay.addWidget(self.list, 1)
         lay.addLayout(form)
-        lay.addWidget(self.refl_plot, 2)
-        lay.addWidget(self.coef_plot, 1)
+        lay.addLayout(self.refl_holder, 2)
+        lay.addLayout(self.coef_holder, 1)
         lay.addWidget(self.readout)
         th = QHBoxLayout()
         th.addWidget(QLabel("Thickness for R0/T"))
@@ -341,9 +331,35 @@ class LibraryDock(QWidget):
             spin.setValue(float(getattr(m, attr)))
         self._loading = False
 
+    def build_plots(self) -> None:
+        """Create the spectral plots (idempotent)."""
+        if self.refl_plot is not None:
+            return
+        import pyqtgraph as pg
+
+        pg.setConfigOptions(antialias=True)
+        self.refl_plot = pg.PlotWidget()
+        self.refl_plot.setLabel("bottom", "wavelength", units="nm")
+        self.refl_plot.setLabel("left", "reflectance / transmittance (fraction)")
+        self.refl_plot.setYRange(0, 1)
+        self.refl_plot.addLegend(offset=(5, 5))
+        self.coef_plot = pg.PlotWidget()
+        self.coef_plot.setLabel("bottom", "wavelength", units="nm")
+        self.coef_plot.setLabel("left", "S, K (per mm)")
+        self.coef_plot.addLegend(offset=(5, 5))
+        for p in (self.refl_plot, self.coef_plot):
+            p.setMinimumHeight(150)
+            p.showGrid(x=True, y=True, alpha=0.2)
+        self.refl_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.refl_plot, pos))
+        self.coef_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.coef_plot, pos))
+        self.refl_holder.addWidget(self.refl_plot)
+        self.coef_holder.addWidget(self.coef_plot)
+        self.update_views()
+
     def update_views(self) -> None:
-        self.refl_plot.clear()
-        self.coef_plot.clear()
+        if self.refl_plot is not None:
+            self.refl_plot.clear()
+            self.coef_plot.clear()
         if self.current is None or self.current not in self.library:
             return
         m = self.library.get(self.current)
@@ -352,9 +368,20 @@ class LibraryDock(QWidget):
         self.thickness_label.setText(f"{t_um:.0f} µm")
         R, T = km_layer_rt(m.S, m.K, t_um / 1000.0)
         self._curves = {"R∞": km_r_inf(m.S, m.K), f"R0 @ {t_um:.0f} µm": R, f"T @ {t_um:.0f} µm": T}
+        self._coefs = {"S (per mm)": np.asarray(m.S, float), "K (per mm)": np.asarray(m.K, float)}
+        self._wl = wl
+        for key, bg in (("over black", (0.0, 0.0, 0.0)), ("over white", (1.0, 1.0, 1.0)),
+                        ("over skin", self.skin)):
+            self._paint_swatch(self.swatches[key], material_rgb(m, t_um, bg))
+        self._paint_swatch(self.swatches["R∞"], material_rgb(m))
+        self._update_mix()
+        if self.refl_plot is None:
+            return
+        import pyqtgraph as pg
+
         pens = {"R∞": pg.mkPen("#e0a050", width=2), f"R0 @ {t_um:.0f} µm": pg.mkPen("#50a0e0", width=2),
                 f"T @ {t_um:.0f} µm": pg.mkPen("#70d070", width=2, style=Qt.PenStyle.DashLine)}
-        for name, y in self._curves.items():
+        for name, y in list(self._curves.items()):
             self.refl_plot.plot(wl, y, pen=pens[name], name=name)
         meas = getattr(m, "measurement", None)
         if meas is not None:
@@ -366,15 +393,8 @@ class LibraryDock(QWidget):
                 y = np.asarray(getattr(meas, key), float)
                 self.refl_plot.plot(mw, y, pen=None, symbol="o", symbolSize=4, symbolBrush=colour, name=label)
                 self._curves[label] = np.interp(wl, mw, y)
-        self._coefs = {"S (per mm)": np.asarray(m.S, float), "K (per mm)": np.asarray(m.K, float)}
         self.coef_plot.plot(wl, self._coefs["S (per mm)"], pen=pg.mkPen("#d0d0d0", width=2), name="S (per mm)")
         self.coef_plot.plot(wl, self._coefs["K (per mm)"], pen=pg.mkPen("#e06060", width=2), name="K (per mm)")
-        self._wl = wl
-        for key, bg in (("over black", (0.0, 0.0, 0.0)), ("over white", (1.0, 1.0, 1.0)),
-                        ("over skin", self.skin)):
-            self._paint_swatch(self.swatches[key], material_rgb(m, t_um, bg))
-        self._paint_swatch(self.swatches["R∞"], material_rgb(m))
-        self._update_mix()
 
     @staticmethod
     def _paint_swatch(label: QLabel, rgb: tuple[int, int, int]) -> None:
@@ -382,7 +402,7 @@ class LibraryDock(QWidget):
         label.setStyleSheet(f"background: rgb{rgb}; color: {fg}; border: 1px solid #444;")
         label.setToolTip(f"sRGB {rgb}")
 
-    def _hover(self, plot: pg.PlotWidget, pos: Any) -> None:
+    def _hover(self, plot: Any, pos: Any) -> None:
         if not hasattr(self, "_wl") or not plot.sceneBoundingRect().contains(pos):
             return
         x = plot.plotItem.vb.mapSceneToView(pos).x()

@@ -78,6 +78,7 @@ class StudioWindow(QMainWindow):
         self.viewport.stroke_end.connect(self._stroke_end)
         self.viewport.light_moved.connect(self._light_moved)
         self.viewport.renderer_ready.connect(self.apply)
+        self.viewport.frame_drawn.connect(self._after_first_frame)
         self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
 
         self.layers_panel = LayersPanel()
@@ -236,6 +237,11 @@ class StudioWindow(QMainWindow):
         self.render_combo.currentTextChanged.connect(lambda t: self._set(render_mode=t))
         self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
         self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
+
+    def _after_first_frame(self, _ms: float) -> None:
+        """Deferred start-up work, once the head is on screen."""
+        self.viewport.frame_drawn.disconnect(self._after_first_frame)
+        QTimer.singleShot(0, self.library_dock.build_plots)
 
     def _show_frame_time(self) -> None:
         text = f"frame {self._frame_ms:.1f} ms"
