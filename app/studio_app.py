@@ -51,13 +51,13 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     except SheerError as exc:
         dialogs.error(None, "Sheer Studio", f"The material library could not be read: {exc}")
         return 2
-    outcome = open_document_with_progress(head, resolution, library)
+    outcome = open_document_with_progress(head, resolution, library, look)
     if isinstance(outcome, str):
         if outcome != "cancelled":
-            dialogs.error(None, "Sheer Studio", f"The head could not be opened: {outcome}")
+            dialogs.error(None, "Sheer Studio", f"The studio could not start: {outcome}")
         return 2 if outcome != "cancelled" else 0
     try:
-        win = StudioWindow(look=look, resolution=resolution, document=outcome, library=library)
+        win = StudioWindow(look="", resolution=resolution, document=outcome, library=library)
     except SheerError as exc:
         dialogs.error(None, "Sheer Studio", f"The studio could not start: {exc}")
         return 2
@@ -67,9 +67,10 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     return int(app.exec())  # type: ignore[attr-defined]
 
 
-def open_document_with_progress(head: str | None, resolution: int, library: object) -> object:
-    """Build the painting document in a worker thread (mesh cleaning, UV check or unwrap, bake) with a
-    progress dialog and Cancel; returns the document, or an error message (``"cancelled"``)."""
+def open_document_with_progress(head: str | None, resolution: int, library: object, look: str = "") -> object:
+    """Build the painting document in a worker thread (mesh cleaning, UV check or unwrap, bake, then the
+    look's strokes) with a progress dialog and Cancel; returns the document, or an error message
+    (``"cancelled"``)."""
     from PySide6.QtCore import QEventLoop
 
     from app import seams
@@ -90,9 +91,14 @@ def open_document_with_progress(head: str | None, resolution: int, library: obje
             progress(float(fraction), str(stage))  # type: ignore[operator]
 
         try:
-            return seams.open_document(Path(head) if head else None, resolution, library, progress=report)
+            doc = seams.open_document(Path(head) if head else None, resolution, library, progress=report)
         finally:
             active[0] = False
+        if look:
+            progress(1.0, f"painting the look '{look}'")  # type: ignore[operator]
+            seams.apply_look(doc, library, look)
+            doc.clear_history()
+        return doc
 
     def finish(key: str, value: object) -> None:
         outcome[key] = value
