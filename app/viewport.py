@@ -354,7 +354,14 @@ class Viewport(QOpenGLWidget):
                 self._ring = hit
                 self.stroke_move.emit(hit, self._pressure_now())
         elif self.paint_enabled:
-            self._ring = self.pick(pos)
+            # hovering moves the brush ring: quick frames while the mouse moves, a full one when it rests
+            ring = self.pick(pos)
+            if ring is None and self._ring is None:
+                return
+            self._ring = ring
+            self.begin_interaction()
+        else:
+            return  # nothing on screen depends on a hover (the kiosk)
         self.update()
 
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:
