@@ -84,8 +84,13 @@ class LightweightRenderer:
         self.makeup: Any = None
         self.pcf_radius = 2.5
         self.cull_back_faces = True
-        #: lay down depth first, then shade each visible pixel once; None = when ≥ 2 lights cast shadows
+        #: lay down depth first, then shade each visible pixel once; None = when ≥ 2 lights cast per-pixel
+        #: shadows
         self.depth_prepass: bool | None = None
+        #: "pixel" (one PCF tap per pixel and light), "vertex" (per vertex, interpolated: soft, and what
+        #: keeps 8 shadowed lights near the frame-time target on llvmpipe) or "auto" (pixel for ≤ 2
+        #: shadowed lights, vertex above)
+        self.shadow_mode = "auto"
         self.depth_program = self.shaders.program(ctx, "shadow.vert", "shadow.frag")
         self._programs: dict[tuple[int, int, int, int], Any] = {}
         self.eye_program = self.shaders.program(ctx, "lightweight_eye.vert", "lightweight_eye.frag")
@@ -134,8 +139,9 @@ class LightweightRenderer:
                 rows = rows[:u.array_length]
             u.write(np.ascontiguousarray(rows).tobytes())
 
-    def program_for(self, n_lights: int, shadows: bool, env: bool, makeup: bool) -> Any:
-        """The face program specialised for this configuration (compiled once, cached)."""
+    def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool) -> Any:
+        """The face program specialised for this configuration (compiled once, cached); ``shadows`` is
+        0 (off), 1 (per pixel) or 2 (per vertex)."""
         key = (n_lights, int(shadows), int(env), int(makeup))
         prog = self._programs.get(key)
         if prog is None:
@@ -184,7 +190,11 @@ class LightweightRenderer:
         ctx.disable(ctx.BLEND | ctx.CULL_FACE)
         if len(self.lights) > MAX_LIGHTS:
             raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
-        shadows = self.shadows_on and any(lt.shadows for lt in self.lights)
+        n_shadowed = sum(1 for lt in self.lights if lt.shadows) if self.shadows_on else 0
+        mode = self.shadow_mode if self.shadow_mode != "auto" else ("pixel" if n_shadowed <= 2 else "vertex")
+        if mode not in ("pixel", "vertex"):
+            raise RenderError(f"shadow_mode must be 'auto', 'pixel' or 'vertex', got {self.shadow_mode!r}")
+        shadows = 0 if n_shadowed == 0 else (1 if mode == "pixel" else 2)
         prog = self.program_for(len(self.lights), shadows, self.environment is not None, self.makeup is not None)
         vp = self.camera.view_projection(w / h)
         eye = tuple(float(x) for x in self.camera.eye())
@@ -211,7 +221,7 @@ class LightweightRenderer:
         self._set(prog, "u_shadow", 4)
         prepass = self.depth_prepass
         if prepass is None:
-            prepass = shadows and sum(1 for lt in self.lights if lt.shadows) >= 2
+            prepass = shadows == 1 and n_shadowed >= 2
         if prepass:
             # Early depth: lay down depth cheaply, then shade each visible pixel once (depth "==").
             fbo.color_mask = (False, False, False, False)

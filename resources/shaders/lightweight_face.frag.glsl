@@ -5,7 +5,8 @@
 // Cosmetic layers: the skin albedo is detail x diffuse; the texture-space KM outputs (R_top, T, R_bottom)
 // are applied as in the physical renderer: out = E (R_top + a T^2 / (1 - R_bottom a)).
 // Specialised at compile time (llvmpipe runs every instruction of a fragment shader, taken or not):
-// LW_NLIGHTS (0..8), LW_SHADOWS, LW_ENV, LW_MAKEUP (0/1).
+// LW_NLIGHTS (0..8), LW_SHADOWS (0 off, 1 per pixel, 2 per vertex: folded into v_e0/v_s0), LW_ENV,
+// LW_MAKEUP (0/1).
 #ifndef LW_NLIGHTS
 #define LW_NLIGHTS 1
 #endif
@@ -20,7 +21,7 @@
 in vec2 v_uv;
 in vec3 v_e0;
 in vec3 v_s0;
-#if LW_NLIGHTS > 0 && LW_SHADOWS
+#if LW_NLIGHTS > 0 && LW_SHADOWS == 1
 #define LW_PAIRS ((LW_NLIGHTS + 1) / 2)
 in vec4 v_ls[LW_PAIRS];
 in vec4 v_lpos[LW_NLIGHTS];
@@ -34,7 +35,7 @@ uniform float u_spec;              // i_s
 uniform float u_exposure;
 out vec4 o_colour;
 
-#if LW_SHADOWS
+#if LW_SHADOWS == 1
 // One hardware-filtered (2x2 PCF) comparison per light (lighting.glsl's 4 rotated taps cost 4x more on
 // llvmpipe, and with 8 lights that was most of the frame).
 float lw_shadow(int i) {
@@ -49,7 +50,7 @@ float lw_shadow(int i) {
 void main() {
     vec3 E = v_e0;
     vec3 S = v_s0;
-#if LW_NLIGHTS > 0 && LW_SHADOWS
+#if LW_NLIGHTS > 0 && LW_SHADOWS == 1
     for (int i = 0; i < LW_NLIGHTS; ++i) {
         vec3 c = u_light_col[i].rgb * lw_shadow(i);
         vec2 ls = (i & 1) == 0 ? v_ls[i >> 1].xy : v_ls[i >> 1].zw;
