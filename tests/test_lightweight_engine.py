@@ -117,3 +117,14 @@ def test_hdr_environment_adds_light(engine: Any) -> None:
     engine.environment = Environment.from_image(read_env(str(find_asset("environments/studio.exr"))), "studio", 0.5)
     lit = engine.render_image(SIZE).astype(float)
     assert _face_box(lit).mean() > _face_box(dark).mean() + 5
+
+
+def test_vertex_shadows_match_pixel_shadows(engine: Any) -> None:
+    from render.lights import Light
+
+    engine.lights = [Light.directional(60, 20, 1.0)]
+    engine.shadow_mode = "pixel"
+    pixel = engine.render_image(SIZE).astype(float)
+    engine.shadow_mode = "vertex"
+    vertex = engine.render_image(SIZE).astype(float)
+    assert np.abs(pixel - vertex).mean() < 3.0  # softer edges, same shadows
