@@ -295,7 +295,6 @@ def _bomb_png(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.mark.xfail(strict=True, reason=LAX + "Pillow's DecompressionBombError escapes painting.head._read_image")
 def test_head_texture_decompression_bomb(tmp_path: Path) -> None:
     from painting.head import load_head
 
@@ -456,7 +455,6 @@ def test_thickness_map_import(name: str, tmp_path: Path) -> None:
     raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64), scale_um=1.0), name)
 
 
-@pytest.mark.xfail(strict=True, reason=LAX + "DecompressionBombError escapes painting.maps_io._read_png")
 def test_thickness_map_decompression_bomb(tmp_path: Path) -> None:
     maps_io = _capture("painting.maps_io")
     path = _bomb_png(tmp_path)
