@@ -126,8 +126,11 @@ class LayersPanel(QWidget):
         self.list.moved.connect(lambda a, b: self.move_requested.emit(self.doc_index(a), self.doc_index(b)))
         self.list.itemChanged.connect(self._item_changed)
         self.list.currentRowChanged.connect(lambda r: self.selection_changed.emit(self.doc_index(r)))
+        # one undo step per gesture: while the handle is dragged, only its release counts
         self.opacity.sliderReleased.connect(
             lambda: self._emit_current(self.opacity_requested, self.opacity.value() / 100.0))
+        self.opacity.valueChanged.connect(
+            lambda v: None if self.opacity.isSliderDown() else self._emit_current(self.opacity_requested, v / 100.0))
         self.max_thickness.editingFinished.connect(
             lambda: self._emit_current(self.max_thickness_requested, float(self.max_thickness.value())))
         self.layer_material.activated.connect(
@@ -149,12 +152,15 @@ class LayersPanel(QWidget):
     def _item_changed(self, item: QListWidgetItem) -> None:
         if self._updating:
             return
+        # read everything first: a request rebuilds the list (and deletes this item)
         i = self.doc_index(self.list.row(item))
         name = item.text().strip()
-        if item.data(Qt.ItemDataRole.UserRole) != name and name:
-            self.rename_requested.emit(i, name)
+        renamed = bool(name) and item.data(Qt.ItemDataRole.UserRole) != name
         visible = item.checkState() == Qt.CheckState.Checked
-        if item.data(Qt.ItemDataRole.UserRole + 1) != visible:
+        toggled = item.data(Qt.ItemDataRole.UserRole + 1) != visible
+        if renamed:
+            self.rename_requested.emit(i, name)
+        elif toggled:
             self.visibility_requested.emit(i, visible)
 
     def set_materials(self, library: Any) -> None:

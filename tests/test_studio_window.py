@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
 
@@ -93,6 +94,23 @@ def test_paint_stroke_changes_the_map_then_undo_redo(window: object, qtbot: obje
     window.actions_by_id["edit.redo"].trigger()
     assert np.array_equal(layer.thickness, painted)
     qtbot.waitUntil(lambda: vp._pending_layers is None, timeout=5000)
+
+
+def test_layer_opacity_visibility_rename(window: object) -> None:
+    panel = window.layers_panel
+    panel.list.setCurrentRow(0)  # the top layer
+    top = len(window.doc.layers) - 1
+    panel.opacity.setValue(40)
+    assert window.doc.layers[top].opacity == pytest.approx(0.4)
+    item = panel.list.item(0)
+    item.setText("Lips")
+    assert window.doc.layers[top].name == "Lips"
+    panel.list.item(0).setCheckState(Qt.CheckState.Unchecked)
+    assert not window.doc.layers[top].visible
+    for _ in range(3):
+        window.undo()
+    lay = window.doc.layers[top]
+    assert lay.visible and lay.name != "Lips" and lay.opacity == pytest.approx(1.0)
 
 
 def test_reorder_layers(window: object) -> None:
