@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import Qt, Signal
+from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QIcon, QPixmap
 from PySide6.QtWidgets import (
     QAbstractItemView,
@@ -69,7 +69,8 @@ class LayerList(QListWidget):
         super().dropEvent(event)
         dst = self.currentRow()
         if src >= 0 and dst >= 0 and src != dst:
-            self.moved.emit(src, dst)
+            # after the drag has finished: the document's answer rebuilds this list
+            QTimer.singleShot(0, lambda: self.moved.emit(src, dst))
 
 
 class LayersPanel(QWidget):
