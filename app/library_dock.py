@@ -514,21 +514,32 @@ class LibraryDock(QWidget):
         path, _ = QFileDialog.getOpenFileName(self, "Import measurement", "",
                                               "Measurements (*.csv *.txt *.cgats *.cgt);;All files (*)")
         if path:
-            self.import_measurement(Path(path))
+            self.import_measurement(Path(path), background=True)
 
-    def import_measurement(self, path: Path) -> bool:
+    def import_measurement(self, path: Path, background: bool = False) -> bool:
         """Import the materials of a measurement file (CSV or X-Rite/CGATS) as one undoable step.
 
         A file that cannot be read, or that yields no material → an error dialog, library unchanged;
-        rejected rows are reported."""
+        rejected rows are reported. ``background``: read and invert in a worker (progress, Cancel) and
+        return at once."""
         from km.errors import SheerError
         from km.measurements import import_file
 
+        if background:
+            from app.workers import run_task
+
+            run_task(self, "Importing measurements", lambda p, c: import_file(path),
+                     lambda result: self._finish_import(path, result),
+                     lambda msg: dialogs.error(self, "Import measurement", f"The file could not be imported: {msg}"))
+            return True
         try:
             result = import_file(path)
         except (SheerError, OSError, ValueError) as exc:
             dialogs.error(self, "Import measurement", f"The file could not be imported: {exc}")
             return False
+        return self._finish_import(path, result)
+
+    def _finish_import(self, path: Path, result: Any) -> bool:
         if not result.accepted:
             dialogs.error(self, "Import measurement",
                           f"{Path(path).name}: no material could be imported "

@@ -296,3 +296,24 @@ def test_brush_ring_follows_the_surface(window: object, qtbot: object) -> None:
     vp._interacting = False
     with_ring = grab(window).astype(int)
     assert (np.abs(with_ring - plain).max(axis=-1) > 25).sum() > 30
+
+
+def test_measurement_import_in_background_reports_rejected_rows(window: object, qtbot: object,
+                                                                 tmp_path: Path) -> None:
+    from app import dialogs
+
+    rows = ["# name: Test Rouge", "# category: lipstick", "# D_mm: 0.02", "wavelength,R_inf,R,Rg"]
+    for wl in range(400, 701, 10):
+        r_inf = 0.1 + 0.6 * (wl - 400) / 300
+        rows.append(f"{wl},{r_inf:.4f},{0.6 * r_inf:.4f},0.04")
+    rows.insert(10, "555,abc,0.3,0.04")
+    good = tmp_path / "rouge.csv"
+    good.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    n = len(window.library.names())
+    dialogs.HISTORY.clear()
+    window.library_dock.import_measurement(good, background=True)
+    qtbot.waitUntil(lambda: len(window.library.names()) == n + 1, timeout=20000)
+    assert any("Test Rouge" in name for name in window.library.names())
+    assert dialogs.HISTORY and "rejected" in dialogs.HISTORY[-1][2]
+    window.library_dock.undo_stack.undo()
+    assert len(window.library.names()) == n
