@@ -234,7 +234,7 @@ class Renderer:
         self.km = KMTextureSpace(ctx, self.shaders, dtype=km_dtype)
         self.shadows = ShadowMaps(ctx, self.shaders, self.settings.shadow_size)
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
-        self._frame_programs: dict[int, Any] = {}
+        self._frame_programs: dict[tuple[int, int], Any] = {}
         self._fast_programs: dict[int, Any] = {}
         self._gauss = self.shaders.program(ctx, "fullscreen.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
         self._composite = self.shaders.program(ctx, "fullscreen.vert", "composite.frag")
@@ -345,10 +345,13 @@ class Renderer:
         self._size = size
 
     # -- programs ---------------------------------------------------------------------------------
-    def _frame_program(self, n: int) -> Any:
-        if n not in self._frame_programs:
-            self._frame_programs[n] = self.shaders.program(self.ctx, "mesh.vert", "frame.frag", {"NL": n})
-        return self._frame_programs[n]
+    def _frame_program(self, n: int, lights: int) -> Any:
+        """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time)."""
+        key = (n, lights)
+        if key not in self._frame_programs:
+            self._frame_programs[key] = self.shaders.program(self.ctx, "mesh.vert", "frame.frag",
+                                                             {"NL": n, "NLIGHTS": lights})
+        return self._frame_programs[key]
 
     def _fast_program(self, taps: int) -> Any:
         if taps not in self._fast_programs:
@@ -440,7 +443,7 @@ class Renderer:
 
         # 2. lit pass into the G-buffer
         n = len(self.km.active)
-        prog = self._frame_program(n)
+        prog = self._frame_program(n, len(self.lights))
         gb = self._targets["gbuffer"]
         gb.use()
         gb.viewport = (0, 0, w, h)

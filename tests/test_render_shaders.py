@@ -44,7 +44,7 @@ def test_every_shipped_shader_expands() -> None:
     names = sorted(p.name for p in lib.folders[0].glob("*.glsl") if p.name.count(".") == 2)
     assert "frame.frag.glsl" in names and "km.frag.glsl" in names
     for name in names:
-        src = lib.source(name, {"NL": 2, "NW": 81, "MAX_LAYERS": 8, "NTAPS": 17})
+        src = lib.source(name, {"NL": 2, "NLIGHTS": 3, "NW": 81, "MAX_LAYERS": 8, "NTAPS": 17})
         assert src.startswith("#version 450") and "#include" not in src
 
 

@@ -94,9 +94,10 @@ void main() {
     // diffuse irradiance (lights, shadows, environment) from the texture-space cache
     vec3 E = texture(u_irr, v_uv).rgb;
     vec4 vis0 = texture(u_vis0, v_uv);
-    vec4 vis1 = u_nlights > 4 ? texture(u_vis1, v_uv) : vec4(1.0);
+    vec4 vis1 = NLIGHTS > 4 ? texture(u_vis1, v_uv) : vec4(1.0);
     vec3 spec = vec3(0.0);
-    for (int i = 0; i < u_nlights; ++i) {
+    // NLIGHTS (a define: the program is specialised per light count) lets the loop unroll
+    for (int i = 0; i < NLIGHTS; ++i) {
         vec3 L = light_direction(i, v_pos);
         float ndl = dot(N, L);
         if (ndl <= 0.0) continue;
