@@ -186,7 +186,7 @@ class StudioWindow(QMainWindow):
         self.recent_menu.clear()
         for p in self.settings.recent_files:
             act = self.recent_menu.addAction(p)
-            act.triggered.connect(lambda _c=False, path=p: self.open_project(Path(path)))
+            act.triggered.connect(lambda _c=False, path=p: self.open_project(Path(path), background=True))
 
     def _build_toolbars(self) -> None:
         tb = QToolBar("Brush")
@@ -495,21 +495,34 @@ class StudioWindow(QMainWindow):
         self._update_title()
         self._update_actions()
 
-    def open_project(self, path: Path | None = None) -> bool:
-        from app import project_io
-        from km.errors import SheerError
-
+    def open_project(self, path: Path | None = None, background: bool = False) -> bool:
+        """Open a ``.sheer`` project (asked for when ``path`` is None). ``background``: read and check the
+        file in a worker with progress (the dialog and the Recent menu do); returns at once then."""
         if path is None:
             name, _ = QFileDialog.getOpenFileName(self, "Open project", "", "Sheer projects (*.sheer)")
             if not name:
                 return False
-            path = Path(name)
+            path, background = Path(name), True
+        path = Path(path)
+        if background:
+            from painting.project import open_project
+
+            run_task(self, "Opening the project", lambda p, c: open_project(path),
+                     lambda project: self._opened(path, project),
+                     lambda m: dialogs.error(self, "Open project", f"The project could not be opened: {m}"))
+            return True
+        return self._opened(path, path)
+
+    def _opened(self, path: Path, source: Any) -> bool:
+        from app import project_io
+        from km.errors import SheerError
+
         try:
-            self.project_name = project_io.load_project_into(self.doc, self.library, Path(path))
+            self.project_name = project_io.load_project_into(self.doc, self.library, source)
         except (SheerError, OSError, ValueError) as exc:
             dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
             return False
-        self.project_path = Path(path)
+        self.project_path = path
         if self.autosaver is not None:
             self.autosaver.project_path = self.project_path.absolute()
             self.autosaver.dirty = False

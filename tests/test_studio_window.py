@@ -227,7 +227,7 @@ def test_brush_shortcuts(window: object, qtbot: object) -> None:
     assert not window.settings.brush_mirror
 
 
-def test_project_save_open_and_autosave(window: object, tmp_path: Path) -> None:
+def test_project_save_open_and_autosave(window: object, qtbot: object, tmp_path: Path) -> None:
     from app import project_io
 
     path = tmp_path / "look.sheer"
@@ -241,6 +241,16 @@ def test_project_save_open_and_autosave(window: object, tmp_path: Path) -> None:
     assert [lay.name for lay in window.doc.layers] == names
     for lay, m in zip(window.doc.layers, maps):
         assert np.allclose(lay.thickness, m, atol=1e-3)
+    window.add_layer("Blush Peach")
+    window.open_project(path, background=True)
+    qtbot.waitUntil(lambda: [lay.name for lay in window.doc.layers] == names, timeout=20000)
+    broken = tmp_path / "broken.sheer"
+    broken.write_bytes(b"not a zip")
+    from app import dialogs
+
+    dialogs.HISTORY.clear()
+    assert not window.open_project(broken)
+    assert dialogs.HISTORY[-1][0] == "error" and [lay.name for lay in window.doc.layers] == names
     saver = project_io.make_autosaver(window._snapshot, path, 0.01)
     written = saver.autosave_now()
     assert written.is_file()
