@@ -188,6 +188,9 @@ class LightweightRenderer:
         fbo.clear(0.045, 0.047, 0.052, 1.0, depth=1.0)
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND | ctx.CULL_FACE)
+        if self.cull_back_faces:  # the head is closed and wound counter-clockwise
+            ctx.cull_face = "back"
+            ctx.enable(ctx.CULL_FACE)
         if len(self.lights) > MAX_LIGHTS:
             raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
         n_shadowed = sum(1 for lt in self.lights if lt.shadows) if self.shadows_on else 0
