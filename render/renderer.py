@@ -237,7 +237,7 @@ class Renderer:
         self._frame_programs: dict[tuple[int, int], Any] = {}
         self._fast_programs: dict[int, Any] = {}
         self._gauss = self.shaders.program(ctx, "fullscreen.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
-        self._composite = self.shaders.program(ctx, "fullscreen.vert", "composite.frag")
+        self._composites: dict[tuple[int, int], Any] = {}
         self._baseline: Any = None
         self._quads: dict[int, Any] = {}
         mask = head.skin_mask
@@ -345,12 +345,18 @@ class Renderer:
         self._size = size
 
     # -- programs ---------------------------------------------------------------------------------
-    def _frame_program(self, n: int, lights: int) -> Any:
-        """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time)."""
-        key = (n, lights)
+    def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True) -> Any:
+        """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time).
+        Makeup, debug views and the head's optional maps are compiled in or out: llvmpipe executes both
+        sides of a branch, so a uniform switch would not save their texture fetches."""
+        gh = self.gpu_head
+        key = (n, lights, int(makeup), int(debug))
         if key not in self._frame_programs:
-            self._frame_programs[key] = self.shaders.program(self.ctx, "mesh.vert", "frame.frag",
-                                                             {"NL": n, "NLIGHTS": lights})
+            self._frame_programs[key] = self.shaders.program(
+                self.ctx, "mesh.vert", "frame.frag",
+                {"NL": n, "NLIGHTS": lights, "MAKEUP": int(makeup), "DEBUG": int(debug),
+                 "HAS_SPEC_MAP": int(gh.has_specular_map), "HAS_ROUGH_MAP": int(gh.has_roughness_map),
+                 "HAS_SKIN_MASK": int(self.head.skin_mask is not None)})
         return self._frame_programs[key]
 
     def _fast_program(self, taps: int) -> Any:
@@ -358,6 +364,14 @@ class Renderer:
             self._fast_programs[taps] = self.shaders.program(self.ctx, "fullscreen.vert", "sss_fast.frag",
                                                              {"NTAPS": taps})
         return self._fast_programs[taps]
+
+    def _composite_program(self, mode: int, debug: bool) -> Any:
+        """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
+        key = (mode, int(debug))
+        if key not in self._composites:
+            self._composites[key] = self.shaders.program(self.ctx, "fullscreen.vert", "composite.frag",
+                                                         {"MODE": mode, "DEBUG": int(debug)})
+        return self._composites[key]
 
     def _quad(self, program: Any) -> Any:
         q = self._quads.get(program.glo)
@@ -443,7 +457,7 @@ class Renderer:
 
         # 2. lit pass into the G-buffer
         n = len(self.km.active)
-        prog = self._frame_program(n, len(self.lights))
+        prog = self._frame_program(n, len(self.lights), s.makeup and n > 0, DEBUG_VIEWS[s.debug_view] != 0)
         gb = self._targets["gbuffer"]
         gb.use()
         gb.viewport = (0, 0, w, h)
@@ -574,12 +588,13 @@ class Renderer:
                     self._quad(gp).render(vertices=3)
             ctx.disable(ctx.BLEND)
             t["half_b"].use(4)
-            self._set(self._composite, "u_accum_half", 4)
-            self._set(self._composite, "u_whalf", tuple(float(x) for x in whalf))
+            cp = self._composite_program(mode, debug != 0)
+            self._set(cp, "u_accum_half", 4)
+            self._set(cp, "u_whalf", tuple(float(x) for x in whalf))
             accum = t["accum"]
         else:
             accum = t["accum"]
-        cp = self._composite
+        cp = self._composite_program(mode, debug != 0)
         t["diffuse"].use(0)
         accum.use(1)
         t["factor"].use(3)
@@ -755,7 +770,7 @@ class Renderer:
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
         objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
-                           self._gauss, self._composite, self.skin_mask,
+                           self._gauss, *self._composites.values(), self.skin_mask,
                            *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)
@@ -763,6 +778,7 @@ class Renderer:
 
         release_all(self.ctx, objs)
         self._quads, self._frame_programs, self._fast_programs, self._targets = {}, {}, {}, {}
+        self._composites = {}
         self.km.release()
         self.irradiance.release()
         self.shadows.release()

@@ -20,6 +20,14 @@ uniform float u_exposure;
 uniform int u_tonemap;
 uniform ivec2 u_origin;       // the viewport's origin in the target framebuffer
 out vec4 o_colour;
+// MODE and DEBUG may be defined (specialised programs: llvmpipe runs both sides of a branch, so only
+// the fetches the mode needs are compiled in); undefined, the uniforms choose.
+#ifndef MODE
+#define MODE u_mode
+#endif
+#ifndef DEBUG
+#define DEBUG u_debug
+#endif
 void main() {
     // full-resolution inputs fetched at this pixel (no filtering: cheaper on llvmpipe)
     ivec2 p = ivec2(gl_FragCoord.xy) - u_origin;
@@ -29,15 +37,15 @@ void main() {
         return;
     }
     vec3 outer = texelFetch(u_outer, p, 0).rgb;
-    if (u_debug != 0) { o_colour = vec4(linear_to_srgb(outer), 1.0); return; }
+    if (DEBUG != 0) { o_colour = vec4(linear_to_srgb(outer), 1.0); return; }
     vec4 src = texelFetch(u_src, p, 0);
     vec3 d = src.rgb;
     if (src.a > 0.0) {
-        if (u_mode == 1) {
+        if (MODE == 1) {
             vec4 half_sum = textureLod(u_accum_half, v_uv, 0.0);
             vec3 wide = half_sum.a > 1e-3 ? half_sum.rgb / half_sum.a : src.rgb * u_whalf;
             d = src.rgb * u_w0 + texelFetch(u_accum, p, 0).rgb + wide;
-        } else if (u_mode == 2) {
+        } else if (MODE == 2) {
             vec4 wide = textureLod(u_accum, v_uv, 0.0);
             if (wide.a > 1e-3) d = src.rgb * u_w0 + wide.rgb / wide.a;
         }

@@ -4,7 +4,24 @@
 //   o_diffuse: E*T*sqrt(albedo) for the SSS blur; a = linear depth on skin, -depth elsewhere (0: background)
 //   o_outer:   R_top*E + specular (not blurred), or the debug view's colour (already final, linear)
 //   o_factor:  sqrt(albedo)*T/(1 - R_bottom*albedo) (out-scatter through the makeup); a = linear depth
-// Define NL = number of cosmetic layers (specialised program).
+// Defines (the program is specialised; llvmpipe runs both sides of every branch, so work that a
+// uniform would switch off is compiled out instead): NL = number of cosmetic layers, NLIGHTS,
+// MAKEUP (1: fetch the KM maps), DEBUG (1: debug views), HAS_SPEC_MAP, HAS_ROUGH_MAP, HAS_SKIN_MASK.
+#ifndef MAKEUP
+#define MAKEUP 1
+#endif
+#ifndef DEBUG
+#define DEBUG 1
+#endif
+#ifndef HAS_SPEC_MAP
+#define HAS_SPEC_MAP 1
+#endif
+#ifndef HAS_ROUGH_MAP
+#define HAS_ROUGH_MAP 1
+#endif
+#ifndef HAS_SKIN_MASK
+#define HAS_SKIN_MASK 1
+#endif
 #include "common.glsl"
 #include "lighting.glsl"
 #include "specular.glsl"
@@ -60,7 +77,11 @@ void main() {
     vec3 V = normalize(u_eye - v_pos);
     if (dot(Ng, V) < 0.0) Ng = -Ng;  // back faces seen through holes
     vec3 albedo = texture(u_albedo, v_uv).rgb;
+#if HAS_SKIN_MASK
     bool skin = u_has_maps.z == 0 || texture(u_skin_mask, v_uv).r > 0.5;
+#else
+    bool skin = true;
+#endif
 
     // makeup in texture space
     vec3 rtop = vec3(0.0), tr = vec3(1.0), rbot = vec3(0.0);
@@ -68,6 +89,7 @@ void main() {
     // and their roughness replaces the skin's
     float smooth_cov = 0.0, smooth_rough = u_skin_roughness;
     vec4 A0 = vec4(0.0), A1 = vec4(0.0);
+#if MAKEUP
     if (u_makeup_on > 0.5) {
         vec4 rt_full = texture(u_rtop, v_uv_paint);
         vec4 t_full = texture(u_trans, v_uv_paint);
@@ -77,8 +99,11 @@ void main() {
         smooth_cov = rt_full.a;
         smooth_rough = smooth_cov > 0.0 ? t_full.a : u_skin_roughness;
         A0 = texture(u_spec0, v_uv_paint);
-        if (NL > 4) A1 = texture(u_spec1, v_uv_paint);
+#if NL > 4
+        A1 = texture(u_spec1, v_uv_paint);
+#endif
     }
+#endif
 
     vec3 nt = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
     nt.xy *= u_normal_strength * (1.0 - 0.7 * smooth_cov);
@@ -87,14 +112,27 @@ void main() {
     vec3 N = normalize(T * nt.x + B * nt.y + Ng * max(nt.z, 1e-3));
     if (dot(N, V) < 0.0) N = normalize(N - V * dot(N, V) * 1.01);
 
-    float skin_m = mix(u_skin_roughness * (u_has_maps.y != 0 ? texture(u_rough_map, v_uv).r : 1.0),
-                       smooth_rough, smooth_cov);
-    float skin_rho = u_spec_intensity * (u_has_maps.x != 0 ? texture(u_spec_map, v_uv).r : 1.0);
+#if HAS_ROUGH_MAP
+    float rough_map = u_has_maps.y != 0 ? texture(u_rough_map, v_uv).r : 1.0;
+#else
+    float rough_map = 1.0;
+#endif
+#if HAS_SPEC_MAP
+    float spec_map = u_has_maps.x != 0 ? texture(u_spec_map, v_uv).r : 1.0;
+#else
+    float spec_map = 1.0;
+#endif
+    float skin_m = mix(u_skin_roughness * rough_map, smooth_rough, smooth_cov);
+    float skin_rho = u_spec_intensity * spec_map;
 
     // diffuse irradiance (lights, shadows, environment) from the texture-space cache
     vec3 E = texture(u_irr, v_uv).rgb;
     vec4 vis0 = texture(u_vis0, v_uv);
-    vec4 vis1 = NLIGHTS > 4 ? texture(u_vis1, v_uv) : vec4(1.0);
+#if NLIGHTS > 4
+    vec4 vis1 = texture(u_vis1, v_uv);
+#else
+    vec4 vis1 = vec4(1.0);
+#endif
     vec3 spec = vec3(0.0);
     // NLIGHTS (a define: the program is specialised per light count) lets the loop unroll
     for (int i = 0; i < NLIGHTS; ++i) {
@@ -106,13 +144,16 @@ void main() {
         vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
         // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
         // highlight below attenuated by the transmittance of the layer above it
-        vec3 s = tr * (skin_rho * kelemen(N, L, V, max(skin_m, 0.05), u_skin_f0));
-#if NL > 0
+        vec4 ksh = kelemen_shared(N, L, V);
+        vec3 s = tr * (skin_rho * kelemen_lobe(ksh, max(skin_m, 0.05), u_skin_f0));
+#if NL > 0 && MAKEUP
+        // zero-coverage layers add a * lobe = 0 (a branch would not save work on llvmpipe)
+        float ls = 0.0;
         for (int k = 0; k < NL; ++k) {
             float a = k < 4 ? A0[k] : A1[k - 4];
-            if (a <= 0.0) continue;
-            s += vec3(a * u_spec_intensity * kelemen(N, L, V, max(u_layer_spec[k].x, 0.05), u_layer_spec[k].y));
+            ls += a * kelemen_lobe(ksh, max(u_layer_spec[k].x, 0.05), u_layer_spec[k].y);
         }
+        s += vec3(ls * u_spec_intensity);
 #endif
         spec += s * Ei * ndl;
     }
@@ -123,6 +164,7 @@ void main() {
     o_outer = vec4(rtop * E + spec, 1.0);
     o_factor = vec4(out_factor, v_depth);
 
+#if DEBUG
     if (u_debug != 0) {
         vec3 c = vec3(0.0);
         if (u_debug == 1) c = albedo;
@@ -141,4 +183,5 @@ void main() {
         else if (u_debug == 6) c = rtop + albedo * tr * tr / max(vec3(1.0) - rbot * albedo, vec3(1e-4));
         o_outer = vec4(c, 1.0);
     }
+#endif
 }
