@@ -40,6 +40,9 @@ REFERENCE_TAPS = 13
 
 # texture units of the lit pass
 _U_KM, _U_MASK, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 7, 8, 9, 17, 24, 25
+#: NDC depth of an SSS pass's triangle against sss_mask.frag's classes (skin 0.25, head 0.5, background 1
+#: as window depth): _Z_HEAD (window 0.75) passes on the head, _Z_SKIN (0.375) on skin only
+_Z_HEAD, _Z_SKIN = 0.5, -0.25
 #: dilation passes of the texture-space irradiance (texels padded beyond chart borders)
 IRRADIANCE_PADDING = 4
 
@@ -236,7 +239,8 @@ class Renderer:
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
         self._frame_programs: dict[tuple[int, int], Any] = {}
         self._fast_programs: dict[int, Any] = {}
-        self._gauss = self.shaders.program(ctx, "fullscreen.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
+        self._gauss = self.shaders.program(ctx, "fullscreen_z.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
+        self._sss_mask = self.shaders.program(ctx, "fullscreen_z.vert", "sss_mask.frag")
         self._composites: dict[tuple[int, int], Any] = {}
         self._baseline: Any = None
         self._quads: dict[int, Any] = {}
@@ -332,12 +336,24 @@ class Renderer:
         t["tmp_fbo"] = self.ctx.framebuffer([t["tmp"]])
         t["accum_fbo"] = self.ctx.framebuffer([t["accum"]])
         half = ((w + 1) // 2, (h + 1) // 2)
+        # SSS pass targets with a depth mask (never written): the G-buffer's depth at full resolution,
+        # sss_mask.frag's classes at half resolution; a depth test skips the pixels a pass leaves alone
+        # two half-resolution masks: the horizontal passes' centres (the diffuse, nearest) and the vertical
+        # passes' (the horizontal result, bilinear: its alpha is what the vertical pass tests)
+        for name in ("half_depth", "half_depth_v"):
+            t[name] = self.ctx.depth_texture(half)
+            t[name.replace("depth", "mask") + "_fbo"] = self.ctx.framebuffer(depth_attachment=t[name])
+        for name in ("tmp", "accum"):
+            t[name + "_zfbo"] = self.ctx.framebuffer([t[name]], t["depth"])
         for name in ("half_a", "half_b"):
             tex = self.ctx.texture(half, 4, dtype="f2")
             tex.repeat_x = tex.repeat_y = False
             tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
             t[name] = tex
             t[name + "_fbo"] = self.ctx.framebuffer([tex])
+            t[name + "_zfbo"] = self.ctx.framebuffer([tex], t["half_depth" if name == "half_a" else "half_depth_v"])
+        for name in ("tmp_zfbo", "accum_zfbo", "half_a_zfbo", "half_b_zfbo"):
+            t[name].depth_mask = False
         t["gbuffer"].use()
         for obj in old:  # not bound: the new G-buffer is
             obj.release()
@@ -361,7 +377,7 @@ class Renderer:
 
     def _fast_program(self, taps: int) -> Any:
         if taps not in self._fast_programs:
-            self._fast_programs[taps] = self.shaders.program(self.ctx, "fullscreen.vert", "sss_fast.frag",
+            self._fast_programs[taps] = self.shaders.program(self.ctx, "fullscreen_z.vert", "sss_fast.frag",
                                                              {"NTAPS": taps})
         return self._fast_programs[taps]
 
@@ -527,22 +543,23 @@ class Renderer:
             hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
             hp = self._fast_program(s.taps)
             t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
+            self._half_mask(hrect)
+            for name in ("half_a_fbo", "half_b_fbo"):  # what the skipped pixels output (background: 0)
+                t[name].use()
+                t[name].viewport = (0, 0, hw, hh)
+                ctx.scissor = None
+                t[name].clear(0.0, 0.0, 0.0, 0.0)
             self._blur_common(hp, px_per_mm, t["diffuse"], (1.0, 0.0))
             self._write(hp, "u_kernel", k)
             self._set(hp, "u_final", 0)
-            t["half_a_fbo"].use()
-            t["half_a_fbo"].viewport = (0, 0, hw, hh)
-            ctx.scissor = hrect
-            self._quad(hp).render(vertices=3)
+            self._sss_pass(hp, t["half_a_zfbo"], (hw, hh), hrect, _Z_HEAD)
+            self._half_mask(hrect, vertical=True)
             self._blur_common(hp, px_per_mm * 0.5, t["half_a"], (0.0, 1.0))
             t["diffuse"].use(1)
             self._set(hp, "u_centre", 1)
             self._set(hp, "u_final", 1)
-            t["half_b_fbo"].use()
-            t["half_b_fbo"].viewport = (0, 0, hw, hh)
-            t["half_b_fbo"].clear(0.0, 0.0, 0.0, 0.0)
-            ctx.scissor = hrect
-            self._quad(hp).render(vertices=3)
+            self._sss_pass(hp, t["half_b_zfbo"], (hw, hh), hrect, _Z_SKIN)
+            self._end_sss()
             accum = t["half_b"]
         elif debug == 0 and s.mode == "reference":
             mode = 1
@@ -556,37 +573,41 @@ class Renderer:
             half = [g for g in gaussians if not s.reference_full_resolution and g[0] / mm_per_px >= 3.0]
             full = [g for g in gaussians if g not in half]
             whalf = np.sum([g[1] for g in half], axis=0) if half else np.zeros(3)
-            for fbo_name, size in (("accum_fbo", (w, h)), ("half_b_fbo", (hw, hh))):
+            # the passes skip the pixels whose output nothing reads (depth-tested against a mask); their
+            # targets are cleared to what those pixels would hold (background: 0)
+            for fbo_name, size in (("accum_fbo", (w, h)), ("half_b_fbo", (hw, hh)), ("tmp_fbo", (w, h)),
+                                   ("half_a_fbo", (hw, hh))):
                 t[fbo_name].use()
                 t[fbo_name].viewport = (0, 0, *size)
                 ctx.scissor = None
                 t[fbo_name].clear(0.0, 0.0, 0.0, 0.0)
-            for group, tmp_fbo, acc, size, rect_, scale in (
-                    (full, t["tmp_fbo"], t["accum_fbo"], (w, h), (rx, ry, rw, rh), 1.0),
-                    (half, t["half_a_fbo"], t["half_b_fbo"], (hw, hh), hrect, 0.5)):
+            if half:
+                t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
+                self._half_mask(hrect)
+            # full resolution: the G-buffer's depth marks the head (fragment depth 1 passes where < 1)
+            for group, tmp_fbo, acc, size, rect_, scale, z_h, z_v in (
+                    (full, t["tmp_zfbo"], t["accum_zfbo"], (w, h), (rx, ry, rw, rh), 1.0, 1.0, 1.0),
+                    (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, _Z_HEAD, _Z_SKIN)):
                 t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
                 for sigma, wt in group:
                     self._blur_common(gp, px_per_mm, t["diffuse"], (1.0, 0.0))
                     self._set(gp, "u_sigma_mm", sigma)
                     self._set(gp, "u_weight", (1.0, 1.0, 1.0))
                     self._set(gp, "u_premultiplied", 0)
-                    tmp_fbo.use()
-                    tmp_fbo.viewport = (0, 0, *size)
-                    ctx.scissor = rect_
                     ctx.disable(ctx.BLEND)
-                    self._quad(gp).render(vertices=3)
+                    self._sss_pass(gp, tmp_fbo, size, rect_, z_h)
+                    if scale != 1.0 and (sigma, wt) == group[0]:  # the same alpha after every Gaussian
+                        self._half_mask(hrect, vertical=True)
                     src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
                     self._blur_common(gp, px_per_mm * scale, src_tex, (0.0, 1.0))
                     self._set(gp, "u_weight", tuple(float(x) for x in wt))
                     self._set(gp, "u_premultiplied", 0 if scale == 1.0 else 1)
                     self._set(gp, "u_cov", 1.0 / max(len(group), 1))
-                    acc.use()
-                    acc.viewport = (0, 0, *size)
-                    ctx.scissor = rect_
                     ctx.enable(ctx.BLEND)
                     ctx.blend_func = ctx.ONE, ctx.ONE
-                    self._quad(gp).render(vertices=3)
+                    self._sss_pass(gp, acc, size, rect_, z_v)
             ctx.disable(ctx.BLEND)
+            self._end_sss()
             t["half_b"].use(4)
             cp = self._composite_program(mode, debug != 0)
             self._set(cp, "u_accum_half", 4)
@@ -608,6 +629,41 @@ class Renderer:
         ctx.scissor = None
         fbo.scissor = None
         return self.last
+
+    def _half_mask(self, hrect: tuple[int, int, int, int], vertical: bool = False) -> None:
+        """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into a half depth:
+        of the diffuse for the horizontal passes, of the horizontal result (``vertical``) for the others."""
+        ctx, t = self.ctx, self._targets
+        hw, hh = t["half_a"].size
+        t["half_a" if vertical else "diffuse"].use(0)
+        self._set(self._sss_mask, "u_src", 0)
+        self._set(self._sss_mask, "u_z", 0.0)
+        fbo = t["half_mask_v_fbo" if vertical else "half_mask_fbo"]
+        fbo.depth_mask = True
+        fbo.use()
+        fbo.viewport = (0, 0, hw, hh)
+        ctx.scissor = hrect
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = "1"  # always: the mask writes every pixel of the rectangle
+        ctx.disable(ctx.BLEND)
+        self._quad(self._sss_mask).render(vertices=3)
+
+    def _sss_pass(self, prog: Any, fbo: Any, size: tuple[int, int], rect: tuple[int, int, int, int],
+                  z: float) -> None:
+        """One full-screen SSS pass over ``rect`` of ``fbo``, only where the mask's depth is below the
+        triangle's (``z``: NDC depth, see _Z_HEAD / _Z_SKIN)."""
+        ctx = self.ctx
+        self._set(prog, "u_z", float(z))
+        fbo.use()
+        fbo.viewport = (0, 0, *size)
+        ctx.scissor = rect
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = ">"
+        self._quad(prog).render(vertices=3)
+
+    def _end_sss(self) -> None:
+        self.ctx.depth_func = "<"
+        self.ctx.disable(self.ctx.DEPTH_TEST)
 
     def _blur_common(self, prog: Any, px_per_mm: float, src: Any, direction: tuple[float, float]) -> None:
         src.use(0)
@@ -770,7 +826,7 @@ class Renderer:
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
         objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
-                           self._gauss, *self._composites.values(), self.skin_mask,
+                           self._gauss, self._sss_mask, *self._composites.values(), self.skin_mask,
                            *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)
