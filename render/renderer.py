@@ -385,7 +385,7 @@ class Renderer:
         """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
         key = (mode, int(debug))
         if key not in self._composites:
-            self._composites[key] = self.shaders.program(self.ctx, "fullscreen.vert", "composite.frag",
+            self._composites[key] = self.shaders.program(self.ctx, "mesh.vert", "composite.frag",
                                                          {"MODE": mode, "DEBUG": int(debug)})
         return self._composites[key]
 
@@ -700,8 +700,12 @@ class Renderer:
         rx, ry, rw, rh = rect
         ctx.scissor = (vx + rx, vy + ry, rw, rh)
         ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
-        if rw > 0 and rh > 0:
-            self._quad(prog).render(vertices=3)
+        if rw > 0 and rh > 0:  # the head's pixels: the lit pass's geometry, transform and culling
+            self._write(prog, "u_view_proj", self.last.view_proj.T.reshape(1, 16))
+            self._write(prog, "u_view", self.last.view.T.reshape(1, 16))
+            self._cull(True)
+            self.gpu_head.draw(prog)
+            self._cull(False)
         ctx.scissor = None
 
     def _cull(self, on: bool) -> None:

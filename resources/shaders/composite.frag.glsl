@@ -5,7 +5,8 @@
 // Gaussian, below a pixel); 2 = fast: c^2 E + the (half-resolution, premultiplied) wide part.
 // u_debug != 0: show outer (the debug view's colour) as it is.
 #include "common.glsl"
-in vec2 v_uv;
+// Drawn with the head's mesh (mesh.vert, the lit pass's geometry and culling): only the head's pixels
+// run it; the background is the target's clear colour.
 uniform sampler2D u_src;      // unblurred diffuse; a = coded depth (see frame.frag)
 uniform sampler2D u_accum;    // mode 1: sum of weighted Gaussians (full res); mode 2: wide part (rgb, coverage)
 uniform sampler2D u_factor;   // rgb: out-scatter factor; a = linear depth (0 = background)
@@ -32,6 +33,7 @@ void main() {
     // full-resolution inputs fetched at this pixel (no filtering: cheaper on llvmpipe)
     ivec2 p = ivec2(gl_FragCoord.xy) - u_origin;
     vec4 f = texelFetch(u_factor, p, 0);
+    vec2 v_uv = (vec2(p) + 0.5) / vec2(textureSize(u_factor, 0));
     if (f.a <= 0.0) {
         o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb(u_background), 1.0);
         return;
