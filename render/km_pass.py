@@ -14,7 +14,9 @@ roughness of that smoothing layer), ``r_bottom`` RGBA, and ``spec0``/``spec1`` (
 weights of layers 0–3 / 4–7: coverage × luminance transmittance of the layers above, for the
 bottom-up layered specular of the lit pass).
 Thickness maps are float32 µm; a layer's ``opacity`` scales its thickness. Only dirty 64² tiles are
-re-evaluated by :meth:`KMTextureSpace.update_tiles`.
+re-evaluated by :meth:`KMTextureSpace.update_tiles`. Which layers are non-zero in each 64² tile is
+tracked from the uploaded maps; tiles are drawn in groups of the same set of layers and each draw
+evaluates only those (an empty tile costs no spectral work; llvmpipe cannot skip a branch).
 """
 
 from __future__ import annotations
@@ -57,6 +59,18 @@ class LayerInput:
     opacity: float = 1.0
     visible: bool = True
     name: str = ""
+
+
+def tile_presence(a: np.ndarray, tile: int = TILE) -> np.ndarray:
+    """bool (rows, columns) of ``tile``² blocks: where the (cleaned, ≥ 0) map ``a`` is non-zero."""
+    h, w = a.shape
+    ty, tx = -(-h // tile), -(-w // tile)
+    nz = a > 0
+    if (h, w) != (ty * tile, tx * tile):
+        padded = np.zeros((ty * tile, tx * tile), bool)
+        padded[:h, :w] = nz
+        nz = padded
+    return nz.reshape(ty, tile, tx, tile).any(axis=(1, 3))
 
 
 def default_wavelengths() -> np.ndarray:
@@ -160,6 +174,11 @@ class KMTextureSpace:
         self.fbo: Any = None
         self.layer_spec = np.zeros((MAX_LAYERS, 4), np.float32)
         self.version = 0
+        #: per active slot, per 64² tile (row, column): the uploaded map is non-zero somewhere in it
+        self.present = np.zeros((0, 0, 0), bool)
+        self._max_tiles = 16384
+        self._cleaned: list[np.ndarray] = []
+        self.vbo = ctx.buffer(reserve=self._max_tiles * 6 * 8)
         self._alloc((1, 1))
         self._clear_outputs()
 
@@ -188,7 +207,7 @@ class KMTextureSpace:
         self.fbo.scissor = None
         self.ctx.clear_color = (0, 0, 0, 0)
         # attachment 1 (T) must be 1: clear all, then draw the empty stack
-        self._draw(None)
+        self._draw([])
 
     def _set_thickness_textures(self, n: int, size: tuple[int, int]) -> None:
         for t in self.thickness_textures[n:]:
@@ -248,6 +267,7 @@ class KMTextureSpace:
         self.active = [i for i, lay in enumerate(layers) if lay.visible and lay.opacity > 0]
         self.version += 1
         if not self.active or shape is None:
+            self.present = np.zeros((0, 0, 0), bool)
             self._set_thickness_textures(0, (1, 1))
             self._alloc((1, 1))
             self._clear_outputs()
@@ -255,16 +275,33 @@ class KMTextureSpace:
         size = (shape[1], shape[0])
         self._alloc(size)
         self._set_thickness_textures(len(self.active), size)
+        self._cleaned = []
         for slot, i in enumerate(self.active):
             a = np.array(layers[i].thickness, dtype=np.float32, order="C")  # one copy, cleaned in place
             np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
             np.maximum(a, 0.0, out=a)
             self.thickness_textures[slot].write(a)
+            self._cleaned.append(a)
         self._upload_params()
+        self.present = np.stack([tile_presence(self._cleaned[slot]) for slot in range(len(self.active))])
+        self._cleaned = []
         self.fbo.use()
         self.fbo.viewport = (0, 0, *size)
         self.fbo.scissor = None
-        self._draw(size)
+        ty, tx = self.present.shape[1:]
+        self._draw_tiles([(c, r) for r in range(ty) for c in range(tx)])
+
+    def _draw_tiles(self, tiles: list[tuple[int, int]], tile: int = TILE) -> None:
+        """Evaluate tiles (column, row), grouped by the set of layers non-zero in them."""
+        w, h = self.size
+        groups: dict[tuple[int, ...], list[tuple[int, int, int, int]]] = {}
+        for tx, ty in tiles:
+            x0, y0 = tx * tile, ty * tile
+            key = tuple(int(s) for s in np.flatnonzero(self.present[:, ty, tx]))
+            groups.setdefault(key, []).append((x0, y0, min(x0 + tile, w) - x0, min(y0 + tile, h) - y0))
+        for slots, rects in groups.items():
+            for k in range(0, len(rects), self._max_tiles):
+                self._draw(list(slots), rects[k:k + self._max_tiles])
 
     def update_tiles(self, layer_index: int, thickness: np.ndarray | None,
                      tiles: list[tuple[int, int]], tile: int = TILE) -> None:
@@ -286,21 +323,35 @@ class KMTextureSpace:
         tex = self.thickness_textures[slot]
         self.fbo.use()
         self.fbo.viewport = (0, 0, w, h)
-        rects = []
+        done = []
         for tx, ty in tiles:
             x0, y0 = int(tx) * tile, int(ty) * tile
-            if x0 >= w or y0 >= h or x0 < 0 or y0 < 0:
+            if x0 >= w or y0 >= h or x0 < 0 or y0 < 0 or (int(tx), int(ty)) in done:
                 continue
             x1, y1 = min(x0 + tile, w), min(y0 + tile, h)
             block = np.ascontiguousarray(np.clip(np.nan_to_num(a[y0:y1, x0:x1], nan=0.0), 0, None),
                                          dtype=np.float32)
             tex.write(block.tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
-            rects.append((x0, y0, x1 - x0, y1 - y0))
-        for r in rects:  # the viewport is the tile: only its texels are rasterised
-            self.fbo.viewport = r
-            self._draw((w, h))
+            done.append((int(tx), int(ty)))
+            if tile == TILE:
+                self.present[slot, ty, tx] = bool((block > 0).any())
+            else:  # other tile sizes: refresh the 64² tiles they touch from the whole map
+                self._refresh_presence(slot, a, x0, y0, x1, y1)
+        if tile == TILE:
+            self._draw_tiles(done)
+        else:
+            self._draw_tiles(sorted({(c, r) for tx, ty in done
+                                     for c in range(tx * tile // TILE, -(-min((tx + 1) * tile, w) // TILE))
+                                     for r in range(ty * tile // TILE, -(-min((ty + 1) * tile, h) // TILE))}))
         self.fbo.viewport = (0, 0, w, h)
         self.version += 1
+
+    def _refresh_presence(self, slot: int, a: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> None:
+        h, w = a.shape
+        for r in range(y0 // TILE, -(-y1 // TILE)):
+            for c in range(x0 // TILE, -(-x1 // TILE)):
+                blk = np.nan_to_num(a[r * TILE:min((r + 1) * TILE, h), c * TILE:min((c + 1) * TILE, w)], nan=0.0)
+                self.present[slot, r, c] = bool((blk > 0).any())
 
     def refresh_materials(self) -> None:
         """Re-read the layers' materials (e.g. edited in the library) and re-evaluate everything."""
@@ -309,33 +360,53 @@ class KMTextureSpace:
     def _program(self, n: int) -> tuple[Any, Any]:
         """The KM program specialised for ``n`` layers (loops over layers unrolled) and its quad."""
         if n not in self._programs:
-            prog = self.shaders.program(self.ctx, "fullscreen.vert", "km.frag",
+            prog = self.shaders.program(self.ctx, "km_tiles.vert", "km.frag",
                                         {"NW": len(self.wavelengths), "MAX_LAYERS": MAX_LAYERS, "NL": n})
-            self._programs[n] = (prog, self.ctx.vertex_array(prog, []))
+            self._programs[n] = (prog, self.ctx.vertex_array(prog, [(self.vbo, "2f", "in_pos")]))
         return self._programs[n]
 
-    def _draw(self, size: tuple[int, int] | None) -> None:
-        n = 0 if size is None else len(self.active)
+    def _draw(self, slots: list[int], rects: list[tuple[int, int, int, int]] | None = None) -> None:
+        """Evaluate the active layers ``slots`` (bottom first; the others must be zero there) over
+        ``rects`` (x, y, width, height in texels; None = the whole target)."""
+        n = len(slots)
         program, quad = self._program(n)
-        for slot in range(n):
-            self.thickness_textures[slot].use(slot)
+        for i, slot in enumerate(slots):
+            self.thickness_textures[slot].use(i)
         self.ubo.bind_to_uniform_block(0)
         if "u_nlayers" in program:
             program["u_nlayers"] = n
         scales = np.zeros(MAX_LAYERS, np.float32)
-        for slot, i in enumerate(self.active[:n]):
-            scales[slot] = 1e-3 * self.layers[i].opacity  # µm → mm, opacity scales thickness
+        spec = np.zeros((MAX_LAYERS, 4), np.float32)
+        slot_ids = np.zeros(MAX_LAYERS, np.int32)
+        for i, slot in enumerate(slots):
+            scales[i] = 1e-3 * self.layers[self.active[slot]].opacity  # µm → mm, opacity scales thickness
+            spec[i] = self.layer_spec[slot]
+            slot_ids[i] = slot
         if "u_scale" in program:
             u = program["u_scale"]
             program["u_scale"].write(scales[:max(u.array_length, 1)].tobytes())
         if "u_layer_spec" in program:
             u = program["u_layer_spec"]
-            u.write(self.layer_spec[:max(u.array_length, 1)].tobytes())
+            u.write(spec[:max(u.array_length, 1)].tobytes())
+        if "u_slot" in program:
+            u = program["u_slot"]
+            u.write(slot_ids[:max(u.array_length, 1)].tobytes())
         if "u_thick" in program:
             u = program["u_thick"]
             u.value = list(range(u.array_length)) if u.array_length > 1 else 0
         self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND | self.ctx.CULL_FACE)
-        quad.render(mode=self.ctx.TRIANGLES, vertices=3)
+        if rects is None:
+            verts = np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
+        else:  # two triangles per rectangle, in NDC of the whole target
+            w, h = self.size
+            r = np.asarray(rects, np.float64)
+            x0, y0 = r[:, 0] / w * 2.0 - 1.0, r[:, 1] / h * 2.0 - 1.0
+            x1, y1 = (r[:, 0] + r[:, 2]) / w * 2.0 - 1.0, (r[:, 1] + r[:, 3]) / h * 2.0 - 1.0
+            verts = np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1), np.stack([x1, y1], 1),
+                              np.stack([x0, y0], 1), np.stack([x1, y1], 1), np.stack([x0, y1], 1)],
+                             axis=1).reshape(-1, 2).astype(np.float32)
+        self.vbo.write(verts.tobytes())
+        quad.render(mode=self.ctx.TRIANGLES, vertices=len(verts))
 
     # -- outputs -----------------------------------------------------------------------------------
     def bind(self, start_unit: int) -> None:
@@ -364,7 +435,7 @@ class KMTextureSpace:
         progs = [o for pair in self._programs.values() for o in pair[::-1]]
         self._programs = {}
         release_all(self.ctx, (self.fbo, self.r_top, self.transmittance, self.r_bottom, self.spec0, self.spec1,
-                               *progs, self.ubo,
+                               *progs, self.ubo, self.vbo,
                                *self.thickness_textures))
         self.thickness_textures = []
         self.fbo = None

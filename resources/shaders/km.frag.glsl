@@ -1,6 +1,11 @@
 #version 450 core
 // Texture-space Kubelka-Munk stack, spectral per texel (see render/km_pass.py).
-// Defines: NW (wavelength count), MAX_LAYERS.
+// Defines: NW (wavelength count), MAX_LAYERS, NL (layers this draw evaluates).
+// A draw evaluates only the layers that are non-zero somewhere in the texels it covers (llvmpipe does
+// not skip a branch, so a layer that is zero everywhere would still cost its 81 wavelengths): sampler
+// i and u_scale[i] / u_layer_spec[i] are the draw's i-th layer (bottom first), u_slot[i] its index in
+// the stack, which places its specular weight in o_spec0/o_spec1. Layers left out are zero in every
+// texel of the draw, where they would change nothing (R0 = 0, T = 1, coverage 0).
 #include "km.glsl"
 
 layout(std140, binding = 0) uniform KMParams {
@@ -11,6 +16,7 @@ uniform vec4 u_layer_spec[MAX_LAYERS];   // roughness, F0, smooths skin (1/0), c
 uniform sampler2D u_thick[MAX_LAYERS];  // µm
 uniform float u_scale[MAX_LAYERS];       // µm -> mm times opacity
 uniform int u_nlayers;  // == NL (the program is specialised per layer count)
+uniform int u_slot[MAX_LAYERS];          // stack index of the draw's i-th layer
 
 layout(location = 0) out vec4 o_rtop;
 layout(location = 1) out vec4 o_t;
@@ -46,7 +52,7 @@ void main() {
             // X = 0 gives R0 = 0, T = 1 exactly: skipping is only faster (regions of one layer are
             // coherent, so llvmpipe skips whole blocks)
             if (X[i] <= 0.0) continue;
-            vec4 skb = u_skb[i * NW + w];
+            vec4 skb = u_skb[u_slot[i] * NW + w];
             vec2 rt0 = km_layer(skb.x, skb.y, skb.z, X[i]);
             km_put_on_top(rt0.x, rt0.y, R, Rb, T);
             tl[i] += u_rgb[w].w * rt0.y;
@@ -66,6 +72,12 @@ void main() {
         if (ls.z > 0.5 && c > smooth_cov) { smooth_cov = c; smooth_rough = ls.x; }
     }
     o_rtop = vec4(rt, smooth_cov); o_t = vec4(tt, smooth_rough); o_rbottom = vec4(rb, 1.0);
-    o_spec0 = vec4(A[0], A[1], A[2], A[3]);
-    o_spec1 = vec4(A[4], A[5], A[6], A[7]);
+    vec4 s0 = vec4(0.0), s1 = vec4(0.0);
+    for (int i = 0; i < NL; ++i) {
+        int k = u_slot[i];
+        s0 += vec4(equal(ivec4(0, 1, 2, 3), ivec4(k))) * A[i];
+        s1 += vec4(equal(ivec4(4, 5, 6, 7), ivec4(k))) * A[i];
+    }
+    o_spec0 = s0;
+    o_spec1 = s1;
 }
