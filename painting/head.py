@@ -86,6 +86,10 @@ class HeadMetadata:
         unknown = set(data) - known - {"schema_version"}
         if unknown:
             raise HeadError(f"{source}: unknown field(s) {sorted(unknown)}")
+        if not isinstance(data.get("name", ""), str):
+            raise HeadError(f"{source}: field 'name' must be a string")
+        if isinstance(data.get("mm_per_unit"), bool):
+            raise HeadError(f"{source}: field 'mm_per_unit' must be a number")
         try:
             mm = float(data["mm_per_unit"])
             name = str(data["name"])
@@ -235,7 +239,7 @@ def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> H
         if candidate.is_file():
             try:
                 data = json.loads(candidate.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
                 raise HeadError(f"{candidate}: cannot read head metadata: {exc}") from None
             return HeadMetadata.from_json(data, str(candidate))
     height = 1.0

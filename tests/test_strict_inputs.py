@@ -194,11 +194,8 @@ def test_head_metadata_sidecars(case: str, tmp_path: Path) -> None:
     raises_clean(lambda: load_metadata(mesh), "m.obj.sheer-head.json", fragment)
 
 
-@pytest.mark.parametrize("case", [
-    pytest.param("deep", marks=pytest.mark.xfail(strict=True, reason=LAX + "RecursionError escapes load_metadata")),
-    pytest.param("types", marks=pytest.mark.xfail(strict=True, reason=LAX + "name/mm_per_unit accept any type")),
-])
-def test_head_metadata_sidecars_lax(case: str, tmp_path: Path) -> None:
+@pytest.mark.parametrize("case", ["deep", "types"])
+def test_head_metadata_sidecars_deep_and_types(case: str, tmp_path: Path) -> None:
     from painting.head import load_metadata
 
     data = DEEP_JSON.encode() if case == "deep" else \
