@@ -18,6 +18,7 @@ layers.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -79,7 +80,10 @@ class Look:
             if not isinstance(lay, dict) or not isinstance(lay.get("material"), str):
                 raise LookError(f"{where}: needs a 'material' name")
             strokes = []
-            for j, st in enumerate(lay.get("strokes", [])):
+            strokes_raw = lay.get("strokes", [])
+            if not isinstance(strokes_raw, list):
+                raise LookError(f"{where}: 'strokes' must be a list")
+            for j, st in enumerate(strokes_raw):
                 w = f"{where}.strokes[{j}]"
                 if not isinstance(st, dict):
                     raise LookError(f"{w}: must be an object")
@@ -89,6 +93,14 @@ class Look:
                 pts = st.get("points")
                 if not isinstance(pts, list) or not pts:
                     raise LookError(f"{w}: 'points' must be a non-empty list")
+                for key in ("radius_mm", "hardness", "strength", "amount_um", "flow", "spacing"):
+                    value = st.get(key)
+                    if value is None and (key == "amount_um" or key not in st):
+                        continue
+                    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                        raise LookError(f"{w}.{key}: must be a finite number, got {value!r}")
+                if not isinstance(st.get("mode", "add"), str) or not isinstance(st.get("mirror", False), bool):
+                    raise LookError(f"{w}: 'mode' must be a string and 'mirror' true or false")
                 try:
                     strokes.append(LookStroke(**st))
                 except TypeError as exc:
@@ -121,7 +133,7 @@ def load_look(name_or_path: str | Path) -> Look:
         data = json.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise LookError(f"{p}: look file not found") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise LookError(f"{p}: cannot read look: {exc}") from None
     return Look.from_json(data, str(p))
 
