@@ -6,7 +6,8 @@ the baseline (same mesh and albedo texture, one Lambert light, no post-processin
 reference modes, their ratios, the mean ΔE2000 between fast and reference on skin pixels, and the KM
 update times for full 2048² four-layer maps (the ``evening`` look painted at 2048², a realistic map:
 foundation over the face, blush, eyeshadow, lipstick) and for one 64² dirty tile. Extra keys:
-``km_full_2048_dense_ms`` (worst case: all four layers non-zero on every texel), per-tap fast timings,
+``km_full_2048_dense_ms`` (worst case: all four layers non-zero on every texel), ``km_tile_64_dense_ms``
+(one tile of those dense maps: all four layers in it), per-tap fast timings,
 ``size``, ``frames`` and the GL renderer string. Lights stay fixed, so shadow maps are cached after the
 first frame (as when orbiting in the studio), and so is the texture-space irradiance (see
 :class:`render.renderer.TextureIrradiance`); ``fast_relight_ms`` is a fast frame that recomputes both
@@ -106,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
         dense = [LayerInput(lay.material, (1.0 + rng.random(lay.thickness.shape, np.float32) * 20.0))
                  for lay in layers]
         out["km_full_2048_dense_ms"] = _median_ms(ctx, lambda: r.set_layers(dense), 2, 1)
+        # worst-case tile: all four layers non-zero in it
+        out["km_tile_64_dense_ms"] = _median_ms(ctx, lambda: r.update_tiles(0, None, [tile]), args.frames, 2)
         r.set_layers(layers)
 
         # frames: modes interleaved round-robin, so a CPU shared with other work weighs on all alike

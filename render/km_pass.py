@@ -31,6 +31,8 @@ from render.errors import RenderError
 
 MAX_LAYERS = 8
 TILE = 64
+#: updates of at most this many tiles evaluate each in a scratch target across two rasteriser bins
+SPLIT_TILES = 4
 #: material categories whose coverage smooths the skin (their roughness replaces the skin's)
 SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
 #: luminance weights of linear sRGB
@@ -178,6 +180,10 @@ class KMTextureSpace:
         self.present = np.zeros((0, 0, 0), bool)
         self._max_tiles = 16384
         self._cleaned: list[np.ndarray] = []
+        self._scratch: list[Any] = []
+        self._scratch_fbo: Any = None
+        self._copy: Any = None
+        self._copy_vao: Any = None
         self.vbo = ctx.buffer(reserve=self._max_tiles * 6 * 8)
         self._alloc((1, 1))
         self._clear_outputs()
@@ -300,8 +306,36 @@ class KMTextureSpace:
             key = tuple(int(s) for s in np.flatnonzero(self.present[:, ty, tx]))
             groups.setdefault(key, []).append((x0, y0, min(x0 + tile, w) - x0, min(y0 + tile, h) - y0))
         for slots, rects in groups.items():
+            if slots and len(tiles) <= SPLIT_TILES:
+                for rect in rects:
+                    self._draw_split(list(slots), rect)
+                continue
             for k in range(0, len(rects), self._max_tiles):
                 self._draw(list(slots), rects[k:k + self._max_tiles])
+
+    def _draw_split(self, slots: list[int], rect: tuple[int, int, int, int]) -> None:
+        """Evaluate one tile in a scratch target where it straddles two of llvmpipe's 64² bins (so both
+        rasteriser threads share it: a tile aligned in the maps is one bin, one thread), then copy it."""
+        ctx = self.ctx
+        x0, y0, tw, th = rect
+        if self._scratch_fbo is None:
+            self._scratch = [ctx.texture((2 * TILE, TILE), 4, dtype=self.dtype) for _ in range(3)]
+            self._scratch += [ctx.texture((2 * TILE, TILE), 4, dtype="f2") for _ in range(2)]
+            self._scratch_fbo = ctx.framebuffer(self._scratch)
+            self._copy = self.shaders.program(ctx, "km_tiles.vert", "km_copy.frag")
+            self._copy_vao = ctx.vertex_array(self._copy, [(self.vbo, "2f", "in_pos")])
+        sx = TILE // 2
+        self._scratch_fbo.use()
+        self._scratch_fbo.viewport = (0, 0, 2 * TILE, TILE)
+        self._draw(slots, [(sx, 0, tw, th)], offset=(x0 - sx, y0), target=(2 * TILE, TILE))
+        self.fbo.use()
+        self.fbo.viewport = (0, 0, *self.size)
+        for i, tex in enumerate(self._scratch):
+            tex.use(i)
+        self._copy["u_src"].value = list(range(5))
+        self._copy["u_offset"].value = (x0 - sx, y0)
+        self._write_rects([rect], self.size)
+        self._copy_vao.render(mode=ctx.TRIANGLES, vertices=6)
 
     def update_tiles(self, layer_index: int, thickness: np.ndarray | None,
                      tiles: list[tuple[int, int]], tile: int = TILE) -> None:
@@ -365,9 +399,27 @@ class KMTextureSpace:
             self._programs[n] = (prog, self.ctx.vertex_array(prog, [(self.vbo, "2f", "in_pos")]))
         return self._programs[n]
 
-    def _draw(self, slots: list[int], rects: list[tuple[int, int, int, int]] | None = None) -> None:
+    def _write_rects(self, rects: list[tuple[int, int, int, int]] | None, size: tuple[int, int]) -> int:
+        """Put two triangles per rectangle (pixels of a ``size`` target; None = one full-screen
+        triangle) in the vertex buffer; returns the vertex count."""
+        if rects is None:
+            verts = np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
+        else:
+            w, h = size
+            r = np.asarray(rects, np.float64)
+            x0, y0 = r[:, 0] / w * 2.0 - 1.0, r[:, 1] / h * 2.0 - 1.0
+            x1, y1 = (r[:, 0] + r[:, 2]) / w * 2.0 - 1.0, (r[:, 1] + r[:, 3]) / h * 2.0 - 1.0
+            verts = np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1), np.stack([x1, y1], 1),
+                              np.stack([x0, y0], 1), np.stack([x1, y1], 1), np.stack([x0, y1], 1)],
+                             axis=1).reshape(-1, 2).astype(np.float32)
+        self.vbo.write(verts.tobytes())
+        return len(verts)
+
+    def _draw(self, slots: list[int], rects: list[tuple[int, int, int, int]] | None = None,
+              offset: tuple[int, int] = (0, 0), target: tuple[int, int] | None = None) -> None:
         """Evaluate the active layers ``slots`` (bottom first; the others must be zero there) over
-        ``rects`` (x, y, width, height in texels; None = the whole target)."""
+        ``rects`` (x, y, width, height in pixels of the bound target, of size ``target``, default the
+        maps; None = all of it); map texel = pixel + ``offset``."""
         n = len(slots)
         program, quad = self._program(n)
         for i, slot in enumerate(slots):
@@ -394,19 +446,10 @@ class KMTextureSpace:
         if "u_thick" in program:
             u = program["u_thick"]
             u.value = list(range(u.array_length)) if u.array_length > 1 else 0
+        if "u_offset" in program:
+            program["u_offset"].value = tuple(int(v) for v in offset)
         self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND | self.ctx.CULL_FACE)
-        if rects is None:
-            verts = np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
-        else:  # two triangles per rectangle, in NDC of the whole target
-            w, h = self.size
-            r = np.asarray(rects, np.float64)
-            x0, y0 = r[:, 0] / w * 2.0 - 1.0, r[:, 1] / h * 2.0 - 1.0
-            x1, y1 = (r[:, 0] + r[:, 2]) / w * 2.0 - 1.0, (r[:, 1] + r[:, 3]) / h * 2.0 - 1.0
-            verts = np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1), np.stack([x1, y1], 1),
-                              np.stack([x0, y0], 1), np.stack([x1, y1], 1), np.stack([x0, y1], 1)],
-                             axis=1).reshape(-1, 2).astype(np.float32)
-        self.vbo.write(verts.tobytes())
-        quad.render(mode=self.ctx.TRIANGLES, vertices=len(verts))
+        quad.render(mode=self.ctx.TRIANGLES, vertices=self._write_rects(rects, target or self.size))
 
     # -- outputs -----------------------------------------------------------------------------------
     def bind(self, start_unit: int) -> None:
@@ -435,7 +478,8 @@ class KMTextureSpace:
         progs = [o for pair in self._programs.values() for o in pair[::-1]]
         self._programs = {}
         release_all(self.ctx, (self.fbo, self.r_top, self.transmittance, self.r_bottom, self.spec0, self.spec1,
-                               *progs, self.ubo, self.vbo,
+                               *progs, self.ubo, self.vbo, self._copy_vao, self._copy, self._scratch_fbo,
+                               *self._scratch,
                                *self.thickness_textures))
         self.thickness_textures = []
         self.fbo = None

@@ -17,6 +17,7 @@ uniform sampler2D u_thick[MAX_LAYERS];  // µm
 uniform float u_scale[MAX_LAYERS];       // µm -> mm times opacity
 uniform int u_nlayers;  // == NL (the program is specialised per layer count)
 uniform int u_slot[MAX_LAYERS];          // stack index of the draw's i-th layer
+uniform ivec2 u_offset;                  // texel = pixel + u_offset (0, or a tile drawn in the scratch target)
 
 layout(location = 0) out vec4 o_rtop;
 layout(location = 1) out vec4 o_t;
@@ -28,7 +29,7 @@ layout(location = 3) out vec4 o_spec0;   // layers 0-3
 layout(location = 4) out vec4 o_spec1;   // layers 4-7
 
 void main() {
-    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 p = ivec2(gl_FragCoord.xy) + u_offset;
     float X[NL + 1];
     bool any_layer = false;
     for (int i = 0; i < NL; ++i) {
