@@ -105,7 +105,7 @@ def load_mask(path: str | Path, shape: tuple[int, int]) -> np.ndarray:
             m = np.asarray(im.convert("L")) >= 128
     except FileNotFoundError:
         raise MaskError(f"{path}: mask file not found") from None
-    except (UnidentifiedImageError, OSError) as exc:
+    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
         raise MaskError(f"{path}: cannot read the mask: {exc}") from None
     if m.shape != shape:
         raise MaskError(f"{path}: the mask is {m.shape[1]}×{m.shape[0]} but the photo is {shape[1]}×{shape[0]}")

@@ -71,7 +71,7 @@ def read_photo(path: str | Path) -> np.ndarray:
             arr = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
     except FileNotFoundError:
         raise CaptureError(f"{path}: photo not found") from None
-    except (UnidentifiedImageError, OSError) as exc:
+    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
         raise CaptureError(f"{path}: cannot read the image: {exc}") from None
     return srgb_to_linear(arr)
 
@@ -408,12 +408,18 @@ def load_face(folder: str | Path) -> Face:
         data = json.loads((folder / "face.json").read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise CaptureError(f"{folder}: not a face folder (no face.json)") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise CaptureError(f"{folder / 'face.json'}: cannot read: {exc}") from None
+    if not isinstance(data, dict):
+        raise CaptureError(f"{folder / 'face.json'}: must be a JSON object")
     if data.get("schema_version") != FACE_SCHEMA_VERSION:
         raise CaptureError(f"{folder / 'face.json'}: unsupported schema_version {data.get('schema_version')!r}")
     try:
         detail = np.asarray(OpenEXR.File(str(folder / "detail.exr")).channels()["RGB"].pixels, dtype=np.float32)
     except Exception as exc:  # OpenEXR raises plain exceptions for missing/corrupt files
         raise CaptureError(f"{folder / 'detail.exr'}: cannot read the detail texture: {exc}") from None
-    return Face(params=PhongParams.from_json(data["phong"]), detail=detail, data=data)
+    try:
+        params = PhongParams.from_json(data["phong"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CaptureError(f"{folder / 'face.json'}: missing or malformed Phong parameters ({exc!r})") from None
+    return Face(params=params, detail=detail, data=data)
