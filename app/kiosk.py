@@ -12,6 +12,7 @@ import hashlib
 import hmac
 import json
 import logging
+import math
 import os
 import secrets
 import time
@@ -88,9 +89,12 @@ class KioskConfig:
             data = json.loads(path.read_text(encoding="utf-8"))
             if isinstance(data, dict):
                 for k in asdict(cfg):
-                    if k in data and isinstance(data[k], type(getattr(cfg, k))):
-                        setattr(cfg, k, data[k])
-        except (OSError, ValueError) as exc:
+                    value = data.get(k)
+                    if isinstance(value, float) and not math.isfinite(value):
+                        continue  # NaN/inf would defeat the clamping below
+                    if k in data and isinstance(value, type(getattr(cfg, k))):
+                        setattr(cfg, k, value)
+        except (OSError, ValueError, RecursionError) as exc:
             if path.exists():
                 log.warning("kiosk config %s unreadable (%s); using defaults", path, exc)
         if not cfg.pin_hash:
