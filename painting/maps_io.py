@@ -185,6 +185,13 @@ def _read_exr(p: Path) -> np.ndarray:
 
     if not p.is_file():
         raise MapError(f"{p}: file not found")
+    try:  # the size from the header first, so a huge image is refused before it is decompressed
+        (x0, y0), (x1, y1) = OpenEXR.File(str(p), header_only=True).header()["dataWindow"]
+        width, height = int(x1) - int(x0) + 1, int(y1) - int(y0) + 1
+    except Exception as exc:
+        raise MapError(f"{p}: cannot read EXR header: {exc}") from None
+    if max(width, height) > MAX_SIDE:
+        raise MapError(f"{p}: image is {width}×{height}, over the {MAX_SIDE} limit")
     try:
         f = OpenEXR.File(str(p), separate_channels=True)
         channels = f.channels()

@@ -508,3 +508,10 @@ def test_kiosk_config_falls_back_to_sane_defaults(case: str, tmp_path: Path) -> 
     except Exception as exc:
         pytest.fail(f"raised {type(exc).__name__}: {exc}")
     assert 5.0 <= cfg.idle_seconds <= 3600.0 and 2.0 <= cfg.look_seconds <= 120.0
+
+
+def test_thickness_map_exr_too_large_is_refused_from_its_header(tmp_path: Path) -> None:
+    maps_io = _capture("painting.maps_io")
+    path = tmp_path / "wide.exr"
+    path.write_bytes(_exr(np.zeros((1, maps_io.MAX_SIDE + 1), np.float32)))
+    raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64)), "wide.exr", "limit")
