@@ -63,6 +63,8 @@ class StudioWindow(QMainWindow):
         self.doc = document if document is not None else seams.open_document(head_path, resolution, self.library)
         self.project_path: Path | None = None
         self.project_name = "Untitled"
+        self.project: Any = None  # the painting.project.Project last opened or saved (the base of the next save)
+        self.look_record: dict[str, Any] | None = {"name": look, "tags": []} if look else None
         self._stroke: Any = None
         self._stroke_cm: Any = None
         self.selected_layer = 0
@@ -171,6 +173,17 @@ class StudioWindow(QMainWindow):
             act.triggered.connect(lambda _checked=False, h=handler: h())
             menus[spec.menu].addAction(act)
             self.actions_by_id[spec.id] = act
+        act = QAction("Save Self-&Contained…", self)
+        act.setObjectName("file.save_self_contained")
+        act.setStatusTip("Save a copy of the project with the head embedded (opens without the head file)")
+        act.triggered.connect(lambda _checked=False: self.save_self_contained())
+        self.actions_by_id["file.save_self_contained"] = act
+        file_actions = menus["File"].actions()
+        after = file_actions.index(self.actions_by_id["file.save_as"]) + 1
+        if after < len(file_actions):
+            menus["File"].insertAction(file_actions[after], act)
+        else:
+            menus["File"].addAction(act)
         self.recent_menu = menus["File"].addMenu("Recent Projects")
         self._update_actions()
 
@@ -178,6 +191,8 @@ class StudioWindow(QMainWindow):
         ctx = self.context()
         for spec in STUDIO_ACTIONS:
             self.actions_by_id[spec.id].setEnabled(is_enabled(spec, ctx))
+        if "file.save_self_contained" in self.actions_by_id:
+            self.actions_by_id["file.save_self_contained"].setEnabled(ctx["has_project_io"])
         s = self.settings
         for aid, on in (("brush.eraser", s.brush_mode == "erase"), ("brush.smooth", s.brush_mode == "smooth"),
                         ("brush.mirror", s.brush_mirror), ("view.split", s.split > 0),
@@ -491,38 +506,92 @@ class StudioWindow(QMainWindow):
             self.autosaver.close()
             self.autosaver.project_path = None
         self.project_path, self.project_name = None, "Untitled"
+        self.project, self.look_record = None, {"name": "bare", "tags": []}
         self.setWindowModified(False)
         self._update_title()
         self._update_actions()
 
     def open_project(self, path: Path | None = None, background: bool = False) -> bool:
         """Open a ``.sheer`` project (asked for when ``path`` is None). ``background``: read and check the
-        file in a worker with progress (the dialog and the Recent menu do); returns at once then."""
+        file in a worker with progress (the dialog and the Recent menu do); returns at once then, else
+        returns whether the project was opened. A missing or changed head offers to relink
+        (:meth:`_offer_relink`); nothing in the current document changes unless the open succeeds."""
         if path is None:
             name, _ = QFileDialog.getOpenFileName(self, "Open project", "", "Sheer projects (*.sheer)")
             if not name:
                 return False
             path, background = Path(name), True
-        path = Path(path)
+        return self._open_attempt(Path(path), background, None, False)
+
+    def _open_attempt(self, path: Path, background: bool, head_path: Path | None, accept: bool) -> bool:
+        from app import project_io
+        from painting.project_errors import HeadChecksumError, HeadMissingError
+
+        def job(_p: Any = None, _c: Any = None) -> Any:
+            try:
+                return project_io.read_document(path, head_path=head_path, accept_head_change=accept)
+            except (HeadMissingError, HeadChecksumError) as exc:
+                return exc
+
+        def done(result: Any) -> bool:
+            if isinstance(result, HeadMissingError | HeadChecksumError):
+                answer = self._offer_relink(path, result)
+                if answer is None:
+                    return False
+                if answer == "accept":  # keep a head located before: it is the one that changed
+                    return self._open_attempt(path, background, head_path, True)
+                return self._open_attempt(path, background, answer, False)
+            return self._opened(path, *result)
+
+        def failed(message: str) -> None:
+            dialogs.error(self, "Open project", f"The project could not be opened: {message}")
+
         if background:
-            from painting.project import open_project
-
-            run_task(self, "Opening the project", lambda p, c: open_project(path),
-                     lambda project: self._opened(path, project),
-                     lambda m: dialogs.error(self, "Open project", f"The project could not be opened: {m}"))
+            run_task(self, "Opening the project", job, done, failed)
             return True
-        return self._opened(path, path)
+        from km.errors import SheerError
 
-    def _opened(self, path: Path, source: Any) -> bool:
+        try:
+            result = job()
+        except (SheerError, OSError, ValueError) as exc:
+            failed(str(exc))
+            return False
+        return done(result)
+
+    def _offer_relink(self, path: Path, exc: Exception) -> Path | str | None:
+        """Ask what to do about a missing or changed head: the head file located (retry with
+        ``head_path=``), ``"accept"`` (retry with ``accept_head_change=True``) or None (Cancel)."""
+        from painting.project_errors import HeadChecksumError
+
+        choices = {"locate": "Locate head…"}
+        if isinstance(exc, HeadChecksumError):
+            what = f"The head of {path.name} changed since the project was saved ({exc.file} differs)."
+            choices["accept"] = "Use it anyway"
+        else:
+            what = f"The head of {path.name} was not found."
+        choices["cancel"] = "Cancel"
+        answer = dialogs.ask(self, "Relink head", f"{what}\n\n{exc}", choices, "cancel")
+        if answer == "accept":
+            return "accept"
+        if answer != "locate":
+            return None
+        name, _ = QFileDialog.getOpenFileName(self, "Locate head", str(getattr(exc, "head_path", "") or ""),
+                                              "Meshes (*.glb *.gltf *.obj *.ply);;All files (*)")
+        return Path(name) if name else None
+
+    def _opened(self, path: Path, project: Any, opened: Any) -> bool:
         from app import project_io
         from km.errors import SheerError
 
         try:
-            self.project_name = project_io.load_project_into(self.doc, self.library, source)
+            project_io.check_compatible(project, opened, self.doc)
+            project_io.install_layers(self.doc, self.library, project, opened)
         except (SheerError, OSError, ValueError) as exc:
             dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
             return False
-        self.project_path = path
+        self.project, self.project_name, self.project_path = project, str(project.name), path
+        self.look_record = project.look
+        self._restore_view(project)
         if self.autosaver is not None:
             self.autosaver.project_path = self.project_path.absolute()
             self.autosaver.dirty = False
@@ -535,7 +604,34 @@ class StudioWindow(QMainWindow):
         self._update_actions()
         return True
 
-    def save_project(self, ask: bool = False, path: Path | None = None) -> bool:
+    def view_state(self) -> Any:
+        """The lights, camera and look to save (``project_io.ViewState``)."""
+        from app import project_io
+
+        return project_io.view_state(self.viewport.camera, self.viewport.lighting, self.settings.environment,
+                                     self.look_record)
+
+    def _restore_view(self, project: Any) -> None:
+        """Key light, environment and camera from an opened project into the settings and the viewport."""
+        from app import project_io
+
+        if project.lights:
+            changes: dict[str, Any] = {"environment": project_io.environment_name(project.lights)}
+            preset = project_io.closest_preset(project.lights, LIGHT_PRESETS)
+            if preset is not None:
+                changes["light_preset"] = preset
+            angles = project_io.key_light_angles(project.lights)
+            if angles is not None:
+                changes["light_azimuth"], changes["light_elevation"] = angles
+            if changes["environment"] not in ENVIRONMENTS:
+                changes["environment"] = "none"
+            for key, value in changes.items():
+                setattr(self.settings, key, value)
+        project_io.restore_camera(self.viewport.camera, project.camera)
+        self.apply()
+
+    def save_project(self, ask: bool = False, path: Path | None = None, self_contained: bool | None = None) -> bool:
+        """Save (``ask``: Save As); ``self_contained=True`` embeds the head in the file."""
         from app import project_io
         from km.errors import SheerError
 
@@ -546,12 +642,14 @@ class StudioWindow(QMainWindow):
             if not name:
                 return False
             target = Path(name) if name.endswith(".sheer") else Path(name + ".sheer")
+        target = Path(target)
         try:
-            saved = project_io.save_document(self.doc, self.library, Path(target), Path(target).stem)
+            project = project_io.snapshot(self.doc, self.library, target.stem, self.project, self.view_state())
+            saved = project_io.save_project_file(project, target, self_contained)
         except (SheerError, OSError, ValueError) as exc:
             dialogs.error(self, "Save project", f"The project could not be saved: {exc}")
             return False
-        self.project_path, self.project_name = saved, saved.stem
+        self.project, self.project_path, self.project_name = project, saved, saved.stem
         if self.autosaver is not None:
             self.autosaver.saved(saved)
         self.settings.add_recent(str(saved))
@@ -560,11 +658,15 @@ class StudioWindow(QMainWindow):
         self._update_actions()
         return True
 
+    def save_self_contained(self, path: Path | None = None) -> bool:
+        """Save the project with the head embedded (asks where when ``path`` is None)."""
+        return self.save_project(ask=path is None, path=path, self_contained=True)
+
     # ------------------------------------------------------------------ autosave and recovery
     def _snapshot(self) -> Any:
         from app import project_io
 
-        return project_io.snapshot(self.doc, self.library, self.project_name)
+        return project_io.snapshot(self.doc, self.library, self.project_name, self.project, self.view_state())
 
     def _autosave_tick(self) -> None:
         """Every few seconds: when unsaved changes are due, snapshot here and write in a worker."""
@@ -615,6 +717,8 @@ class StudioWindow(QMainWindow):
             dialogs.error(self, "Recover unsaved work", f"The recovery file could not be opened: {exc}")
             return
         self.project_path = info.original
+        self.project, self.look_record = project, project.look
+        self._restore_view(project)
         self.layers_panel.set_materials(self.library)
         self.library_dock.refresh_list()
         self.refresh_layers()

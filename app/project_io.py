@@ -1,13 +1,18 @@
-"""Adapter between the studio's document and ``painting.project`` (the ``.sheer`` format of issue 6):
+"""Adapter between the studio and ``painting.project`` (the ``.sheer`` format of issue 6, docs/FORMAT.md):
 open, save, autosave snapshots and crash recovery.
 
-Converts layers (name, material name, thickness µm, visibility, opacity, maximum thickness) and the
-materials they use (embedded as ``km.Material.to_json()``). Maps of another size are resampled to the
-document's resolution.
+- Saving: :func:`snapshot` is ``Project.from_document(doc, base=…)`` (the project last opened or saved, so
+  its head reference and metadata are kept) plus the studio's view state (key light, ambient,
+  environment, camera, look) as the project's plain JSON ``lights`` / ``camera`` / ``look`` fields.
+- Opening: :func:`read_document` is ``open_project(…)`` + ``project.to_document()`` (maps bit-exact, the
+  head's paint layout checked); :func:`install_layers` then moves the layers into the studio's document
+  (which must be on the same head and at the same resolution: nothing is resampled).
 """
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,69 +27,179 @@ def available() -> bool:
     return True
 
 
-def _resample(a: np.ndarray, size: int) -> np.ndarray:
-    if a.shape == (size, size):
-        return a.astype(np.float32, copy=True)
-    from PIL import Image
+def _inner(doc: Any) -> Any:
+    """The ``painting.Document`` behind the studio's :class:`app.doc_adapter.DocumentAdapter`."""
+    return getattr(doc, "doc", doc)
 
-    return np.asarray(Image.fromarray(a.astype(np.float32), mode="F").resize((size, size), Image.BILINEAR),
-                      dtype=np.float32)
+
+# ---------------------------------------------------------------------------------------------- view state
+
+
+@dataclass
+class ViewState:
+    """The studio's view as the project stores it (see FORMAT.md ``lights``, ``camera``, ``look``)."""
+
+    lights: list[dict[str, Any]]
+    camera: dict[str, Any] | None
+    look: dict[str, Any] | None
+
+
+def _vec(v: Any) -> list[float]:
+    return [float(x) for x in np.asarray(v, dtype=float).reshape(3)]
+
+
+def view_state(camera: Any, lighting: Any, environment: str, look: dict[str, Any] | None) -> ViewState:
+    """Lights (directional key light, ambient, optional HDR environment) and camera from the studio's
+    ``OrbitCamera`` / ``Lighting`` / environment name."""
+    toward_light = np.asarray(lighting.direction(), dtype=float)
+    lights: list[dict[str, Any]] = [
+        {"type": "directional", "color": _vec(lighting.colour), "intensity": float(lighting.intensity),
+         "direction": _vec(-toward_light)},
+        {"type": "ambient", "color": _vec(lighting.ambient), "intensity": 1.0},
+    ]
+    if environment and environment != "none":
+        lights.append({"type": "environment", "color": [1.0, 1.0, 1.0], "intensity": 1.0,
+                       "environment": f"environments/{environment}.exr", "rotation_deg": 0.0})
+    distance = float(camera.distance)
+    cam = {"position": _vec(camera.eye()), "target": _vec(camera.target), "up": [0.0, 1.0, 0.0],
+           "fov_deg": float(camera.fov_y), "near": max(distance * 0.05, 0.01), "far": distance * 10.0}
+    return ViewState(lights, cam, look)
+
+
+def key_light_angles(lights: list[dict[str, Any]]) -> tuple[float, float] | None:
+    """(azimuth, elevation) in degrees of the first directional light (the studio's key light)."""
+    for light in lights:
+        if light.get("type") == "directional":
+            d = -np.asarray(light["direction"], dtype=float)
+            n = float(np.linalg.norm(d))
+            if n <= 0.0:
+                return None
+            d /= n
+            return math.degrees(math.atan2(d[0], d[2])), math.degrees(math.asin(float(np.clip(d[1], -1, 1))))
+    return None
+
+
+def environment_name(lights: list[dict[str, Any]]) -> str:
+    """The studio's environment name for the project's environment light (``"none"`` without one)."""
+    for light in lights:
+        if light.get("type") == "environment":
+            return Path(str(light.get("environment", ""))).stem or "none"
+    return "none"
+
+
+def closest_preset(lights: list[dict[str, Any]], presets: dict[str, dict[str, Any]]) -> str | None:
+    """The light preset whose colour and intensity are nearest the project's key light."""
+    key = next((lg for lg in lights if lg.get("type") == "directional"), None)
+    if key is None or not presets:
+        return None
+    want = np.asarray(key["color"], dtype=float) * float(key["intensity"])
+    return min(presets, key=lambda n: float(np.linalg.norm(
+        np.asarray(presets[n]["colour"], dtype=float) * float(presets[n]["intensity"]) - want)))
+
+
+def restore_camera(camera: Any, record: dict[str, Any] | None) -> None:
+    """Set the studio's ``OrbitCamera`` from the project's camera (its ``up`` is always +Y here)."""
+    if not record:
+        return
+    target = np.asarray(record["target"], dtype=float)
+    offset = np.asarray(record["position"], dtype=float) - target
+    distance = float(np.linalg.norm(offset))
+    if distance <= 0.0:
+        return
+    camera.target = target
+    camera.distance = distance
+    camera.yaw = math.degrees(math.atan2(offset[0], offset[2]))
+    camera.pitch = float(np.clip(math.degrees(math.asin(float(np.clip(offset[1] / distance, -1, 1)))), -85, 85))
+    camera.fov_y = float(record["fov_deg"])
+
+
+# ---------------------------------------------------------------------------------------------- save
+
+
+def snapshot(doc: Any, library: Any, name: str, base: Any = None, view: ViewState | None = None) -> Any:
+    """A ``painting.project.Project`` of the document now (maps copied): ``Project.from_document`` with
+    ``base`` (the project last opened or saved) and the view state, when given."""
+    from painting.project import Project
+
+    kwargs: dict[str, Any] = {"name": name, "base": base}
+    if view is not None:
+        kwargs.update(lights=view.lights, camera=view.camera, look=view.look)
+    return Project.from_document(_inner(doc), **kwargs)
+
+
+def save_document(doc: Any, library: Any, path: Path, name: str, base: Any = None,
+                  view: ViewState | None = None, self_contained: bool | None = None) -> Path:
+    """Save the document as a ``.sheer`` project (atomic, with ``.bak``; removes its recovery file)."""
+    return save_project_file(snapshot(doc, library, name, base, view), path, self_contained)
+
+
+def save_project_file(project: Any, path: Path, self_contained: bool | None = None) -> Path:
+    """``save_project``; ``self_contained=True`` embeds the head, None keeps it as the project had it."""
+    from painting.project import save_project
+
+    return save_project(project, path, self_contained=self_contained)
+
+
+# ---------------------------------------------------------------------------------------------- open
+
+
+def read_document(path: Path, head_path: Path | None = None, accept_head_change: bool = False) -> tuple[Any, Any]:
+    """``open_project`` + ``project.to_document()``: (project, painting.Document). Safe in a worker.
+
+    Raises ``HeadMissingError`` / ``HeadChecksumError`` (offer to relink) and other ``ProjectError``s."""
+    from painting.project import open_project
+
+    project = open_project(path, head_path=head_path, accept_head_change=accept_head_change)
+    return project, project.to_document()
+
+
+def check_compatible(project: Any, opened: Any, doc: Any) -> None:
+    """Refuse a project whose maps would not line up with the studio's document (another head's paint
+    layout, or another resolution: nothing is resampled). Raises ``ProjectError``."""
+    from painting.project_document import layout_record
+    from painting.project_errors import ProjectError
+
+    inner = _inner(doc)
+    if hasattr(inner, "layout") and layout_record(inner.layout) != layout_record(opened.layout):
+        raise ProjectError(f"the project '{project.name}' was painted on another head ({project.head.name}); "
+                           f"start Sheer with that head (sheer --head MESH --project FILE) to open it")
+    want = int(doc.resolution)
+    for lay in opened.layers:
+        if int(lay.thickness.shape[0]) != want:
+            raise ProjectError(f"the project '{project.name}' has {lay.thickness.shape[0]}-texel maps and this "
+                               f"studio paints at {want}: start Sheer with --resolution "
+                               f"{lay.thickness.shape[0]} to open it")
+
+
+def install_layers(doc: Any, library: Any, project: Any, opened: Any) -> None:
+    """Replace the studio document's layers with the opened document's (maps copied bit-exactly); the
+    project's embedded materials the library lacks are added to it. Call :func:`check_compatible` first."""
+    for name in project.materials:
+        if name not in library:
+            library.add(project.material(name))
+    for i in reversed(range(len(doc.layers))):
+        doc.remove_layer(i)
+    for i, lay in enumerate(opened.layers):
+        new = doc.add_layer(lay.material, name=lay.name, max_thickness=float(lay.max_thickness))
+        if np.any(lay.thickness):
+            doc.set_thickness(new, np.array(lay.thickness, dtype=np.float32, copy=True))
+        doc.set_layer(i, visible=bool(lay.visible), opacity=float(lay.opacity))
+    doc.clear_history()
 
 
 def load_project_into(doc: Any, library: Any, source: Path | Any) -> str:
-    """Replace the document's layers with a project's (a path, or a ``Project`` already opened); materials
-    the library lacks are added from the project's embedded copies. Returns the project's name. Raises
-    ``ProjectError`` (a SheerError) for a bad file; the document is unchanged then."""
-    from app import seams
+    """Replace the document's layers with a project's (a path, or a ``Project`` already opened).
+    Returns the project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then."""
     from painting.project import open_project
 
     project = open_project(source) if isinstance(source, str | Path) else source
-    _check_same_head(project, doc)
-    for lay in project.layers:
-        if lay.material not in library and lay.material in project.materials:
-            library.add(project.material(lay.material))
-    for i in reversed(range(len(doc.layers))):
-        doc.remove_layer(i)
-    for i, lay in enumerate(project.layers):
-        new = doc.add_layer(lay.material, name=lay.name, max_thickness=float(lay.max_thickness_um))
-        seams.set_thickness(doc, new, _resample(np.asarray(lay.thickness), new.thickness.shape[0]))
-        doc.set_layer(i, visible=bool(lay.visible), opacity=float(lay.opacity))
-    doc.clear_history()
+    opened = project.to_document()
+    check_compatible(project, opened, doc)
+    install_layers(doc, library, project, opened)
     return str(project.name)
 
 
-def _check_same_head(project: Any, doc: Any) -> None:
-    """Refuse a project painted on another head (its maps would land on the wrong mesh)."""
-    from km.errors import SheerError
-    from painting.project import make_head_ref
-
-    ref = make_head_ref(doc.head.path)
-    key_mine = ref.files.get(ref.mesh)
-    key_theirs = project.head.files.get(project.head.mesh)
-    if key_mine is not None and key_theirs is not None and key_mine != key_theirs:
-        raise SheerError(f"the project '{project.name}' was painted on another head ({project.head.name}); "
-                         f"start Sheer with that head (sheer --head MESH --project FILE) to open it")
-
-
-def snapshot(doc: Any, library: Any, name: str) -> Any:
-    """A ``painting.project.Project`` of the document now (maps copied)."""
-    from painting.project import Project, ProjectLayer, make_head_ref
-
-    res = doc.layers[0].thickness.shape if doc.layers else (doc.resolution, doc.resolution)
-    layers = [ProjectLayer(name=lay.name, material=lay.material, thickness=np.array(lay.thickness, np.float32),
-                           visible=bool(lay.visible), opacity=float(lay.opacity),
-                           max_thickness_um=float(lay.max_thickness)) for lay in doc.layers]
-    materials = {lay.material: library.get(lay.material).to_json() for lay in doc.layers
-                 if lay.material in library and hasattr(library.get(lay.material), "to_json")}
-    return Project(name=name, head=make_head_ref(doc.head.path), atlas_size=(int(res[0]), int(res[1])),
-                   layers=layers, materials=materials)
-
-
-def save_document(doc: Any, library: Any, path: Path, name: str) -> Path:
-    """Save the document as a ``.sheer`` project (atomic, with ``.bak``; removes its recovery file)."""
-    from painting.project import save_project
-
-    return save_project(snapshot(doc, library, name), path)
+# ---------------------------------------------------------------------------------------------- autosave
 
 
 def make_autosaver(snap: Any, project_path: Path | None, interval_s: float) -> Any:
