@@ -270,6 +270,45 @@ def _read_image(path: Path, mode: str) -> np.ndarray:
         raise HeadError(f"{path}: cannot decode texture: {exc}") from None
 
 
+def mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Validate what ``trimesh.load`` returned and give (vertices, faces, uv, vertex normals).
+
+    Shared by :func:`load_mesh_arrays` (files) and the in-memory loader of embedded project heads;
+    ``where`` names the source in error messages. Scenes are flattened with their transforms.
+    """
+    import trimesh
+
+    if isinstance(loaded, trimesh.Scene):
+        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
+        if not meshes:
+            raise HeadError(f"{where}: the file contains no triangle mesh")
+        if len(meshes) > 1:
+            uv_ok = all(getattr(m.visual, "uv", None) is not None for m in meshes)
+            if not uv_ok:
+                raise HeadError(f"{where}: a mesh in the file has no UV coordinates")
+            mesh = trimesh.util.concatenate(meshes)
+        else:
+            mesh = meshes[0]
+    elif isinstance(loaded, trimesh.Trimesh):
+        mesh = loaded
+    else:
+        raise HeadError(f"{where}: the file contains no triangle mesh")
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if faces.ndim != 2 or len(faces) == 0:
+        raise HeadError(f"{where}: the mesh has no triangles")
+    if len(faces) > MAX_FACES:
+        raise HeadError(f"{where}: the mesh has {len(faces):,} triangles, over the {MAX_FACES:,} limit")
+    uv = getattr(mesh.visual, "uv", None)
+    if uv is None or len(uv) != len(mesh.vertices):
+        raise HeadError(f"{where}: the mesh has no UV coordinates (Sheer paints in UV space)")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    uv = np.asarray(uv, dtype=np.float64)
+    if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(uv))):
+        raise HeadError(f"{where}: the mesh has NaN or infinite vertex positions or UVs")
+    normals = np.asarray(mesh.vertex_normals, dtype=np.float64)
+    return vertices, faces, uv, normals
+
+
 def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Load (vertices, faces, uv, vertex normals) from a glTF/GLB, OBJ or PLY file with trimesh.
 
@@ -284,35 +323,7 @@ def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
         loaded = trimesh.load(str(path), process=False, maintain_order=True)
     except Exception as exc:  # trimesh raises many types for malformed files
         raise HeadError(f"{path}: cannot read mesh: {exc}") from None
-    if isinstance(loaded, trimesh.Scene):
-        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
-        if not meshes:
-            raise HeadError(f"{path}: the file contains no triangle mesh")
-        if len(meshes) > 1:
-            uv_ok = all(getattr(m.visual, "uv", None) is not None for m in meshes)
-            if not uv_ok:
-                raise HeadError(f"{path}: a mesh in the file has no UV coordinates")
-            mesh = trimesh.util.concatenate(meshes)
-        else:
-            mesh = meshes[0]
-    elif isinstance(loaded, trimesh.Trimesh):
-        mesh = loaded
-    else:
-        raise HeadError(f"{path}: the file contains no triangle mesh")
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if faces.ndim != 2 or len(faces) == 0:
-        raise HeadError(f"{path}: the mesh has no triangles")
-    if len(faces) > MAX_FACES:
-        raise HeadError(f"{path}: the mesh has {len(faces):,} triangles, over the {MAX_FACES:,} limit")
-    uv = getattr(mesh.visual, "uv", None)
-    if uv is None or len(uv) != len(mesh.vertices):
-        raise HeadError(f"{path}: the mesh has no UV coordinates (Sheer paints in UV space)")
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    uv = np.asarray(uv, dtype=np.float64)
-    if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(uv))):
-        raise HeadError(f"{path}: the mesh has NaN or infinite vertex positions or UVs")
-    normals = np.asarray(mesh.vertex_normals, dtype=np.float64)
-    return vertices, faces, uv, normals
+    return mesh_arrays_from_loaded(loaded, str(path))
 
 
 def load_head(path: str | Path | None = None) -> Head:

@@ -15,7 +15,14 @@ from typing import Any
 
 import numpy as np
 
-from painting.head import MAX_FACES, MAX_TEXTURE_SIDE, SIDECAR_SUFFIX, Head, HeadError, HeadMetadata
+from painting.head import (
+    MAX_TEXTURE_SIDE,
+    SIDECAR_SUFFIX,
+    Head,
+    HeadError,
+    HeadMetadata,
+    mesh_arrays_from_loaded,
+)
 from painting.project_errors import ProjectError
 
 _MESH_TYPES = {".glb": "glb", ".gltf": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off"}
@@ -31,28 +38,7 @@ def _mesh_arrays(blob: bytes, name: str) -> tuple[np.ndarray, np.ndarray, np.nda
         loaded = trimesh.load(io.BytesIO(blob), file_type=file_type, process=False, maintain_order=True)
     except Exception as exc:  # trimesh raises many types for malformed files
         raise HeadError(f"embedded head {name!r}: cannot read mesh: {exc}") from None
-    if isinstance(loaded, trimesh.Scene):
-        meshes = [g for g in loaded.dump() if isinstance(g, trimesh.Trimesh)] if loaded.geometry else []
-        if not meshes:
-            raise HeadError(f"embedded head {name!r}: no triangle mesh")
-        mesh = meshes[0] if len(meshes) == 1 else trimesh.util.concatenate(meshes)
-    elif isinstance(loaded, trimesh.Trimesh):
-        mesh = loaded
-    else:
-        raise HeadError(f"embedded head {name!r}: no triangle mesh")
-    faces = np.asarray(mesh.faces, dtype=np.int64)
-    if faces.ndim != 2 or len(faces) == 0:
-        raise HeadError(f"embedded head {name!r}: no triangles")
-    if len(faces) > MAX_FACES:
-        raise HeadError(f"embedded head {name!r}: {len(faces):,} triangles, over the {MAX_FACES:,} limit")
-    uv = getattr(mesh.visual, "uv", None)
-    if uv is None or len(uv) != len(mesh.vertices):
-        raise HeadError(f"embedded head {name!r}: no UV coordinates")
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
-    uv = np.asarray(uv, dtype=np.float64)
-    if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(uv))):
-        raise HeadError(f"embedded head {name!r}: NaN or infinite vertex positions or UVs")
-    return vertices, faces, uv, np.asarray(mesh.vertex_normals, dtype=np.float64)
+    return mesh_arrays_from_loaded(loaded, f"embedded head {name!r}")
 
 
 def _image(blob: bytes, name: str, mode: str) -> np.ndarray:
