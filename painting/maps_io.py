@@ -180,18 +180,30 @@ def _write_exr(p: Path, arr: np.ndarray, header_text: dict[str, str]) -> None:
         raise MapError(f"{p}: cannot write EXR: {exc}") from None
 
 
-def _read_exr(p: Path) -> np.ndarray:
+def exr_size(p: Path, max_side: int = MAX_SIDE) -> tuple[int, int]:
+    """(width, height) in pixels of the EXR at ``p`` from its header alone, so that a huge image is
+    refused before it is decompressed. :class:`MapError` if the file is missing, unreadable or has a
+    side over ``max_side`` pixels."""
     import OpenEXR
 
     if not p.is_file():
         raise MapError(f"{p}: file not found")
-    try:  # the size from the header first, so a huge image is refused before it is decompressed
+    try:
         (x0, y0), (x1, y1) = OpenEXR.File(str(p), header_only=True).header()["dataWindow"]
         width, height = int(x1) - int(x0) + 1, int(y1) - int(y0) + 1
     except Exception as exc:
         raise MapError(f"{p}: cannot read EXR header: {exc}") from None
-    if max(width, height) > MAX_SIDE:
-        raise MapError(f"{p}: image is {width}×{height}, over the {MAX_SIDE} limit")
+    if width <= 0 or height <= 0:
+        raise MapError(f"{p}: image is {width}×{height}, which is empty")
+    if max(width, height) > max_side:
+        raise MapError(f"{p}: image is {width}×{height}, over the {max_side} limit")
+    return width, height
+
+
+def _read_exr(p: Path) -> np.ndarray:
+    import OpenEXR
+
+    exr_size(p)
     try:
         f = OpenEXR.File(str(p), separate_channels=True)
         channels = f.channels()

@@ -103,8 +103,20 @@ def find_environment(name_or_path: str) -> Path:
         raise RenderError(f"unknown environment '{name_or_path}' (known: {known})") from None
 
 
-def read_exr_rgb(path: Path) -> np.ndarray:
-    """float32 (H, W, 3) linear radiance of an EXR file."""
+def read_exr_rgb(path: Path, max_side: int = 8192) -> np.ndarray:
+    """float32 (H, W, 3) linear radiance of an EXR file (an HDR environment).
+
+    The size is checked from the header before decoding (at most ``max_side`` pixels a side). NaN or
+    infinite pixels are refused with a :class:`RenderError` saying how many. Negative values — the
+    ringing of lossy EXR compression (DWAA/DWAB) around bright peaks, present in the sample
+    environments — are set to 0, since radiance cannot be negative.
+    """
+    from painting.maps_io import MapError, exr_size
+
+    try:
+        exr_size(Path(path), max_side)
+    except MapError as exc:
+        raise RenderError(str(exc)) from None
     try:
         import OpenEXR
 
@@ -122,7 +134,10 @@ def read_exr_rgb(path: Path) -> np.ndarray:
         raise RenderError(f"{path}: cannot read EXR: {exc}") from None
     if rgb.ndim != 3 or rgb.shape[2] != 3:
         raise RenderError(f"{path}: unexpected EXR shape {rgb.shape}")
-    return np.nan_to_num(rgb, nan=0.0, posinf=0.0, neginf=0.0).clip(0.0, None)
+    bad = int((~np.isfinite(rgb)).any(axis=-1).sum())
+    if bad:
+        raise RenderError(f"{path}: {bad} pixel(s) are NaN or infinite; an environment must be finite")
+    return np.maximum(rgb, 0.0)
 
 
 def sh9_basis(d: np.ndarray) -> np.ndarray:

@@ -515,3 +515,21 @@ def test_thickness_map_exr_too_large_is_refused_from_its_header(tmp_path: Path) 
     path = tmp_path / "wide.exr"
     path.write_bytes(_exr(np.zeros((1, maps_io.MAX_SIDE + 1), np.float32)))
     raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64)), "wide.exr", "limit")
+
+
+def test_environment_with_nan_pixels_is_refused(tmp_path: Path) -> None:
+    import OpenEXR
+
+    from render import lights
+    from render.errors import RenderError
+
+    rgb = np.ones((8, 16, 3), dtype=np.float32)
+    rgb[2, 3, 1] = np.nan
+    rgb[4, 5, 0] = np.inf
+    path = tmp_path / "nan.exr"
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, {"RGB": rgb}).write(str(path))
+    with pytest.raises(RenderError, match="2 pixel"):
+        lights.read_exr_rgb(path)
+    rgb[:] = -0.5  # compression ringing: clipped to 0, not refused
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, {"RGB": rgb}).write(str(path))
+    assert float(lights.read_exr_rgb(path).min()) == 0.0
