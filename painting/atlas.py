@@ -302,13 +302,22 @@ def build_layout(head: Any, progress: ProgressCallback | None = None, force_unwr
     ``head`` needs ``vertices``, ``faces``, ``uv`` and ``mm_per_unit`` (a :class:`painting.head.Head`).
     """
     report = progress or (lambda stage, fraction: None)
-    report("clean", 0.0)
-    faces, face_index, normals, clean = clean_mesh(head.vertices, head.faces)
-    report("clean", 1.0)
-    report("check", 0.0)
     uv = np.asarray(head.uv, dtype=np.float64)
-    check, chart, utilisation = check_uvs(head.vertices, faces, uv, check_resolution)
-    report("check", 1.0)
+    cache = _prep_cache_path(head.vertices, head.faces, uv, check_resolution)
+    cached = _load_prep(cache)
+    if cached is not None:
+        for stage in ("clean", "check"):
+            report(stage, 0.0)
+            report(stage, 1.0)
+        faces, face_index, normals, clean, check, chart, utilisation = cached
+    else:
+        report("clean", 0.0)
+        faces, face_index, normals, clean = clean_mesh(head.vertices, head.faces)
+        report("clean", 1.0)
+        report("check", 0.0)
+        check, chart, utilisation = check_uvs(head.vertices, faces, uv, check_resolution)
+        report("check", 1.0)
+        _save_prep(cache, faces, face_index, normals, clean, check, chart, utilisation)
     mm = float(getattr(head, "mm_per_unit", 1.0))
     if check.valid and not force_unwrap:
         return UVLayout(vertices=np.asarray(head.vertices, dtype=np.float64), faces=faces, uv=uv,
@@ -317,6 +326,62 @@ def build_layout(head: Any, progress: ProgressCallback | None = None, force_unwr
                         source="mesh", utilisation=utilisation, check=check, clean=clean, mm_per_unit=mm)
     return unwrap(np.asarray(head.vertices, dtype=np.float64), faces, face_index, normals, check, clean, mm,
                   report, check_resolution)
+
+
+#: Bump when :func:`clean_mesh` or :func:`check_uvs` give different results for the same mesh.
+_PREP_CACHE_VERSION = 1
+_CLEAN_INTS = ("vertices", "faces", "welded_vertices", "degenerate_faces", "flipped_faces", "components")
+_CHECK_INTS = ("out_of_range", "degenerate", "overlapping_texels", "mirrored_faces", "mirrored_charts", "charts")
+
+
+def _prep_cache_path(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, check_resolution: int) -> Path:
+    """Where :func:`clean_mesh` + :func:`check_uvs` results for this mesh are cached (beside the atlas
+    cache, keyed by the SHA-256 of the mesh arrays and the check resolution)."""
+    h = hashlib.sha256()
+    for arr, dtype in ((vertices, np.float64), (faces, np.int64), (uv, np.float64)):
+        a = np.ascontiguousarray(arr, dtype=dtype)
+        h.update(str(a.shape).encode())
+        h.update(a.tobytes())
+    return cache_dir().parent / "layout" / f"{h.hexdigest()[:32]}-c{int(check_resolution)}-v{_PREP_CACHE_VERSION}.npz"
+
+
+def _save_prep(path: Path, faces: np.ndarray, face_index: np.ndarray, normals: np.ndarray, clean: CleanReport,
+               check: UVCheck, chart: np.ndarray, utilisation: float) -> None:
+    from km.atomicio import atomic_write_bytes
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        buf = io.BytesIO()
+        flipped = clean.flipped if clean.flipped is not None else np.zeros(len(faces), dtype=bool)
+        np.savez(buf, faces=faces, face_index=face_index, normals=normals, chart=chart, flipped=flipped,
+                 utilisation=float(utilisation), watertight=bool(clean.watertight), valid=bool(check.valid),
+                 reason=np.array(check.reason), clean_ints=np.array([getattr(clean, k) for k in _CLEAN_INTS]),
+                 check_ints=np.array([getattr(check, k) for k in _CHECK_INTS]))
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError:
+        pass  # the cache is an optimisation only
+
+
+def _load_prep(path: Path) -> tuple[Any, ...] | None:
+    """The cached (faces, face_index, normals, clean, check, chart, utilisation), or None."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as d:
+            faces, face_index, normals = d["faces"], d["face_index"], d["normals"]
+            chart, flipped = d["chart"], d["flipped"]
+            ci, ki = [int(x) for x in d["clean_ints"]], [int(x) for x in d["check_ints"]]
+            clean = CleanReport(**dict(zip(_CLEAN_INTS, ci)), watertight=bool(d["watertight"]), flipped=flipped)
+            check = UVCheck(valid=bool(d["valid"]), reason=str(d["reason"]), **dict(zip(_CHECK_INTS, ki)))
+            utilisation = float(d["utilisation"])
+    except Exception:  # a truncated or stale cache file: compute again
+        return None
+    n = len(face_index)
+    ok = (faces.dtype == np.int64 and faces.shape == (n, 3) and face_index.dtype == np.int64
+          and normals.dtype == np.float64 and normals.ndim == 2 and chart.dtype == np.int32
+          and chart.shape == (n,) and flipped.dtype == bool and flipped.shape == (n,)
+          and len(ci) == len(_CLEAN_INTS) and len(ki) == len(_CHECK_INTS))
+    return (faces, face_index, normals, clean, check, chart, utilisation) if ok else None
 
 
 def unwrap(vertices: np.ndarray, faces: np.ndarray, face_index: np.ndarray, normals: np.ndarray,

@@ -315,15 +315,71 @@ def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     Scenes are flattened with their transforms; polygons are triangulated. Raises :class:`HeadError`
     for an unreadable file, no triangles, no UVs or a mesh over :data:`MAX_FACES` triangles.
     """
-    import trimesh
-
     if not path.is_file():
         raise HeadError(f"{path}: head mesh not found")
+    cache = _mesh_cache_path(path)
+    if cache is not None:
+        cached = _load_mesh_cache(cache)
+        if cached is not None:
+            return cached
+    import trimesh  # ~1.8 s to import on a slow machine: only when the mesh is not in the cache
+
     try:
         loaded = trimesh.load(str(path), process=False, maintain_order=True)
     except Exception as exc:  # trimesh raises many types for malformed files
         raise HeadError(f"{path}: cannot read mesh: {exc}") from None
-    return mesh_arrays_from_loaded(loaded, str(path))
+    arrays = mesh_arrays_from_loaded(loaded, str(path))
+    if cache is not None:
+        _save_mesh_cache(cache, arrays)
+    return arrays
+
+
+#: Bump when what :func:`mesh_arrays_from_loaded` returns for the same file changes.
+_MESH_CACHE_VERSION = 1
+_MESH_FIELDS = ("vertices", "faces", "uv", "normals")
+
+
+def _mesh_cache_path(path: Path) -> Path | None:
+    """Where the validated arrays of the mesh file ``path`` are cached: beside the atlas cache
+    (``<cache>/mesh``), keyed by the SHA-256 of the file's bytes (so an edited file is loaded again)."""
+    import hashlib
+
+    from painting.atlas import cache_dir
+
+    try:
+        digest = hashlib.sha256(path.read_bytes()).hexdigest()[:32]
+    except OSError:
+        return None
+    return cache_dir().parent / "mesh" / f"{digest}-v{_MESH_CACHE_VERSION}.npz"
+
+
+def _load_mesh_cache(cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The cached (vertices, faces, uv, normals), or None when absent or not well-formed."""
+    if not cache.is_file():
+        return None
+    try:
+        with np.load(cache, allow_pickle=False) as data:
+            v, f, uv, n = (np.asarray(data[k]) for k in _MESH_FIELDS)
+    except Exception:  # a truncated or stale cache file: load the mesh again
+        return None
+    ok = (v.dtype == np.float64 and v.ndim == 2 and v.shape[1:] == (3,) and f.dtype == np.int64
+          and f.ndim == 2 and f.shape[1:] == (3,) and 0 < len(f) <= MAX_FACES and uv.dtype == np.float64
+          and uv.shape == (len(v), 2) and n.dtype == np.float64 and n.shape == v.shape)
+    return (v, f, uv, n) if ok else None
+
+
+def _save_mesh_cache(cache: Path, arrays: tuple[np.ndarray, ...]) -> None:
+    import io
+
+    from km.atomicio import atomic_write_bytes
+
+    try:
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        buf = io.BytesIO()
+        np.savez(buf, **dict(zip(_MESH_FIELDS, arrays)))
+        atomic_write_bytes(cache, buf.getvalue())
+    except OSError:
+        pass  # the cache is an optimisation only
 
 
 def load_head(path: str | Path | None = None) -> Head:
