@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,7 @@ from km.errors import SheerError
 
 from .camera import Camera
 from .mask import landmark_region, refine_by_skin_colour
-from .phong import FitResult, Geometry, PhongParams, delta_e2000, fit_phong, shade
+from .phong import FitResult, Geometry, PhongParams, delta_e2000, fit_phong, refine_exponent, shade
 from .probe import ProbeAnalysis
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
@@ -166,7 +166,7 @@ class CaptureResult:
             "schema_version": FACE_SCHEMA_VERSION,
             "phong": self.params.to_json(),
             "light_dir_world": self.light_dir_world.tolist(),
-            "exponent": {"s": e.s, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
+            "exponent": {"s": e.s, "s_saturation": e.s_saturation, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
                          "alpha_right_deg": e.alpha_right_deg, "spec_over_diffuse": e.spec_over_diffuse},
             "residual": {"rms_luv_per_pixel": self.fit.rms_luv, "l2_luv": self.fit.l2_luv,
                          "evaluations": self.fit.evaluations,
@@ -261,6 +261,13 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
     # Phong fit.
     t = time.perf_counter()
     fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
+    # Refine s jointly with D and i_s over the specular lobe (robust Luv fit), then refit with it.
+    refined, _ = refine_exponent(colours, geo, fit.params)
+    _log(progress, f"specular exponent refined over the lobe: s = {refined.exponent:.1f} "
+                   f"(saturation curve: {exp_est.s:.1f})")
+    exp_est = replace(exp_est, s=refined.exponent, s_saturation=exp_est.s)
+    fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb,
+                    start=np.r_[refined.diffuse, refined.specular], start_k=fit.params.ambient_scale)
     timings["phong_fit"] = time.perf_counter() - t
     p = fit.params
     _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "

@@ -178,6 +178,8 @@ class ExponentEstimate:
         alpha_deg: the measured angle of fastest saturation change (mean of left and right), degrees.
         alpha_left_deg, alpha_right_deg: the two measurements.
         spec_over_diffuse: the peak specular / diffuse ratio of the fitted saturation curve.
+        s_saturation: when the capture refined s in the Luv fit (:func:`capture.phong.refine_exponent`),
+            the saturation-curve value it started from; None otherwise.
     """
 
     s: float
@@ -186,6 +188,7 @@ class ExponentEstimate:
     alpha_left_deg: float
     alpha_right_deg: float
     spec_over_diffuse: float
+    s_saturation: float | None = None
 
 
 def saturation_model(alpha: np.ndarray, sat_d: float, ratio: float, s: float) -> np.ndarray:

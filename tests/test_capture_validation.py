@@ -1,7 +1,7 @@
 """Synthetic ground truth (issue 7): the sample head rendered with known Phong parameters under a known
 flash near the camera, a mirror-ball probe from an HDR environment plus that flash; the capture must
-recover the light direction within 2°, the diffuse colour within ΔE2000 1.0, s within the bound
-measured here, and reproduce the photograph on skin. Also the face folder round trip and the CLI."""
+recover the light direction within 2°, the diffuse colour within ΔE2000 1.0, s within 10 %, and
+reproduce the photograph on skin. Also the face folder round trip and the CLI."""
 
 from __future__ import annotations
 
@@ -43,11 +43,13 @@ def test_diffuse_colour_within_de2000_1(synthetic: tuple) -> None:
 
 
 def test_exponent(synthetic: tuple) -> None:
-    # Issue target: within 10 %. Measured on this scene: s = 28.5 for 24 (+19 %): the skin texture moves
-    # the saturation profile around the highlight by ±0.01, and Eq. 3's relation is steep. The estimator
-    # itself is right on the same geometry without texture (test below). Guard the measured value.
+    # Issue target: within 10 %. The saturation-curve estimate alone gives 28.5 for 24 (+19 %; the skin
+    # texture's regional chroma shifts the profile); the robust Luv refinement over the lobe gives 24.0.
+    # Measured elsewhere (true s, environment): 12 studio 12.2, 12 warehouse 13.0, 40 city 38.4,
+    # 40 sunset 38.6.
     _, scene, result = synthetic
-    assert abs(result.exponent.s / scene.params.exponent - 1) < 0.3
+    assert abs(result.exponent.s / scene.params.exponent - 1) < 0.10
+    assert result.exponent.s_saturation is not None
 
 
 def test_exponent_estimator_on_untextured_skin(synthetic: tuple) -> None:
