@@ -161,10 +161,66 @@ def resolve_point(doc: Any, point: Any, where: str) -> np.ndarray:
         p = np.asarray(point, dtype=float)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
             raise LookError(f"{where}: a point must be a landmark name, an object or [x, y, z]")
-    hit = doc.hit((p[0], p[1], _front_z(doc)), (0.0, 0.0, -1.0))
+    origin = np.array([p[0], p[1], _front_z(doc)], dtype=np.float64)
+    cache = _ray_cache(doc)
+    if cache is not None and origin.tobytes() in cache[1]:
+        return cache[1][origin.tobytes()].copy()
+    hit = doc.hit((origin[0], origin[1], origin[2]), (0.0, 0.0, -1.0))
     if hit is None:
         raise LookError(f"{where}: the point {p.tolist()} does not project onto the surface")
-    return np.asarray(getattr(hit, "point", hit), dtype=float)
+    point = np.asarray(getattr(hit, "point", hit), dtype=float)
+    if cache is not None and point.shape == (3,):
+        cache[1][origin.tobytes()] = point.copy()
+        _save_ray_cache(cache[0], cache[1])
+    return point
+
+
+#: Bump when :func:`painting.hit.ray_hit` gives different points for the same layout and ray.
+_RAY_CACHE_VERSION = 1
+#: layout key → (cache file, {origin float64 bytes: surface point}); the cache holds the results of the
+#: straight-down rays of :func:`resolve_point` only (the studio applies its opening look without
+#: importing trimesh for the ray queries, ~1.7 s on a slow machine).
+_RAY_CACHES: dict[str, tuple[Path, dict[bytes, np.ndarray]]] = {}
+
+
+def _ray_cache(doc: Any) -> tuple[Path, dict[bytes, np.ndarray]] | None:
+    """The look-point cache of ``doc``'s paint layout (a real :class:`painting.Document` only)."""
+    from painting.document import Document
+
+    if not isinstance(doc, Document) or type(doc).hit is not Document.hit:
+        return None
+    key = doc.layout.key
+    if key not in _RAY_CACHES:
+        from painting.atlas import cache_dir
+
+        path = cache_dir().parent / "looks" / f"{key}-v{_RAY_CACHE_VERSION}.npz"
+        entries: dict[bytes, np.ndarray] = {}
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                origins, points = data["origins"], data["points"]
+            if (origins.dtype == np.float64 and points.dtype == np.float64 and origins.ndim == 2
+                    and origins.shape[1:] == (3,) and points.shape == origins.shape):
+                entries = {o.tobytes(): pt for o, pt in zip(origins, points)}
+        except Exception:  # absent, truncated or stale: start empty
+            entries = {}
+        _RAY_CACHES[key] = (path, entries)
+    return _RAY_CACHES[key]
+
+
+def _save_ray_cache(path: Path, entries: dict[bytes, np.ndarray]) -> None:
+    import io
+
+    from km.atomicio import atomic_write_bytes
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        buf = io.BytesIO()
+        origins = np.array([np.frombuffer(k, dtype=np.float64) for k in entries], dtype=np.float64).reshape(-1, 3)
+        points = np.array(list(entries.values()), dtype=np.float64).reshape(-1, 3)
+        np.savez(buf, origins=origins, points=points)
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError:
+        pass  # the cache is an optimisation only
 
 
 def apply_look(doc: Any, look: Look | str, clear: bool = True) -> list[Any]:
