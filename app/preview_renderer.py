@@ -141,6 +141,17 @@ class MakeupCompositor:
                                spectrum_to_rgb(T, wl).astype(np.float32), tmax)
         return self._luts[key]
 
+    def _layer(self, c: np.ndarray, t: np.ndarray, R: np.ndarray, T: np.ndarray,
+               tmax: float) -> tuple[np.ndarray, np.ndarray]:
+        """One layer of thickness ``t`` over colours ``c``: (new colours, detail weight factor)."""
+        idx = np.clip(t / tmax * (self.LUT_SIZE - 1), 0, self.LUT_SIZE - 1)
+        i0 = np.floor(idx).astype(int)
+        i1 = np.minimum(i0 + 1, self.LUT_SIZE - 1)
+        f = (idx - i0)[..., None]
+        r = R[i0] * (1 - f) + R[i1] * f
+        tr = T[i0] * (1 - f) + T[i1] * f
+        return r + tr * tr * c / np.maximum(1.0 - r * c, 1e-4), (tr * tr).mean(axis=-1)
+
     def composite(self, layers: list[tuple[np.ndarray, Any, float]], rows: slice, cols: slice) -> np.ndarray:
         """RGBA (made-up albedo, detail weight) for the region; ``layers`` bottom first:
         (thickness µm, material, opacity)."""
@@ -151,14 +162,17 @@ class MakeupCompositor:
             if not np.any(t > 0):
                 continue
             R, T, tmax = self.lut(material)
-            idx = np.clip(t / tmax * (self.LUT_SIZE - 1), 0, self.LUT_SIZE - 1)
-            i0 = np.floor(idx).astype(int)
-            i1 = np.minimum(i0 + 1, self.LUT_SIZE - 1)
-            f = (idx - i0)[..., None]
-            r = R[i0] * (1 - f) + R[i1] * f
-            tr = T[i0] * (1 - f) + T[i1] * f
-            c = r + tr * tr * c / np.maximum(1.0 - r * c, 1e-4)
-            weight *= (tr * tr).mean(axis=-1)
+            if np.all(R[0] == 0.0) and np.all(T[0] == 1.0):
+                # texels without this layer are left exactly as they are (R = 0, T = 1 at zero
+                # thickness): compute only the painted ones (a look covers a few % of the atlas)
+                sel = np.nonzero(t > 0)
+                painted, w = self._layer(c[sel], t[sel], R, T, tmax)
+                c = c.astype(np.result_type(c, painted), copy=False)  # promoted as the full path does
+                c[sel] = painted
+                weight[sel] *= w
+            else:
+                c, w = self._layer(c, t, R, T, tmax)
+                weight *= w
         return np.concatenate([c, weight[..., None]], axis=-1).astype(np.float32)
 
 
