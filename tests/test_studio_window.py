@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PySide6.QtCore import Qt
+from studio_support import open_studio_window
 
 from app.qt_compat import pin_singletons
 
@@ -21,33 +22,8 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 @pytest.fixture(scope="module")
 def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
-    import os
-
-    from PySide6.QtCore import QSettings
-
-    from app import dialogs
-    from app.main_window import StudioWindow
-
-    dialogs.AUTO_DISMISS_MS = 30
-    old_recovery = os.environ.get("SHEER_RECOVERY_DIR")
-    os.environ["SHEER_RECOVERY_DIR"] = str(tmp_path_factory.mktemp("recovery"))
-    ini = tmp_path_factory.mktemp("settings") / "studio.ini"
-    win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
-    win.resize(800, 600)
-    win.show()
-    from pytestqt.qtbot import QtBot
-
-    QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0 and win.viewport.full_quality_ready, timeout=60000)
-    yield win
-    dialogs.AUTO_ANSWER = "discard"
-    win.close()
-    dialogs.AUTO_ANSWER = None
-    if old_recovery is None:
-        os.environ.pop("SHEER_RECOVERY_DIR", None)
-    else:
-        os.environ["SHEER_RECOVERY_DIR"] = old_recovery
-    assert win.viewport.gl_error_at_release == "GL_NO_ERROR"
-    win.deleteLater()
+    with open_studio_window(qapp, tmp_path_factory) as win:
+        yield win
 
 
 def grab(win: object) -> np.ndarray:

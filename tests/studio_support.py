@@ -1,0 +1,50 @@
+"""Shared set-up of a studio window for the Qt tests (a real window under Xvfb with Mesa GL)."""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+
+@contextlib.contextmanager
+def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *,
+                       wait_full_quality: bool = True, check_gl_release: bool = True) -> Iterator[Any]:
+    """An 800×600 studio window with its own settings file and recovery folder, shown and drawn once.
+
+    Dialogs dismiss themselves; on exit unsaved work is discarded, the environment restored and, with
+    ``check_gl_release``, the viewport must have released its GL objects without a GL error.
+    """
+    from PySide6.QtCore import QSettings
+    from pytestqt.qtbot import QtBot
+
+    from app import dialogs
+    from app.main_window import StudioWindow
+
+    dialogs.AUTO_DISMISS_MS = 30
+    old_recovery = os.environ.get("SHEER_RECOVERY_DIR")
+    os.environ["SHEER_RECOVERY_DIR"] = str(tmp_path_factory.mktemp("recovery"))
+    ini = tmp_path_factory.mktemp("settings") / "studio.ini"
+    win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
+    win.resize(800, 600)
+    win.show()
+    if wait_full_quality:
+        QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0 and win.viewport.full_quality_ready, timeout=60000)
+    else:
+        QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0, timeout=60000)
+    try:
+        yield win
+    finally:
+        dialogs.AUTO_ANSWER = "discard"
+        win.close()
+        dialogs.AUTO_ANSWER = None
+        if old_recovery is None:
+            os.environ.pop("SHEER_RECOVERY_DIR", None)
+        else:
+            os.environ["SHEER_RECOVERY_DIR"] = old_recovery
+    if check_gl_release:
+        assert win.viewport.gl_error_at_release == "GL_NO_ERROR"
+    win.deleteLater()
