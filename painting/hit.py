@@ -135,11 +135,15 @@ def depth_hit(doc: Any, ndc_xy: Any, depth: float, inv_view_proj: Any,
 
 
 def look_at(eye: Any, target: Any, up: Any = (0.0, 1.0, 0.0)) -> np.ndarray:
-    """A right-handed view matrix (OpenGL convention)."""
+    """World → view matrix (right-handed, OpenGL convention: the camera looks along −Z).
+
+    The one implementation shared by picking here and by ``render.camera``."""
     e, t, u = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
     f = t - e
     f /= np.linalg.norm(f)
     s = np.cross(f, u)
+    if np.linalg.norm(s) < 1e-9:  # looking straight along ``up``: any perpendicular will do
+        s = np.cross(f, np.array([0.0, 0.0, 1.0]))
     s /= np.linalg.norm(s)
     uu = np.cross(s, f)
     m = np.eye(4)
@@ -149,7 +153,7 @@ def look_at(eye: Any, target: Any, up: Any = (0.0, 1.0, 0.0)) -> np.ndarray:
 
 
 def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    """An OpenGL perspective projection matrix."""
+    """OpenGL perspective projection (NDC z in [−1, 1]); shared by ``render.camera``."""
     f = 1.0 / np.tan(np.radians(fovy_deg) / 2.0)
     m = np.zeros((4, 4))
     m[0, 0] = f / aspect

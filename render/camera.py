@@ -11,32 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from painting.hit import look_at, perspective
 
-def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray) -> np.ndarray:
-    """World → view matrix (right-handed, the camera looks along −Z)."""
-    f = target - eye
-    f = f / np.linalg.norm(f)
-    s = np.cross(f, up)
-    if np.linalg.norm(s) < 1e-9:  # looking straight up or down
-        s = np.cross(f, np.array([0.0, 0.0, 1.0]))
-    s = s / np.linalg.norm(s)
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
-
-
-def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    """OpenGL perspective projection (NDC z in [−1, 1])."""
-    t = 1.0 / math.tan(math.radians(fov_y_deg) / 2.0)
-    m = np.zeros((4, 4))
-    m[0, 0] = t / aspect
-    m[1, 1] = t
-    m[2, 2] = (far + near) / (near - far)
-    m[2, 3] = 2.0 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
+__all__ = ["OrbitCamera", "look_at", "orthographic", "perspective"]
 
 
 def orthographic(half_w: float, half_h: float, near: float, far: float) -> np.ndarray:
