@@ -84,6 +84,15 @@ class TexelIndex:
     def __len__(self) -> int:
         return len(self.flat)
 
+    @property
+    def dims_array(self) -> np.ndarray:
+        """int64 (3,) :attr:`dims`, for the compiled kernels."""
+        arr = self.__dict__.get("_dims_array")
+        if arr is None:
+            arr = np.array(self.dims, dtype=np.int64)
+            self.__dict__["_dims_array"] = arr
+        return arr
+
     def point(self, k: int) -> np.ndarray:
         """Position (float64 (3,), mesh units) of sorted texel ``k``."""
         return np.array([self.x[k], self.y[k], self.z[k]], dtype=np.float64)
@@ -159,7 +168,19 @@ class TexelIndex:
 
     def nearest(self, point: np.ndarray, max_distance: float) -> tuple[int, float]:
         """Sorted index and distance of the texel nearest to ``point`` within ``max_distance`` (mesh
-        units), or (-1, inf)."""
+        units), or (-1, inf). Uses the compiled kernel when enabled (same result as
+        :meth:`nearest_reference`)."""
+        from painting import kernels
+
+        if kernels.enabled():
+            k, d = kernels.nearest(self.x, self.y, self.z, self.origin, float(self.cell), self.dims_array,
+                                   self.cell_start, np.asarray(point, dtype=np.float64).reshape(3),
+                                   float(max_distance))
+            return int(k), float(d)
+        return self.nearest_reference(point, max_distance)
+
+    def nearest_reference(self, point: np.ndarray, max_distance: float) -> tuple[int, float]:
+        """:meth:`nearest` in numpy (the reference)."""
         p = np.asarray(point, dtype=np.float64)
         idx = self.query_sphere(p, max_distance)
         if len(idx) == 0:
