@@ -28,15 +28,6 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("_") or "layer"
 
 
-def layer_tuples(doc: Any, library: Any) -> list[tuple[np.ndarray, Any, float]]:
-    """(thickness µm, material, opacity) of the visible layers, bottom first."""
-    out = []
-    for lay in doc.layers:
-        if lay.visible and lay.material in library:
-            out.append((lay.thickness, library.get(lay.material), float(lay.opacity)))
-    return out
-
-
 def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: None,
                 cancelled: IsCancelled = lambda: False, fmt: str = "png") -> Path:
     """Each layer's thickness map and ``manifest.json``: ``fmt="png"`` 16-bit PNG (value = thickness /
@@ -88,24 +79,47 @@ def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: 
 
 
 def baked_albedo(doc: Any, library: Any) -> np.ndarray:
-    """The made-up albedo at the head texture's resolution, uint8 sRGB, under neutral (white) light."""
+    """The made-up albedo at the head texture's resolution, uint8 sRGB, under neutral (white) light.
+
+    The cosmetic stack is evaluated by the renderer's own texture-space KM pass (``render.KMTextureSpace``,
+    spectral, on a standalone GL context) into R_top, T and R_bottom, and combined with the skin's albedo
+    ρ as the renderer's "unlit" view does: R_top + ρ·T² / (1 − R_bottom·ρ). The maps are evaluated at the
+    document's resolution; the skin's own detail above that resolution is kept."""
+    import moderngl
     from PIL import Image
 
-    from app.preview_renderer import MakeupCompositor
+    from app.render_adapter import layer_inputs
+    from render import KMTextureSpace, ShaderLibrary
 
     head = doc.head
     albedo = head.albedo if head.albedo is not None else np.full((512, 512, 3), 200, np.uint8)
-    res = doc.layers[0].thickness.shape[0] if doc.layers else 512
-    hi = (albedo.astype(np.float32) / 255.0) ** 2.2
-    small = np.asarray(Image.fromarray(albedo).resize((res, res), Image.BILINEAR)).astype(np.float32) / 255.0
-    comp = MakeupCompositor(small ** 2.2)
-    rgba = comp.composite(layer_tuples(doc, library), slice(0, res), slice(0, res))
+    inputs = layer_inputs(doc, library)
+    if not any(inp.visible for inp in inputs):
+        return np.ascontiguousarray(albedo[..., :3])
+    ctx = moderngl.create_context(standalone=True, backend="egl")
+    try:
+        km = KMTextureSpace(ctx, ShaderLibrary(), dtype="f4")
+        try:
+            km.set_layers(inputs)
+            r_top, trans, r_bot = km.read()
+        finally:
+            km.release()
+    finally:
+        ctx.release()
+    res = r_top.shape[0]
+    hi = (albedo[..., :3].astype(np.float32) / 255.0) ** 2.2
+    small = (np.asarray(Image.fromarray(np.ascontiguousarray(albedo[..., :3])).resize((res, res), Image.BILINEAR))
+             .astype(np.float32) / 255.0) ** 2.2
+    # what the makeup does to the skin at the maps' resolution: a gain (through it) and an offset (its own
+    # reflection), applied to the full-resolution skin so its detail stays
+    gain = trans * trans / np.maximum(1.0 - r_bot * small, 1e-4)
     size = albedo.shape[1], albedo.shape[0]
-    up = np.stack([np.asarray(Image.fromarray(rgba[..., k]).resize(size, Image.BILINEAR))
-                   for k in range(4)], axis=-1)
-    lo = np.stack([np.asarray(Image.fromarray(small[..., k] ** 2.2).resize(size, Image.BILINEAR))
-                   for k in range(3)], axis=-1)
-    out = np.clip(up[..., :3] + (hi - lo) * up[..., 3:4], 0.0, 1.0)
+
+    def up(a: np.ndarray) -> np.ndarray:
+        return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(a[..., k], np.float32))
+                                    .resize(size, Image.BILINEAR)) for k in range(3)], axis=-1)
+
+    out = np.clip(up(r_top) + hi * up(gain), 0.0, 1.0)
     return np.round(out ** (1.0 / 2.2) * 255.0).astype(np.uint8)
 
 
@@ -141,14 +155,15 @@ def export_gltf(doc: Any, library: Any, path: str | Path, progress: Progress = l
     return path
 
 
-def render_image(head: Any, layers: list[tuple[np.ndarray, Any, float]], camera: Any, lighting: Any,
-                 size: tuple[int, int], path: str | Path, reference: bool = False,
+def render_image(head: Any, layers: list[Any], camera: Any, lighting: Any, size: tuple[int, int],
+                 path: str | Path, mode: str = "fast", environment: str = "none", layout: Any = None,
                  progress: Progress = lambda f, m: None, cancelled: IsCancelled = lambda: False) -> Path:
-    """Render on a standalone (EGL) GL context in the calling thread and save a PNG."""
+    """Render the view with ``render.Renderer`` on a standalone (EGL) GL context in the calling thread
+    (a worker) and save a PNG. ``layers``: ``render.LayerInput`` of every document layer (copies)."""
     import moderngl
     from PIL import Image
 
-    from app import seams
+    from app.render_adapter import ViewportRenderer
 
     w, h = size
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
@@ -157,18 +172,14 @@ def render_image(head: Any, layers: list[tuple[np.ndarray, Any, float]], camera:
     progress(0.05, "starting OpenGL")
     ctx = moderngl.create_context(standalone=True, backend="egl")
     try:
-        res = layers[0][0].shape[0] if layers else 512
-        renderer = seams.create_renderer(ctx, head, res)
+        renderer = ViewportRenderer(ctx, head, layout)
         try:
-            progress(0.3, "compositing the layers")
-            renderer.set_layers(layers, None)
+            progress(0.3, "evaluating the layers")
+            renderer.set_layers(layers)
+            renderer.environment = environment
             _check_cancel(cancelled)
-            fbo = ctx.framebuffer(ctx.renderbuffer((w, h)), ctx.depth_renderbuffer((w, h)))
             progress(0.6, "rendering")
-            renderer.render(fbo, (w, h), camera, lighting, reference=reference)
-            img = np.frombuffer(fbo.read(components=3), np.uint8).reshape(h, w, 3)[::-1]
-            for a in (*fbo.color_attachments, fbo.depth_attachment, fbo):
-                a.release()
+            img = renderer.render_image((w, h), camera, lighting, mode)
         finally:
             renderer.release()
     finally:

@@ -36,7 +36,6 @@ from PySide6.QtWidgets import (
 
 from app import seams
 from app.actions import KIOSK_ACTIONS
-from app.export import layer_tuples
 from app.settings import LIGHT_PRESETS
 
 log = logging.getLogger("sheer.kiosk")
@@ -80,9 +79,15 @@ class KioskConfig:
         base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
         return Path(base) / "sheer" / "kiosk.json"
 
+    @property
+    def has_pin(self) -> bool:
+        """An administrator PIN is configured (there is no default PIN: see :func:`require_pin`)."""
+        return bool(self.pin_hash)
+
     @classmethod
     def load(cls, path: Path | None = None) -> KioskConfig:
-        """Read the config; a missing or broken file gives the defaults (PIN 0000 until one is set)."""
+        """Read the config; a missing or broken file gives the defaults — with **no** PIN (the kiosk
+        refuses to start until ``sheer kiosk --set-pin`` stores one)."""
         path = path or cls.default_path()
         cfg = cls()
         try:
@@ -97,8 +102,9 @@ class KioskConfig:
         except (OSError, ValueError, RecursionError) as exc:
             if path.exists():
                 log.warning("kiosk config %s unreadable (%s); using defaults", path, exc)
-        if not cfg.pin_hash:
-            cfg.pin_hash = hash_pin("0000")
+        if cfg.pin_hash and cfg.pin_hash.count("$") != 3:
+            log.warning("kiosk config %s: the stored PIN is not a PIN hash; ignoring it", path)
+            cfg.pin_hash = ""
         if not cfg.snapshot_dir:
             cfg.snapshot_dir = str(Path.home() / "Pictures" / "sheer-kiosk")
         cfg.idle_seconds = min(max(float(cfg.idle_seconds), 5.0), 3600.0)
@@ -200,11 +206,24 @@ class _TouchPage(QWidget):
         self.on_touch()
 
 
+NO_PIN_MESSAGE = ("the kiosk has no administrator PIN yet; set one with `sheer kiosk --set-pin` "
+                  "(add --config FILE if you use another configuration file)")
+
+
+def require_pin(config: KioskConfig) -> None:
+    """Refuse to run a kiosk nobody can leave, or that a shopper leaves with a PIN shipped by default."""
+    if not config.has_pin:
+        from km.errors import SheerError
+
+        raise SheerError(NO_PIN_MESSAGE)
+
+
 class KioskWindow(QWidget):
     """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle."""
 
     def __init__(self, config: KioskConfig, project: str | None = None, head: str | None = None,
                  resolution: int = 512) -> None:
+        require_pin(config)
         super().__init__()
         self.config = config
         self.setWindowTitle("Sheer")
@@ -257,9 +276,11 @@ class KioskWindow(QWidget):
 
     # ------------------------------------------------------------------ construction
     def _make_viewport(self, resolution: int) -> Any:
+        from app.render_adapter import layer_inputs
         from app.viewport import Viewport
 
-        vp = Viewport(self.doc.head, int(self.doc.resolution))
+        vp = Viewport(self.doc.head, getattr(self.doc, "layout", None))
+        vp.layers_source = lambda: layer_inputs(self.doc, self.library)
         vp.paint_enabled = False
         vp.gl_failed.connect(lambda msg: self.fail(msg))
         return vp
@@ -430,7 +451,7 @@ class KioskWindow(QWidget):
         for cat, label in self.product_labels.items():
             i = self._layer_for(cat)
             label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
-        self.viewport.set_layers(layer_tuples(self.doc, self.library), None)
+        self.viewport.layers_changed()
 
     def snapshot(self) -> Path:
         folder = Path(self.config.snapshot_dir)
@@ -528,6 +549,7 @@ def run_kiosk(project: str | None = None, config_path: str | None = None, window
 
     cfg_path = Path(config_path) if config_path else None
     config = KioskConfig.load(cfg_path)
+    require_pin(config)  # before any window: a one-line message from the command line
     log_dir = Path(config.snapshot_dir).parent
     logging.basicConfig(level=logging.INFO, filename=str(Path(os.environ.get("SHEER_KIOSK_LOG", str(
         log_dir / "sheer-kiosk.log")))) if os.access(log_dir, os.W_OK) else None)

@@ -28,19 +28,24 @@ from PySide6.QtWidgets import (
 
 def material_rgb(material: Any, thickness_um: float | None = None,
                  background: tuple[float, float, float] | None = None) -> tuple[int, int, int]:
-    """sRGB 0..255 of a material: R∞, or a layer of ``thickness_um`` over ``background`` (linear RGB)."""
-    from app.fallback import km_layer_rt, km_r_inf, spectrum_to_rgb
+    """sRGB 0..255 of a km material: its opaque colour (R∞) when ``thickness_um`` is None, else a layer
+    of ``thickness_um`` over ``background`` (linear RGB; black when None). The spectra and colours are
+    ``km``'s (``Material.swatch_rgb``, ``Material.rt``, ``km.spectrum_to_rgb``, ``km.over``)."""
+    import km
+    from km.material import encode_srgb
 
-    wl = np.asarray(material.wavelengths)
     if thickness_um is None:
-        lin = spectrum_to_rgb(km_r_inf(material.S, material.K), wl)
+        srgb = material.swatch_rgb("opaque")
+    elif background is None or not any(background):
+        srgb = material.swatch_rgb("black", thickness_um)
     else:
-        R, T = km_layer_rt(material.S, material.K, thickness_um / 1000.0)
-        r, t = spectrum_to_rgb(R, wl), spectrum_to_rgb(T, wl)
-        bg = np.asarray(background if background is not None else (0.0, 0.0, 0.0))
-        lin = r + t * t * bg / np.maximum(1.0 - r * bg, 1e-4)
-    srgb = np.clip(np.asarray(lin), 0.0, 1.0) ** (1.0 / 2.2)
-    return tuple(int(round(float(c) * 255)) for c in srgb)  # type: ignore[return-value]
+        r0, t = material.rt(float(thickness_um))
+        r_rgb = np.asarray(km.spectrum_to_rgb(r0, material.wavelengths), float)
+        t_rgb = np.asarray(km.spectrum_to_rgb(t, material.wavelengths), float)
+        bg = np.clip(np.asarray(background, float), 0.0, 1.0)
+        lin = km.over(np.clip(r_rgb, 0.0, 1.0), np.clip(t_rgb, 0.0, 1.0), bg)
+        srgb = encode_srgb(np.asarray(lin, float))
+    return tuple(int(round(float(c) * 255)) for c in np.clip(srgb, 0.0, 1.0))  # type: ignore[return-value]
 
 
 def swatch_icon(rgb: tuple[int, int, int], size: int = 28) -> QIcon:

@@ -28,7 +28,6 @@ from PySide6.QtWidgets import (
 )
 
 from app import dialogs
-from app.fallback import km_layer_rt, km_r_inf
 from app.layers_panel import material_rgb, swatch_icon
 
 EDITABLE = {"category": str, "thickness_um": float, "max_thickness_um": float, "roughness": float,
@@ -366,8 +365,8 @@ class LibraryDock(QWidget):
         wl = np.asarray(m.wavelengths, float)
         t_um = float(self.thickness.value())
         self.thickness_label.setText(f"{t_um:.0f} µm")
-        R, T = km_layer_rt(m.S, m.K, t_um / 1000.0)
-        self._curves = {"R∞": km_r_inf(m.S, m.K), f"R0 @ {t_um:.0f} µm": R, f"T @ {t_um:.0f} µm": T}
+        R, T = m.rt(t_um)
+        self._curves = {"R∞": m.r_inf(), f"R0 @ {t_um:.0f} µm": R, f"T @ {t_um:.0f} µm": T}
         self._coefs = {"S (per mm)": np.asarray(m.S, float), "K (per mm)": np.asarray(m.K, float)}
         self._wl = wl
         for key, bg in (("over black", (0.0, 0.0, 0.0)), ("over white", (1.0, 1.0, 1.0)),

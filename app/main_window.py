@@ -35,9 +35,10 @@ from PySide6.QtWidgets import (
 
 from app import dialogs, seams
 from app.actions import MENU_ORDER, STUDIO_ACTIONS, is_enabled, shortcut_sheet
-from app.export import export_gltf, export_maps, layer_tuples, render_image
+from app.export import export_gltf, export_maps, render_image
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
+from app.render_adapter import debug_views, layer_inputs
 from app.settings import (
     APPLICATION,
     ENVIRONMENTS,
@@ -73,7 +74,8 @@ class StudioWindow(QMainWindow):
             self.doc.clear_history()
         self.doc.subscribe(self._on_doc_event)
 
-        self.viewport = Viewport(self.doc.head, int(self.doc.resolution))
+        self.viewport = Viewport(self.doc.head, getattr(self.doc, "layout", None))
+        self.viewport.layers_source = lambda: layer_inputs(self.doc, self.library)
         self.setCentralWidget(self.viewport)
         self.viewport.stroke_begin.connect(self._stroke_begin)
         self.viewport.stroke_move.connect(self._stroke_move)
@@ -239,7 +241,7 @@ class StudioWindow(QMainWindow):
         self.render_combo = QComboBox()
         self.render_combo.addItems(["fast", "reference"])
         self.debug_combo = QComboBox()
-        self.debug_combo.addItems(seams.debug_views())
+        self.debug_combo.addItems(debug_views())
         self.split_slider = QSlider(Qt.Orientation.Horizontal)
         self.split_slider.setRange(0, 100)
         self.split_slider.setMaximumWidth(140)
@@ -300,13 +302,11 @@ class StudioWindow(QMainWindow):
         vp.lighting.ambient = self._ambient(preset["ambient"], s.environment)
         vp.split = s.split
         vp.debug = s.debug_view
-        vp.reference = s.render_mode == "reference"
+        vp.mode = s.render_mode
+        vp.debug_layer_index = self.selected_layer
         vp.brush_radius_units = s.brush_radius_mm / self.doc.head.mm_per_unit
         vp.set_overlay(s.overlay)
-        vp.roughness = self._top_roughness()
         vp.environment = s.environment
-        if s.debug_view == 2:
-            self._push_thickness_view()
         self._update_actions()
         self.status.setText(f"brush {s.brush_radius_mm:.1f} mm · strength {s.brush_strength:.2f} · "
                             f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''} · renderer: "
@@ -333,12 +333,6 @@ class StudioWindow(QMainWindow):
                 self.settings.environment = "none"
                 return base
         return self._env_cache[env]
-
-    def _top_roughness(self) -> float:
-        for lay in reversed(self.doc.layers):
-            if lay.visible and lay.material in self.library and np.any(lay.thickness > 0):
-                return float(self.library.get(lay.material).roughness)
-        return 0.45
 
     def _light_preset(self, name: str) -> None:
         p = LIGHT_PRESETS.get(name, LIGHT_PRESETS["daylight"])
@@ -381,9 +375,7 @@ class StudioWindow(QMainWindow):
         if getattr(self, "autosaver", None) is not None:
             self.autosaver.mark_dirty()
         if event.kind == "paint":
-            self.viewport.set_layers(layer_tuples(self.doc, self.library), list(event.tiles))
-            if self.settings.debug_view == 2:
-                self._push_thickness_view()
+            self.viewport.layers_changed(event.layer, list(event.tiles))
         else:
             self.refresh_layers()
         self._update_actions()
@@ -392,17 +384,8 @@ class StudioWindow(QMainWindow):
         n = len(self.doc.layers)
         self.selected_layer = min(max(self.selected_layer, 0), max(n - 1, 0))
         self.layers_panel.refresh(self.doc.layers, self.library, self.selected_layer)
-        self.viewport.set_layers(layer_tuples(self.doc, self.library), None)
-        self.viewport.roughness = self._top_roughness()
-        if self.settings.debug_view == 2:
-            self._push_thickness_view()
-
-    def _push_thickness_view(self) -> None:
-        if self.doc.layers:
-            lay = self.doc.layers[self.selected_layer]
-            self.viewport.set_thickness_view(lay.thickness, float(lay.max_thickness), self.selected_layer)
-        else:
-            self.viewport.set_thickness_view(None, 1.0)
+        self.viewport.debug_layer_index = self.selected_layer
+        self.viewport.layers_changed()
 
     def _wire_layers_panel(self) -> None:
         p = self.layers_panel
@@ -422,8 +405,8 @@ class StudioWindow(QMainWindow):
     def _select_layer(self, index: int) -> None:
         if index >= 0:
             self.selected_layer = index
-            if self.settings.debug_view == 2:
-                self._push_thickness_view()
+            self.viewport.debug_layer_index = index  # the thickness view shows the selected layer
+            self.viewport.update()
 
     def _layer_cmd(self, fn: Any) -> None:
         from km.errors import SheerError
@@ -482,9 +465,6 @@ class StudioWindow(QMainWindow):
 
     # ------------------------------------------------------------------ materials
     def _material_changed(self, name: str | None) -> None:
-        renderer = self.viewport.renderer
-        if renderer is not None and hasattr(renderer, "compositor"):
-            renderer.compositor.invalidate(name)
         self.layers_panel.set_materials(self.library)
         self.refresh_layers()
         self.apply()
@@ -766,12 +746,15 @@ class StudioWindow(QMainWindow):
 
     def export_image(self, path: Path, size: tuple[int, int], on_done: Any = None) -> None:
         import copy
+        import dataclasses
 
         cam, light = copy.deepcopy(self.viewport.camera), copy.deepcopy(self.viewport.lighting)
-        layers = [(t.copy(), m, o) for t, m, o in layer_tuples(self.doc, self.library)]
-        ref = self.settings.render_mode == "reference"
+        layers = [dataclasses.replace(inp, thickness=np.array(inp.thickness))
+                  for inp in layer_inputs(self.doc, self.library)]
+        mode, env = self.settings.render_mode, self.settings.environment
+        layout = getattr(self.doc, "layout", None)
         run_task(self, "Rendering image",
-                 lambda p, c: render_image(self.doc.head, layers, cam, light, size, path, ref, p, c),
+                 lambda p, c: render_image(self.doc.head, layers, cam, light, size, path, mode, env, layout, p, c),
                  on_done or (lambda r: self.statusBar().showMessage(f"Image saved: {r}", 6000)),
                  lambda m: dialogs.error(self, "Export image", m))
 

@@ -1,26 +1,45 @@
-"""The viewport on the real renderer (``render.Renderer``, issue 3), with the same interface as the
-stand-in :class:`app.preview_renderer.PreviewRenderer` so the viewport uses either.
+"""The studio's viewport on the real renderer (``render.Renderer``) — the only renderer the studio uses.
 
-What the adapter adds around ``render.Renderer``: the studio's camera and key light are copied in each
-frame; the before/after split renders the bare skin into an offscreen target and draws its left part
-over the made-up frame; the brush ring is drawn on the surface after a depth-only pass of the mesh.
+What this adds around ``render.Renderer``:
+
+- the studio's camera and key light are copied in before each frame, and the renderer's settings (mode,
+  debug view, thickness-view layer) set from the viewport's state;
+- the document's layers as ``render.LayerInput`` (hidden layers included, so the renderer's layer
+  indices are the document's; see :func:`layer_inputs`);
+- the made-up frame is kept in an offscreen target and drawn again only when something it shows changed
+  (camera, lights, layers, settings, size): moving the brush ring alone costs a copy of that frame and one
+  depth-tested pass of the mesh, not a new frame;
+- the before/after split renders the bare skin too and shows its left part;
+- the thickness debug view maps the selected *document* layer to the renderer's *active* slot
+  (:func:`debug_slot`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from app.camera import OrbitCamera
-from app.preview_renderer import PICK_VERT, Lighting
+from app.camera import Lighting, OrbitCamera
+
+MESH_VERT = """
+#version 330
+uniform mat4 u_mvp;
+in vec3 in_pos;
+out vec3 v_pos;
+void main() { v_pos = in_pos; gl_Position = u_mvp * vec4(in_pos, 1.0); }
+"""
 
 RING_FRAG = """
 #version 330
 uniform vec4 u_brush;
+uniform sampler2D u_depth;
 in vec3 v_pos;
 out vec4 f_color;
 void main() {
+    // the frame's own depth (same mesh, same matrix): draw only the visible surface
+    if (gl_FragCoord.z > texelFetch(u_depth, ivec2(gl_FragCoord.xy), 0).r + 1e-6) discard;
     float d = length(v_pos - u_brush.xyz);
     float w = max(u_brush.w * 0.08, 0.004);
     if (abs(d - u_brush.w) < w) f_color = vec4(1.0, 1.0, 1.0, 0.85);
@@ -57,249 +76,236 @@ void main() { f_color = texture(u_src, v_uv); }
 
 
 def debug_views() -> list[str]:
+    """The renderer's view names, index 0 the normal image (``render.DEBUG_VIEWS``)."""
     from render.renderer import DEBUG_VIEWS
 
     return list(DEBUG_VIEWS)
 
 
-class RealViewportRenderer:
-    """``render.Renderer`` in the studio's viewport."""
+def debug_slot(active: Sequence[int], layer_index: int) -> int | None:
+    """The renderer's slot for document layer ``layer_index`` in the thickness view.
+
+    ``settings.debug_layer`` indexes the renderer's *active* layers (``renderer.km.active``: the visible,
+    non-transparent document layers, bottom first), not the document's: with a hidden layer below the
+    selected one the two differ. None when the layer is not active (hidden): it has nothing to show."""
+    active = list(active)
+    return active.index(layer_index) if layer_index in active else None
+
+
+def layer_inputs(doc: Any, library: Any) -> list[Any]:
+    """Every document layer as a ``render.LayerInput`` (bottom first, hidden ones with ``visible=False``),
+    so index *i* is document layer *i*. The material comes from the studio's ``library`` (edits there show
+    at once), else the layer's own copy (``material_object``)."""
+    from render import LayerInput
+
+    out = []
+    for i, lay in enumerate(doc.layers):
+        mat = library.get(lay.material) if lay.material in library else getattr(lay, "material_object", None)
+        visible = bool(lay.visible) and mat is not None
+        if mat is None:  # a layer whose material is nowhere: kept (indices) but not drawn
+            mat = next(iter(library))
+        out.append(LayerInput(mat, lay.thickness, float(lay.opacity), visible, str(getattr(lay, "name", i))))
+    return out
+
+
+class ViewportRenderer:
+    """``render.Renderer`` drawing the studio's view into a framebuffer it is given (see module doc)."""
 
     name = "render.Renderer"
 
-    def __init__(self, ctx: Any, head: Any, resolution: int) -> None:
+    def __init__(self, ctx: Any, head: Any, layout: Any = None) -> None:
         from render import Renderer
 
         self.ctx = ctx
-        self.r = Renderer(ctx, head)
+        self.r = Renderer(ctx, head, layout=layout)
         self.views = debug_views()
         verts = np.ascontiguousarray(np.asarray(head.vertices, "f4"))
         self.vbo = ctx.buffer(verts.tobytes())
         self.ibo = ctx.buffer(np.asarray(head.faces, "i4").tobytes())
-        self.depth_prog = ctx.program(vertex_shader=PICK_VERT, fragment_shader=DEPTH_FRAG)
-        self.ring_prog = ctx.program(vertex_shader=PICK_VERT, fragment_shader=RING_FRAG)
+        self.depth_prog = ctx.program(vertex_shader=MESH_VERT, fragment_shader=DEPTH_FRAG)
+        self.ring_prog = ctx.program(vertex_shader=MESH_VERT, fragment_shader=RING_FRAG)
         self.depth_vao = ctx.vertex_array(self.depth_prog, [(self.vbo, "3f", "in_pos")], self.ibo)
         self.ring_vao = ctx.vertex_array(self.ring_prog, [(self.vbo, "3f", "in_pos")], self.ibo)
         self.quad_prog = ctx.program(vertex_shader=QUAD_VERT, fragment_shader=QUAD_FRAG)
         self.quad_vao = ctx.vertex_array(self.quad_prog, [])
-        self._before: Any = None
-        self._before_size = (0, 0)
-        self._last_fbo: Any = None
-        self._n_layers = -1
+        self._frame: Any = None  # the made-up frame (colour) + the mesh's depth, at the view's size
+        self._before: Any = None  # the bare skin, for the before/after split
+        self._scene_key: Any = None
+        self._layers_version = 0
         self._env: str | None = None
         self.environment = "none"
-        self.debug_layer = 0
+        self.layer_index = 0  # the document layer the thickness view shows
+        self.debug_hidden = False  # the thickness view's layer is hidden (nothing to show)
+        self.frames_drawn = 0  # full renderer frames (not ring-only redraws)
 
     # ------------------------------------------------------------------ cosmetics
-    def set_layers(self, layers: list[tuple[np.ndarray, Any, float]],
-                   tiles: list[tuple[int, int]] | None = None, tile: int = 64) -> None:
-        from render import LayerInput
+    def set_layers(self, layers: list[Any]) -> None:
+        """All the document's layers (``render.LayerInput``, see :func:`layer_inputs`): a full evaluation."""
+        self.r.set_layers(layers)
+        self._layers_version += 1
 
-        if tiles is None or len(layers) != self._n_layers:
-            self.r.set_layers([LayerInput(m, t, float(o)) for t, m, o in layers])
-            self._n_layers = len(layers)
-            return
-        colrow = [(c, r) for r, c in tiles]
-        for i, (t, _m, _o) in enumerate(layers):
-            self.r.update_tiles(i, t, colrow)
+    def update_tiles(self, layer_index: int, thickness: np.ndarray, tiles_rc: list[tuple[int, int]]) -> None:
+        """Document layer ``layer_index`` changed in the 64² tiles ``tiles_rc`` = [(row, column), …]."""
+        self.r.update_tiles(layer_index, thickness, [(c, r) for r, c in tiles_rc])
+        self._layers_version += 1
 
-    def set_debug_thickness(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
-        self.debug_layer = max(int(index), 0)
+    @property
+    def active(self) -> list[int]:
+        """Document indices of the layers the renderer draws (visible, bottom first)."""
+        return list(self.r.km.active)
 
     # ------------------------------------------------------------------ frames
-    def _sync(self, camera: OrbitCamera, lighting: Lighting, debug: int, reference: bool) -> None:
-        from render import Light
+    def _sync(self, camera: OrbitCamera, lighting: Lighting, debug: int, mode: str) -> None:
         from render.lights import default_lights
 
         c = self.r.camera
         c.yaw, c.pitch, c.distance = float(camera.yaw), float(camera.pitch), float(camera.distance)
         c.target = np.asarray(camera.target, float)
         c.fov_y = float(camera.fov_y)
-        key = Light.directional(float(lighting.azimuth), float(lighting.elevation),
-                                float(lighting.intensity) * 0.7, tuple(float(x) for x in lighting.colour))
-        self.r.lights = [key, *default_lights()[1:]]
+        self.r.lights = [lighting.key_light(), *default_lights()[1:]]
         if self.environment != self._env:
             self.r.set_environment(None if self.environment in ("", "none") else self.environment)
             self._env = self.environment
         s = self.r.settings
-        s.mode = "reference" if reference else "fast"
-        s.debug_view = self.views[debug] if 0 <= debug < len(self.views) else "none"
-        s.debug_layer = min(self.debug_layer, max(self._n_layers - 1, 0))
+        s.mode = mode
+        view = self.views[debug] if 0 <= debug < len(self.views) else "none"
+        self.debug_hidden = False
+        if view == "thickness":
+            slot = debug_slot(self.r.km.active, self.layer_index)
+            if slot is None:  # the selected layer is hidden: show the image (the viewport says why)
+                self.debug_hidden, view = True, "none"
+            else:
+                s.debug_layer = slot
+        s.debug_view = view
+
+    def _targets(self, size: tuple[int, int], split: bool) -> None:
+        if self._frame is not None and self._frame.size != size:
+            self._release_targets()
+        if self._frame is None:
+            colour = self.ctx.texture(size, 4)
+            depth = self.ctx.depth_texture(size)
+            self._frame = self.ctx.framebuffer([colour], depth)
+            self._scene_key = None
+        if split and self._before is None:
+            self._before = self.ctx.framebuffer([self.ctx.texture(size, 4)])
 
     def render(self, fbo: Any, size: tuple[int, int], camera: OrbitCamera, lighting: Lighting, *,
-               split: float = 0.0, debug: int = 0, reference: bool = False, roughness: float = 0.4,
-               brush: tuple[float, float, float, float] | None = None) -> None:
+               split: float = 0.0, debug: int = 0, mode: str = "fast",
+               brush: tuple[float, float, float, float] | None = None) -> bool:
+        """Draw the view into ``fbo`` (``size`` pixels). Returns True when the renderer drew a new frame,
+        False when the kept frame was reused (only the brush ring moved)."""
         import moderngl
 
         w, h = size
-        self._last_fbo = fbo
-        self._sync(camera, lighting, debug, reference)
-        s = self.r.settings
-        if split > 0.0:
-            if self._before_size != (w, h):
-                fbo.use()  # never release the framebuffer that is bound
-                self._release_before()
-                self._before = self.ctx.framebuffer([self.ctx.texture((w, h), 4)])
-                self._before_size = (w, h)
-            s.makeup = False
-            try:
-                self.r.render(self._before, (0, 0, w, h))
-            finally:
-                s.makeup = True
-        self.r.render(fbo, (0, 0, w, h))
+        # bind the target first: creating a framebuffer makes moderngl re-bind the one it last knew, which
+        # may be the widget's previous one (Qt replaces it on a resize): GL_INVALID_OPERATION
+        fbo.use()
+        self._targets((w, h), split > 0.0)
+        key = (w, h, float(camera.yaw), float(camera.pitch), float(camera.distance),
+               tuple(np.asarray(camera.target, float).tolist()), float(camera.fov_y),
+               (lighting.azimuth, lighting.elevation, tuple(lighting.colour), lighting.intensity),
+               self.environment, float(split), int(debug), mode, self.layer_index, self._layers_version)
+        fresh = key != self._scene_key
+        if fresh:
+            self._sync(camera, lighting, debug, mode)
+            s = self.r.settings
+            if split > 0.0:
+                s.makeup = False
+                try:
+                    self.r.render(self._before, (0, 0, w, h))
+                finally:
+                    s.makeup = True
+            self.r.render(self._frame, (0, 0, w, h))
+            # the mesh's depth beside the colour, for the brush ring
+            mvp = self._mvp(camera, w, h)
+            self._frame.use()
+            self._frame.color_mask = (False, False, False, False)
+            self._frame.use()
+            self.ctx.viewport = (0, 0, w, h)
+            self.ctx.scissor = None
+            self._frame.clear(depth=1.0)
+            self.ctx.enable(moderngl.DEPTH_TEST)
+            self.ctx.depth_func = "<"
+            self.depth_prog["u_mvp"].write(mvp)
+            self.depth_vao.render(moderngl.TRIANGLES)
+            self._frame.color_mask = (True, True, True, True)
+            self.ctx.disable(moderngl.DEPTH_TEST)
+            self._scene_key = key
+            self.frames_drawn += 1
         fbo.use()
         self.ctx.viewport = (0, 0, w, h)
         self.ctx.scissor = None
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        self._draw_quad(self._frame.color_attachments[0], 1.0)
         if split > 0.0:
-            self.ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
-            self._before.color_attachments[0].use(0)
-            self.quad_prog["u_src"].value = 0
-            self.quad_prog["u_right"].value = float(split) * 2.0 - 1.0
-            self.quad_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
-            x = int(split * w)
-            self.ctx.scissor = (max(x - 1, 0), 0, 2, h)
+            self._draw_quad(self._before.color_attachments[0], float(split) * 2.0 - 1.0)
+            self.ctx.scissor = (max(int(split * w) - 1, 0), 0, 2, h)
             fbo.clear(1.0, 1.0, 1.0, 1.0)
             self.ctx.scissor = None
         if brush is not None:
-            mvp = np.ascontiguousarray((camera.projection(w / max(h, 1)) @ camera.view()).T, dtype="f4")
-            self.ctx.enable(moderngl.DEPTH_TEST)
-            self.ctx.depth_func = "<="
-            fbo.color_mask = (False, False, False, False)
-            fbo.depth_mask = True
-            fbo.use()
-            self.ctx.viewport = (0, 0, w, h)
-            fbo.clear(depth=1.0)
-            self.depth_prog["u_mvp"].write(mvp.tobytes())
-            self.depth_vao.render(moderngl.TRIANGLES)
-            fbo.color_mask = (True, True, True, True)
-            fbo.use()  # moderngl applies a framebuffer's masks when it is bound
-            self.ctx.viewport = (0, 0, w, h)
             self.ctx.enable(moderngl.BLEND)
             # colour blended over the frame, the frame's alpha kept (Qt composes the widget with it)
             self.ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ZERO, moderngl.ONE)
             self.ctx.blend_equation = moderngl.FUNC_ADD
-            self.ring_prog["u_mvp"].write(mvp.tobytes())
+            self._frame.depth_attachment.use(0)
+            self.ring_prog["u_depth"].value = 0
+            self.ring_prog["u_mvp"].write(self._mvp(camera, w, h))
             self.ring_prog["u_brush"].value = tuple(float(x) for x in brush)
             self.ring_vao.render(moderngl.TRIANGLES)
-            self.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
-            self.ctx.depth_func = "<"
+            self.ctx.disable(moderngl.BLEND)
+        return fresh
 
-    def pick(self, x: int, y: int, size: tuple[int, int], camera: OrbitCamera) -> np.ndarray | None:
+    @staticmethod
+    def _mvp(camera: OrbitCamera, w: int, h: int) -> bytes:
+        vp = camera.view_projection(w / max(h, 1))
+        return np.ascontiguousarray(vp.T, dtype="f4").tobytes()
+
+    def _draw_quad(self, texture: Any, right: float) -> None:
+        import moderngl
+
+        texture.use(0)
+        self.quad_prog["u_src"].value = 0
+        self.quad_prog["u_right"].value = right
+        self.quad_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
+
+    def invalidate(self) -> None:
+        """Draw a new frame next time even if nothing the key covers changed (e.g. a material edit)."""
+        self._scene_key = None
+
+    def pick(self, x: int, y: int) -> np.ndarray | None:
+        """The surface point (mesh units) under pixel (x, y) of the last frame (origin top-left), or None."""
         p = self.r.pick(x, y)
         return None if p is None else np.asarray(p, float)
 
-    def _release_before(self) -> None:
-        if self._before is not None:
-            for a in self._before.color_attachments:
-                a.release()
-            self._before.release()
-            self._before = None
-            self._before_size = (0, 0)
+    def render_image(self, size: tuple[int, int], camera: OrbitCamera, lighting: Lighting,
+                     mode: str = "fast") -> np.ndarray:
+        """An offscreen frame of ``size`` as uint8 (H, W, 3), top row first."""
+        self._sync(camera, lighting, 0, mode)
+        self._scene_key = None
+        return self.r.render_image(size)
+
+    def _release_targets(self) -> None:
+        from render.glutil import release_all
+
+        objs: list[Any] = []
+        for fb in (self._frame, self._before):
+            if fb is not None:
+                objs += [*fb.color_attachments, *([fb.depth_attachment] if fb.depth_attachment else []), fb]
+        release_all(self.ctx, objs)
+        self._frame = self._before = None
+        self._scene_key = None
 
     def release(self) -> None:
-        if self._before is not None and self._last_fbo is not None:
-            self._last_fbo.use()  # never release the framebuffer that is bound
-        self._release_before()
-        for o in (self.depth_vao, self.ring_vao, self.quad_vao, self.depth_prog, self.ring_prog, self.quad_prog,
-                  self.vbo, self.ibo):
-            o.release()
+        """Free every GPU object (call with the context current)."""
+        from render.glutil import release_all
+
+        self._release_targets()
+        release_all(self.ctx, [self.depth_vao, self.ring_vao, self.quad_vao, self.depth_prog, self.ring_prog,
+                               self.quad_prog, self.vbo, self.ibo])
         self.r.release()
 
 
-class DualRenderer:
-    """The real renderer when the view is still, the stand-in preview while it moves.
-
-    Orbiting and painting need a frame every few tens of milliseconds; on a software rasteriser the full
-    renderer (SSS, shadows, layered specular) takes several times that. While the view moves the viewport
-    draws the preview (texture-space KM composite, one light) at reduced resolution, and 250 ms after the
-    last change it draws the full renderer again. Picking always uses the preview's GPU position pass.
-
-    ``real`` may arrive later (:meth:`attach_real`): the viewport shows the preview until then, so the
-    first frame does not wait for the full renderer's start-up (its colour tables import colour-science).
-    """
-
-    def __init__(self, real: RealViewportRenderer | None, preview: Any) -> None:
-        self.real, self.preview = real, preview
-        self.interactive = False
-        self._env = "none"
-        self._layers: list[tuple[np.ndarray, Any, float]] | None = None
-        self._thick: tuple[np.ndarray | None, float, int] | None = None
-        self._deferred: set[tuple[int, int]] | None = None
-        self._deferred_all = False
-
-    @property
-    def name(self) -> str:
-        if self.real is None:
-            return "preview (full renderer starting)"
-        return "preview (moving)" if self.interactive else self.real.name
-
-    @property
-    def environment(self) -> str:
-        return self._env
-
-    @environment.setter
-    def environment(self, value: str) -> None:
-        self._env = value
-        if self.real is not None:
-            self.real.environment = value
-
-    def attach_real(self, real: RealViewportRenderer) -> None:
-        self.real = real
-        real.environment = self._env
-        if self._layers is not None:
-            real.set_layers(self._layers, None)
-        if self._thick is not None:
-            real.set_debug_thickness(*self._thick)
-
-    def set_layers(self, layers: list[tuple[np.ndarray, Any, float]],
-                   tiles: list[tuple[int, int]] | None = None, tile: int = 64) -> None:
-        """The preview updates at once; the full renderer's texture-space pass is deferred while the view
-        moves (the dirty tiles are merged and evaluated before its next frame)."""
-        self._layers = layers
-        self.preview.set_layers(layers, tiles, tile)
-        if self.real is None:
-            return
-        if tiles is None:
-            self._deferred = None
-            self._deferred_all = True
-        elif not self._deferred_all:
-            self._deferred = set(tiles) | (self._deferred or set())
-        if not self.interactive:
-            self._flush()
-
-    def _flush(self) -> None:
-        if self.real is None or self._layers is None:
-            return
-        if self._deferred_all:
-            self.real.set_layers(self._layers, None)
-        elif self._deferred:
-            self.real.set_layers(self._layers, sorted(self._deferred))
-        self._deferred, self._deferred_all = None, False
-
-    def set_debug_thickness(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
-        self._thick = (thickness, tmax, index)
-        self.preview.set_debug_thickness(thickness, tmax, index)
-        if self.real is not None:
-            self.real.set_debug_thickness(thickness, tmax, index)
-
-    def render(self, fbo: Any, size: tuple[int, int], camera: OrbitCamera, lighting: Lighting, **kw: Any) -> None:
-        if self.interactive or self.real is None:
-            kw["debug"] = 0  # the preview's debug views differ from the renderer's: show the image
-            self.preview.render(fbo, size, camera, lighting, **kw)
-        else:
-            self._flush()
-            self.real.render(fbo, size, camera, lighting, **kw)
-
-    def pick(self, x: int, y: int, size: tuple[int, int], camera: OrbitCamera) -> np.ndarray | None:
-        return self.preview.pick(x, y, size, camera)
-
-    def release(self) -> None:
-        self.preview.release()
-        if self.real is not None:
-            self.real.release()
-
-
-def preload_real_renderer(progress: Any = None, cancelled: Any = None) -> bool:
+def preload_renderer(progress: Any = None, cancelled: Any = None) -> bool:
     """Import what ``render.Renderer`` needs (colour-science's tables via ``km.colour``) off the GUI thread."""
     import importlib
 

@@ -45,7 +45,6 @@ def main(argv: list[str]) -> int:
     from PySide6.QtCore import QPointF
 
     vp._ring = vp.pick(QPointF(vp.width() * 0.62, vp.height() * 0.62))  # the brush ring on a cheek
-    vp._interacting = False
     vp.repaint()
     _wait(lambda: True)
     win.grab().save(str(out / "studio_main.png"))

@@ -1,52 +1,38 @@
-"""The 3D viewport: a QOpenGLWidget running the renderer through moderngl.
+"""The 3D viewport: a QOpenGLWidget running the real renderer (``render.Renderer``, through
+:class:`app.render_adapter.ViewportRenderer`) through moderngl, at the widget's full resolution.
 
 - The moderngl context is created in ``initializeGL``; every ``paintGL`` draws into
-  ``ctx.detect_framebuffer(self.defaultFramebufferObject())``; frames are requested with ``update()``
-  (no busy loop); GL objects are released while the context is current, on ``aboutToBeDestroyed``.
+  ``ctx.detect_framebuffer(self.defaultFramebufferObject())``; GL objects are released while the context
+  is current, on ``aboutToBeDestroyed``.
+- Frames are drawn on demand: every change calls ``update()``, which Qt coalesces into one ``paintGL`` per
+  pass of the event loop, so a burst of mouse moves or dabs costs one frame, never a backlog. Document
+  changes are queued (dirty 64² tiles merged per layer, or one full re-evaluation) and applied in the
+  next ``paintGL``. There is no timer and no busy loop.
 - Mouse: left drag on the head paints (signals to the window, which owns the document), left drag off
   the head or right drag orbits, middle (or Shift+right) drag pans, the wheel zooms, Ctrl+left drag moves
-  the key light. Hovering shows the brush ring on the surface. Tablet pressure is read from
-  ``QTabletEvent`` and applied to the mouse events Qt synthesises from it.
-- While the view moves or a stroke is painted, frames are rendered at ``interactive_scale`` (default
-  0.5) of the widget's resolution into an offscreen target and scaled up; 250 ms after the last change a
-  full-resolution frame is drawn. Picking uses the last frame's resolution.
+  the key light. Hovering shows the brush ring on the surface (a ring-only redraw reuses the last frame).
+  Tablet pressure is read from ``QTabletEvent`` and applied to the mouse events Qt synthesises from it.
+- Picking reads the depth of the last frame the renderer drew (the current view).
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
-from PySide6.QtCore import QPointF, Qt, QTimer, Signal
+from PySide6.QtCore import QPointF, Qt, Signal
 from PySide6.QtGui import QMouseEvent, QSurfaceFormat, QTabletEvent, QWheelEvent
 from PySide6.QtOpenGLWidgets import QOpenGLWidget
 from PySide6.QtWidgets import QLabel, QWidget
 
-from app.camera import OrbitCamera
-from app.preview_renderer import Lighting
-
-_BLIT_VERT = """
-#version 330
-out vec2 v_uv;
-void main() {
-    vec2 p = vec2(gl_VertexID & 1, gl_VertexID >> 1);
-    v_uv = p;
-    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-}
-"""
-
-_BLIT_FRAG = """
-#version 330
-uniform sampler2D u_src;
-in vec2 v_uv;
-out vec4 f_color;
-void main() { f_color = texture(u_src, v_uv); }
-"""
+from app.camera import Lighting, OrbitCamera
 
 
 def default_surface_format() -> QSurfaceFormat:
+    """OpenGL 4.1 core with a depth buffer and no vsync (frames are drawn on demand)."""
     fmt = QSurfaceFormat()
     fmt.setVersion(4, 1)
     fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
@@ -56,6 +42,8 @@ def default_surface_format() -> QSurfaceFormat:
 
 
 class Viewport(QOpenGLWidget):
+    """The studio's (and the kiosk's) 3D view of a document's head and layers."""
+
     stroke_begin = Signal(object, float)
     stroke_move = Signal(object, float)
     stroke_end = Signal()
@@ -64,132 +52,89 @@ class Viewport(QOpenGLWidget):
     gl_failed = Signal(str)
     renderer_ready = Signal()
 
-    def __init__(self, head: Any, resolution: int, parent: QWidget | None = None) -> None:
+    def __init__(self, head: Any, layout: Any = None, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.setFormat(default_surface_format())
         self.setMouseTracking(True)
         self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
         self.setMinimumSize(200, 150)
         self.head = head
-        self.resolution = resolution
+        self.layout_uv = layout
         self.camera = OrbitCamera()
         self.frame_head()
         self.lighting = Lighting()
         self.split = 0.0
         self.debug = 0
-        self.reference = False
-        self.roughness = 0.4
+        self.mode = "fast"  # fast | reference
+        self.debug_layer_index = 0  # the document layer the thickness view shows
         self.brush_radius_units = 0.2
         self.paint_enabled = True
+        self.environment = "none"
+        #: the document's layers as ``render.LayerInput`` (set by the window; see render_adapter.layer_inputs)
+        self.layers_source: Callable[[], list[Any]] = list
         self.ctx: Any = None
         self.renderer: Any = None
-        self._pending_layers: tuple[list[Any], list[tuple[int, int]] | None] | None = None
-        self._pending_thick: tuple[np.ndarray | None, float, int] | None = None
-        self.environment = "none"
+        self._full_sync = True
+        self._dirty: dict[int, set[tuple[int, int]]] = {}
         self._ring: np.ndarray | None = None
         self._drag: str | None = None
         self._last = QPointF()
         self._pressure = 1.0
         self._tablet = False
         self.frame_ms = 0.0
-        self.frames = 0
-        self.interactive_scale = 0.5
-        self._interacting = False
-        self._last_scale = 1.0
-        self._off: Any = None
-        self._blit: Any = None
-        self._settle = QTimer(self)
-        self._settle.setSingleShot(True)
-        self._settle.setInterval(250)
-        self._settle.timeout.connect(self._settled)
+        self.frames = 0  # paintGL calls that drew the head (full frames and ring-only redraws)
+        self.renderer_frames = 0  # frames the renderer drew
         self.first_frame_time: float | None = None
         self.gl_error_at_release: str | None = None
         self.full_quality_ready = False
-        self.full_quality_time: float | None = None
         self.overlay = QLabel(self)
         self.overlay.setStyleSheet("color: #e8e8e8; background: rgba(0,0,0,120); padding: 3px;")
         self.overlay.move(6, 6)
         self.overlay.hide()
+        self.notice = QLabel(self)
+        self.notice.setStyleSheet("color: #ffe9a8; background: rgba(0,0,0,150); padding: 4px;")
+        self.notice.hide()
 
     # ------------------------------------------------------------------ GL life cycle
     def initializeGL(self) -> None:
-        import moderngl
+        import sys
 
-        from app import seams
+        import moderngl
 
         try:
             self.ctx = moderngl.create_context()
-            self.renderer = seams.create_renderer(self.ctx, self.head, self.resolution, lazy=True)
         except Exception as exc:  # shown by the window as a message, never a traceback
-            self.renderer = None
             self.gl_failed.emit(f"OpenGL could not start: {exc}")
             return
         self.context().aboutToBeDestroyed.connect(self.release_gl)
-        if getattr(self.renderer, "real", True) is None:
-            from app.render_adapter import preload_real_renderer
-            from app.workers import run_task
+        if "render.renderer" in sys.modules and "km.colour" in sys.modules:
+            self._attach_renderer()
+            return
+        from app.render_adapter import preload_renderer
+        from app.workers import run_task
 
-            run_task(None, "Starting the renderer", preload_real_renderer, lambda _r: self._attach_real(),
-                     lambda msg: self._attach_real(), show_progress=False)
-        else:
-            self.full_quality_ready = True
+        # the renderer's imports (colour-science's tables) load in a worker; the window is up meanwhile
+        run_task(None, "Starting the renderer", preload_renderer, lambda _r: self._attach_renderer(),
+                 lambda msg: self._attach_renderer(), show_progress=False)
 
-    def _attach_real(self) -> None:
-        """Create the full renderer (GUI thread, our context current) once its imports are loaded."""
-        import logging
+    def _attach_renderer(self) -> None:
+        """Create the renderer (GUI thread, our context current)."""
+        from app.render_adapter import ViewportRenderer
 
-        from app.render_adapter import RealViewportRenderer
-
-        if self.renderer is None or self.ctx is None:
+        if self.ctx is None or self.renderer is not None:
             return
         self.makeCurrent()
         try:
-            self.renderer.attach_real(RealViewportRenderer(self.ctx, self.head, self.resolution))
+            self.renderer = ViewportRenderer(self.ctx, self.head, self.layout_uv)
         except Exception as exc:
-            logging.getLogger("sheer.app").warning("the full renderer could not start (%s); preview only", exc)
+            self.renderer = None
+            self.gl_failed.emit(f"The renderer could not start: {exc}")
+            return
         finally:
             self.doneCurrent()
+        self._full_sync = True
         self.full_quality_ready = True
-        self.full_quality_time = time.perf_counter()
         self.renderer_ready.emit()
-        self.update()
-
-    def _offscreen(self, size: tuple[int, int]) -> Any:
-        """A colour + depth target of ``size`` for interactive (reduced-resolution) frames."""
-        if self._off is None or self._off.size != size:
-            self._release_offscreen()
-            self._off = self.ctx.framebuffer([self.ctx.texture(size, 4)], self.ctx.depth_renderbuffer(size))
-            self._off.color_attachments[0].filter = (self.ctx.LINEAR, self.ctx.LINEAR)
-        return self._off
-
-    def _upscale(self, fbo: Any, full: tuple[int, int]) -> None:
-        if self._blit is None:
-            prog = self.ctx.program(vertex_shader=_BLIT_VERT, fragment_shader=_BLIT_FRAG)
-            self._blit = (prog, self.ctx.vertex_array(prog, []))
-        prog, vao = self._blit
-        fbo.use()
-        self.ctx.viewport = (0, 0, *full)
-        self.ctx.disable(self.ctx.DEPTH_TEST | self.ctx.BLEND)
-        self._off.color_attachments[0].use(0)
-        prog["u_src"].value = 0
-        vao.render(self.ctx.TRIANGLE_STRIP, vertices=4)
-
-    def _release_offscreen(self) -> None:
-        if self._off is not None:
-            self.ctx.detect_framebuffer(self.defaultFramebufferObject()).use()
-            for a in (*self._off.color_attachments, self._off.depth_attachment):
-                a.release()
-            self._off.release()
-            self._off = None
-
-    def begin_interaction(self) -> None:
-        """Render at ``interactive_scale`` until the view has been still for a moment, then at full size."""
-        if self.interactive_scale < 1.0:
-            self._interacting = True
-            self._settle.start()
-
-    def _settled(self) -> None:
-        self._interacting = False
         self.update()
 
     def release_gl(self) -> None:
@@ -198,11 +143,6 @@ class Viewport(QOpenGLWidget):
             return
         self.makeCurrent()
         try:
-            self._release_offscreen()
-            if self._blit is not None:
-                for o in reversed(self._blit):
-                    o.release()
-                self._blit = None
             if self.ctx is not None:
                 self.gl_error_at_release = str(self.ctx.error)
             if self.renderer is not None:
@@ -215,87 +155,110 @@ class Viewport(QOpenGLWidget):
             self.doneCurrent()
 
     def pixel_size(self) -> tuple[int, int]:
+        """The widget's size in device pixels (the size frames are rendered at)."""
         r = self.devicePixelRatioF()
         return max(int(self.width() * r), 1), max(int(self.height() * r), 1)
 
+    def _apply_layer_changes(self) -> None:
+        if self._full_sync:
+            self._full_sync, self._dirty = False, {}
+            self.renderer.set_layers(self.layers_source())
+        elif self._dirty:
+            dirty, self._dirty = self._dirty, {}
+            inputs = self.layers_source()
+            for index, tiles in dirty.items():
+                if index < len(inputs):
+                    self.renderer.update_tiles(index, inputs[index].thickness, sorted(tiles))
+
     def paintGL(self) -> None:
+        if self.ctx is None:
+            return
+        fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+        fbo.use()  # before any GL object is created (see ViewportRenderer.render)
         if self.renderer is None:
+            fbo.clear(0.11, 0.11, 0.12, 1.0)
             return
         t0 = time.perf_counter()
-        if self._pending_layers is not None:
-            layers, tiles = self._pending_layers
-            self._pending_layers = None
-            self.renderer.set_layers(layers, tiles)
-        if self._pending_thick is not None:
-            self.renderer.set_debug_thickness(*self._pending_thick)
-            self._pending_thick = None
-        if hasattr(self.renderer, "environment"):
-            self.renderer.environment = self.environment
-        fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
+        self._apply_layer_changes()
+        self.renderer.environment = self.environment
+        self.renderer.layer_index = self.debug_layer_index
         ring = None
         if self._ring is not None and self.paint_enabled:
             ring = (*self._ring.tolist(), self.brush_radius_units)
-        full = self.pixel_size()
-        scale = self.interactive_scale if self._interacting else 1.0
-        size = (max(int(full[0] * scale), 1), max(int(full[1] * scale), 1)) if scale < 1.0 else full
-        target = fbo if size == full else self._offscreen(size)
-        if hasattr(self.renderer, "interactive"):
-            self.renderer.interactive = self._interacting
-        self.renderer.render(target, size, self.camera, self.lighting, split=self.split,
-                             debug=self.debug, reference=self.reference, roughness=self.roughness,
-                             brush=ring)
-        self._last_scale = size[0] / full[0]
-        if target is not fbo:
-            self._upscale(fbo, full)
+        drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting, split=self.split,
+                                    debug=self.debug, mode=self.mode, brush=ring)
         if self.overlay.isVisible():
             self.ctx.finish()
         self.frame_ms = (time.perf_counter() - t0) * 1000.0
         self.frames += 1
+        self.renderer_frames += int(drew)
         if self.first_frame_time is None:
             self.first_frame_time = time.perf_counter()
+        self._show_notice(self.renderer.debug_hidden)
         if self.overlay.isVisible():
             self.overlay.setText(f"{self.frame_ms:5.1f} ms  ({1000.0 / max(self.frame_ms, 1e-3):4.0f} fps)  "
-                                 f"{self.renderer.name}")
+                                 f"{self.renderer.name} {self.mode}{'' if drew else ' (ring only)'}")
             self.overlay.adjustSize()
         self.frame_drawn.emit(self.frame_ms)
 
+    def _show_notice(self, hidden: bool) -> None:
+        if hidden:
+            text = "Thickness view: the selected layer is hidden (show it to see its thickness)"
+            if self.notice.text() != text:
+                self.notice.setText(text)
+                self.notice.adjustSize()
+            self.notice.move(6, max(self.height() - self.notice.height() - 6, 0))
+        if self.notice.isVisible() != hidden:
+            self.notice.setVisible(hidden)
+
     # ------------------------------------------------------------------ inputs from the window
-    def set_layers(self, layers: list[Any], tiles: list[tuple[int, int]] | None) -> None:
-        """Queue a texture-space update (applied in the next paintGL, with our context current)."""
-        if self._pending_layers is not None:
-            old_tiles = self._pending_layers[1]
-            tiles = None if (tiles is None or old_tiles is None) else sorted(set(old_tiles) | set(tiles))
-        self._pending_layers = (layers, tiles)
+    def layers_changed(self, index: int | None = None, tiles: list[tuple[int, int]] | None = None) -> None:
+        """Queue a texture-space update, applied in the next ``paintGL`` (our context current): layer
+        ``index``'s 64² tiles ``tiles`` = [(row, column), …] (merged with those already queued), or every
+        layer when ``index`` or ``tiles`` is None."""
+        if index is None or tiles is None:
+            self._full_sync = True
+        elif not self._full_sync:
+            self._dirty.setdefault(int(index), set()).update((int(r), int(c)) for r, c in tiles)
         self.update()
 
-    def set_thickness_view(self, thickness: np.ndarray | None, tmax: float, index: int = 0) -> None:
-        self._pending_thick = (None if thickness is None else thickness.copy(), tmax, index)
+    @property
+    def pending_changes(self) -> bool:
+        """Layer changes are queued for the next frame."""
+        return self._full_sync or bool(self._dirty)
+
+    def refresh(self) -> None:
+        """Draw a new frame even if the view did not change (e.g. a material was edited)."""
+        if self.renderer is not None:
+            self.renderer.invalidate()
         self.update()
 
     def frame_head(self) -> None:
+        """Frame the face from the front (the F key)."""
         v = self.head.vertices
         top = v[:, 1].max()
         face = v[(v[:, 1] > top - 4.6) & (v[:, 2] > v[:, 2].min() + 0.3 * np.ptp(v[:, 2]))]
         if len(face) == 0:
             face = v
-        self.camera.frame(face.min(axis=0), face.max(axis=0))
+        self.camera.frame_box(face.min(axis=0), face.max(axis=0))
         self.update()
 
     def set_overlay(self, on: bool) -> None:
+        """Show or hide the frame-time overlay."""
         self.overlay.setVisible(on)
         self.update()
 
     # ------------------------------------------------------------------ picking
     def pick(self, pos: QPointF) -> np.ndarray | None:
-        if self.renderer is None:
+        """The surface point under ``pos`` (widget coordinates) in the last frame, or None."""
+        if self.renderer is None or self.ctx is None:
             return None
-        r = self.devicePixelRatioF() * self._last_scale
-        w, h = self.pixel_size()
-        size = (max(int(w * self._last_scale), 1), max(int(h * self._last_scale), 1))
+        r = self.devicePixelRatioF()
         self.makeCurrent()
         try:
-            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r), size, self.camera)
+            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r))
         finally:
+
             self.doneCurrent()
 
     # ------------------------------------------------------------------ events
@@ -335,8 +298,6 @@ class Viewport(QOpenGLWidget):
         pos = event.position()
         dx, dy = pos.x() - self._last.x(), pos.y() - self._last.y()
         self._last = pos
-        if self._drag is not None:
-            self.begin_interaction()
         if self._drag == "orbit":
             self.camera.orbit(-dx * 0.4, dy * 0.4)
         elif self._drag == "pan":
@@ -359,7 +320,6 @@ class Viewport(QOpenGLWidget):
             if ring is None and self._ring is None:
                 return
             self._ring = ring
-            self.begin_interaction()
         else:
             return  # nothing on screen depends on a hover (the kiosk)
         self.update()
@@ -375,12 +335,11 @@ class Viewport(QOpenGLWidget):
         self.update()
 
     def wheelEvent(self, event: QWheelEvent) -> None:
-        self.begin_interaction()
         steps = event.angleDelta().y() / 120.0
         self.camera.zoom(math.pow(0.9, steps))
         self.update()
 
     def orbit_by(self, dyaw: float, dpitch: float = 0.0) -> None:
-        self.begin_interaction()
+        """Turn the view (the kiosk's attract mode, the benchmark)."""
         self.camera.orbit(dyaw, dpitch)
         self.update()

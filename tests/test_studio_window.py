@@ -26,6 +26,14 @@ def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[o
         yield win
 
 
+def draw(vp: object, qtbot: object) -> None:
+    """Ask for a frame and wait until the viewport has drawn it (a ``repaint`` of a window that is not
+    exposed yet does nothing)."""
+    before = vp.frames
+    vp.update()
+    qtbot.waitUntil(lambda: vp.frames > before, timeout=20000)
+
+
 def grab(win: object) -> np.ndarray:
     from app.qt_compat import qimage_to_rgb
 
@@ -39,6 +47,19 @@ def test_viewport_shows_the_head(window: object) -> None:
     skin = (centre[:, 0] > 90) & (centre[:, 0] > centre[:, 1]) & (centre[:, 1] > centre[:, 2] - 10)
     assert skin.mean() > 0.6, f"only {skin.mean():.0%} skin-coloured pixels in the middle"
     assert img.std() > 10, "the frame is blank"
+
+
+def test_viewport_runs_the_real_renderer_at_full_size(window: object, qtbot: object) -> None:
+    from render import Renderer
+
+    vp = window.viewport
+    assert isinstance(vp.renderer.r, Renderer)
+    vp.orbit_by(3.0)
+    drawn = vp.renderer_frames
+    draw(vp, qtbot)
+    assert vp.renderer_frames > drawn, "an orbit step must draw a new frame"
+    assert tuple(vp.renderer.r.last.size) == vp.pixel_size()
+    vp.orbit_by(-3.0)
 
 
 def test_title_and_actions(window: object) -> None:
@@ -69,7 +90,62 @@ def test_paint_stroke_changes_the_map_then_undo_redo(window: object, qtbot: obje
     assert np.array_equal(layer.thickness, before)
     window.actions_by_id["edit.redo"].trigger()
     assert np.array_equal(layer.thickness, painted)
-    qtbot.waitUntil(lambda: vp._pending_layers is None, timeout=5000)
+    qtbot.waitUntil(lambda: not vp.pending_changes, timeout=5000)
+
+
+def test_painting_changes_the_rendered_face(window: object, qtbot: object) -> None:
+    """A stroke reaches the screen: dirty tiles → the renderer's texture-space KM → a new frame."""
+    from PySide6.QtCore import QPointF
+
+    window.add_layer("Lipstick Classic Red")
+    vp = window.viewport
+    vp._ring = None
+    qtbot.waitUntil(lambda: not vp.pending_changes, timeout=5000)
+    before = grab(window).astype(int)
+    hit = vp.pick(QPointF(vp.width() / 2, vp.height() * 0.55))
+    assert hit is not None
+    window._stroke_begin(hit, 1.0)
+    for dx in range(0, 30, 3):
+        p = vp.pick(QPointF(vp.width() / 2 + dx, vp.height() * 0.55))
+        window._stroke_move(p if p is not None else hit, 1.0)
+    window._stroke_end()
+    assert vp.pending_changes
+    vp._ring = None
+    after = grab(window).astype(int)
+    assert not vp.pending_changes
+    assert (np.abs(after - before).max(axis=-1) > 10).sum() > 100, "the stroke did not show in the viewport"
+    window.undo()
+
+
+def test_thickness_view_shows_the_selected_layer_with_a_hidden_layer_below(window: object, qtbot: object) -> None:
+    """``settings.debug_layer`` indexes the renderer's active layers: hide layer 0 and select layer 2,
+    the renderer must show its active slot 1, not slot 2 (which would be clamped to another layer)."""
+    from app.render_adapter import debug_slot
+
+    assert debug_slot([1, 2], 2) == 1 and debug_slot([0, 2], 1) is None and debug_slot([0, 1, 2], 2) == 2
+    vp = window.viewport
+    n = len(window.doc.layers)
+    assert n >= 3
+    thickness = window.debug_combo.findText("thickness")
+    try:
+        window.doc.set_layer(0, visible=False)
+        window._select_layer(2)
+        window._set(debug_view=thickness)
+        draw(vp, qtbot)
+        r = vp.renderer.r
+        assert 0 not in r.km.active and r.settings.debug_view == "thickness"
+        assert r.km.active[r.settings.debug_layer] == 2
+        assert not vp.notice.isVisible()
+        window._select_layer(0)  # the hidden layer: nothing to show, and the viewport says so
+        draw(vp, qtbot)
+        assert vp.renderer.debug_hidden and r.settings.debug_view == "none"
+        assert vp.notice.isVisible() and "hidden" in vp.notice.text()
+    finally:
+        window._set(debug_view=0)
+        window.doc.set_layer(0, visible=True)
+        window._select_layer(0)
+        draw(vp, qtbot)
+    assert not vp.notice.isVisible()
 
 
 def test_layer_opacity_visibility_rename(window: object) -> None:
@@ -105,12 +181,12 @@ def test_edit_material_updates_the_viewport(window: object, qtbot: object) -> No
     window.layers_panel.list.setCurrentRow(0)
     dock = window.library_dock
     dock.select(lip.material)
-    qtbot.waitUntil(lambda: window.viewport._pending_layers is None, timeout=5000)
+    qtbot.waitUntil(lambda: not window.viewport.pending_changes, timeout=5000)
     before = grab(window).astype(int)
     k_before = np.array(window.library.get(lip.material).K)
     dock.scale_spectrum("K", 6.0)
     assert np.allclose(window.library.get(lip.material).K, k_before * 6.0)
-    qtbot.waitUntil(lambda: window.viewport._pending_layers is None, timeout=5000)
+    qtbot.waitUntil(lambda: not window.viewport.pending_changes, timeout=5000)
     after = grab(window).astype(int)
     changed = (np.abs(after - before).max(axis=-1) > 8).mean()
     assert changed > 0.001, "editing the lipstick material did not change the viewport"
@@ -269,19 +345,17 @@ def test_brush_ring_follows_the_surface(window: object, qtbot: object) -> None:
     from PySide6.QtCore import QPoint, QPointF
 
     vp = window.viewport
-    vp._settle.stop()
-    vp._interacting = False
     vp._ring = None
     plain = grab(window).astype(int)
+    drawn = vp.renderer_frames
     where = QPoint(vp.width() // 2, int(vp.height() * 0.45))
     qtbot.mouseMove(vp, where)
     qtbot.waitUntil(lambda: vp._ring is not None, timeout=3000)
     hit = vp.pick(QPointF(where))
     assert hit is not None and np.allclose(vp._ring, hit, atol=0.05)
-    vp._settle.stop()
-    vp._interacting = False
     with_ring = grab(window).astype(int)
     assert (np.abs(with_ring - plain).max(axis=-1) > 25).sum() > 30
+    assert vp.renderer_frames == drawn, "moving the brush ring alone must reuse the renderer's last frame"
 
 
 def test_measurement_import_in_background_reports_rejected_rows(window: object, qtbot: object,
