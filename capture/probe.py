@@ -43,8 +43,14 @@ class ProbeAnalysis:
         theta_deg, phi_deg: the light's spherical coordinates about the camera axis (degrees).
         highlight_px: (x, y) of the highlight's centroid in the probe image (pixels).
         flash_rgb: (3,) the flash colour, linear RGB with luminance 1 (relative to the photograph).
-        ambient_rgb: (3,) the ambient radiance seen in the ring, linear RGB in the photograph's units.
-        classes: uint8 (H, W) 0 = outside/unused, 1 = saturated, 2 = halo, 3 = ambient ring (Fig. 7b).
+        ambient_rgb: (3,) the ambient light: the mean radiance over the ball (all directions) outside
+            the flash's core and halo, linear RGB in the photograph's units.
+        classes: uint8 (H, W) 0 = outside/unused, 1 = the flash's saturated core, 2 = halo, 3 = the
+            environment averaged for the ambient light (Fig. 7b, with the whole ball for the ring).
+        clipped_fraction: the fraction of those environment pixels with a clipped channel (the ambient
+            light is then a lower bound).
+        flash_hue_spread: the flash hue's spread between the halo's sectors (median relative deviation,
+            worst channel; see :func:`_flash_hue`).
     """
 
     light_dir_camera: np.ndarray
@@ -54,6 +60,8 @@ class ProbeAnalysis:
     flash_rgb: np.ndarray
     ambient_rgb: np.ndarray
     classes: np.ndarray
+    clipped_fraction: float = 0.0
+    flash_hue_spread: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -61,6 +69,7 @@ class ProbeAnalysis:
             "theta_deg": self.theta_deg, "phi_deg": self.phi_deg,
             "highlight_px": list(self.highlight_px),
             "flash_rgb": self.flash_rgb.tolist(), "ambient_rgb": self.ambient_rgb.tolist(),
+            "clipped_fraction": self.clipped_fraction, "flash_hue_spread": self.flash_hue_spread,
         }
 
 
@@ -80,20 +89,173 @@ def light_direction_from_highlight(dx: float, dy: float) -> tuple[np.ndarray, fl
     return d, float(np.degrees(theta_l)), float(np.degrees(phi_l))
 
 
+def _blob_shape(xs: np.ndarray, ys: np.ndarray) -> float:
+    """Elongation of a pixel blob: √(λ_min/λ_max) of the covariance of its pixel centres (1 for a disc,
+    → 0 for a line); 1 for blobs of fewer than 3 pixels."""
+    if len(xs) < 3:
+        return 1.0
+    ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys])) + np.eye(2) / 12.0)  # + a pixel's own spread
+    return float(np.sqrt(ev[0] / ev[1]))
+
+
+def _find_flash_core(img: np.ndarray, inside: np.ndarray, px: np.ndarray, py: np.ndarray, cx: float,
+                     cy: float, r: float, level: float, max_flash_deg: float, source: str) -> np.ndarray:
+    """The flash's saturated core on the ball, bool (H, W) (see :func:`analyse_probe`)."""
+    lum = img @ LUMINANCE
+    tiers = (("every channel", inside & (img.min(axis=2) >= level)),
+             ("some channel", inside & (img.max(axis=2) >= level)))
+    found = [(name, sat) for name, sat in tiers if sat.any()]
+    if found:
+        kind = found[0][0]
+        labels, n = ndimage.label(found[0][1])
+    else:
+        # No sensor clipping: the brightest 0.05 % of the ball stands in for the saturated core.
+        kind = "the brightest 0.05 %"
+        labels, n = ndimage.label(inside & (lum >= np.quantile(lum[inside], 0.9995)))
+    if n == 0:
+        raise ProbeError(f"{source}: no highlight found on the ball")
+    idx = np.arange(1, n + 1)
+    cyx = np.asarray(ndimage.center_of_mass(np.ones_like(lum), labels, idx)).reshape(-1, 2)
+    rho_b = np.hypot(cyx[:, 1] + 0.5 - cx, cyx[:, 0] + 0.5 - cy) / r
+    theta_b = np.degrees(2 * np.arcsin(np.clip(rho_b, 0, 1)))
+    order = np.argsort(rho_b)
+    near = order[theta_b[order] <= max_flash_deg]
+    if len(near) == 0:
+        raise ProbeError(
+            f"{source}: no saturated highlight ({kind} clipped) within {max_flash_deg:g}° of the camera axis; "
+            f"the nearest is at {theta_b[order[0]]:.1f}° — is the flash on the camera, the ball centred "
+            f"in the crop?")
+    best = int(near[0])
+    core = labels == best + 1
+    ys, xs = np.nonzero(core)
+    where = f"({float(xs.mean()) + 0.5:.1f}, {float(ys.mean()) + 0.5:.1f}) px"
+    areas = np.bincount(labels.ravel(), minlength=n + 1)[1:]
+    rivals = [int(o) for o in near[1:]
+              if rho_b[o] < 2.0 * rho_b[best] + 3.0 / r and areas[o] >= 0.5 * areas[best]]
+    if rivals:
+        o = rivals[0]
+        raise ProbeError(
+            f"{source}: ambiguous highlight: two saturated spots ({kind} clipped) near the ball's centre, "
+            f"at {where} (light {theta_b[best]:.1f}° off the camera axis) and at "
+            f"({cyx[o, 1] + 0.5:.1f}, {cyx[o, 0] + 0.5:.1f}) px ({theta_b[o]:.1f}°); the flash cannot be "
+            f"told from a lamp of the environment — retake the probe with less exposure or with the ball "
+            f"turned so that no lamp reflects near the flash")
+    elong = _blob_shape(xs + 0.5, ys + 0.5)
+    if elong < 0.4:
+        raise ProbeError(
+            f"{source}: ambiguous highlight: the saturated spot nearest the ball's centre, at {where} "
+            f"({int(core.sum())} px), is elongated (axis ratio {elong:.2f}): the flash's reflection merges "
+            f"with a bright part of the environment, so its centre is unknown — retake the probe with less "
+            f"exposure or against a darker background")
+    return core
+
+
+def _halo_radius(img: np.ndarray, usable: np.ndarray, dist: np.ndarray, first: float,
+                 background_lum: float) -> float | None:
+    """The halo's outer radius (pixels): the radius where the median luminance of 1-pixel annuli
+    around the core has fallen to a tenth of its first excess over ``background_lum`` (at least four
+    annuli out); None when no annulus is usable."""
+    lum = img @ LUMINANCE
+    excess0 = None
+    radius = None
+    count = 0
+    for d0 in np.arange(np.floor(first), np.floor(first) + 64.0):
+        m = usable & (dist >= d0) & (dist < d0 + 1)
+        if m.sum() < 8:
+            if radius is not None:
+                break
+            continue
+        excess = float(np.median(lum[m])) - background_lum
+        excess0 = excess if excess0 is None else excess0
+        radius = d0 + 1.0
+        count += 1
+        if count >= 4 and excess < 0.1 * excess0:
+            break
+    return radius
+
+
+def _flash_hue(img: np.ndarray, halo: np.ndarray, px: np.ndarray, py: np.ndarray, hx: float, hy: float,
+               sectors: int = 16) -> tuple[np.ndarray, float] | None:
+    """The flash's colour from its ``halo`` pixels (unclipped, around the core at (hx, hy)), and the
+    spread of the estimate (the median relative deviation of the sectors used, worst channel).
+
+    Along a ray from the highlight the flash adds F·h(d) (a hue times the halo's radial profile) to an
+    environment that varies little along the ray: in each of ``sectors`` angular sectors, each channel is
+    regressed linearly on the luminance, v_c = b_c + (F_c / F_Y)·Y, so the slope is the flash's hue
+    whatever the environment's level behind the halo. The half of the sectors whose fit is best
+    (residual RMS relative to the luminance span) give the median hue: the sectors crossing a horizon or
+    a lamp fit badly and are dropped. (The paper's mean over the halo minus a ring further out mistook
+    the lobby's wall gradient for flash light, 5 % too little blue; sunset's horizon through the halo
+    gave 7 %.) None when fewer than three sectors have a usable fit.
+    """
+    az = np.arctan2(py - hy, px - hx)
+    sec = np.floor((az + np.pi) / (2 * np.pi) * sectors).astype(np.int64) % sectors
+    slopes = []
+    quality = []
+    for k in range(sectors):
+        m = halo & (sec == k)
+        if m.sum() < 6:
+            continue
+        v = img[m]
+        y = v @ LUMINANCE
+        span = float(y.max() - y.min())
+        if span < 1e-3:
+            continue
+        a = np.stack([y, np.ones(len(y))], axis=1)
+        coef = np.linalg.lstsq(a, v, rcond=None)[0]
+        slopes.append(coef[0])
+        quality.append(float(np.sqrt(np.mean((v - a @ coef) ** 2))) / span)
+    if len(slopes) < 3:
+        return None
+    q = np.asarray(quality)
+    good = np.asarray(slopes)[q <= np.median(q)]
+    hue = np.median(good, axis=0)
+    if float(hue @ LUMINANCE) <= 0 or np.any(hue <= 0):
+        return None
+    hue = hue / float(hue @ LUMINANCE)
+    rel = good / np.maximum(good @ LUMINANCE, 1e-12)[:, None] / hue[None, :] - 1.0
+    return hue, float(np.median(np.abs(rel), axis=0).max())
+
+
 def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = None,
-                  saturation_level: float = 0.98, source: str = "probe") -> ProbeAnalysis:
+                  saturation_level: float = 0.98, max_flash_deg: float = 20.0,
+                  source: str = "probe") -> ProbeAnalysis:
     """Analyse a mirror-ball photograph.
+
+    - **The flash's core**: the connected pixels whose *every* channel clips (a flash many times brighter
+      than the scene clips all three; coloured lamps and windows of the environment often clip only
+      one or two, so this separates the flash from an orange street lamp beside it); failing that, any
+      channel; failing that, the brightest 0.05 %. The flash is on the camera, so its core is the
+      clipped spot nearest the ball's centre, and it must lie within ``max_flash_deg`` of the camera
+      axis. When another clipped spot at least half as large lies within twice that distance (+ 3 px),
+      or the nearest spot is elongated (axis ratio < 0.4: the flash merged with a bright part of the environment), the
+      highlight is ambiguous and a :class:`ProbeError` says so rather than returning a guess.
+    - **The flash's hue**: from the halo around the core, by regressing each channel on the luminance
+      along rays from the highlight (:func:`_flash_hue`), so the environment behind the halo cancels.
+    - **The ambient light**: the mean radiance of the whole ball outside the flash's core and halo. An
+      orthographic mirror ball is an *equal-area* map of the sphere of directions (a pixel at
+      normalised radius ρ reflects the direction at θ = 2·arcsin ρ from the viewer; dω = sin θ dθ dφ =
+      4 ρ dρ dφ), so the plain pixel mean is the mean radiance over all directions — which is the
+      ambient a constant term must stand for: averaged over all normals n, the irradiance E(n)/π
+      of an environment equals its mean radiance. (The paper's ring around the halo sees only the
+      directions behind the camera; in a lobby or at a sunset that has another hue and a tenth of the
+      level, and the fitted diffuse colour absorbed the difference — ΔE2000 up to 2.7.) The ball's
+      outer 3 % of radius (the 6 % of directions behind the ball) is left out, and clipped pixels of
+      the environment count at their clipped value (a lower bound).
 
     Args:
         image: (H, W, 3) *linear* RGB in [0, 1] (decode sRGB first; see :func:`capture.io.read_photo`).
         ball: (cx, cy, r) the ball's circle in pixels; None = the circle inscribed in the image (a probe
             photo cropped to the ball).
         saturation_level: a channel at or above this value counts as saturated (sensor clipping).
+        max_flash_deg: the flash's highest angle from the camera axis (degrees).
         source: names the input in error messages.
     """
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 3 or img.shape[2] != 3:
         raise ProbeError(f"{source}: expected an RGB image")
+    if not np.all(np.isfinite(img)):
+        raise ProbeError(f"{source}: the image has NaN or infinite values")
     h, w = img.shape[:2]
     if ball is None:
         ball = (w / 2.0, h / 2.0, min(w, h) / 2.0)
@@ -105,21 +267,7 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
     py = yy + 0.5
     rho = np.hypot(px - cx, py - cy) / r
     inside = rho < 0.97
-    sat = inside & (img.max(axis=2) >= saturation_level)
-    if not sat.any():
-        # No sensor clipping: the brightest 0.05 % of the ball stands in for the saturated core.
-        lum = img @ LUMINANCE
-        thr = np.quantile(lum[inside], 0.9995)
-        sat = inside & (lum >= thr)
-    labels, n = ndimage.label(sat)
-    if n == 0:
-        raise ProbeError(f"{source}: no highlight found on the ball")
-    # The flash sits near the camera, so its highlight is the saturated blob nearest the ball's centre
-    # (an environment's windows and lamps may saturate too, farther out).
-    idx = np.arange(1, n + 1)
-    cyx = np.asarray(ndimage.center_of_mass(np.ones_like(rho), labels, idx)).reshape(-1, 2)
-    dist_c = np.hypot(cyx[:, 1] + 0.5 - cx, cyx[:, 0] + 0.5 - cy)
-    core = labels == int(idx[int(np.argmin(dist_c))])
+    core = _find_flash_core(img, inside, px, py, cx, cy, r, saturation_level, max_flash_deg, source)
     hx = float(px[core].mean())
     hy = float(py[core].mean())
     d, theta, phi = light_direction_from_highlight((hx - cx) / r, (hy - cy) / r)
@@ -128,25 +276,28 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
     halo_out = core_r + max(3.0, 2.0 * core_r)
     ring_in = halo_out + max(2.0, 0.5 * core_r)
     ring_out = ring_in + 0.2 * r
-    halo = inside & ~sat & (dist > core_r + 1.0) & (dist <= halo_out)
-    ring = inside & ~sat & (dist > ring_in) & (dist <= ring_out)
+    clipped = img.max(axis=2) >= saturation_level
+    ring = inside & ~clipped & (dist > ring_in) & (dist <= ring_out)
     if ring.sum() < 10:
         raise ProbeError(f"{source}: the ring around the highlight leaves the ball; is the ball circle right?")
-    ambient = np.median(img[ring], axis=0)
-    if halo.sum() < 4:
-        raise ProbeError(f"{source}: no unsaturated halo around the highlight to measure the flash's hue")
-    # The halo's brightest half carries most flash light; subtract the environment seen in the ring.
-    hv = img[halo]
-    hl = hv @ LUMINANCE
-    bright = hv[hl >= np.median(hl)]
-    flash = np.clip(bright.mean(axis=0) - ambient, 1e-6, None)
-    flash = flash / float(flash @ LUMINANCE)
+    background = np.median(img[ring], axis=0)
+    usable = inside & ~clipped
+    halo_r = _halo_radius(img, usable, dist, core_r + 1.0, float(background @ LUMINANCE))
+    halo = usable & (dist > core_r + 1.0) & (dist <= max(halo_r or 0.0, halo_out))
+    measured = _flash_hue(img, halo, px, py, hx, hy)
+    if measured is None:
+        raise ProbeError(f"{source}: the halo around the highlight is no brighter than the environment; "
+                         f"cannot measure the flash's hue")
+    flash, spread = measured
+    env = inside & (dist > max(ring_in, halo_r or 0.0))
+    ambient = img[env].mean(axis=0)
     classes = np.zeros((h, w), dtype=np.uint8)
-    classes[ring] = 3
+    classes[env] = 3
     classes[halo] = 2
-    classes[sat] = 1
+    classes[core] = 1
     return ProbeAnalysis(light_dir_camera=d, theta_deg=theta, phi_deg=phi, highlight_px=(hx, hy),
-                         flash_rgb=flash, ambient_rgb=ambient, classes=classes)
+                         flash_rgb=flash, ambient_rgb=ambient, classes=classes,
+                         clipped_fraction=float(clipped[env].mean()), flash_hue_spread=spread)
 
 
 def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:

@@ -2,6 +2,11 @@
 parameters under a known flash near the camera, and a mirror-ball probe made from an HDR environment plus
 the same point light.
 
+The ambient light of the photograph is the environment's mean radiance over the sphere of directions
+(:func:`env_mean_radiance`) — the constant a Phong ambient term stands for (averaged over all normals,
+an environment's irradiance / π is its mean radiance), and what a mirror ball shows (an equal-area map of
+the directions, see :func:`capture.probe.analyse_probe`).
+
 The ground-truth detail texture is the head's albedo (linearised) divided by its mean over the skin pixels
 of the photograph (the mask :func:`capture.pipeline.compute_skin_mask` computes), so it averages 1 on skin, like a real ratio image. The photograph is the CPU render
 ``clip(detail ⊙ (ambient + diffuse) + specular)`` — dichromatic, as the paper assumes (§4.2): the light
@@ -49,6 +54,17 @@ def read_env(path: str) -> np.ndarray:
     return np.asarray(OpenEXR.File(str(path)).channels()["RGB"].pixels, dtype=np.float64)
 
 
+def env_mean_radiance(env: np.ndarray) -> np.ndarray:
+    """The mean radiance over the sphere of directions of an equirectangular environment (H, W, 3):
+    rows weighted by the solid angle they cover, ∝ cos(latitude). (The plain pixel mean over-weights the
+    poles: it differs from this by −18 % to +31 % on the shipped environments, and in hue — the lobby's
+    pixel mean is 20 % less blue.) Returns (3,), the environment's units."""
+    h = env.shape[0]
+    lat = (0.5 - (np.arange(h) + 0.5) / h) * np.pi
+    w = np.cos(lat)
+    return np.einsum("h,hwc->c", w, np.asarray(env, dtype=np.float64)) / (w.sum() * env.shape[1])
+
+
 def light_from_camera(camera: Camera, up_deg: float, right_deg: float) -> np.ndarray:
     """A world direction towards a light at the given angles above and to the right of the camera's
     axis, as seen from the subject (unit (3,))."""
@@ -67,9 +83,10 @@ def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongPara
     light = light_from_camera(cam, light_up_deg, light_right_deg)
     flash = np.array([1.0, 0.96, 0.88])
     flash = flash / float(flash @ np.array([0.2126, 0.7152, 0.0722]))
+    mean_radiance = env_mean_radiance(env)
     if env_scale is None:
-        env_scale = 0.04 / max(float(np.mean(env)), 1e-9)  # a dim room: mean radiance 0.04 of the flash
-    ambient = env.reshape(-1, 3).mean(axis=0) * env_scale
+        env_scale = 0.04 / max(float(mean_radiance.mean()), 1e-9)  # a dim room: mean radiance 0.04 of the flash
+    ambient = mean_radiance * env_scale
     if params is None:
         params = PhongParams(diffuse=np.array([0.46, 0.31, 0.245]), specular=0.18, exponent=24.0,
                              ambient_scale=1.0, flash_rgb=flash, ambient_rgb=ambient)

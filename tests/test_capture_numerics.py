@@ -62,3 +62,55 @@ def test_probe_light_direction_and_hue() -> None:
     assert np.allclose(res.ambient_rgb, [0.02, 0.02, 0.03], atol=0.004)
     d, theta, _ = light_direction_from_highlight(0.0, 0.0)
     assert theta == 0.0 and np.allclose(d, [0, 0, -1])
+
+
+def _probe_with(env: np.ndarray, light: np.ndarray, flash: np.ndarray, env_scale: float = 1.0) -> np.ndarray:
+    """A synthetic probe (camera = world axes), 8-bit sRGB quantised like a photograph, linear again."""
+    from capture.pipeline import linear_to_srgb, srgb_to_linear, to_uint8
+
+    img = synthetic_probe(env, np.eye(3), light / np.linalg.norm(light), flash, size=256, env_scale=env_scale)
+    return srgb_to_linear(to_uint8(linear_to_srgb(img)) / 255.0)
+
+
+def test_probe_flash_hue_across_a_horizon_and_ambient_over_the_whole_ball() -> None:
+    # The flash's halo straddles a bright orange sky over a dark ground: subtracting a ring's median
+    # (the previous method) got the hue 5–7 % wrong on such probes; the per-ray regression does not.
+    env = np.zeros((64, 128, 3))
+    env[:32] = [0.5, 0.25, 0.08]   # sky
+    env[32:] = [0.02, 0.02, 0.03]  # ground
+    flash = np.array([1.0, 0.95, 0.85])
+    flash = flash / float(flash @ [0.2126, 0.7152, 0.0722])
+    res = analyse_probe(_probe_with(env, np.array([0.06, 0.0, -1.0]), flash))
+    assert np.allclose(res.flash_rgb, flash, rtol=0.02)
+    # Ambient: the mean radiance over all directions (half sky, half ground), not the ring's.
+    assert np.allclose(res.ambient_rgb, 0.5 * (env[0, 0] + env[-1, 0]), rtol=0.08)
+
+
+def test_probe_prefers_the_all_channel_clipped_flash_over_an_orange_lamp_beside_it() -> None:
+    # A lamp behind the camera, clipping only red, touching the flash's reflection (the night
+    # environment's horizon glow did this: the highlight was taken 12° off).
+    env = np.full((128, 256, 3), 0.01)
+    env[62:66, 129:133] = [40.0, 0.5, 0.1]  # longitude 2–8° (0 = −Z, behind the camera with R = I)
+    light = np.array([0.0, -0.02, -1.0])
+    flash = np.ones(3)
+    img = _probe_with(env, light, flash)
+    red_only = (img[..., 0] >= 0.98) & (img[..., 1] < 0.98)
+    assert red_only.sum() > 20  # the lamp clips red right beside the flash
+    res = analyse_probe(img)
+    err = np.degrees(np.arccos(np.clip(res.light_dir_camera @ (light / np.linalg.norm(light)), -1, 1)))
+    assert err < 1.0
+
+
+@pytest.mark.parametrize("case", ["merged", "rival"])
+def test_probe_reports_an_ambiguous_highlight(case: str) -> None:
+    from capture.probe import ProbeError
+
+    env = np.full((128, 256, 3), 0.01)
+    if case == "merged":  # a white strip light running through the flash's reflection
+        env[62:66, 100:160] = 50.0
+        light = np.array([0.0, 0.0, -1.0])
+    else:  # a white lamp as large as the flash's core, at about the same angle off the axis
+        env[57:61, 121:125] = 50.0
+        light = np.array([0.08, 0.0, -1.0])
+    with pytest.raises(ProbeError, match="ambiguous"):
+        analyse_probe(_probe_with(env, light, np.ones(3)), source="ball.png")

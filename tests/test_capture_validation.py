@@ -1,11 +1,13 @@
 """Synthetic ground truth (issue 7): the sample head rendered with known Phong parameters under a known
 flash near the camera, a mirror-ball probe from an HDR environment plus that flash; the capture must
 recover the light direction within 2°, the diffuse colour within ΔE2000 1.0, s within 10 %, and
-reproduce the photograph on skin. Also the face folder round trip and the CLI."""
+reproduce the photograph on skin with a mean ΔE2000 under 2 — for EVERY environment shipped in
+``environments/``. Also the probe's ambiguity checks, the face folder round trip and the CLI."""
 
 from __future__ import annotations
 
 import json
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -16,8 +18,18 @@ from capture.phong import delta_e2000
 pytestmark = pytest.mark.slow
 
 
-@pytest.fixture(scope="module")
-def synthetic() -> tuple[object, object, object]:
+def _environments() -> list[str]:
+    from resources import find_asset
+
+    return sorted(p.stem for p in find_asset("environments").glob("*.exr"))
+
+
+ENVIRONMENTS = _environments()
+
+
+@cache
+def _captured(env: str, starts: int = 0) -> tuple[object, object, object]:
+    """(head, scene, capture result) for the synthetic photograph and probe made from ``env``."""
     from capture.pipeline import capture
     from capture.probe import analyse_probe
     from capture.synthetic import make_scene, read_env
@@ -25,10 +37,39 @@ def synthetic() -> tuple[object, object, object]:
     from resources import find_asset
 
     head = load_head()
-    scene = make_scene(head, read_env(str(find_asset("environments/warehouse.exr"))))
-    probe = analyse_probe(scene.probe_lin)
-    result = capture(head, scene.photo_lin, scene.camera, probe=probe, texture_size=512, robustness_starts=8)
+    scene = make_scene(head, read_env(str(find_asset(f"environments/{env}.exr"))))
+    probe = analyse_probe(scene.probe_lin, source=f"{env} probe")
+    result = capture(head, scene.photo_lin, scene.camera, probe=probe, texture_size=512,
+                     robustness_starts=starts)
     return head, scene, result
+
+
+@pytest.fixture(scope="module")
+def synthetic() -> tuple[object, object, object]:
+    return _captured("warehouse", 8)
+
+
+def test_every_environment_is_covered() -> None:
+    # The six shipped with the assets; a new one is picked up by the parametrisation below.
+    assert {"city", "lobby", "night", "studio", "sunset", "warehouse"} <= set(ENVIRONMENTS)
+
+
+@pytest.mark.parametrize("env", ENVIRONMENTS)
+def test_recovers_the_truth_in_every_environment(env: str) -> None:
+    """Measured (light angle, s error, diffuse ΔE2000, reproduction ΔE2000): city 0.14° −1.2 % 0.14
+    1.64; lobby 0.14° −1.7 % 0.45 1.64; night 0.17° 0.0 % 0.06 1.62; studio 0.14° −1.4 % 0.57 1.66;
+    sunset 0.14° −1.9 % 0.38 1.66; warehouse 0.14° −1.5 % 0.40 1.65. The diffuse colour's remaining
+    error is mostly the probe's clipped lamps (studio: the ambient measured is 37 % of the truth)."""
+    _, scene, result = _captured(env, 8 if env == "warehouse" else 0)
+    angle = np.degrees(np.arccos(np.clip(result.light_dir_world @ scene.light_dir_world, -1, 1)))
+    s_err = result.exponent.s / scene.params.exponent - 1
+    de_d = float(delta_e2000(result.params.diffuse, scene.params.diffuse))
+    figures = (f"{env}: light {angle:.2f}°, s {result.exponent.s:.1f} for {scene.params.exponent:g}, "
+               f"diffuse ΔE2000 {de_d:.2f}, reproduction {result.reproduction_de2000_skin:.2f}")
+    assert angle < 2.0, figures
+    assert abs(s_err) < 0.10, figures
+    assert de_d < 1.0, figures
+    assert result.reproduction_de2000_skin < 2.0, figures
 
 
 def test_light_direction_within_2_degrees(synthetic: tuple) -> None:
@@ -40,6 +81,19 @@ def test_light_direction_within_2_degrees(synthetic: tuple) -> None:
 def test_diffuse_colour_within_de2000_1(synthetic: tuple) -> None:
     _, scene, result = synthetic
     assert float(delta_e2000(result.params.diffuse, scene.params.diffuse)) < 1.0
+
+
+def test_probe_ambient_is_the_environments_mean_radiance(synthetic: tuple) -> None:
+    # The whole ball (an equal-area map of the directions), not a ring behind the camera: in the
+    # lobby the ring had a tenth of the level and another hue. Here only the clipped lamps are missing.
+    from capture.probe import analyse_probe
+
+    for env in ("city", "lobby"):
+        _, scene, _ = _captured(env, 0)
+        a = analyse_probe(scene.probe_lin).ambient_rgb
+        truth = scene.params.ambient_rgb
+        assert np.allclose(a / a.sum(), truth / truth.sum(), atol=0.01), env
+        assert 0.8 < float(a.sum() / truth.sum()) < 1.1, env
 
 
 def test_exponent(synthetic: tuple) -> None:
