@@ -51,6 +51,39 @@ def test_gpu_matches_km_spectrally(km_pass: KMTextureSpace) -> None:
         np.testing.assert_allclose(g, w, atol=1e-4, err_msg=name)
 
 
+@pytest.mark.parametrize("split", [False, True], ids=["full", "tile-through-scratch"])
+def test_display_encoding_is_within_8_bit_srgb_steps(gl_ctx: object, split: bool) -> None:
+    """The default ``srgb8`` outputs (what the lit pass samples) are the float results rounded to the nearest
+    8-bit sRGB code (within half a code, plus float slack), also for tiles evaluated through the scratch
+    target and copied (a copy must move the encoded bytes, never decode or re-encode them)."""
+    def encode(v: np.ndarray) -> np.ndarray:
+        v = np.clip(v, 0.0, 1.0)
+        return np.where(v <= 0.0031308, v * 12.92, 1.055 * v ** (1 / 2.4) - 0.055) * 255.0
+
+    lib = km.default_library()
+    mats = [lib.get(n) for n in MATERIALS]
+    rng = np.random.default_rng(3)
+    maps = [(rng.random((128, 128)) * m.max_thickness_um).astype(np.float32) for m in mats]
+    exact = KMTextureSpace(gl_ctx, ShaderLibrary(), dtype="f4")
+    disp = KMTextureSpace(gl_ctx, ShaderLibrary(), dtype="srgb8")
+    try:
+        layers = [LayerInput(m, x) for m, x in zip(mats, maps)]
+        exact.set_layers(layers)
+        if split:  # set up with zeros, then paint one tile: the few-tiles path goes through the scratch
+            disp.set_layers([LayerInput(m, np.zeros_like(x)) for m, x in zip(mats, maps)])
+            for i, x in enumerate(maps):
+                disp.update_tiles(i, x, [(1, 0)])
+        else:
+            disp.set_layers(layers)
+        region = (slice(0, 64), slice(64, 128)) if split else (slice(None), slice(None))
+        for g, w, name in zip(disp.read(), exact.read(), ("R_top", "T", "R_bottom")):
+            np.testing.assert_allclose(encode(g[region]), encode(w[region]), rtol=0, atol=0.5 + 0.02, err_msg=name)
+            assert g[region].max() > 0.05, name  # not trivially zero
+    finally:
+        exact.release()
+        disp.release()
+
+
 def test_tiles_update_only_their_texels_and_match_a_full_update(km_pass: KMTextureSpace) -> None:
     lib = km.default_library()
     mats = [lib.get("Foundation Ivory"), lib.get("Lipstick Classic Red")]

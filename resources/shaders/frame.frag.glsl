@@ -50,6 +50,7 @@ uniform sampler2D u_vis1;        // unit 27: lights 4-7
 uniform sampler2D u_layer_thick[NL];  // units 9.. : µm
 #endif
 uniform vec4 u_layer_spec[8];    // per layer: roughness, F0, smooths skin (1/0), coverage scale (µm)
+uniform float u_layer_inv_m2[8]; // per layer: 1 / max(roughness, 0.05)^2 (computed once on the CPU)
 uniform float u_lut_max[8];      // µm
 uniform float u_opacity[8];      // scales thickness
 uniform vec3 u_eye;
@@ -124,6 +125,8 @@ void main() {
 #endif
     float skin_m = mix(u_skin_roughness * rough_map, smooth_rough, smooth_cov);
     float skin_rho = u_spec_intensity * spec_map;
+    float skin_m2 = max(skin_m, 0.05);
+    float skin_inv_m2 = 1.0 / (skin_m2 * skin_m2);
 
     // diffuse irradiance (lights, shadows, environment) from the texture-space cache
     vec3 E = texture(u_irr, v_uv).rgb;
@@ -138,24 +141,22 @@ void main() {
     for (int i = 0; i < NLIGHTS; ++i) {
         vec3 L = light_direction(i, v_pos);
         float ndl = dot(N, L);
-        if (ndl <= 0.0) continue;
         float sh = i < 4 ? vis0[i] : vis1[i - 4];
-        if (sh <= 0.0) continue;
         vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
         // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
         // highlight below attenuated by the transmittance of the layer above it
         vec4 ksh = kelemen_shared(N, L, V);
-        vec3 s = tr * (skin_rho * kelemen_lobe(ksh, max(skin_m, 0.05), u_skin_f0));
+        vec3 s = tr * (skin_rho * kelemen_lobe(ksh, skin_inv_m2, u_skin_f0));
 #if NL > 0 && MAKEUP
         // zero-coverage layers add a * lobe = 0 (a branch would not save work on llvmpipe)
         float ls = 0.0;
         for (int k = 0; k < NL; ++k) {
             float a = k < 4 ? A0[k] : A1[k - 4];
-            ls += a * kelemen_lobe(ksh, max(u_layer_spec[k].x, 0.05), u_layer_spec[k].y);
+            ls += a * kelemen_lobe(ksh, u_layer_inv_m2[k], u_layer_spec[k].y);
         }
         s += vec3(ls * u_spec_intensity);
 #endif
-        spec += s * Ei * ndl;
+        spec += s * Ei * max(ndl, 0.0);  // no `continue`: llvmpipe runs both sides anyway
     }
 
     vec3 sa = sqrt(max(albedo, vec3(0.0)));

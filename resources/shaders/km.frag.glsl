@@ -6,7 +6,21 @@
 // i and u_scale[i] / u_layer_spec[i] are the draw's i-th layer (bottom first), u_slot[i] its index in
 // the stack, which places its specular weight in o_spec0/o_spec1. Layers left out are zero in every
 // texel of the draw, where they would change nothing (R0 = 0, T = 1, coverage 0).
+// SRGB_OUT = 1: the colour outputs go to GL_SRGB8_ALPHA8 maps (written as they are, no
+// GL_FRAMEBUFFER_SRGB): encode them here; the lit pass's sampler decodes them to linear.
+#ifndef SRGB_OUT
+#define SRGB_OUT 0
+#endif
 #include "km.glsl"
+#include "common.glsl"
+
+vec3 encode_out(vec3 c) {
+#if SRGB_OUT
+    return linear_to_srgb(c);
+#else
+    return c;
+#endif
+}
 
 layout(std140, binding = 0) uniform KMParams {
     vec4 u_skb[MAX_LAYERS * NW];   // per layer, per wavelength: S, K (per mm), beta = sqrt(K^2 + 2KS)
@@ -40,7 +54,7 @@ void main() {
         }
     }
     if (!any_layer) {
-        o_rtop = vec4(0.0); o_t = vec4(1.0, 1.0, 1.0, 0.0); o_rbottom = vec4(0.0);
+        o_rtop = vec4(0.0); o_t = vec4(1.0, 1.0, 1.0, 0.0); o_rbottom = vec4(0.0);  // encode: 0 -> 0, 1 -> 1
         o_spec0 = vec4(0.0); o_spec1 = vec4(0.0);
         return;
     }
@@ -72,7 +86,8 @@ void main() {
         above *= clamp(tl[i], 0.0, 1.0);
         if (ls.z > 0.5 && c > smooth_cov) { smooth_cov = c; smooth_rough = ls.x; }
     }
-    o_rtop = vec4(rt, smooth_cov); o_t = vec4(tt, smooth_rough); o_rbottom = vec4(rb, 1.0);
+    o_rtop = vec4(encode_out(rt), smooth_cov); o_t = vec4(encode_out(tt), smooth_rough);
+    o_rbottom = vec4(encode_out(rb), 1.0);
     vec4 s0 = vec4(0.0), s1 = vec4(0.0);
     for (int i = 0; i < NL; ++i) {
         int k = u_slot[i];
