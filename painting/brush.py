@@ -11,8 +11,9 @@ mode      result
 add       ``min(base + strength · amount · m, layer maximum)`` (never lowers a texel above the maximum)
 erase     ``base · (1 − strength · m)``
 set       ``base + (amount − base) · strength · m`` (flatten towards ``amount``)
-smooth    per dab, a 3D diffusion step over texels closer than ``smooth_radius`` (fraction of r),
-          weighted by ``strength · a`` — symmetric, so the sum of thickness is conserved
+smooth    per dab, a 3D diffusion step with a symmetric kernel ``smooth_radius · r`` wide (trilinear
+          hats on a grid of that spacing), weighted by ``√a_i·√a_j`` and scaled by ``strength``: the sum
+          of thickness is conserved and no value leaves the old [min, max]; no neighbour cap
 fill      the chart under the dab is set to ``strength · amount`` (clamped to the maximum)
 ========  ===========================================================================================
 
@@ -53,7 +54,8 @@ class Brush:
         max_angle_deg: texels whose normal is more than this from the dab's normal are not painted
             (back faces, the other lip, the far side of the nose), [0, 180].
         mirror: also paint the mirror image about the head's midplane (same stroke, one undo step).
-        smooth_radius: smoothing neighbourhood, fraction of the radius, (0, 1].
+        smooth_radius: smoothing kernel width (the grid spacing h; texels up to 2h apart per axis
+            exchange thickness), fraction of the radius, (0, 1]; at least one texel.
         falloff_curve: optional custom falloff, weights sampled at evenly spaced d/r in [0, 1]
             (at least 2 samples in [0, 1]); overrides ``hardness``.
     """

@@ -230,3 +230,27 @@ def test_upper_lip_brush_does_not_paint_the_lower_lip_through_the_mouth() -> Non
     with doc.stroke(layer, Brush(radius_mm=6.0, hardness=1.0, max_angle_deg=180.0)) as s:
         s.dab(p)  # without back-face rejection they would be painted
     assert layer.thickness.reshape(-1)[flat][lower_inner].all()
+
+
+def test_smooth_reaches_its_full_width_on_fine_maps_and_never_overshoots() -> None:
+    """No neighbour cap: a 2 mm spot smoothed by a 20 mm brush (kernel width h = 10 mm) spreads 7–9 mm
+    out even at 1024² (a cap of 500,000 pairs allowed only ~3.8 mm there); the total is conserved, no
+    value leaves [old min, old max], and nothing beyond the brush radius changes."""
+    doc = make_doc(1024)
+    layer = doc.add_layer("Foundation 1")
+    p = _surface_point(doc, "left_cheek")
+    with doc.stroke(layer, Brush(radius_mm=2.0, hardness=1.0)) as s:
+        s.dab(p)
+    before = layer.thickness.astype(np.float64)
+    with doc.stroke(layer, Brush(radius_mm=20.0, hardness=0.5, mode="smooth", smooth_radius=0.5)) as s:
+        s.dab(p)
+    after = layer.thickness.astype(np.float64)
+    flat, pos, _ = texel_positions(doc.atlas)
+    d = np.linalg.norm(pos - p, axis=1) * doc.mm_per_unit
+    t0, t1 = before.reshape(-1)[flat], after.reshape(-1)[flat]
+    ring = (d > 7.0) & (d < 9.0)
+    assert ring.sum() > 100 and (t1[ring] > 0).mean() > 0.9
+    assert t1.max() <= t0.max() and t1.min() >= 0.0
+    assert abs(t1.sum() - t0.sum()) <= 1e-5 * t0.sum()
+    assert np.array_equal(t1[d > 20.0 * 1.001], t0[d > 20.0 * 1.001])
+    assert t1.max() < 0.5 * t0.max()  # the spot really spread
