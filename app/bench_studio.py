@@ -34,6 +34,8 @@ def main(argv: list[str]) -> int:
     p.add_argument("--json", action="store_true", help="print one JSON object (the only format)")
     p.add_argument("--frames", type=int, default=40, help="orbit frames to time")
     p.add_argument("--dabs", type=int, default=20, help="dabs to time")
+    p.add_argument("--resolution", type=int, default=None,
+                   help="paint resolution (texels; default: the studio's, app.studio_app.DEFAULT_RESOLUTION)")
     args = p.parse_args(argv)
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         xvfb = shutil.which("xvfb-run")
@@ -61,7 +63,10 @@ def main(argv: list[str]) -> int:
     from km.errors import SheerError
 
     ini = os.path.join(tempfile.mkdtemp(prefix="sheer-bench-"), "bench.ini")
-    win = StudioWindow(qsettings=QSettings(ini, QSettings.Format.IniFormat))
+    from app.studio_app import DEFAULT_RESOLUTION
+
+    win = StudioWindow(qsettings=QSettings(ini, QSettings.Format.IniFormat),
+                       resolution=args.resolution or DEFAULT_RESOLUTION)
     win.resize(1500, 900)
     win.show()
     vp = win.viewport
@@ -91,7 +96,7 @@ def main(argv: list[str]) -> int:
     hit = vp.pick(QPointF(cx / dpr, cy / dpr))
     win.add_layer(next(iter(win.library)).name)
     _draw_frame(vp)  # the new layer's full evaluation is not a dab
-    lat = []
+    lat, upd = [], []
     if hit is not None:
         win._stroke_begin(hit, 1.0)
         _draw_frame(vp)
@@ -99,6 +104,12 @@ def main(argv: list[str]) -> int:
             t0 = time.perf_counter()
             p = vp.pick(QPointF((cx + 2 * i) / dpr, cy / dpr))
             win._stroke_move(p if p is not None else np.asarray(hit), 1.0)
+            # the dab's share: painting + the texture-space KM of its tiles (what the resolution changes)
+            vp.makeCurrent()
+            vp._apply_layer_changes()
+            vp.ctx.finish()
+            vp.doneCurrent()
+            upd.append(time.perf_counter() - t0)
             _draw_frame(vp)
             lat.append(time.perf_counter() - t0)
         win._stroke_end()
@@ -110,6 +121,7 @@ def main(argv: list[str]) -> int:
         "viewport_px": list(size),
         "dab_to_frame_ms": round(statistics.median(lat) * 1000.0, 1) if lat else None,
         "dab_to_frame_ms_max": round(max(lat) * 1000.0, 1) if lat else None,
+        "dab_update_ms": round(statistics.median(upd) * 1000.0, 1) if upd else None,
         "paint_resolution": layer_res,
         "render_mode": "fast",
         "renderer_frames": vp.renderer_frames,

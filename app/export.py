@@ -157,9 +157,11 @@ def export_gltf(doc: Any, library: Any, path: str | Path, progress: Progress = l
 
 def render_image(head: Any, layers: list[Any], camera: Any, lighting: Any, size: tuple[int, int],
                  path: str | Path, mode: str = "fast", environment: str = "none", layout: Any = None,
-                 progress: Progress = lambda f, m: None, cancelled: IsCancelled = lambda: False) -> Path:
-    """Render the view with ``render.Renderer`` on a standalone (EGL) GL context in the calling thread
-    (a worker) and save a PNG. ``layers``: ``render.LayerInput`` of every document layer (copies)."""
+                 progress: Progress = lambda f, m: None, cancelled: IsCancelled = lambda: False,
+                 face: Any = None) -> Path:
+    """Render the view with ``render.Renderer`` (or, ``mode="lightweight"``, the lightweight engine with
+    the captured ``face``) on a standalone (EGL) GL context in the calling thread (a worker) and save a
+    PNG. ``layers``: ``render.LayerInput`` of every document layer (copies)."""
     import moderngl
     from PIL import Image
 
@@ -177,6 +179,7 @@ def render_image(head: Any, layers: list[Any], camera: Any, lighting: Any, size:
             progress(0.3, "evaluating the layers")
             renderer.set_layers(layers)
             renderer.environment = environment
+            renderer.set_face(face)
             _check_cancel(cancelled)
             progress(0.6, "rendering")
             img = renderer.render_image((w, h), camera, lighting, mode)

@@ -42,6 +42,7 @@ log = logging.getLogger("sheer.kiosk")
 
 CATEGORIES: tuple[str, ...] = ("foundation", "lipstick", "blush", "eyeshadow")
 KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
+ENGINES: tuple[str, ...] = ("auto", "physical", "lightweight")
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
 _PBKDF2_ROUNDS = 200_000
 
@@ -73,6 +74,11 @@ class KioskConfig:
     idle_seconds: float = 90.0
     look_seconds: float = 8.0
     fullscreen: bool = True
+    #: "physical" (render.Renderer), "lightweight" (the captured face ``face_dir`` by the lightweight
+    #: engine) or "auto": physical, falling back to lightweight when its frames take over ``max_frame_ms``
+    engine: str = "auto"
+    face_dir: str = ""
+    max_frame_ms: float = 250.0
 
     @staticmethod
     def default_path() -> Path:
@@ -109,6 +115,10 @@ class KioskConfig:
             cfg.snapshot_dir = str(Path.home() / "Pictures" / "sheer-kiosk")
         cfg.idle_seconds = min(max(float(cfg.idle_seconds), 5.0), 3600.0)
         cfg.look_seconds = min(max(float(cfg.look_seconds), 2.0), 120.0)
+        cfg.max_frame_ms = min(max(float(cfg.max_frame_ms), 10.0), 10_000.0)
+        if cfg.engine not in ENGINES:
+            log.warning("kiosk config: engine must be one of %s, got %r; using auto", ", ".join(ENGINES), cfg.engine)
+            cfg.engine = "auto"
         return cfg
 
     def save(self, path: Path | None = None) -> Path:
@@ -222,7 +232,7 @@ class KioskWindow(QWidget):
     """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle."""
 
     def __init__(self, config: KioskConfig, project: str | None = None, head: str | None = None,
-                 resolution: int = 512) -> None:
+                 resolution: int | None = None) -> None:
         require_pin(config)
         super().__init__()
         self.config = config
@@ -232,10 +242,17 @@ class KioskWindow(QWidget):
         self.last_error: str | None = None
         self.snapshots: list[Path] = []
         self.library = seams.load_library()
-        self.doc = seams.open_document(head, resolution, self.library)
+        from app.studio_app import DEFAULT_RESOLUTION
+
+        self.doc = seams.open_document(head, resolution or DEFAULT_RESOLUTION, self.library)
         self.look = "natural"
         self._look_cache: dict[str, list[tuple[str, str, float, Any]]] = {}
-        self.viewport = self._make_viewport(resolution)
+        self.viewport = self._make_viewport()
+        self.face: Any = None
+        self.engine = "physical"  # the engine in use: physical | lightweight
+        self._frame_samples: list[float] = []
+        self._load_face()
+        self.viewport.frame_drawn.connect(self._watch_frame_time)
         self.stack = QStackedWidget()
         self.start_page = self._build_start()
         self.main_page = self._build_main()
@@ -275,7 +292,7 @@ class KioskWindow(QWidget):
         self.show_start()
 
     # ------------------------------------------------------------------ construction
-    def _make_viewport(self, resolution: int) -> Any:
+    def _make_viewport(self) -> Any:
         from app.render_adapter import layer_inputs
         from app.viewport import Viewport
 
@@ -284,6 +301,53 @@ class KioskWindow(QWidget):
         vp.paint_enabled = False
         vp.gl_failed.connect(lambda msg: self.fail(msg))
         return vp
+
+    def _load_face(self) -> None:
+        """The configured captured face (for the lightweight engine); a broken one is logged, not shown."""
+        if not self.config.face_dir:
+            if self.config.engine == "lightweight":
+                log.warning("kiosk: engine 'lightweight' needs face_dir in the configuration; using physical")
+            return
+        from capture.pipeline import load_face
+
+        try:
+            self.face = load_face(self.config.face_dir)
+        except Exception as exc:
+            log.warning("kiosk: the captured face %s could not be read (%s); using the physical renderer",
+                        self.config.face_dir, exc)
+            return
+        if self.config.engine == "lightweight":
+            self.use_engine("lightweight")
+
+    def use_engine(self, engine: str) -> None:
+        """Draw with ``"physical"`` (render.Renderer, fast mode) or ``"lightweight"`` (the captured face)."""
+        if engine == "lightweight" and self.face is None:
+            engine = "physical"
+        self.engine = engine
+        self.viewport.face = self.face if engine == "lightweight" else None
+        self.viewport.mode = "lightweight" if engine == "lightweight" else "fast"
+        self.viewport.update()
+
+    def _watch_frame_time(self, _ms: float) -> None:
+        """``engine: auto``: after 5 frames of the physical renderer slower than ``max_frame_ms`` (median),
+        switch to the lightweight engine (when a captured face is configured)."""
+        vp = self.viewport
+        if self.config.engine != "auto" or self.engine != "physical" or self.face is None:
+            return
+        if vp.renderer_frames == getattr(self, "_seen_frames", 0):
+            return  # a ring-only redraw (none in the kiosk) or nothing new
+        self._seen_frames = vp.renderer_frames
+        if vp.renderer_frames <= 1:
+            return  # the first frame also builds shadow maps and caches
+        self._frame_samples.append(vp.render_ms)
+        if len(self._frame_samples) >= 5:
+            import statistics
+
+            median = statistics.median(self._frame_samples[-5:])
+            if median > self.config.max_frame_ms:
+                log.info("kiosk: physical frames take %.0f ms (> %.0f): switching to the lightweight engine",
+                         median, self.config.max_frame_ms)
+                self.use_engine("lightweight")
 
     def _build_start(self) -> QWidget:
         page = _TouchPage(self.guard(self.show_main))

@@ -38,7 +38,7 @@ from app.actions import MENU_ORDER, STUDIO_ACTIONS, is_enabled, shortcut_sheet
 from app.export import export_gltf, export_maps, render_image
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
-from app.render_adapter import debug_views, layer_inputs
+from app.render_adapter import RENDER_MODES, debug_views, layer_inputs
 from app.settings import (
     APPLICATION,
     ENVIRONMENTS,
@@ -55,18 +55,23 @@ log = logging.getLogger("sheer.app")
 
 
 class StudioWindow(QMainWindow):
-    def __init__(self, head_path: str | Path | None = None, look: str = "natural", resolution: int = 512,
+    def __init__(self, head_path: str | Path | None = None, look: str = "natural", resolution: int | None = None,
                  qsettings: QSettings | None = None, document: Any = None, library: Any = None) -> None:
         super().__init__()
         self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)
         self.settings: StudioSettings = load_settings(self.qsettings)
         self.library = library if library is not None else seams.load_library()
-        self.doc = document if document is not None else seams.open_document(head_path, resolution, self.library)
+        if document is None:
+            from app.studio_app import DEFAULT_RESOLUTION
+
+            document = seams.open_document(head_path, resolution or DEFAULT_RESOLUTION, self.library)
+        self.doc = document
         self.project_path: Path | None = None
         self.project_name = "Untitled"
         self.project: Any = None  # the painting.project.Project last opened or saved (the base of the next save)
         self.look_record: dict[str, Any] | None = {"name": look, "tags": []} if look else None
         self._stroke: Any = None
+        self.face_path: Path | None = None  # the captured face shown by the lightweight mode
         self._stroke_cm: Any = None
         self.selected_layer = 0
         if look:
@@ -153,7 +158,10 @@ class StudioWindow(QMainWindow):
             "file.save_as": lambda: self.save_project(ask=True), "file.export_maps": self.ask_export_maps,
             "file.export_maps_exr": lambda: self.ask_export_maps("exr"),
             "file.export_image": self.ask_export_image, "file.export_gltf": self.ask_export_gltf,
-            "file.quit": self.close, "edit.undo": self.undo, "edit.redo": self.redo,
+            "file.quit": self.close, "file.open_face": self.ask_open_face,
+            "view.mode_fast": lambda: self.set_render_mode("fast"),
+            "view.mode_reference": lambda: self.set_render_mode("reference"),
+            "view.mode_lightweight": lambda: self.set_render_mode("lightweight"), "edit.undo": self.undo, "edit.redo": self.redo,
             "brush.smaller": lambda: self._brush(radius=1 / 1.2), "brush.larger": lambda: self._brush(radius=1.2),
             "brush.weaker": lambda: self._brush(strength=-0.1), "brush.stronger": lambda: self._brush(strength=0.1),
             "brush.eraser": lambda: self._mode("erase"), "brush.smooth": lambda: self._mode("smooth"),
@@ -198,7 +206,10 @@ class StudioWindow(QMainWindow):
         s = self.settings
         for aid, on in (("brush.eraser", s.brush_mode == "erase"), ("brush.smooth", s.brush_mode == "smooth"),
                         ("brush.mirror", s.brush_mirror), ("view.split", s.split > 0),
-                        ("view.reference", s.render_mode == "reference"), ("view.overlay", s.overlay)):
+                        ("view.reference", s.render_mode == "reference"), ("view.overlay", s.overlay),
+                        ("view.mode_fast", s.render_mode == "fast"),
+                        ("view.mode_reference", s.render_mode == "reference"),
+                        ("view.mode_lightweight", s.render_mode == "lightweight")):
             self.actions_by_id[aid].setChecked(on)
         self.recent_menu.clear()
         for p in self.settings.recent_files:
@@ -239,7 +250,7 @@ class StudioWindow(QMainWindow):
         self.env_combo = QComboBox()
         self.env_combo.addItems(list(ENVIRONMENTS))
         self.render_combo = QComboBox()
-        self.render_combo.addItems(["fast", "reference"])
+        self.render_combo.addItems(list(RENDER_MODES))
         self.debug_combo = QComboBox()
         self.debug_combo.addItems(debug_views())
         self.split_slider = QSlider(Qt.Orientation.Horizontal)
@@ -251,7 +262,7 @@ class StudioWindow(QMainWindow):
             vb.addWidget(w)
         self.light_combo.currentTextChanged.connect(self._light_preset)
         self.env_combo.currentTextChanged.connect(lambda t: self._set(environment=t))
-        self.render_combo.currentTextChanged.connect(lambda t: self._set(render_mode=t))
+        self.render_combo.currentTextChanged.connect(self.set_render_mode)
         self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
         self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
 
@@ -295,6 +306,11 @@ class StudioWindow(QMainWindow):
         self.split_slider.setValue(int(round(s.split * 100)))
         self.split_slider.blockSignals(False)
         vp = self.viewport
+        if s.render_mode == "lightweight" and vp.face is None:
+            s.render_mode = "fast"  # (e.g. remembered from a session that had a captured face open)
+            self.render_combo.blockSignals(True)
+            self.render_combo.setCurrentText("fast")
+            self.render_combo.blockSignals(False)
         preset = LIGHT_PRESETS[s.light_preset]
         vp.lighting.azimuth, vp.lighting.elevation = s.light_azimuth, s.light_elevation
         vp.lighting.colour = preset["colour"]
@@ -353,6 +369,37 @@ class StudioWindow(QMainWindow):
 
     def _toggle_split(self) -> None:
         self._set(split=0.0 if self.settings.split > 0 else 0.5)
+
+    def set_render_mode(self, mode: str) -> None:
+        """fast | reference | lightweight; the lightweight mode without a captured face asks for one."""
+        if mode not in RENDER_MODES:
+            return
+        if mode == "lightweight" and self.viewport.face is None:
+            self.apply()  # the widgets show the mode in use until a face is open
+            self.ask_open_face()
+            return
+        self._set(render_mode=mode)
+
+    def ask_open_face(self) -> None:
+        """File → Open Captured Face…: a face folder written by ``sheer capture`` (for this head)."""
+        folder = QFileDialog.getExistingDirectory(self, "Open a captured face folder")
+        if folder:
+            self.open_face(Path(folder))
+
+    def open_face(self, folder: Path, on_done: Any = None) -> None:
+        """Read a captured face in a worker, then show it in the lightweight mode."""
+        from capture.pipeline import load_face
+
+        def done(face: Any) -> None:
+            self.viewport.face = face
+            self.face_path = Path(folder)
+            self._set(render_mode="lightweight")
+            self.statusBar().showMessage(f"Captured face: {folder} (lightweight mode)", 6000)
+            if on_done is not None:
+                on_done(face)
+
+        run_task(self, "Opening the captured face", lambda p, c: load_face(folder), done,
+                 lambda m: dialogs.error(self, "Open captured face", f"The face could not be opened: {m}"))
 
     def _toggle_reference(self) -> None:
         self._set(render_mode="fast" if self.settings.render_mode == "reference" else "reference")
@@ -751,10 +798,11 @@ class StudioWindow(QMainWindow):
         cam, light = copy.deepcopy(self.viewport.camera), copy.deepcopy(self.viewport.lighting)
         layers = [dataclasses.replace(inp, thickness=np.array(inp.thickness))
                   for inp in layer_inputs(self.doc, self.library)]
-        mode, env = self.settings.render_mode, self.settings.environment
+        mode, env, face = self.settings.render_mode, self.settings.environment, self.viewport.face
         layout = getattr(self.doc, "layout", None)
         run_task(self, "Rendering image",
-                 lambda p, c: render_image(self.doc.head, layers, cam, light, size, path, mode, env, layout, p, c),
+                 lambda p, c: render_image(self.doc.head, layers, cam, light, size, path, mode, env, layout, p, c,
+                                           face),
                  on_done or (lambda r: self.statusBar().showMessage(f"Image saved: {r}", 6000)),
                  lambda m: dialogs.error(self, "Export image", m))
 

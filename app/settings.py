@@ -30,7 +30,7 @@ class StudioSettings:
     brush_hardness: float = 0.5
     brush_mode: str = "add"  # add | erase | smooth
     brush_mirror: bool = False
-    render_mode: str = "fast"  # fast | reference
+    render_mode: str = "fast"  # fast | reference | lightweight (the last needs a captured face)
     debug_view: int = 0
     light_preset: str = "daylight"
     light_azimuth: float = 25.0
@@ -47,7 +47,7 @@ class StudioSettings:
         self.brush_hardness = min(max(self.brush_hardness, 0.0), 0.95)
         if self.brush_mode not in ("add", "erase", "smooth"):
             self.brush_mode = "add"
-        if self.render_mode not in ("fast", "reference"):
+        if self.render_mode not in ("fast", "reference", "lightweight"):
             self.render_mode = "fast"
         if self.light_preset not in LIGHT_PRESETS:
             self.light_preset = "daylight"

@@ -8,6 +8,9 @@ from pathlib import Path
 
 log = logging.getLogger("sheer.app")
 
+#: The thickness maps' resolution (texels per side) for a new document in the studio and the kiosk.
+DEFAULT_RESOLUTION = 512
+
 
 def make_application(argv: list[str] | None = None) -> object:
     from PySide6.QtGui import QSurfaceFormat
@@ -39,7 +42,7 @@ def make_application(argv: list[str] | None = None) -> object:
 
 
 def run_studio(head: str | None = None, look: str = "natural", project: str | None = None,
-               resolution: int = 512) -> int:
+               resolution: int = DEFAULT_RESOLUTION) -> int:
     from km.errors import SheerError
 
     app = make_application()

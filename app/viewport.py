@@ -65,7 +65,8 @@ class Viewport(QOpenGLWidget):
         self.lighting = Lighting()
         self.split = 0.0
         self.debug = 0
-        self.mode = "fast"  # fast | reference
+        self.mode = "fast"  # fast | reference | lightweight (app.render_adapter.RENDER_MODES)
+        self.face: Any = None  # a captured face for the lightweight mode (capture.pipeline.Face)
         self.debug_layer_index = 0  # the document layer the thickness view shows
         self.brush_radius_units = 0.2
         self.paint_enabled = True
@@ -82,6 +83,7 @@ class Viewport(QOpenGLWidget):
         self._pressure = 1.0
         self._tablet = False
         self.frame_ms = 0.0
+        self.render_ms = 0.0  # the last frame the renderer drew (not a ring-only redraw), finished
         self.frames = 0  # paintGL calls that drew the head (full frames and ring-only redraws)
         self.renderer_frames = 0  # frames the renderer drew
         self.first_frame_time: float | None = None
@@ -185,11 +187,25 @@ class Viewport(QOpenGLWidget):
         ring = None
         if self._ring is not None and self.paint_enabled:
             ring = (*self._ring.tolist(), self.brush_radius_units)
-        drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting, split=self.split,
-                                    debug=self.debug, mode=self.mode, brush=ring)
-        if self.overlay.isVisible():
-            self.ctx.finish()
+        if self.renderer.face is not self.face:
+            self.renderer.set_face(self.face)
+        mode = self.mode if (self.mode != "lightweight" or self.face is not None) else "fast"
+        try:
+            drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting, split=self.split,
+                                        debug=self.debug, mode=mode, brush=ring)
+        except Exception as exc:  # a failing engine: say so once, show the physical renderer
+            if mode == "fast":
+                raise
+            self.mode = "fast"
+            self.gl_failed.emit(f"The {mode} mode could not draw ({exc}); back to the fast mode.")
+            self.update()
+            return
+        # Qt composes the frame right after paintGL anyway: finishing here costs nothing and makes the
+        # frame time true (it is what the kiosk's fallback to the lightweight engine decides on)
+        self.ctx.finish()
         self.frame_ms = (time.perf_counter() - t0) * 1000.0
+        if drew:
+            self.render_ms = self.frame_ms
         self.frames += 1
         self.renderer_frames += int(drew)
         if self.first_frame_time is None:
@@ -197,7 +213,7 @@ class Viewport(QOpenGLWidget):
         self._show_notice(self.renderer.debug_hidden)
         if self.overlay.isVisible():
             self.overlay.setText(f"{self.frame_ms:5.1f} ms  ({1000.0 / max(self.frame_ms, 1e-3):4.0f} fps)  "
-                                 f"{self.renderer.name} {self.mode}{'' if drew else ' (ring only)'}")
+                                 f"{self.renderer.name} {mode}{'' if drew else ' (ring only)'}")
             self.overlay.adjustSize()
         self.frame_drawn.emit(self.frame_ms)
 
@@ -256,7 +272,7 @@ class Viewport(QOpenGLWidget):
         r = self.devicePixelRatioF()
         self.makeCurrent()
         try:
-            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r))
+            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r), self.camera)
         finally:
 
             self.doneCurrent()

@@ -48,3 +48,27 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     if check_gl_release:
         assert win.viewport.gl_error_at_release == "GL_NO_ERROR"
     win.deleteLater()
+
+
+def write_test_face(folder: Any) -> Any:
+    """A small captured-face folder (``face.json`` + ``detail.exr``, as ``sheer capture`` writes) for the
+    sample head: fitted Phong parameters and a detail texture with a visible pattern."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+    import OpenEXR
+
+    from capture.phong import PhongParams
+    from capture.pipeline import FACE_SCHEMA_VERSION
+
+    d = Path(folder)
+    d.mkdir(parents=True, exist_ok=True)
+    p = PhongParams(diffuse=np.array([0.55, 0.38, 0.3]), specular=0.08, exponent=24.0, ambient_scale=1.0,
+                    flash_rgb=np.ones(3), ambient_rgb=np.full(3, 0.05))
+    (d / "face.json").write_text(json.dumps({"schema_version": FACE_SCHEMA_VERSION, "phong": p.to_json()}))
+    yy, xx = np.mgrid[0:128, 0:128]
+    detail = np.repeat((0.8 + 0.4 * (((xx // 16) + (yy // 16)) % 2))[..., None], 3, axis=2).astype(np.float32)
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(hdr, {"RGB": detail}).write(str(d / "detail.exr"))
+    return d

@@ -70,3 +70,13 @@ def test_set_pin_refuses_a_mismatch_and_short_pins(tmp_path: Path, monkeypatch: 
         assert main(["kiosk", "--config", str(path), "--set-pin"]) == 2
         assert not KioskConfig.load(path).has_pin
     capsys.readouterr()
+
+
+def test_engine_settings_are_checked(tmp_path: Path) -> None:
+    path = tmp_path / "kiosk.json"
+    path.write_text(json.dumps({"engine": "warp-drive", "max_frame_ms": -5.0, "face_dir": "/faces/anna"}),
+                    encoding="utf-8")
+    cfg = KioskConfig.load(path)
+    assert cfg.engine == "auto" and cfg.max_frame_ms == 10.0 and cfg.face_dir == "/faces/anna"
+    path.write_text(json.dumps({"engine": "lightweight"}), encoding="utf-8")
+    assert KioskConfig.load(path).engine == "lightweight"

@@ -97,6 +97,67 @@ def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
     assert kiosk.start_message.text() == FRIENDLY
 
 
+def test_slow_physical_frames_fall_back_to_the_lightweight_engine(kiosk: object, qtbot: object,
+                                                                  tmp_path: Path) -> None:
+    """``engine: auto``: frames of the physical renderer slower than ``max_frame_ms`` switch the kiosk to the
+    lightweight engine with the configured captured face."""
+    import dataclasses
+
+    from studio_support import write_test_face
+
+    from capture.pipeline import load_face
+
+    vp = kiosk.viewport
+    saved = kiosk.config
+    kiosk.show_main()
+    kiosk.face = load_face(write_test_face(tmp_path / "face"))
+    try:
+        kiosk.config = dataclasses.replace(saved, engine="auto", max_frame_ms=1e6)  # never too slow
+        for _ in range(8):
+            vp.orbit_by(1.0)
+            vp.repaint()
+        assert kiosk.engine == "physical" and vp.renderer.drawn_by == "fast"
+        kiosk.config = dataclasses.replace(saved, engine="auto", max_frame_ms=10.0)  # always too slow here
+        kiosk._frame_samples.clear()
+
+        def spin() -> bool:
+            vp.orbit_by(1.0)
+            vp.update()
+            return kiosk.engine == "lightweight"
+
+        qtbot.waitUntil(spin, timeout=60000)
+        drawn = vp.renderer_frames
+        vp.orbit_by(1.0)
+        qtbot.waitUntil(lambda: vp.renderer_frames > drawn, timeout=20000)
+        assert vp.renderer.drawn_by == "lightweight" and vp.mode == "lightweight"
+    finally:
+        kiosk.config = saved
+        kiosk.use_engine("physical")
+        kiosk.face = None
+
+
+def test_engine_from_the_config(kiosk: object, tmp_path: Path) -> None:
+    import dataclasses
+
+    from studio_support import write_test_face
+
+    saved = kiosk.config
+    try:
+        kiosk.config = dataclasses.replace(saved, engine="lightweight",
+                                           face_dir=str(write_test_face(tmp_path / "face")))
+        kiosk._load_face()
+        assert kiosk.engine == "lightweight" and kiosk.viewport.mode == "lightweight"
+        kiosk.use_engine("physical")
+        kiosk.face = None
+        kiosk.config = dataclasses.replace(saved, engine="lightweight", face_dir=str(tmp_path / "missing"))
+        kiosk._load_face()  # a broken face folder: logged, the physical renderer stays
+        assert kiosk.engine == "physical" and kiosk.face is None and kiosk.viewport.mode == "fast"
+    finally:
+        kiosk.config = saved
+        kiosk.use_engine("physical")
+        kiosk.face = None
+
+
 def test_pin_guard(kiosk: object, qtbot: object) -> None:
     from PySide6.QtCore import Qt
 
