@@ -54,10 +54,13 @@ class GpuHead:
 
     ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_uv_paint", "in_tangent")
 
-    def __init__(self, ctx: Any, head: Any, layout: Any = None) -> None:
+    def __init__(self, ctx: Any, head: Any, layout: Any = None, alpha_mask: np.ndarray | None = None) -> None:
         """``layout``: the painting document's UV layout (``doc.layout``). When it is not the mesh's own
         UVs (``layout.source != "mesh"``, an xatlas unwrap), the layout's split vertices are drawn and its
-        UVs address the thickness/KM maps (``in_uv_paint``) while the head's UVs address the textures."""
+        UVs address the thickness/KM maps (``in_uv_paint``) while the head's UVs address the textures.
+        ``alpha_mask``: a bool (H, W) map in the head's UV space (e.g. the skin mask) stored as the albedo
+        texture's alpha (resampled to the albedo's size by nearest texel), so a shader reads both with
+        one fetch; without it the alpha is 1."""
         self.ctx = ctx
         self.head = head
         v = np.asarray(head.vertices, dtype=np.float64)
@@ -89,7 +92,7 @@ class GpuHead:
         self.vertices = v
         self._vaos: dict[int, Any] = {}
         white = np.full((1, 1, 3), 255, np.uint8)
-        self.albedo = self._texture(head.albedo if head.albedo is not None else white, srgb=True)
+        self.albedo = self._texture(head.albedo if head.albedo is not None else white, srgb=True, alpha=alpha_mask)
         flat = np.array([[[128, 128, 255]]], np.uint8)
         self.has_normal_map = head.normal_map is not None
         self.normal = self._texture(head.normal_map if head.normal_map is not None else flat)
@@ -99,12 +102,21 @@ class GpuHead:
         self.specular = self._texture(head.specular_map if head.specular_map is not None else one)
         self.roughness = self._texture(head.roughness_map if head.roughness_map is not None else one)
 
-    def _texture(self, img: np.ndarray, srgb: bool = False) -> Any:
+    def _texture(self, img: np.ndarray, srgb: bool = False, alpha: np.ndarray | None = None) -> Any:
         img = np.ascontiguousarray(img, dtype=np.uint8)
         h, w = img.shape[:2]
         comps = 1 if img.ndim == 2 else img.shape[2]
-        if srgb:  # GL_SRGB8_ALPHA8 needs 4 components
-            img = np.concatenate([img, np.full((h, w, 1), 255, np.uint8)], axis=2)
+        if srgb:  # GL_SRGB8_ALPHA8 needs 4 components (the alpha is linear)
+            if alpha is not None and (h, w) == (1, 1):  # a constant albedo: take the mask's size
+                h, w = np.asarray(alpha).shape[:2]
+                img = np.ascontiguousarray(np.broadcast_to(img, (h, w, *img.shape[2:])))
+            a = np.full((h, w, 1), 255, np.uint8)
+            if alpha is not None:
+                m = np.asarray(alpha, dtype=bool)
+                rows = np.minimum((np.arange(h) + 0.5) * m.shape[0] // h, m.shape[0] - 1).astype(int)
+                cols = np.minimum((np.arange(w) + 0.5) * m.shape[1] // w, m.shape[1] - 1).astype(int)
+                a = np.where(m[rows][:, cols], 255, 0).astype(np.uint8)[..., None]
+            img = np.concatenate([img[..., :3] if img.ndim == 3 else np.repeat(img[..., None], 3, 2), a], axis=2)
             tex = self.ctx.texture((w, h), 4, img.tobytes(), internal_format=GL_SRGB8_ALPHA8)
         else:
             tex = self.ctx.texture((w, h), comps, img.tobytes(), alignment=1)

@@ -39,7 +39,7 @@ SKIN_GAUSSIANS: tuple[tuple[float, float, float, float], ...] = (
 REFERENCE_TAPS = 13
 
 # texture units of the lit pass
-_U_KM, _U_MASK, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 7, 8, 9, 17, 24, 25
+_U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 24, 25
 #: NDC depth of an SSS pass's triangle against sss_mask.frag's classes (skin 0.25, head 0.5, background 1
 #: as window depth): _Z_HEAD (window 0.75) passes on the head, _Z_SKIN (0.375) on skin only
 _Z_HEAD, _Z_SKIN = 0.5, -0.25
@@ -86,7 +86,7 @@ class TextureIrradiance:
         from scipy.ndimage import distance_transform_edt
 
         n = self.size
-        alpha = np.frombuffer(self.sets[0][0][0].read(), np.float16).reshape(n, n, 4)[..., 3]
+        alpha = np.frombuffer(self.sets[0][0][2].read(), np.uint8).reshape(n, n, 4)[..., 3]  # see irradiance.frag
         covered = alpha > 0
         if covered.any():
             iy, ix = distance_transform_edt(~covered, return_distances=False, return_indices=True)
@@ -249,7 +249,7 @@ class Renderer:
         self.ctx = ctx
         self.shaders = shaders or ShaderLibrary()
         self.settings = RenderSettings()
-        self.gpu_head = GpuHead(ctx, head, layout)
+        self.gpu_head = GpuHead(ctx, head, layout, alpha_mask=head.skin_mask)
         self.head = head
         self.camera = OrbitCamera.for_face(head.vertices, head.metadata.landmarks)
         self.lights: list[Light] = default_lights()
@@ -264,10 +264,6 @@ class Renderer:
         self._composites: dict[tuple[int, int], Any] = {}
         self._baseline: Any = None
         self._quads: dict[int, Any] = {}
-        mask = head.skin_mask
-        mask_img = (np.full((1, 1), 255, np.uint8) if mask is None
-                    else np.ascontiguousarray(np.where(mask, 255, 0).astype(np.uint8)))
-        self.skin_mask = ctx.texture((mask_img.shape[1], mask_img.shape[0]), 1, mask_img.tobytes(), alignment=1)
         self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
         self._targets: dict[str, Any] = {}
         self._size: tuple[int, int] = (0, 0)
@@ -384,14 +380,18 @@ class Renderer:
     # -- programs ---------------------------------------------------------------------------------
     def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True) -> Any:
         """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time).
-        Makeup, debug views and the head's optional maps are compiled in or out: llvmpipe executes both
-        sides of a branch, so a uniform switch would not save their texture fetches."""
+        Makeup, debug views, the head's optional maps, which lights cast shadows and which are point
+        lights are compiled in or out: llvmpipe executes both sides of a branch, so a uniform switch
+        would not save their texture fetches or maths."""
         gh = self.gpu_head
-        key = (n, lights, int(makeup), int(debug))
+        shadowed = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.shadows)
+        points = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.kind != "directional")
+        key = (n, lights, int(makeup), int(debug), shadowed, points)
         if key not in self._frame_programs:
             self._frame_programs[key] = self.shaders.program(
                 self.ctx, "mesh.vert", "frame.frag",
                 {"NL": n, "NLIGHTS": lights, "MAKEUP": int(makeup), "DEBUG": int(debug),
+                 "SHADOWED": shadowed, "POINT_LIGHTS": points,
                  "HAS_SPEC_MAP": int(gh.has_specular_map), "HAS_ROUGH_MAP": int(gh.has_roughness_map),
                  "HAS_SKIN_MASK": int(self.head.skin_mask is not None)})
         return self._frame_programs[key]
@@ -513,14 +513,13 @@ class Renderer:
         self._cull(True)
         self.gpu_head.bind_textures(0)
         self.km.bind(_U_KM)
-        self.skin_mask.use(_U_MASK)
         self.km.bind_spec(_U_SPEC0, _U_SPEC1)
         for slot in range(n):
             self.km.thickness_textures[slot].use(_U_THICK + slot)
         for j, tex in enumerate(self.irradiance.textures):
             tex.use(_U_IRR + j)
         units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
-                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_skin_mask": _U_MASK, "u_spec0": _U_SPEC0, "u_spec1": _U_SPEC1,
+                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_spec0": _U_SPEC0, "u_spec1": _U_SPEC1,
                  "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2}
         for name, unit in units.items():
             self._set(prog, name, unit)
@@ -859,7 +858,7 @@ class Renderer:
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
         objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
-                           self._gauss, self._sss_mask, *self._composites.values(), self.skin_mask,
+                           self._gauss, self._sss_mask, *self._composites.values(),
                            *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)

@@ -249,3 +249,20 @@ def test_follows_document_paint_events_tile_by_tile(r: Renderer, doc: Any) -> No
         doc.undo()
     finally:
         unsubscribe()
+
+
+def test_light_order_does_not_change_the_frame(r: Renderer, looks: dict[str, list[LayerInput]]) -> None:
+    """The lit pass is specialised on which lights cast shadows and which are point lights, and the shadow
+    visibilities are packed by light index (light 0 in the irradiance's alpha, 1-4 and 5-7 in two more
+    maps): any order of the same rig must give the same frame, so every index reads its own light."""
+    r.set_layers(looks["evening"])
+    rig = [Light.directional(35.0, 25.0, 0.9), Light.directional(-45.0, 5.0, 0.3, shadows=False),
+           Light.point((0.0, 0.4, 2.5), 0.5, shadows=True), Light.directional(150.0, 35.0, 0.3),
+           Light.directional(-20.0, -30.0, 0.2, shadows=False), Light.directional(80.0, 60.0, 0.25)]
+    images = []
+    for order in ([0, 1, 2, 3, 4, 5], [5, 3, 2, 0, 4, 1], [1, 4, 0, 5, 2, 3]):
+        r.lights = [rig[i] for i in order]
+        images.append(r.render_image(SIZE, linear=True))
+    assert float(images[0].max()) > 0.1
+    for img in images[1:]:
+        np.testing.assert_allclose(img, images[0], rtol=2e-3, atol=2e-3)  # float sums in another order

@@ -6,7 +6,10 @@
 //   o_factor:  sqrt(albedo)*T/(1 - R_bottom*albedo) (out-scatter through the makeup); a = linear depth
 // Defines (the program is specialised; llvmpipe runs both sides of every branch, so work that a
 // uniform would switch off is compiled out instead): NL = number of cosmetic layers, NLIGHTS,
-// MAKEUP (1: fetch the KM maps), DEBUG (1: debug views), HAS_SPEC_MAP, HAS_ROUGH_MAP, HAS_SKIN_MASK.
+// MAKEUP (1: fetch the KM maps), DEBUG (1: debug views), HAS_SPEC_MAP, HAS_ROUGH_MAP, HAS_SKIN_MASK
+// (the skin mask is the albedo texture's alpha), SHADOWED and POINT_LIGHTS (bit i: light i casts
+// shadows / is a point light; an unshadowed light needs no visibility fetch, a directional one no
+// per-pixel direction or fall-off).
 #ifndef MAKEUP
 #define MAKEUP 1
 #endif
@@ -22,6 +25,12 @@
 #ifndef HAS_SKIN_MASK
 #define HAS_SKIN_MASK 1
 #endif
+#ifndef SHADOWED
+#define SHADOWED 255
+#endif
+#ifndef POINT_LIGHTS
+#define POINT_LIGHTS -1
+#endif
 #include "common.glsl"
 #include "lighting.glsl"
 #include "specular.glsl"
@@ -33,19 +42,18 @@ in vec2 v_uv;
 in vec2 v_uv_paint;
 in float v_depth;
 
-uniform sampler2D u_albedo;      // unit 0, sRGB texture -> linear
+uniform sampler2D u_albedo;      // unit 0, sRGB texture -> linear; a: skin mask
 uniform sampler2D u_normal_map;  // unit 1
 uniform sampler2D u_spec_map;    // unit 2 (multiplies skin specular)
 uniform sampler2D u_rough_map;   // unit 3 (multiplies skin roughness)
 uniform sampler2D u_rtop;        // unit 4
 uniform sampler2D u_trans;       // unit 5
 uniform sampler2D u_rbottom;     // unit 6
-uniform sampler2D u_skin_mask;   // unit 7
 uniform sampler2D u_spec0;       // unit 8: per-layer specular weights, layers 0-3 (km.frag)
 uniform sampler2D u_spec1;       // unit 16: layers 4-7
-uniform sampler2D u_irr;         // unit 25: texture-space irradiance E (rgb), see irradiance.frag
-uniform sampler2D u_vis0;        // unit 26: shadow visibility of lights 0-3
-uniform sampler2D u_vis1;        // unit 27: lights 4-7
+uniform sampler2D u_irr;         // unit 25: texture-space irradiance E (rgb), a: visibility of light 0
+uniform sampler2D u_vis0;        // unit 26: shadow visibility of lights 1-4
+uniform sampler2D u_vis1;        // unit 27: lights 5-7
 #if NL > 0
 uniform sampler2D u_layer_thick[NL];  // units 9.. : µm
 #endif
@@ -77,9 +85,10 @@ void main() {
     vec3 Ng = normalize(v_normal);
     vec3 V = normalize(u_eye - v_pos);
     if (dot(Ng, V) < 0.0) Ng = -Ng;  // back faces seen through holes
-    vec3 albedo = texture(u_albedo, v_uv).rgb;
+    vec4 albedo_mask = texture(u_albedo, v_uv);
+    vec3 albedo = albedo_mask.rgb;
 #if HAS_SKIN_MASK
-    bool skin = u_has_maps.z == 0 || texture(u_skin_mask, v_uv).r > 0.5;
+    bool skin = albedo_mask.a > 0.5;
 #else
     bool skin = true;
 #endif
@@ -129,9 +138,14 @@ void main() {
     float skin_inv_m2 = 1.0 / (skin_m2 * skin_m2);
 
     // diffuse irradiance (lights, shadows, environment) from the texture-space cache
-    vec3 E = texture(u_irr, v_uv).rgb;
+    vec4 irr = texture(u_irr, v_uv);
+    vec3 E = irr.rgb;
+#if (SHADOWED & 30) != 0
     vec4 vis0 = texture(u_vis0, v_uv);
-#if NLIGHTS > 4
+#else
+    vec4 vis0 = vec4(1.0);
+#endif
+#if (SHADOWED & 224) != 0
     vec4 vis1 = texture(u_vis1, v_uv);
 #else
     vec4 vis1 = vec4(1.0);
@@ -139,10 +153,16 @@ void main() {
     vec3 spec = vec3(0.0);
     // NLIGHTS (a define: the program is specialised per light count) lets the loop unroll
     for (int i = 0; i < NLIGHTS; ++i) {
-        vec3 L = light_direction(i, v_pos);
+        // the loop unrolls, so these tests on the constant i and the defines vanish at compile time
+#if POINT_LIGHTS < 0
+        bool point = u_light_vec[i].w > 0.5;  // not specialised: decided per pixel
+#else
+        bool point = ((POINT_LIGHTS >> i) & 1) != 0;
+#endif
+        vec3 L = point ? light_direction(i, v_pos) : u_light_vec[i].xyz;  // directional: unit on the CPU
         float ndl = dot(N, L);
-        float sh = i < 4 ? vis0[i] : vis1[i - 4];
-        vec3 Ei = light_irradiance_normal(i, v_pos) * sh;
+        float sh = ((SHADOWED >> i) & 1) == 0 ? 1.0 : i == 0 ? irr.a : i < 5 ? vis0[i - 1] : vis1[i - 5];
+        vec3 Ei = (point ? light_irradiance_normal(i, v_pos) : u_light_col[i].rgb) * sh;
         // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
         // highlight below attenuated by the transmittance of the layer above it
         vec4 ksh = kelemen_shared(N, L, V);

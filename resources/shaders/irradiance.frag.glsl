@@ -3,7 +3,8 @@
 // the irradiance E from every light (PCF-shadowed) and the environment (SH), with the normal map.
 // Lights are fixed to the head, so this is recomputed only when a light or the environment changes;
 // frames then fetch E instead of shading lights and shadows per pixel.
-// o_irr: rgb = E (display units), a = 1 where covered. o_vis0/o_vis1: shadow visibility of lights 0-3, 4-7.
+// o_irr: rgb = E (display units), a = shadow visibility of light 0. o_vis0: lights 1-4; o_vis1.rgb:
+// lights 5-7, o_vis1.a = 1 where covered (the padding's coverage; the clear leaves 0 elsewhere).
 #include "common.glsl"
 #include "lighting.glsl"
 in vec3 v_pos;
@@ -32,7 +33,7 @@ void main() {
         vis[i] = sh;
         E += light_irradiance_normal(i, v_pos) * sh * max(ndl, 0.0);
     }
-    o_irr = vec4(E, 1.0);
-    o_vis0 = vec4(vis[0], vis[1], vis[2], vis[3]);
-    o_vis1 = vec4(vis[4], vis[5], vis[6], vis[7]);
+    o_irr = vec4(E, vis[0]);
+    o_vis0 = vec4(vis[1], vis[2], vis[3], vis[4]);
+    o_vis1 = vec4(vis[5], vis[6], vis[7], 1.0);
 }
