@@ -117,29 +117,40 @@ def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: 
 def nearest(x: np.ndarray, y: np.ndarray, z: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray,
             cell_start: np.ndarray, p: np.ndarray, max_distance: float) -> tuple[int, float]:
     """Sorted index and distance (mesh units) of the texel nearest to ``p`` within ``max_distance``, or
-    (-1, inf); the first of equal float32 squared distances in query order, as the reference."""
-    starts, ends, total = _sphere_runs(origin, cell, dims, cell_start, p, max_distance)
-    if total == 0:
-        return -1, np.inf
+    (-1, inf): the same texel as :meth:`painting.spatial.TexelIndex.nearest_reference`.
+
+    The ball searched grows from half a grid cell, doubling up to ``max_distance``, and stops as soon as
+    its nearest texel lies inside it (then no texel outside it can be nearer). Equal float32 distances
+    resolve to the first in query order, which is the same order in every ball (grid y, z, x, then the
+    texel's place in its cell), so the answer is the reference's."""
     px, py, pz = np.float32(p[0]), np.float32(p[1]), np.float32(p[2])
-    best = np.float32(np.inf)
-    kbest = -1
-    for i in range(len(starts)):
-        for k in range(starts[i], ends[i]):
-            dx = x[k] - px
-            dy = y[k] - py
-            dz = z[k] - pz
-            d2 = dx * dx + dy * dy + dz * dz
-            if d2 < best or kbest < 0:
-                best = d2
-                kbest = k
+    rho = min(max_distance, 0.5 * cell)
+    while True:
+        starts, ends, total = _sphere_runs(origin, cell, dims, cell_start, p, rho)
+        best = np.float32(np.inf)
+        kbest = -1
+        for i in range(len(starts)):
+            for k in range(starts[i], ends[i]):
+                dx = x[k] - px
+                dy = y[k] - py
+                dz = z[k] - pz
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 < best or kbest < 0:
+                    best = d2
+                    kbest = k
+        if kbest >= 0 and float(np.sqrt(best)) <= rho:
+            return kbest, float(np.sqrt(best))
+        if rho >= max_distance:
+            break
+        rho = min(2.0 * rho, max_distance)
+    if kbest < 0:
+        return -1, np.inf
     d = float(np.sqrt(best))
     if d > max_distance:
         return -1, np.inf
     return kbest, d
 
 
-# ---------------------------------------------------------------------------------------- weights
 @_njit
 def weights(x: np.ndarray, y: np.ndarray, z: np.ndarray, nxs: np.ndarray, nys: np.ndarray, nzs: np.ndarray,
             origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
@@ -220,14 +231,11 @@ def weights(x: np.ndarray, y: np.ndarray, z: np.ndarray, nxs: np.ndarray, nys: n
             out_w[i] = one if t < one else zero
     else:
         inv = one - h
-        for i in range(n):
-            t = np.sqrt(out_d[i]) / rf
-            q = (t - h) / inv
-            if q < zero:
-                q = zero
-            elif q > one:
-                q = one
-            out_w[i] = one - q * q * (f32(3.0) - f32(2.0) * q)
+        three = f32(3.0)
+        two = f32(2.0)
+        for i in range(n):  # branch-free, so it vectorises
+            q = min(max((np.sqrt(out_d[i]) / rf - h) / inv, zero), one)
+            out_w[i] = one - q * q * (three - two * q)
     out_k = out_k[:n]
     if npieces > 1 and n > 1:
         order = np.argsort(out_k, kind="mergesort")
