@@ -38,6 +38,16 @@ SKIN_GAUSSIANS: tuple[tuple[float, float, float, float], ...] = (
 )
 REFERENCE_TAPS = 13
 
+
+def reference_taps(sigma_texels: float) -> int:
+    """Taps of one reference-mode Gaussian pass (odd, 5..REFERENCE_TAPS): enough to space them at most one
+    source texel apart over ±3σ, with a 25 % margin for the nearer parts of the face. Taps closer than a
+    texel would re-read the same bilinear interpolation: a narrow Gaussian costs fewer taps, not less
+    accuracy (the kernel is normalised by its tap weights either way)."""
+    n = int(math.ceil(6.0 * max(sigma_texels, 0.0) * 1.25)) + 1
+    n += 1 - n % 2
+    return max(5, min(REFERENCE_TAPS, n))
+
 # texture units of the lit pass
 _U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 24, 25
 #: NDC depth of an SSS pass's triangle against sss_mask.frag's classes (skin 0.25, head 0.5, background 1
@@ -259,7 +269,7 @@ class Renderer:
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
         self._frame_programs: dict[tuple[int, int], Any] = {}
         self._fast_programs: dict[int, Any] = {}
-        self._gauss = self.shaders.program(ctx, "fullscreen_z.vert", "sss_gauss.frag", {"NTAPS": REFERENCE_TAPS})
+        self._gauss_programs: dict[int, Any] = {}
         self._sss_mask = self.shaders.program(ctx, "fullscreen_z.vert", "sss_mask.frag")
         self._composites: dict[tuple[int, int], Any] = {}
         self._baseline: Any = None
@@ -401,6 +411,12 @@ class Renderer:
             self._fast_programs[taps] = self.shaders.program(self.ctx, "fullscreen_z.vert", "sss_fast.frag",
                                                              {"NTAPS": taps})
         return self._fast_programs[taps]
+
+    def _gauss_program(self, taps: int) -> Any:
+        if taps not in self._gauss_programs:
+            self._gauss_programs[taps] = self.shaders.program(self.ctx, "fullscreen_z.vert", "sss_gauss.frag",
+                                                              {"NTAPS": taps})
+        return self._gauss_programs[taps]
 
     def _composite_program(self, mode: int, debug: bool) -> Any:
         """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
@@ -592,7 +608,6 @@ class Renderer:
         elif debug == 0 and s.mode == "reference":
             mode = 1
             w0 = tuple(float(x) for x in SKIN_GAUSSIANS[0][1:])
-            gp = self._gauss
             hw, hh = t["half_a"].size
             hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
             mm_per_px = (self.camera.distance * 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / h
@@ -618,6 +633,8 @@ class Renderer:
                     (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, _Z_HEAD, _Z_SKIN)):
                 t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
                 for sigma, wt in group:
+                    # the horizontal pass reads the full-resolution diffuse, the vertical one its result
+                    gp = self._gauss_program(reference_taps(sigma / mm_per_px))
                     self._blur_common(gp, px_per_mm, t["diffuse"], (1.0, 0.0))
                     self._set(gp, "u_sigma_mm", sigma)
                     self._set(gp, "u_weight", (1.0, 1.0, 1.0))
@@ -627,7 +644,9 @@ class Renderer:
                     if scale != 1.0 and (sigma, wt) == group[0]:  # the same alpha after every Gaussian
                         self._half_mask(hrect, vertical=True)
                     src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
+                    gp = self._gauss_program(reference_taps(sigma / mm_per_px * scale))
                     self._blur_common(gp, px_per_mm * scale, src_tex, (0.0, 1.0))
+                    self._set(gp, "u_sigma_mm", sigma)
                     self._set(gp, "u_weight", tuple(float(x) for x in wt))
                     self._set(gp, "u_premultiplied", 0 if scale == 1.0 else 1)
                     self._set(gp, "u_cov", 1.0 / max(len(group), 1))
@@ -858,7 +877,7 @@ class Renderer:
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
         objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
-                           self._gauss, self._sss_mask, *self._composites.values(),
+                           *self._gauss_programs.values(), self._sss_mask, *self._composites.values(),
                            *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)
@@ -866,6 +885,7 @@ class Renderer:
 
         release_all(self.ctx, objs)
         self._quads, self._frame_programs, self._fast_programs, self._targets = {}, {}, {}, {}
+        self._gauss_programs = {}
         self._composites = {}
         self.km.release()
         self.irradiance.release()

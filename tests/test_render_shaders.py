@@ -111,3 +111,13 @@ def test_light_validation() -> None:
         Light("spot").validate("light 3")
     with pytest.raises(RenderError, match="finite"):
         Light.directional(0, 0, float("nan")).validate()
+
+
+def test_reference_taps_space_at_most_a_texel() -> None:
+    from render.renderer import REFERENCE_TAPS, reference_taps
+
+    for sigma in (0.0, 0.3, 0.7, 1.0, 1.4, 1.9, 2.5, 4.0, 40.0):
+        n = reference_taps(sigma)
+        assert n % 2 == 1 and 5 <= n <= REFERENCE_TAPS
+        if n < REFERENCE_TAPS:  # not capped: taps over ±3σ are at most 0.8 texel apart
+            assert 6.0 * sigma / (n - 1) <= 0.8 + 1e-9
