@@ -1,10 +1,15 @@
 """``sheer bench paint --json``: brush and undo timings on the sample head (not a timed test).
 
 Prints one JSON object: ``dab_ms_1024``, ``dab_ms_2048``, ``dab_ms_4096`` (median wall-clock ms of one
-1 cm radius dab; ``dab_cpu_ms_*`` the same in process CPU time, which a busy shared machine disturbs
-less), ``dab_ratio_4096_1024``, ``stroke_1000_ms`` (a 1000-dab stroke including its undo record),
-``undo_ms``, ``redo_ms``, ``undo_peak_mb`` (peak bytes held by the undo stack), texel counts, and the
-targets. Atlases are baked once and cached on disk (the first run takes longer).
+1 cm radius dab, the first of its stroke: the map written, the touched tiles saved for undo, the change
+event sent; ``dab_cpu_ms_*`` the same in process CPU time, which a busy shared machine disturbs less;
+``dab_stroke_ms_*`` the whole one-dab stroke, its undo step pushed at the end included),
+``dab_ratio_4096_1024``, ``stroke_1000_ms`` (a 1000-dab stroke including its undo record),
+``undo_ms``, ``redo_ms``, ``undo_peak_mb`` (peak bytes held by the undo stack), texel counts (in a 1 cm
+dab, and ``dab_new_texels_*`` the median a dab newly painted), ``paint_path`` ("numba" kernels, or the
+"numpy" reference under ``SHEER_PAINT_KERNEL=numpy``: see :mod:`painting.kernels`) and the targets.
+Atlases are baked once and cached on disk (the first run takes longer); the kernels are compiled (or
+loaded from their cache) before timing.
 """
 
 from __future__ import annotations
@@ -74,21 +79,28 @@ def measure(resolution: int, library: Any, material: str, dabs: int = 40) -> dic
     doc = Document.from_head(None, library=library, resolution=resolution)
     layer = doc.add_layer(material)
     _ = doc.atlas.index  # build the spatial index outside the timing
+    from painting import kernels
+
+    if kernels.enabled():
+        kernels.warm_up(background=False)
     pts = _face_path(doc, dabs)
     brush = Brush(radius_mm=10.0, hardness=0.5, strength=1.0, mode="add")
     times = []
     cpu = []
+    strokes = []
     texels = []
     for p in pts:
+        s0 = time.perf_counter()
         with doc.stroke(layer, brush) as s:
             c0 = time.process_time()
             t0 = time.perf_counter()
             s.dab(p)
             times.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
+        strokes.append(time.perf_counter() - s0)
         texels.append(int(np.count_nonzero(layer.thickness)))
     return {"doc": doc, "layer": layer, "dab_ms": 1000 * statistics.median(times),
-            "dab_cpu_ms": 1000 * statistics.median(cpu),
+            "dab_cpu_ms": 1000 * statistics.median(cpu), "dab_stroke_ms": 1000 * statistics.median(strokes),
             "texels_per_dab": int(np.median(np.diff([0, *texels])[1:]) if len(texels) > 1 else texels[0])}
 
 
@@ -98,13 +110,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="skip the 4096² map")
     args = parser.parse_args(argv)
     library, material = _library()
-    out: dict[str, Any] = {}
+    from painting import kernels
+
+    out: dict[str, Any] = {"paint_path": "numba" if kernels.enabled() else "numpy"}
     sizes = (1024, 2048) if args.quick else (1024, 2048, 4096)
     keep: dict[str, Any] = {}
     for res in sizes:
         r = measure(res, library, material)
         out[f"dab_ms_{res}"] = round(r["dab_ms"], 3)
         out[f"dab_cpu_ms_{res}"] = round(r["dab_cpu_ms"], 3)
+        out[f"dab_stroke_ms_{res}"] = round(r["dab_stroke_ms"], 3)
+        out[f"dab_new_texels_{res}"] = r["texels_per_dab"]
         out[f"texels_in_1cm_dab_{res}"] = int(round(np.pi * (10.0 / r["doc"].atlas.texel_mm) ** 2))
         if res == 2048:
             keep = r

@@ -17,6 +17,7 @@ Units: positions in mesh units, thickness in µm, weights and coverage in [0, 1]
 
 from __future__ import annotations
 
+import atexit
 import os
 import threading
 from typing import Any
@@ -353,6 +354,17 @@ def _compile_all() -> None:
     composite(k, w, f32(1.0), np.arange(4, dtype=i64), np.zeros(4, np.int32), np.zeros(4, np.bool_),
               np.zeros(0, i64), np.zeros(0, i64), data, data.copy(), data.copy(), np.zeros(1, np.bool_),
               np.zeros(1, np.bool_), res, 0, f32(1.0), f32(1.0), f32(1.0))
+
+
+def _join_warm_up() -> None:
+    """At exit, let a running warm-up finish (a compile torn down mid-way by the interpreter's shutdown
+    can crash it); normally a fraction of a second, the kernels coming from the disk cache."""
+    thread = _warm_thread
+    if thread is not None and thread.is_alive():
+        thread.join()
+
+
+atexit.register(_join_warm_up)
 
 
 def warm_up(background: bool = True) -> None:
