@@ -10,7 +10,8 @@ A face folder (``write_face``) holds:
 - ``detail.exr`` — the detail texture, **float32** RGB in the head's UV space (top row first, the
   conventions of :mod:`painting.head`), values in [0, 2ⁿ] with n = 3 (the paper's [0, 8] range; we store
   floats rather than n doubling passes over an 8-bit texture);
-- ``report.png`` — photograph | fitted Phong render | difference (ΔE2000 × 10 as grey), like Fig. 9;
+- ``report.png`` — photograph | fitted Phong render | difference (ΔE2000 × 10 as grey), like Fig. 9 |
+  the detail texture (×½) with the texels the photograph did not see tinted magenta;
 - ``skin_mask.png`` — the skin pixels used.
 """
 
@@ -190,7 +191,10 @@ class CaptureResult:
             "skin_pixels": int(self.skin_mask.sum()),
             "detail_texture": {"file": "detail.exr", "storage": "float32 RGB, UV space, top row first",
                                "range": [0.0, float(2 ** DETAIL_DOUBLINGS)],
-                               "size": list(self.detail.shape[:2])},
+                               "size": list(self.detail.shape[:2]),
+                               "texels_seen": int(self.detail_valid.sum()),
+                               "unseen_fill": f"seen detail low-passed (sigma 2 mm) at the nearest seen texel "
+                                              f"in 3D, faded to 1 as exp(-d / {UNSEEN_FADE_MM:g} mm)"},
             "timings_s": self.timings_s,
             "robustness": self.robustness,
         }
@@ -338,11 +342,41 @@ def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
                      for c in range(tex.shape[2])], axis=1)
 
 
+#: Unseen texels: the distance (mm) over which the nearby seen detail fades to 1 (no detail: the
+#: fitted diffuse colour alone); see :func:`bake_detail`.
+UNSEEN_FADE_MM = 15.0
+
+
+def _texels_per_unit_uv(head: Any) -> float:
+    """UV units per mesh unit on the head, median over its triangles (√(UV area / 3D area))."""
+    v = np.asarray(head.vertices)[head.faces]
+    t = np.asarray(head.uv)[head.faces]
+    a3 = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
+    e1, e2 = t[:, 1] - t[:, 0], t[:, 2] - t[:, 0]
+    a2 = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+    ok = a3 > 1e-12
+    return float(np.sqrt(np.median(a2[ok] / a3[ok]))) if ok.any() else 1.0
+
+
 def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndarray, rmap: ReflectanceMap,
                 size: int) -> tuple[np.ndarray, np.ndarray]:
     """The detail texture: photograph / shaded model per texel (float32 (size, size, 3), [0, 8]), and
-    the texels seen in the photograph (bool). Unseen texels take the value of the nearest seen texel
-    (so a relit view from another angle has no holes; they carry no measured detail)."""
+    the texels seen in the photograph (bool).
+
+    Texels of the head the photograph does not see (its sides and back, under the chin) carry no
+    measurement. Each takes the seen detail low-passed (a normalised Gaussian convolution over the
+    seen texels, σ = 2 mm on the skin, so the skin's pores and blotches do not smear into streaks) at
+    its nearest seen texel *on the head in 3D* (a k-d tree over texel positions, so a UV seam or a
+    neighbouring UV island never lends it values), faded towards 1 — the fitted diffuse colour without
+    detail — as e^(−d / ``UNSEEN_FADE_MM``) with d the distance in millimetres to that texel (1 beyond
+    five fade lengths). (Before, each took its nearest seen texel
+    *in UV*: streaks of single pores dragged across the unseen region, and values from across seams.)
+    Texels outside every UV triangle (the gutter) copy the nearest covered texel in UV, so bilinear
+    lookups at chart borders stay on the chart's own values. :func:`report_image` marks the unseen
+    texels.
+    """
+    from scipy.spatial import cKDTree
+
     gb = rasterize_uv(head.uv, head.faces, (size, size))
     cov = gb.covered
     b = gb.bary[cov].astype(np.float64)
@@ -363,32 +397,59 @@ def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndar
     vis[inb] = np.abs(z[inb] - dz[inb]) <= tol
     view = camera.centre[None, :] - pos
     vis &= np.einsum("pc,pc->p", nrm, view) > 0
-    photo = np.stack([ndimage.map_coordinates(photo_lin[..., c], [px[:, 1] - 0.5, px[:, 0] - 0.5], order=1,
+    if not vis.any():
+        raise CaptureError("no texel of the head is visible in the photograph")
+    photo = np.stack([ndimage.map_coordinates(photo_lin[..., c], [px[vis, 1] - 0.5, px[vis, 0] - 0.5], order=1,
                                               mode="nearest") for c in range(3)], axis=1)
-    shaded = rmap.sample(nrm @ camera.R.T)
-    ratio = photo / np.maximum(shaded, SHADED_FLOOR)
-    ratio = np.clip(ratio, 0.0, float(2 ** DETAIL_DOUBLINGS))
+    shaded = rmap.sample(nrm[vis] @ camera.R.T)
+    ratio = np.clip(photo / np.maximum(shaded, SHADED_FLOOR), 0.0, float(2 ** DETAIL_DOUBLINGS))
     detail = np.zeros((size, size, 3), dtype=np.float32)
     valid = np.zeros((size, size), dtype=bool)
     rr, cc = np.nonzero(cov)
-    detail[rr[vis], cc[vis]] = ratio[vis]
+    detail[rr[vis], cc[vis]] = ratio
     valid[rr[vis], cc[vis]] = True
-    if not valid.any():
-        raise CaptureError("no texel of the head is visible in the photograph")
-    _, (iy, ix) = ndimage.distance_transform_edt(~valid, return_indices=True)
+    unseen = ~vis
+    if unseen.any():
+        # The seen detail low-passed (normalised convolution over the seen texels, σ = 2 mm on the
+        # skin), read at each unseen texel's nearest seen texel in 3D, faded to 1 with the distance.
+        mm_per_unit = float(getattr(head, "mm_per_unit", 1.0))
+        sigma = max(1.0, 2.0 / mm_per_unit * size * _texels_per_unit_uv(head))
+        wsum = ndimage.gaussian_filter(valid.astype(np.float64), sigma)
+        low = np.stack([ndimage.gaussian_filter(detail[..., c] * valid, sigma) for c in range(3)], axis=-1)
+        low = low / np.maximum(wsum, 1e-12)[..., None]
+        # Beyond 5 fade lengths the weight is under 1 %: such texels are set to 1 (and the search
+        # stops early, which keeps it fast on the back of the head).
+        reach = 5.0 * UNSEEN_FADE_MM / mm_per_unit
+        tree = cKDTree(pos[vis], balanced_tree=False, compact_nodes=False)
+        dist, nb = tree.query(pos[unseen], k=1, distance_upper_bound=reach)
+        near = np.isfinite(dist)
+        fill = np.ones((len(dist), 3))
+        w = np.exp(-dist[near] * mm_per_unit / UNSEEN_FADE_MM)[:, None]
+        fill[near] = w * low[rr[vis][nb[near]], cc[vis][nb[near]]] + (1.0 - w)
+        detail[rr[unseen], cc[unseen]] = fill
+    _, (iy, ix) = ndimage.distance_transform_edt(~cov, return_indices=True)
     detail = detail[iy, ix]
     return detail, valid
 
 
 def report_image(result: CaptureResult) -> np.ndarray:
-    """photograph | fitted Phong render | difference (ΔE2000 × 10 as grey, skin pixels), uint8 (H, 3W, 3)."""
+    """photograph | fitted Phong render | difference (ΔE2000 × 10 as grey, skin pixels) | the detail
+    texture in UV space, with the texels the photograph did not see (filled, see :func:`bake_detail`)
+    tinted magenta; uint8 (H, 4W, 3)."""
+    from PIL import Image
+
     photo = result.photo_lin
+    h, w = photo.shape[:2]
     de = np.zeros(photo.shape[:2])
     m = result.skin_mask
     de[m] = delta_e2000(result.fitted_render[m], photo[m])
     diff = np.repeat(np.clip(de * 10.0 / 255.0, 0, 1)[..., None], 3, axis=2)
+    det = to_uint8(linear_to_srgb(np.asarray(result.detail, dtype=np.float64) * 0.5))
+    tint = ~result.detail_valid
+    det[tint] = (0.5 * det[tint] + 0.5 * np.array([255, 0, 255])).astype(np.uint8)
+    det = np.asarray(Image.fromarray(det).resize((w, h), Image.Resampling.NEAREST))
     return np.concatenate([to_uint8(linear_to_srgb(photo)), to_uint8(linear_to_srgb(result.fitted_render)),
-                           to_uint8(diff)], axis=1)
+                           to_uint8(diff), det], axis=1)
 
 
 def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None) -> Path:

@@ -46,7 +46,7 @@ def test_capture_writes_face_folder(inputs: dict[str, Path], capsys: pytest.Capt
     for name in ("face.json", "detail.exr", "report.png", "skin_mask.png"):
         assert (out / name).is_file()
     report = np.asarray(Image.open(out / "report.png"))
-    assert report.shape == (256, 768, 3)
+    assert report.shape == (256, 1024, 3)  # photo | fitted | difference | detail (unseen texels marked)
 
 
 @pytest.mark.parametrize("case", ["missing_photo", "few_points", "bad_mask"])

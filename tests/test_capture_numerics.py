@@ -118,7 +118,7 @@ def test_probe_reports_an_ambiguous_highlight(case: str) -> None:
 
 def test_camera_gbuffer_is_perspective_correct_on_paintings_rasteriser() -> None:
     # capture.raster adapts painting.raster (affine barycentrics) to a camera: the position interpolated
-    # with its barycentrics must project back onto each pixel's centre (affine ones miss by up to ~0.5 px
+    # with its barycentrics must project back onto each pixel's centre (affine ones miss by up to 26 px
     # on a plane this oblique), and triangles behind the camera are left out.
     cam = look_at(np.array([0.0, 0.0, 3.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 60.0, 64, 48)
     verts = np.array([[-2.0, -1.0, 1.5], [2.0, -1.0, 1.5], [2.0, 1.0, -6.0], [-2.0, 1.0, -6.0],
