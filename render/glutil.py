@@ -5,6 +5,25 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
+import numpy as np
+
+
+def set_uniform(program: Any, name: str, value: Any) -> None:
+    """Set a uniform if the program has it (the compiler drops unused ones)."""
+    if name in program:
+        program[name].value = value
+
+
+def write_uniform(program: Any, name: str, data: Any) -> None:
+    """Write float32 rows to a uniform array or matrix if the program has it. Rows beyond the uniform's
+    array length are cut (the compiler may shorten an array that is indexed only up to N); arrays of
+    more than two dimensions are flattened to rows."""
+    if name in program:
+        u = program[name]
+        arr = np.asarray(data, dtype=np.float32)
+        arr = arr.reshape(-1, *arr.shape[2:]) if arr.ndim > 2 else arr
+        u.write(np.ascontiguousarray(arr[:max(u.array_length, 1)]).tobytes())
+
 
 def release_all(ctx: Any, objects: Iterable[Any]) -> None:
     """Release GL objects (None entries skipped). If the bound framebuffer is among them, re-bind

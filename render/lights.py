@@ -274,3 +274,34 @@ class ShadowMaps:
         from render.glutil import release_all
 
         release_all(self.ctx, (self.fbo, self.texture, self.program))
+
+
+def upload_lights(program: Any, lights: list[Light], shadows: ShadowMaps, pcf_radius: float,
+                  environment: Environment | None, shadows_on: bool = True) -> None:
+    """Set lighting.glsl's uniforms for ``lights`` (at most MAX_LIGHTS, validated by the caller):
+    directions (unit, w = 0) or positions (w = 1), colour × intensity with the point lights' reference
+    distance, each shadowed light's PCF parameters (radius in shadow-map texels, bias and texel size in
+    mesh units) and atlas matrix, and the environment's SH irradiance (off without one)."""
+    from render.glutil import set_uniform, write_uniform
+
+    vec = np.zeros((MAX_LIGHTS, 4), np.float32)
+    col = np.zeros((MAX_LIGHTS, 4), np.float32)
+    par = np.zeros((MAX_LIGHTS, 4), np.float32)
+    mats = np.zeros((MAX_LIGHTS, 16), np.float32)
+    tiles = np.array([shadows.tile(i) for i in range(MAX_LIGHTS)], np.float32)
+    for i, lt in enumerate(lights):
+        v = np.asarray(lt.vector, float)
+        vec[i] = (*(v / np.linalg.norm(v)), 0.0) if lt.kind == "directional" else (*v, 1.0)
+        col[i] = (*(np.asarray(lt.colour) * lt.intensity), lt.reference_distance)
+        if lt.shadows and shadows_on:
+            texel = shadows.texel_world[i]
+            par[i] = (1.0, pcf_radius, texel * 0.5, texel)
+            mats[i] = shadows.matrices[i].T.reshape(16)
+    set_uniform(program, "u_nlights", len(lights))
+    write_uniform(program, "u_light_vec", vec)
+    write_uniform(program, "u_light_col", col)
+    write_uniform(program, "u_shadow_par", par)
+    write_uniform(program, "u_light_mat", mats)
+    write_uniform(program, "u_shadow_tile", tiles)
+    set_uniform(program, "u_env_on", 1.0 if environment is not None else 0.0)
+    write_uniform(program, "u_sh", environment.coefficients if environment is not None else np.zeros((9, 3)))

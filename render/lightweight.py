@@ -28,8 +28,9 @@ import numpy as np
 
 from render.camera import OrbitCamera
 from render.errors import RenderError
+from render.glutil import set_uniform, write_uniform
 from render.gpu_head import GpuHead
-from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps
+from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, upload_lights
 from render.shaders import ShaderLibrary
 
 #: Cornea radius (Wyszecki & Stiles, via the paper), millimetres.
@@ -125,19 +126,8 @@ class LightweightRenderer:
         vao = self.ctx.vertex_array(self.eye_program, [(vb, "3f", "in_position"), (nb, "3f", "in_normal")], ib)
         return (vao, vb, nb, ib)
 
-    @staticmethod
-    def _set(prog: Any, name: str, value: Any) -> None:
-        if name in prog:
-            prog[name].value = value
-
-    @staticmethod
-    def _write(prog: Any, name: str, data: np.ndarray) -> None:
-        if name in prog:
-            u = prog[name]
-            rows = np.asarray(data, dtype=np.float32)
-            if u.array_length > 1 or rows.shape[0] > 1:  # the compiler may shorten arrays used up to N
-                rows = rows[:u.array_length]
-            u.write(np.ascontiguousarray(rows).tobytes())
+    _set = staticmethod(set_uniform)
+    _write = staticmethod(write_uniform)
 
     def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool) -> Any:
         """The face program specialised for this configuration (compiled once, cached); ``shadows`` is
@@ -153,29 +143,9 @@ class LightweightRenderer:
     def _upload_lights(self, prog: Any) -> None:
         if len(self.lights) > MAX_LIGHTS:
             raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
-        vec = np.zeros((MAX_LIGHTS, 4), np.float32)
-        col = np.zeros((MAX_LIGHTS, 4), np.float32)
-        par = np.zeros((MAX_LIGHTS, 4), np.float32)
-        mats = np.zeros((MAX_LIGHTS, 16), np.float32)
-        tiles = np.array([self.shadows.tile(i) for i in range(MAX_LIGHTS)], np.float32)
         for i, lt in enumerate(self.lights):
             lt.validate(f"light {i + 1}")
-            v = np.asarray(lt.vector, float)
-            vec[i] = (*(v / np.linalg.norm(v)), 0.0) if lt.kind == "directional" else (*v, 1.0)
-            col[i] = (*(np.asarray(lt.colour) * lt.intensity), lt.reference_distance)
-            if lt.shadows and self.shadows_on:
-                texel = self.shadows.texel_world[i]
-                par[i] = (1.0, self.pcf_radius, texel * 0.5, texel)
-                mats[i] = self.shadows.matrices[i].T.reshape(16)
-        self._set(prog, "u_nlights", len(self.lights))
-        self._write(prog, "u_light_vec", vec)
-        self._write(prog, "u_light_col", col)
-        self._write(prog, "u_shadow_par", par)
-        self._write(prog, "u_light_mat", mats)
-        self._write(prog, "u_shadow_tile", tiles)
-        env = self.environment
-        self._set(prog, "u_env_on", 1.0 if env is not None else 0.0)
-        self._write(prog, "u_sh", env.coefficients if env is not None else np.zeros((9, 3)))
+        upload_lights(prog, self.lights, self.shadows, self.pcf_radius, self.environment, self.shadows_on)
 
     def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
         """Draw a frame into ``fbo`` (which needs a depth attachment)."""

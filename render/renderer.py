@@ -14,9 +14,10 @@ import numpy as np
 
 from render.camera import OrbitCamera
 from render.errors import RenderError
+from render.glutil import set_uniform, write_uniform
 from render.gpu_head import GpuHead
 from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput
-from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights
+from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights, upload_lights
 from render.shaders import ShaderLibrary
 
 #: Debug views (``RenderSettings.debug_view``) → shader code.
@@ -432,19 +433,8 @@ class Renderer:
             q = self._quads[program.glo] = self.ctx.vertex_array(program, [])
         return q
 
-    @staticmethod
-    def _set(program: Any, name: str, value: Any) -> None:
-        if name in program:
-            program[name].value = value
-
-    @staticmethod
-    def _write(program: Any, name: str, data: np.ndarray) -> None:
-        if name in program:
-            u = program[name]
-            n = max(u.array_length, 1)
-            arr = np.asarray(data, dtype=np.float32)
-            arr = arr.reshape(-1, *arr.shape[2:]) if arr.ndim > 2 else arr
-            u.write(np.ascontiguousarray(arr[:n]).tobytes())
+    _set = staticmethod(set_uniform)
+    _write = staticmethod(write_uniform)
 
     # -- the frame --------------------------------------------------------------------------------
     def _screen_rect(self, view_proj: np.ndarray, size: tuple[int, int]) -> tuple[int, int, int, int]:
@@ -766,32 +756,7 @@ class Renderer:
             self.ctx.disable(self.ctx.CULL_FACE)
 
     def _upload_lights(self, prog: Any) -> None:
-        n = len(self.lights)
-        vec = np.zeros((MAX_LIGHTS, 4), np.float32)
-        col = np.zeros((MAX_LIGHTS, 4), np.float32)
-        par = np.zeros((MAX_LIGHTS, 4), np.float32)
-        mats = np.zeros((MAX_LIGHTS, 16), np.float32)
-        tiles = np.array([self.shadows.tile(i) for i in range(MAX_LIGHTS)], np.float32)
-        for i, lt in enumerate(self.lights):
-            v = np.asarray(lt.vector, float)
-            if lt.kind == "directional":
-                vec[i] = (*(v / np.linalg.norm(v)), 0.0)
-            else:
-                vec[i] = (*v, 1.0)
-            col[i] = (*(np.asarray(lt.colour) * lt.intensity), lt.reference_distance)
-            if lt.shadows:
-                texel = self.shadows.texel_world[i]
-                par[i] = (1.0, self.settings.pcf_radius, texel * 0.5, texel)
-                mats[i] = self.shadows.matrices[i].T.reshape(16)
-        self._set(prog, "u_nlights", n)
-        self._write(prog, "u_light_vec", vec)
-        self._write(prog, "u_light_col", col)
-        self._write(prog, "u_shadow_par", par)
-        self._write(prog, "u_light_mat", mats)
-        self._write(prog, "u_shadow_tile", tiles)
-        env = self.environment
-        self._set(prog, "u_env_on", 1.0 if env is not None else 0.0)
-        self._write(prog, "u_sh", env.coefficients if env is not None else np.zeros((9, 3)))
+        upload_lights(prog, self.lights, self.shadows, self.settings.pcf_radius, self.environment)
 
     # -- baseline (benchmark) ---------------------------------------------------------------------
     def render_baseline(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
