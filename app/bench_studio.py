@@ -70,9 +70,7 @@ def main(argv: list[str]) -> int:
     win.resize(1500, 900)
     win.show()
     vp = win.viewport
-    deadline = time.perf_counter() + 120
-    while vp.first_frame_time is None and time.perf_counter() < deadline:
-        QApplication.processEvents()
+    _wait_until(lambda: vp.first_frame_time is not None, 120.0)
     if vp.first_frame_time is None:
         raise SheerError("bench studio: the viewport drew no frame within 120 s")
     startup = vp.first_frame_time - t_start
@@ -150,6 +148,18 @@ def _timed_orbit(vp: Any, frames: int) -> list[float]:
         if i >= 3:
             times.append(time.perf_counter() - t0)
     return times
+
+
+def _wait_until(cond: Any, timeout: float) -> None:
+    """Run the event loop until ``cond()`` or ``timeout`` seconds, in 20 ms slices spent inside Qt's event
+    loop (not a Python busy loop, which would hold the GIL the studio's import worker needs)."""
+    from PySide6.QtCore import QEventLoop, QTimer
+
+    deadline = time.perf_counter() + timeout
+    while not cond() and time.perf_counter() < deadline:
+        loop = QEventLoop()
+        QTimer.singleShot(20, loop.quit)
+        loop.exec()
 
 
 def _draw_frame(vp: Any) -> None:

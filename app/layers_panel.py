@@ -48,9 +48,24 @@ def material_rgb(material: Any, thickness_um: float | None = None,
     return tuple(int(round(float(c) * 255)) for c in np.clip(srgb, 0.0, 1.0))  # type: ignore[return-value]
 
 
-def swatch_icon(rgb: tuple[int, int, int], size: int = 28) -> QIcon:
+def colours_ready() -> bool:
+    """km's colour maths is loaded. Its import (colour-science, with matplotlib: seconds on a loaded
+    machine) happens in a worker at start-up (app.render_adapter.preload_renderer); until it is done the
+    swatches are grey placeholders, so the window never waits for it."""
+    import sys
+
+    return "km.colour" in sys.modules
+
+
+def swatch_of(material: Any) -> tuple[int, int, int] | None:
+    """The material's opaque colour, or None until km's colour maths is loaded (see colours_ready)."""
+    return material_rgb(material) if colours_ready() else None
+
+
+def swatch_icon(rgb: tuple[int, int, int] | None, size: int = 28) -> QIcon:
+    """A square icon of ``rgb`` (a neutral grey placeholder for None)."""
     pm = QPixmap(size, size)
-    pm.fill(QColor(*rgb))
+    pm.fill(QColor(*(rgb if rgb is not None else (128, 128, 128))))
     icon = QIcon(pm)
     icon.addPixmap(pm, QIcon.Mode.Selected)  # keep the true colour on the selected row
     return icon
@@ -175,7 +190,7 @@ class LayersPanel(QWidget):
         for combo in (self.material, self.layer_material):
             combo.clear()
             for m in library:
-                combo.addItem(swatch_icon(material_rgb(m), 16), m.name)
+                combo.addItem(swatch_icon(swatch_of(m), 16), m.name)
         if current:
             self.material.setCurrentText(current)
         self._updating = False
@@ -195,7 +210,7 @@ class LayersPanel(QWidget):
             item.setData(Qt.ItemDataRole.UserRole + 1, bool(lay.visible))
             item.setToolTip(f"{lay.material} · opacity {lay.opacity:.0%} · max {lay.max_thickness:g} µm")
             if lay.material in library:
-                item.setIcon(swatch_icon(material_rgb(library.get(lay.material))))
+                item.setIcon(swatch_icon(swatch_of(library.get(lay.material))))
             self.list.addItem(item)
         if self._count:
             keep = min(max(keep, 0), self._count - 1)

@@ -28,7 +28,7 @@ from PySide6.QtWidgets import (
 )
 
 from app import dialogs
-from app.layers_panel import material_rgb, swatch_icon
+from app.layers_panel import colours_ready, material_rgb, swatch_icon, swatch_of
 
 EDITABLE = {"category": str, "thickness_um": float, "max_thickness_um": float, "roughness": float,
             "ior": float}
@@ -292,7 +292,7 @@ class LibraryDock(QWidget):
             if cat != "all categories" and str(m.category) != cat:
                 continue
             self.list.addItem(m.name)
-            self.list.item(self.list.count() - 1).setIcon(swatch_icon(material_rgb(m), 16))
+            self.list.item(self.list.count() - 1).setIcon(swatch_icon(swatch_of(m), 16))
         self.mix_with.clear()
         self.mix_with.addItems(self.library.names() if hasattr(self.library, "names") else
                                [m.name for m in self.library])
@@ -359,7 +359,7 @@ class LibraryDock(QWidget):
         if self.refl_plot is not None:
             self.refl_plot.clear()
             self.coef_plot.clear()
-        if self.current is None or self.current not in self.library:
+        if self.current is None or self.current not in self.library or not colours_ready():
             return
         m = self.library.get(self.current)
         wl = np.asarray(m.wavelengths, float)

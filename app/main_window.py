@@ -58,6 +58,9 @@ class StudioWindow(QMainWindow):
     def __init__(self, head_path: str | Path | None = None, look: str = "natural", resolution: int | None = None,
                  qsettings: QSettings | None = None, document: Any = None, library: Any = None) -> None:
         super().__init__()
+        from app.viewport import preload_renderer_modules
+
+        preload_renderer_modules()  # colour-science & co. import in a worker while the document is built
         self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)
         self.settings: StudioSettings = load_settings(self.qsettings)
         self.library = library if library is not None else seams.load_library()
@@ -87,6 +90,7 @@ class StudioWindow(QMainWindow):
         self.viewport.stroke_end.connect(self._stroke_end)
         self.viewport.light_moved.connect(self._light_moved)
         self.viewport.renderer_ready.connect(self.apply)
+        self.viewport.renderer_ready.connect(self._refresh_swatches)
         self.viewport.frame_drawn.connect(self._after_first_frame)
         self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
 
@@ -265,6 +269,13 @@ class StudioWindow(QMainWindow):
         self.render_combo.currentTextChanged.connect(self.set_render_mode)
         self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
         self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
+
+    def _refresh_swatches(self) -> None:
+        """Once km's colour maths is loaded (with the renderer): the real swatches replace the placeholders."""
+        self.layers_panel.set_materials(self.library)
+        self.layers_panel.refresh(self.doc.layers, self.library, self.selected_layer)
+        self.library_dock.refresh_list()
+        self.library_dock.update_views()
 
     def _after_first_frame(self, _ms: float) -> None:
         """Deferred start-up work, once the head is on screen."""

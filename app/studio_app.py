@@ -48,7 +48,9 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     app = make_application()
     from app import dialogs, seams
     from app.main_window import StudioWindow
+    from app.viewport import preload_renderer_modules
 
+    preload_renderer_modules()  # in a worker, while the head and document are prepared
     try:
         library = seams.load_library()
     except SheerError as exc:

@@ -30,6 +30,38 @@ from PySide6.QtWidgets import QLabel, QWidget
 
 from app.camera import Lighting, OrbitCamera
 
+_PRELOAD: dict[str, Any] = {"task": None, "waiting": []}
+
+
+def renderer_modules_loaded() -> bool:
+    """The renderer's imports (``render.renderer``, ``km.colour`` with colour-science) are done."""
+    import sys
+
+    return "render.renderer" in sys.modules and "km.colour" in sys.modules
+
+
+def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
+    """Import the renderer's modules in a worker (once; colour-science takes seconds on a loaded machine),
+    then call ``then`` on the GUI thread. Start it early (the studio does before building its document)."""
+    if renderer_modules_loaded() and _PRELOAD["task"] is None:
+        if then is not None:
+            then()
+        return
+    if then is not None:
+        _PRELOAD["waiting"].append(then)
+    if _PRELOAD["task"] is not None:
+        return
+    from app.render_adapter import preload_renderer
+    from app.workers import run_task
+
+    def done(_result: Any = None) -> None:
+        _PRELOAD["task"] = None
+        waiting, _PRELOAD["waiting"] = _PRELOAD["waiting"], []
+        for fn in waiting:
+            fn()
+
+    _PRELOAD["task"] = run_task(None, "Starting the renderer", preload_renderer, done, done, show_progress=False)
+
 
 def default_surface_format() -> QSurfaceFormat:
     """OpenGL 4.1 core with a depth buffer and no vsync (frames are drawn on demand)."""
@@ -99,8 +131,6 @@ class Viewport(QOpenGLWidget):
 
     # ------------------------------------------------------------------ GL life cycle
     def initializeGL(self) -> None:
-        import sys
-
         import moderngl
 
         try:
@@ -109,15 +139,8 @@ class Viewport(QOpenGLWidget):
             self.gl_failed.emit(f"OpenGL could not start: {exc}")
             return
         self.context().aboutToBeDestroyed.connect(self.release_gl)
-        if "render.renderer" in sys.modules and "km.colour" in sys.modules:
-            self._attach_renderer()
-            return
-        from app.render_adapter import preload_renderer
-        from app.workers import run_task
-
-        # the renderer's imports (colour-science's tables) load in a worker; the window is up meanwhile
-        run_task(None, "Starting the renderer", preload_renderer, lambda _r: self._attach_renderer(),
-                 lambda msg: self._attach_renderer(), show_progress=False)
+        # the renderer's imports load in a worker (started early by the window); the window is up meanwhile
+        preload_renderer_modules(self._attach_renderer)
 
     def _attach_renderer(self) -> None:
         """Create the renderer (GUI thread, our context current)."""

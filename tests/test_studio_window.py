@@ -62,6 +62,21 @@ def test_viewport_runs_the_real_renderer_at_full_size(window: object, qtbot: obj
     vp.orbit_by(-3.0)
 
 
+def test_swatches_are_kms_colours(window: object) -> None:
+    """Swatches come from km (no colour maths of the app's own); the placeholders drawn while km's colour
+    module loads are replaced once the renderer is up."""
+    from app.layers_panel import material_rgb
+
+    m = window.library.get(window.doc.layers[0].material)
+    hex_rgb = m.swatch_hex("opaque")
+    assert material_rgb(m) == tuple(int(hex_rgb[i:i + 2], 16) for i in (1, 3, 5))
+    black = m.swatch_rgb("black", 20.0)
+    assert material_rgb(m, 20.0) == tuple(int(round(float(c) * 255)) for c in black)
+    item = window.layers_panel.list.item(window.layers_panel.list.count() - 1)  # the bottom layer
+    colour = item.icon().pixmap(8, 8).toImage().pixelColor(4, 4)
+    assert (colour.red(), colour.green(), colour.blue()) == material_rgb(m)
+
+
 def test_title_and_actions(window: object) -> None:
     assert "Untitled" in window.windowTitle()
     assert window.actions_by_id["edit.undo"].shortcut().toString() == "Ctrl+Z"
