@@ -25,6 +25,19 @@ def test_simplify_reaches_the_target_and_keeps_uvs_sane(heads: tuple) -> None:
     assert coarse.mm_per_unit == fine.mm_per_unit and coarse.metadata.landmarks == fine.metadata.landmarks
 
 
+def test_simplify_redoes_faulty_uvs_within_one_chart(heads: tuple) -> None:
+    # Corner UVs from the closest fine point pick either side of a seam; the faulty triangles are redone
+    # within one chart. Measured at 512²: texels claimed by two coarse triangles 1,346 → 714, UV folds
+    # 46 → 39 (the rest straddle a seam for real: reported, not fixed).
+    from capture.lod import uv_faults
+    from painting.atlas import coverage_count
+
+    fine, coarse = heads
+    count = coverage_count(coarse.uv[coarse.faces] * 512, 512, 512)
+    assert int((count > 1).sum()) < 1000
+    assert int(uv_faults(fine, coarse, tol=np.inf).sum()) <= 42
+
+
 def test_rebake_keeps_a_constant_texture_constant(heads: tuple) -> None:
     from capture.lod import rebake_detail
 
