@@ -168,23 +168,24 @@ def weights(x: np.ndarray, y: np.ndarray, z: np.ndarray, nxs: np.ndarray, nys: n
     r2 = f32(r * r)
     rf = f32(r)
     npieces = a_pts.shape[0]
-    # Candidate runs of every piece (piece i owns runs [first[i], first[i + 1])).
+    # Candidate runs of every piece (piece i owns runs [first[i], first[i + 1])): counted, then stored
+    # (twice the few-µs grid walk, rather than a list of arrays, which compiles slowly).
     first = np.zeros(npieces + 1, np.int64)
-    run_lists = []
+    centres = (a_pts + b_pts) / 2.0
+    radii = np.empty(npieces)
     cap = 0
     for i in range(npieces):
-        a = a_pts[i]
-        b = b_pts[i]
-        ab64 = b - a
-        length = np.sqrt(ab64[0] * ab64[0] + ab64[1] * ab64[1] + ab64[2] * ab64[2])
-        starts, ends, total = _sphere_runs(origin, cell, dims, cell_start, (a + b) / 2.0, r + length / 2.0)
-        run_lists.append((starts, ends))
+        d0 = b_pts[i, 0] - a_pts[i, 0]
+        d1 = b_pts[i, 1] - a_pts[i, 1]
+        d2 = b_pts[i, 2] - a_pts[i, 2]
+        radii[i] = r + np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / 2.0
+        starts, ends, total = _sphere_runs(origin, cell, dims, cell_start, centres[i], radii[i])
         first[i + 1] = first[i] + len(starts)
         cap += total
     run_s = np.empty(first[npieces], np.int64)
     run_e = np.empty(first[npieces], np.int64)
     for i in range(npieces):
-        starts, ends = run_lists[i]
+        starts, ends, _ = _sphere_runs(origin, cell, dims, cell_start, centres[i], radii[i])
         run_s[first[i]:first[i + 1]] = starts
         run_e[first[i]:first[i + 1]] = ends
     out_k = np.empty(cap, np.int64)
