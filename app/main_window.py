@@ -617,13 +617,36 @@ class StudioWindow(QMainWindow):
                                               "Meshes (*.glb *.gltf *.obj *.ply);;All files (*)")
         return Path(name) if name else None
 
-    def _opened(self, path: Path, project: Any, opened: Any) -> bool:
+    def _opened(self, path: Path, project: Any, opened: Any, maps: list[np.ndarray] | None = None) -> bool:
+        """Install an opened project. Maps at another resolution than the studio's are resampled if the
+        user agrees (in a worker; returns True once started), else the project is not opened."""
         from app import project_io
         from km.errors import SheerError
 
+        other = project_io.other_resolution(opened, self.doc) if maps is None else None
+        if other is not None:
+            want = int(self.doc.resolution)
+            answer = dialogs.ask(
+                self, "Open project",
+                f"The project '{project.name}' was painted at {other}×{other} texels and this studio paints at "
+                f"{want}×{want}. Resample its maps to {want}×{want}? (The file is unchanged until you save; "
+                f"to keep its maps as they are, start Sheer with --resolution {other}.)",
+                {"resample": "Resample", "cancel": "Cancel"}, "cancel")
+            if answer != "resample":
+                return False
+            try:
+                project_io.check_compatible(project, opened, self.doc, resample=True)
+            except (SheerError, OSError, ValueError) as exc:
+                dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
+                return False
+            run_task(self, "Resampling the project's maps",
+                     lambda p, c: project_io.resample_layers(self.doc, opened, p),
+                     lambda result: self._opened(path, project, opened, result),
+                     lambda m: dialogs.error(self, "Open project", f"The maps could not be resampled: {m}"))
+            return True
         try:
-            project_io.check_compatible(project, opened, self.doc)
-            project_io.install_layers(self.doc, self.library, project, opened)
+            project_io.check_compatible(project, opened, self.doc, resample=maps is not None)
+            project_io.install_layers(self.doc, self.library, project, opened, maps)
         except (SheerError, OSError, ValueError) as exc:
             dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
             return False

@@ -153,9 +153,56 @@ def read_document(path: Path, head_path: Path | None = None, accept_head_change:
     return project, project.to_document()
 
 
-def check_compatible(project: Any, opened: Any, doc: Any) -> None:
+def other_resolution(opened: Any, doc: Any) -> int | None:
+    """The resolution of the opened project's maps when it differs from the studio document's, else None."""
+    want = int(doc.resolution)
+    for lay in opened.layers:
+        if int(lay.thickness.shape[0]) != want:
+            return int(lay.thickness.shape[0])
+    return None
+
+
+def resample_map(values: np.ndarray, src_atlas: Any, dst_atlas: Any) -> np.ndarray:
+    """A thickness map (µm) from one paint resolution to another of the same UV layout.
+
+    Uses painting's bakes at both resolutions (``Document.atlas_at``): the source is averaged (down) or
+    interpolated (up) only over its baked texels (covered or padding; weights renormalised, so nothing
+    bleeds in from outside the charts), then the target keeps its covered texels and refills its padding
+    texels from their sources (``Atlas.pad_dst``/``pad_src``), as painting does after a dab."""
+    from PIL import Image
+
+    src = np.asarray(values, np.float32)
+    n = int(dst_atlas.resolution)
+    weight = (src_atlas.coverage | src_atlas.padded).astype(np.float32)
+    method = Image.Resampling.BOX if n < src.shape[0] else Image.Resampling.BILINEAR
+
+    def resize(a: np.ndarray) -> np.ndarray:
+        return np.asarray(Image.fromarray(np.ascontiguousarray(a, np.float32), mode="F").resize((n, n), method))
+
+    num, den = resize(src * weight), resize(weight)
+    out = np.where(den > 1e-6, num / np.maximum(den, 1e-6), 0.0).astype(np.float32)
+    out[~dst_atlas.coverage] = 0.0
+    flat = out.reshape(-1)
+    flat[dst_atlas.pad_dst] = flat[dst_atlas.pad_src]
+    return np.clip(out, 0.0, None)
+
+
+def resample_layers(doc: Any, opened: Any, progress: Any = None) -> list[np.ndarray]:
+    """Every opened layer's map at the studio document's resolution (see :func:`resample_map`)."""
+    inner = _inner(doc)
+    dst = inner.atlas_at(int(doc.resolution))
+    out = []
+    for i, lay in enumerate(opened.layers):
+        if progress is not None:
+            progress(i / max(len(opened.layers), 1), f"resampling {lay.name}")
+        src = np.asarray(lay.thickness, np.float32)
+        out.append(src.copy() if src.shape == dst.shape else resample_map(src, inner.atlas_at(src.shape[0]), dst))
+    return out
+
+
+def check_compatible(project: Any, opened: Any, doc: Any, resample: bool = False) -> None:
     """Refuse a project whose maps would not line up with the studio's document (another head's paint
-    layout, or another resolution: nothing is resampled). Raises ``ProjectError``."""
+    layout; another resolution unless ``resample``, see :func:`resample_layers`). Raises ``ProjectError``."""
     from painting.project_document import layout_record
     from painting.project_errors import ProjectError
 
@@ -165,15 +212,16 @@ def check_compatible(project: Any, opened: Any, doc: Any) -> None:
                            f"start Sheer with that head (sheer --head MESH --project FILE) to open it")
     want = int(doc.resolution)
     for lay in opened.layers:
-        if int(lay.thickness.shape[0]) != want:
+        if int(lay.thickness.shape[0]) != want and not resample:
             raise ProjectError(f"the project '{project.name}' has {lay.thickness.shape[0]}-texel maps and this "
                                f"studio paints at {want}: start Sheer with --resolution "
                                f"{lay.thickness.shape[0]} to open it")
 
 
-def install_layers(doc: Any, library: Any, project: Any, opened: Any) -> None:
-    """Replace the studio document's layers with the opened document's (maps copied bit-exactly); the
-    project's embedded materials the library lacks are added to it. Call :func:`check_compatible` first."""
+def install_layers(doc: Any, library: Any, project: Any, opened: Any, maps: list[np.ndarray] | None = None) -> None:
+    """Replace the studio document's layers with the opened document's (maps copied bit-exactly, or
+    ``maps``: e.g. :func:`resample_layers`'s); the project's embedded materials the library lacks are
+    added to it. Call :func:`check_compatible` first."""
     for name in project.materials:
         if name not in library:
             library.add(project.material(name))
@@ -181,8 +229,9 @@ def install_layers(doc: Any, library: Any, project: Any, opened: Any) -> None:
         doc.remove_layer(i)
     for i, lay in enumerate(opened.layers):
         new = doc.add_layer(lay.material, name=lay.name, max_thickness=float(lay.max_thickness))
-        if np.any(lay.thickness):
-            doc.set_thickness(new, np.array(lay.thickness, dtype=np.float32, copy=True))
+        values = lay.thickness if maps is None else maps[i]
+        if np.any(values):
+            doc.set_thickness(new, np.array(values, dtype=np.float32, copy=True))
         doc.set_layer(i, visible=bool(lay.visible), opacity=float(lay.opacity))
     doc.clear_history()
 

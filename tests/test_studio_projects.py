@@ -265,3 +265,40 @@ def test_save_self_contained_opens_without_the_head(window: Any, tmp_path: Path)
     for got, want in zip(_state(window)[1], maps, strict=True):
         assert np.array_equal(got, want)
     assert window.actions_by_id["file.save_self_contained"].isEnabled()
+
+
+def test_project_at_another_resolution_is_resampled_on_request(window: Any, qtbot: Any, tmp_path: Path,
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """A project painted at another resolution: Cancel leaves the document as it was; Resample installs
+    its maps at the studio's resolution (same paint where it was, none outside the charts)."""
+    from app import dialogs, project_io, seams
+
+    want = int(window.doc.resolution)
+    other = 256 if want != 256 else 512
+    doc2 = seams.open_document(None, other, window.library)
+    seams.apply_look(doc2, window.library, "red-lip")
+    path = project_io.save_document(doc2, window.library, tmp_path / "other.sheer", "other")
+    src = np.array(doc2.layers[0].thickness)
+    before = _state(window)
+
+    monkeypatch.setattr(dialogs, "ask", Answers("cancel"))
+    assert not window.open_project(path)
+    assert _state(window)[0] == before[0]
+    assert all(np.array_equal(a, b) for a, b in zip(_state(window)[1], before[1], strict=True))
+
+    answers = Answers("resample")
+    monkeypatch.setattr(dialogs, "ask", answers)
+    assert window.open_project(path)
+    qtbot.waitUntil(lambda: window.project_path == path, timeout=60000)
+    assert answers.asked and "resample" in answers.asked[0][1]
+    assert [lay.name for lay in window.doc.layers] == [lay.name for lay in doc2.layers]
+    got = np.array(window.doc.layers[0].thickness)
+    assert got.shape == (want, want) and got.dtype == np.float32
+    # the same paint: coverage-weighted amount within 10 %, peak within 25 %, nothing off the charts
+    atlas = window.doc.atlas_at(want)
+    src_atlas = doc2.atlas_at(other)
+    amount_src = float(src[src_atlas.coverage].sum()) / other ** 2
+    amount_got = float(got[atlas.coverage].sum()) / want ** 2
+    assert amount_got == pytest.approx(amount_src, rel=0.10)
+    assert got.max() == pytest.approx(float(src.max()), rel=0.25)
+    assert not np.any(got[~(atlas.coverage | atlas.padded)])
