@@ -12,6 +12,12 @@ foundation over the face, blush, eyeshadow, lipstick) and for one 64² dirty til
 first frame (as when orbiting in the studio), and so is the texture-space irradiance (see
 :class:`render.renderer.TextureIrradiance`); ``fast_relight_ms`` is a fast frame that recomputes both
 (a light being dragged). Every mode uses the same single key light as the baseline (no environment).
+
+Where a fast frame's time goes: ``fast_lit_pass_ms`` (the lit G-buffer pass), ``fast_sss_ms`` (the SSS
+passes and their masks) and ``fast_composite_ms`` (the composite and display pass), each timed with
+``ctx.finish()`` on both sides in separate frames. ``fast_floor_ms`` is the same frame with the lit pass
+and the composite reduced to constant writes (the pass structure, rasterisation, targets and SSS left):
+what no shading work can go below on this machine; ``fast_floor_over_baseline`` its ratio.
 """
 
 from __future__ import annotations
@@ -37,6 +43,66 @@ def _median_ms(ctx: Any, fn: Callable[[], None], frames: int, warmup: int = 2) -
         ctx.finish()
         times.append((time.perf_counter() - t) * 1000.0)
     return float(np.median(times))
+
+
+def pass_times(ctx: Any, r: Any, fbo: Any, frames: int) -> dict[str, float]:
+    """Median times (ms) of the lit pass, the SSS passes (with their masks) and the composite of ``r``'s
+    frames into ``fbo``, each pass bracketed by ``ctx.finish()`` (so their sum exceeds a frame's time)."""
+    got: dict[str, list[float]] = {}
+
+    def timed(fn: Callable[..., Any], label: str | Callable[[], str]) -> Callable[..., Any]:
+        def run(*a: Any, **k: Any) -> Any:
+            ctx.finish()
+            t = time.perf_counter()
+            out = fn(*a, **k)
+            ctx.finish()
+            key = label() if callable(label) else label
+            got.setdefault(key, []).append((time.perf_counter() - t) * 1000.0)
+            return out
+        return run
+
+    draws = [0]
+
+    def draw_label() -> str:
+        draws[0] += 1
+        return "lit" if draws[0] % 2 == 1 else "composite"
+
+    saved = r.gpu_head.draw, r._sss_pass, r._half_mask
+    r.gpu_head.draw = timed(saved[0], draw_label)
+    r._sss_pass = timed(saved[1], "sss")
+    r._half_mask = timed(saved[2], "sss")
+    try:
+        r.render(fbo)
+        got.clear()
+        draws[0] = 0
+        per_frame: dict[str, list[float]] = {"lit": [], "sss": [], "composite": []}
+        for _ in range(frames):
+            got.clear()
+            draws[0] = 0
+            r.render(fbo)
+            for key in per_frame:
+                per_frame[key].append(sum(got.get(key, [0.0])))
+    finally:
+        r.gpu_head.draw, r._sss_pass, r._half_mask = saved
+    return {f"fast_{k}{'_pass' if k == 'lit' else ''}_ms": float(np.median(v)) for k, v in per_frame.items()}
+
+
+def floor_shaders(folder: Any) -> Any:
+    """A shader library whose lit pass and composite write constants (same outputs, same passes):
+    written into ``folder``, searched before the shipped shaders."""
+    from pathlib import Path
+
+    from render.shaders import ShaderLibrary, default_shader_dir
+
+    folder = Path(folder)
+    for name, body in (("frame.frag", "o_diffuse = vec4(0.3, 0.25, 0.2, v_depth); o_outer = vec4(0.05); "
+                                      "o_factor = vec4(0.6, 0.6, 0.6, v_depth);"),
+                       ("composite.frag", "o_colour = vec4(texelFetch(u_src, ivec2(gl_FragCoord.xy) - u_origin, 0)"
+                                          ".rgb, 1.0);")):
+        src = (default_shader_dir() / f"{name}.glsl").read_text()
+        head = src[:src.index("void main()")]
+        (folder / f"{name}.glsl").write_text(f"{head}void main() {{ {body} }}\n")
+    return ShaderLibrary([folder, default_shader_dir()])
 
 
 def _srgb_to_linear(img: np.ndarray) -> np.ndarray:
@@ -144,6 +210,24 @@ def main(argv: list[str] | None = None) -> int:
             out[key] = float(np.median(ts))
         out["fast_relight_ms"] = _median_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1)
         r.settings.mode, r.settings.taps = "fast", 17
+        out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2)))
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            floor = Renderer(ctx, doc.head, layout=doc.layout, shaders=floor_shaders(tmp))
+            try:
+                floor.lights = list(r.lights)
+                floor.set_layers(layers)
+                fl, base = [], []
+                for _ in range(2):
+                    floor.render(fbo)
+                for _ in range(args.frames):  # interleaved with the baseline, like the modes above
+                    fl.append(_median_ms(ctx, lambda: floor.render(fbo), 1, 0))
+                    base.append(_median_ms(ctx, lambda: r.render_baseline(fbo), 1, 0))
+                out["fast_floor_ms"] = float(np.median(fl))
+                out["fast_floor_over_baseline"] = float(np.median(fl)) / float(np.median(base))
+            finally:
+                floor.release()
         out["fast_over_baseline"] = out["fast_ms"] / out["baseline_ms"]
         out["reference_over_baseline"] = out["reference_ms"] / out["baseline_ms"]
 
