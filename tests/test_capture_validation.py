@@ -164,3 +164,28 @@ def test_unseen_texels_are_filled_smoothly_from_their_3d_neighbours(synthetic: t
     assert unseen.sum() > 1000
     assert mean_step(unseen) < 0.3 * mean_step(seen)
     assert float(np.median(np.abs(y[unseen] - 1.0))) < 0.1
+
+
+@pytest.mark.parametrize("level", [1.0, 3.0, 10.0])
+def test_night_probe_finds_the_flash_or_says_it_is_ambiguous(level: float) -> None:
+    # The night's horizon glow lies behind the camera, beside the flash's reflection. At the validation's
+    # level it clips only red and the flash (every channel clipped) is found; brighter, it clips white
+    # and merges with the flash (taken as is: the light 2.8° off at 3×): a ProbeError, not a guess.
+    from capture.camera import look_at
+    from capture.pipeline import linear_to_srgb, srgb_to_linear, to_uint8
+    from capture.probe import ProbeError, analyse_probe, synthetic_probe
+    from capture.synthetic import env_mean_radiance, light_from_camera, read_env
+    from resources import find_asset
+
+    env = read_env(str(find_asset("environments/night.exr")))
+    cam = look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)
+    light = light_from_camera(cam, 4.0, 3.0)
+    img = synthetic_probe(env, cam.R, light, np.ones(3), size=256,
+                          env_scale=level * 0.04 / float(env_mean_radiance(env).mean()))
+    img = srgb_to_linear(to_uint8(linear_to_srgb(img)) / 255.0)
+    if level == 1.0:
+        probe = analyse_probe(img)
+        assert np.degrees(np.arccos(np.clip(cam.R.T @ probe.light_dir_camera @ light, -1, 1))) < 1.0
+    else:
+        with pytest.raises(ProbeError, match="ambiguous"):
+            analyse_probe(img, source="night.png")
