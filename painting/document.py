@@ -712,7 +712,7 @@ class Stroke:
             chart = int(self.atlas.chart.reshape(-1)[index.flat[k]])
             amount = min(brush.strength * self._amount, self.layer.max_thickness)
             tiles = self._fill_region(self.atlas, chart, amount, emit=False)
-        elif kernels.enabled():
+        elif kernels.active():
             flat, w, sidx = self._weights_fast(pieces, r, index)
             if len(flat) == 0:
                 return ()

@@ -9,8 +9,10 @@ overhead; the kernels a few ns per texel and a few µs per call.
 The numpy path stays the reference and the fallback: it is used when numba is not installed, or when the
 environment variable ``SHEER_PAINT_KERNEL=numpy`` is set, or ``painting.kernels.set_enabled(False)``.
 
-Compiled code is cached on disk (``cache=True``, beside this file), and :func:`warm_up` compiles or loads
-it on a background thread as soon as a document exists, so the JIT cost never lands in a dab.
+Compiled code is cached on disk (``cache=True``, beside this file). :func:`warm_up` starts as soon as a
+document exists: on a background thread it loads the cache, after compiling it in a child process the
+first time on a machine (about 25 s of CPU on this project's machine, kept off the studio's GIL); dabs
+take the numpy path until the kernels are loaded, so the JIT cost never lands in a dab.
 
 Units: positions in mesh units, thickness in µm, weights and coverage in [0, 1].
 """
@@ -18,8 +20,13 @@ Units: positions in mesh units, thickness in µm, weights and coverage in [0, 1]
 from __future__ import annotations
 
 import atexit
+import contextlib
+import hashlib
 import os
+import subprocess
+import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -40,10 +47,13 @@ FALLOFF_SMOOTH, FALLOFF_HARD, FALLOFF_CURVE = 0, 1, 2
 _enabled = HAVE_NUMBA and os.environ.get("SHEER_PAINT_KERNEL", "").strip().lower() != "numpy"
 _warm_lock = threading.Lock()
 _warm_thread: threading.Thread | None = None
+_ready = False  # the kernels are loaded in this process
+_loading = False  # the warm-up thread is compiling or loading them in this process
 
 
 def enabled() -> bool:
-    """Whether dabs use the compiled kernels (False: the numpy reference path)."""
+    """Whether dabs use the compiled kernels (False: the numpy reference path). They are used once
+    :func:`ready` too."""
     return _enabled
 
 
@@ -357,26 +367,89 @@ def _compile_all() -> None:
               np.zeros(1, np.bool_), res, 0, f32(1.0), f32(1.0), f32(1.0))
 
 
+def _marker() -> Path | None:
+    """A file saying these kernels were compiled into the on-disk cache once (source, numba and Python
+    versions in its name), or None when the cache folder cannot be written."""
+    src = Path(__file__)
+    # numba's cache is keyed by the source's modification time and size: so is the marker.
+    stamp = f"{src.stat().st_mtime} {numba.__version__} {sys.version}"
+    digest = hashlib.sha256(src.read_bytes() + stamp.encode()).hexdigest()
+    folder = src.parent / "__pycache__"
+    try:
+        folder.mkdir(exist_ok=True)
+    except OSError:
+        return None
+    return folder / f"kernels-compiled-{digest[:16]}" if os.access(folder, os.W_OK) else None
+
+
+def _mark_compiled() -> None:
+    """Write this version's marker (see :func:`_marker`) and drop those of older versions."""
+    marker = _marker()
+    if marker is None:
+        return
+    for old in marker.parent.glob("kernels-compiled-*"):
+        if old != marker:
+            with contextlib.suppress(OSError):
+                old.unlink()
+    marker.touch()
+
+
+def _warm() -> None:
+    """The warm-up thread: the first time on a machine, compile in a child process (the compiler holds
+    the GIL for tens of seconds, which would stall the studio) and let it fill the disk cache; then load
+    the cached kernels here (a fraction of a second). Dabs use the numpy path until this ends."""
+    global _ready, _loading
+    marker = _marker()
+    if marker is not None and not marker.exists():
+        code = "from painting import kernels; kernels._compile_all(); kernels._mark_compiled()"
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(__file__).parent.parent),
+                                                           os.environ.get("PYTHONPATH", "")]))
+        with contextlib.suppress(OSError, subprocess.SubprocessError):  # else compile here
+            subprocess.run([sys.executable, "-c", code], env=env, stdin=subprocess.DEVNULL,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=900, check=False)
+    _loading = True
+    try:
+        _compile_all()
+        _ready = True
+    except Exception as exc:  # a broken numba install: keep painting with the numpy reference path
+        import warnings
+
+        warnings.warn(f"painting kernels unavailable, using numpy: {exc}", RuntimeWarning, stacklevel=1)
+    finally:
+        _loading = False
+
+
 def _join_warm_up() -> None:
-    """At exit, let a running warm-up finish (a compile torn down mid-way by the interpreter's shutdown
-    can crash it); normally a fraction of a second, the kernels coming from the disk cache."""
+    """At exit, let an in-process compile or cache load finish (one torn down by the interpreter's
+    shutdown can crash it); a child process compiling the cache is left to finish on its own."""
     thread = _warm_thread
-    if thread is not None and thread.is_alive():
+    if thread is not None and thread.is_alive() and _loading:
         thread.join()
 
 
 atexit.register(_join_warm_up)
 
 
+def ready() -> bool:
+    """Whether the kernels are compiled and loaded in this process (dabs use them only then)."""
+    return _ready
+
+
+def active() -> bool:
+    """Whether dabs and nearest-texel queries take the compiled path now (enabled and ready)."""
+    return _enabled and _ready
+
+
 def warm_up(background: bool = True) -> None:
-    """Compile (first run on a machine) or load the cached kernels, once per process; on a daemon thread
-    unless ``background`` is False. A dab that arrives first simply waits for the compiler."""
+    """Compile (first run on a machine: in a child process) or load the cached kernels, once per process,
+    on a daemon thread; with ``background`` False, wait for it. Until it ends, dabs take the numpy path
+    (bit-identical), so no dab ever waits for the compiler."""
     global _warm_thread
     if not HAVE_NUMBA:
         return
     with _warm_lock:
         if _warm_thread is None:
-            _warm_thread = threading.Thread(target=_compile_all, name="sheer-paint-jit", daemon=True)
+            _warm_thread = threading.Thread(target=_warm, name="sheer-paint-jit", daemon=True)
             _warm_thread.start()
         thread = _warm_thread
     if not background:

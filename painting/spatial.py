@@ -172,7 +172,7 @@ class TexelIndex:
         :meth:`nearest_reference`)."""
         from painting import kernels
 
-        if kernels.enabled():
+        if kernels.active():
             k, d = kernels.nearest(self.x, self.y, self.z, self.origin, float(self.cell), self.dims_array,
                                    self.cell_start, np.asarray(point, dtype=np.float64).reshape(3),
                                    float(max_distance))
