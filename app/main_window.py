@@ -433,10 +433,14 @@ class StudioWindow(QMainWindow):
         if getattr(self, "autosaver", None) is not None:
             self.autosaver.mark_dirty()
         if event.kind == "paint":
+            # every dab: only queue its tiles (menus and undo state change at the stroke's end, which
+            # updates them; undo/redo update them themselves)
             self.viewport.layers_changed(event.layer, list(event.tiles))
+            if self._stroke is None:
+                self._update_actions()
         else:
             self.refresh_layers()
-        self._update_actions()
+            self._update_actions()
 
     def refresh_layers(self) -> None:
         n = len(self.doc.layers)
