@@ -169,3 +169,28 @@ def test_warm_up_compiles_what_a_dab_uses() -> None:
         s.dab(doc.head.landmark("left_cheek"))
     assert np.any(layer.thickness)
     assert [len(f.signatures) for f in fns] == before
+
+
+def test_dabs_take_the_numpy_path_until_the_kernels_are_loaded(monkeypatch: pytest.MonkeyPatch) -> None:
+    """While the warm-up is still compiling or loading, a dab never calls (and so never waits for) a
+    kernel; the map is the same either way."""
+    kernels.set_enabled(True)
+
+    def not_yet(*args: Any) -> None:
+        raise AssertionError("a kernel was called before the warm-up ended")
+
+    maps = []
+    for loaded in (False, True):
+        with monkeypatch.context() as m:
+            if not loaded:
+                m.setattr(kernels, "_ready", False)
+                for name in ("nearest", "weights", "composite"):
+                    m.setattr(kernels, name, not_yet)
+            assert kernels.active() is loaded
+            doc = make_doc(256)
+            layer = doc.add_layer("Foundation 1")
+            with doc.stroke(layer, Brush(radius_mm=8.0, mirror=True)) as s:
+                s.dab(doc.head.landmark("left_cheek"))
+                s.dab(doc.head.landmark("nose_tip"))
+            maps.append(layer.thickness.copy())
+    assert np.any(maps[0]) and np.array_equal(maps[0], maps[1])
