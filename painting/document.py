@@ -816,9 +816,9 @@ class Stroke:
         n = np.array([piece[2] for piece in pieces], dtype=np.float64)
         kind, hardness, xs, curve = self._falloff_args
         cos_max = np.float32(math.cos(math.radians(self.brush.max_angle_deg)))
-        sidx, w = kernels.weights(index.x, index.y, index.z, index.nx, index.ny, index.nz, index.origin,
-                                  float(index.cell), index.dims_array, index.cell_start, a, b, n, float(r),
-                                  cos_max, bool(self.brush.max_angle_deg < 180.0), kind, hardness, xs, curve)
+        sidx, w = kernels.weights(index.pn, index.origin, float(index.cell), index.dims_array, index.cell_start,
+                                  a, b, n, float(r), cos_max, bool(self.brush.max_angle_deg < 180.0), kind,
+                                  hardness, xs, curve)
         return index.flat[sidx], w, sidx
 
     def _composite_fast(self, sidx: np.ndarray, w: np.ndarray, alpha: np.float32,

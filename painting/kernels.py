@@ -125,9 +125,10 @@ def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: 
 
 
 @_njit
-def nearest(x: np.ndarray, y: np.ndarray, z: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray,
-            cell_start: np.ndarray, p: np.ndarray, max_distance: float) -> tuple[int, float]:
-    """Sorted index and distance (mesh units) of the texel nearest to ``p`` within ``max_distance``, or
+def nearest(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
+            p: np.ndarray, max_distance: float) -> tuple[int, float]:
+    """Sorted index and distance (mesh units) of the texel nearest to ``p`` within ``max_distance``
+    (``pn``: the index's (N, 6) positions and normals), or
     (-1, inf): the same texel as :meth:`painting.spatial.TexelIndex.nearest_reference`.
 
     The ball searched grows from half a grid cell, doubling up to ``max_distance``, and stops as soon as
@@ -142,9 +143,9 @@ def nearest(x: np.ndarray, y: np.ndarray, z: np.ndarray, origin: np.ndarray, cel
         kbest = -1
         for i in range(len(starts)):
             for k in range(starts[i], ends[i]):
-                dx = x[k] - px
-                dy = y[k] - py
-                dz = z[k] - pz
+                dx = pn[k, 0] - px
+                dy = pn[k, 1] - py
+                dz = pn[k, 2] - pz
                 d2 = dx * dx + dy * dy + dz * dz
                 if d2 < best or kbest < 0:
                     best = d2
@@ -163,13 +164,12 @@ def nearest(x: np.ndarray, y: np.ndarray, z: np.ndarray, origin: np.ndarray, cel
 
 
 @_njit
-def weights(x: np.ndarray, y: np.ndarray, z: np.ndarray, nxs: np.ndarray, nys: np.ndarray, nzs: np.ndarray,
-            origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
+def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
             a_pts: np.ndarray, b_pts: np.ndarray, normals: np.ndarray, r: float, cos_max: np.float32,
             use_angle: bool, kind: int, h: np.float32, xs: np.ndarray, curve: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray]:
     """Texels within ``r`` of any capsule (a_pts[i], b_pts[i]) and facing ``normals[i]`` (float64 (P, 3),
-    mesh units): (sorted indices int64, falloff weights float32, as :meth:`painting.brush.Brush.falloff`
+    mesh units; ``pn`` the index's (N, 6) texel positions and normals): (sorted indices int64, falloff weights float32, as :meth:`painting.brush.Brush.falloff`
     with ``kind``, hardness ``h`` and the curve samples ``xs``/``curve``); a texel reached by several
     capsules keeps its largest weight (then the indices are ascending)."""
     f32 = np.float32
@@ -211,9 +211,9 @@ def weights(x: np.ndarray, y: np.ndarray, z: np.ndarray, nxs: np.ndarray, nys: n
         n0, n1, n2 = f32(normals[i, 0]), f32(normals[i, 1]), f32(normals[i, 2])
         for j in range(first[i], first[i + 1]):
             for k in range(run_s[j], run_e[j]):
-                dx = x[k] - a0
-                dy = y[k] - a1
-                dz = z[k] - a2
+                dx = pn[k, 0] - a0
+                dy = pn[k, 1] - a1
+                dz = pn[k, 2] - a2
                 if segment:
                     t = (dx * ab0 + dy * ab1 + dz * ab2) / abab
                     if t < zero:
@@ -226,7 +226,7 @@ def weights(x: np.ndarray, y: np.ndarray, z: np.ndarray, nxs: np.ndarray, nys: n
                 d2 = dx * dx + dy * dy + dz * dz
                 if not d2 < r2:
                     continue
-                if use_angle and not (nxs[k] * n0 + nys[k] * n1 + nzs[k] * n2) >= cos_max:
+                if use_angle and not (pn[k, 3] * n0 + pn[k, 4] * n1 + pn[k, 5] * n2) >= cos_max:
                     continue
                 out_k[n] = k
                 out_d[n] = d2
@@ -350,15 +350,15 @@ def _compile_all() -> None:
     """Call every kernel once on tiny arrays of the types the document uses (compiles or loads the
     on-disk cache)."""
     f32, f64, i64 = np.float32, np.float64, np.int64
-    x = np.zeros(4, f32)
+    pn = np.zeros((4, 6), f32)
     origin = np.zeros(3, f64)
     dims = np.ones(3, i64)
     cell_start = np.array([0, 4], i64)
     p = np.zeros(3, f64)
-    nearest(x, x, x, origin, 1.0, dims, cell_start, p, 1.0)
+    nearest(pn, origin, 1.0, dims, cell_start, p, 1.0)
     pts = np.zeros((1, 3), f64)
     xs = np.linspace(0.0, 1.0, 2)
-    k, w = weights(x, x, x, x, x, x, origin, 1.0, dims, cell_start, pts, pts, pts, 0.5, f32(0.0), True,
+    k, w = weights(pn, origin, 1.0, dims, cell_start, pts, pts, pts, 0.5, f32(0.0), True,
                    FALLOFF_SMOOTH, f32(0.5), xs, xs)
     res = 64
     data = np.zeros(res * res, f32)

@@ -27,8 +27,9 @@ class TexelIndex:
         origin: float64 (3,) grid origin (mesh units). cell: cell edge (mesh units).
         dims: (nx, ny, nz) cells.
         cell_start: int64 (nx·ny·nz + 1,) first sorted texel of each cell (x fastest).
-        x, y, z: float32 (N,) texel positions, cell-sorted (separate arrays: numpy is several times
-            faster on long 1D arrays than on (N, 3) rows). nx, ny, nz: float32 (N,) unit normals.
+        pn: float32 (N, 6) cell-sorted texel positions and unit normals, one row per texel (a dab
+            reads a texel's six values from one place: about a third faster from cold memory than six
+            separate arrays). x, y, z, nx, ny, nz: its columns (views, for numpy).
         flat: int64 (N,) flat texel index (row·W + column) of each sorted texel.
         tile: int32 (N,) its 64² tile (tile row · tiles per row + tile column).
         has_pad: bool (N,) whether it feeds padding texels.
@@ -47,6 +48,7 @@ class TexelIndex:
     flat: np.ndarray
     tile: np.ndarray
     has_pad: np.ndarray
+    pn: np.ndarray
 
     @classmethod
     def build(cls, atlas: Any, cell_mm: float = CELL_MM) -> TexelIndex:
@@ -72,14 +74,17 @@ class TexelIndex:
         keys = keys[order]
         ncell = dims[0] * dims[1] * dims[2]
         cell_start = np.searchsorted(keys, np.arange(ncell + 1, dtype=np.int64)).astype(np.int64)
-        cols = [np.ascontiguousarray(a[order, k], dtype=np.float32) for a in (pos, nrm) for k in range(3)]
+        pn = np.empty((len(order), 6), dtype=np.float32)
+        pn[:, :3] = pos[order]
+        pn[:, 3:] = nrm[order]
+        cols = [pn[:, k] for k in range(6)]
         flat = flat[order].astype(np.int64)
         res = int(atlas.resolution)
         tile = ((flat // (res * 64)) * (res // 64) + (flat % res) // 64).astype(np.int32)
         has_pad = np.zeros(res * res, dtype=bool)
         has_pad[atlas.pad_src] = True
         return cls(origin=origin, cell=cell, dims=dims, cell_start=cell_start, x=cols[0], y=cols[1],
-                   z=cols[2], nx=cols[3], ny=cols[4], nz=cols[5], flat=flat, tile=tile, has_pad=has_pad[flat])
+                   z=cols[2], nx=cols[3], ny=cols[4], nz=cols[5], flat=flat, tile=tile, has_pad=has_pad[flat], pn=pn)
 
     def __len__(self) -> int:
         return len(self.flat)
@@ -173,7 +178,7 @@ class TexelIndex:
         from painting import kernels
 
         if kernels.active():
-            k, d = kernels.nearest(self.x, self.y, self.z, self.origin, float(self.cell), self.dims_array,
+            k, d = kernels.nearest(self.pn, self.origin, float(self.cell), self.dims_array,
                                    self.cell_start, np.asarray(point, dtype=np.float64).reshape(3),
                                    float(max_distance))
             return int(k), float(d)
