@@ -28,7 +28,9 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     old_recovery = os.environ.get("SHEER_RECOVERY_DIR")
     os.environ["SHEER_RECOVERY_DIR"] = str(tmp_path_factory.mktemp("recovery"))
     ini = tmp_path_factory.mktemp("settings") / "studio.ini"
-    win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
+    # 512² maps: the behaviour under test does not depend on the resolution, and the default (2048²)
+    # triples the module's run time; `sheer bench studio` measures the default
+    win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat), resolution=512)
     win.resize(800, 600)
     win.show()
     if wait_full_quality:

@@ -23,7 +23,7 @@ def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ob
     folder = tmp_path_factory.mktemp("kiosk")
     cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
                       fullscreen=False)
-    win = KioskWindow(cfg)
+    win = KioskWindow(cfg, resolution=512)  # fast; the resolution is not what these tests are about
     win.resize(800, 600)
     win.show()
     from pytestqt.qtbot import QtBot
