@@ -62,13 +62,13 @@ void main() {
     vec3 albedo = detail * u_diffuse;
     vec3 spec = u_spec * S * detail;
 #if LW_MAKEUP
-    vec4 rt = texture(u_r_top, v_uv);
-    if (rt.a > 0.0) {
-        vec3 T = texture(u_transmittance, v_uv).rgb;
-        vec3 Rb = texture(u_r_bottom, v_uv).rgb;
-        albedo = rt.rgb + albedo * T * T / max(vec3(1.0) - Rb * albedo, vec3(1e-4));
-        spec *= T * T;
-    }
+    // no test for "makeup here": without layers R_top = 0, T = 1, R_bottom = 0 and this is the identity
+    // (a test on R_top's alpha, the smoothing layers' coverage, missed texels with only lipstick)
+    vec3 rt = texture(u_r_top, v_uv).rgb;
+    vec3 T = texture(u_transmittance, v_uv).rgb;
+    vec3 Rb = texture(u_r_bottom, v_uv).rgb;
+    albedo = rt + albedo * T * T / max(vec3(1.0) - Rb * albedo, vec3(1e-4));
+    spec *= T * T;
 #endif
     vec3 c = (E * albedo + spec) * u_exposure;
     o_colour = vec4(linear_to_srgb(clamp(c, 0.0, 1.0)), 1.0);
