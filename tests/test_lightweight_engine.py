@@ -107,6 +107,27 @@ def test_makeup_textures_apply(engine: Any, gl_ctx: Any) -> None:
     assert img[..., 0].mean() > 100 and img[..., 1].mean() < 5 and img[..., 2].mean() < 5
 
 
+def test_lipstick_from_the_km_pass_shows(engine: Any, gl_ctx: Any, head: Any) -> None:
+    """The real texture-space KM outputs (8-bit sRGB maps) of a lipstick-only document redden the lips:
+    no foundation under it, so nothing but the lipstick marks those texels."""
+    import km
+    from render.km_pass import KMTextureSpace, LayerInput
+    from render.shaders import ShaderLibrary
+
+    lipstick = km.default_library().get("Lipstick Classic Red")
+    km_pass = KMTextureSpace(gl_ctx, ShaderLibrary())  # the renderer's default 8-bit sRGB outputs
+    try:
+        km_pass.set_layers([LayerInput(lipstick, np.full((256, 256), 12.0, np.float32))])  # the whole face
+        bare = _face_box(engine.render_image(SIZE))
+        engine.makeup = km_pass
+        made_up = _face_box(engine.render_image(SIZE))
+    finally:
+        engine.makeup = None
+        km_pass.release()
+    redness = lambda img: float((img[..., 0] - img[..., 1]).mean())  # noqa: E731
+    assert redness(made_up) > redness(bare) + 20
+
+
 def test_hdr_environment_adds_light(engine: Any) -> None:
     from capture.synthetic import read_env
     from render.lights import Environment, Light
