@@ -89,7 +89,9 @@ def baked_albedo(doc: Any, library: Any) -> np.ndarray:
     from PIL import Image
 
     from app.render_adapter import layer_inputs
+    from km.material import encode_srgb
     from render import KMTextureSpace, ShaderLibrary
+    from render.km_pass import srgb_decode
 
     head = doc.head
     albedo = head.albedo if head.albedo is not None else np.full((512, 512, 3), 200, np.uint8)
@@ -107,9 +109,9 @@ def baked_albedo(doc: Any, library: Any) -> np.ndarray:
     finally:
         ctx.release()
     res = r_top.shape[0]
-    hi = (albedo[..., :3].astype(np.float32) / 255.0) ** 2.2
-    small = (np.asarray(Image.fromarray(np.ascontiguousarray(albedo[..., :3])).resize((res, res), Image.BILINEAR))
-             .astype(np.float32) / 255.0) ** 2.2
+    hi = srgb_decode(albedo[..., :3].astype(np.float32) / 255.0)
+    small = srgb_decode(np.asarray(Image.fromarray(np.ascontiguousarray(albedo[..., :3]))
+                                   .resize((res, res), Image.BILINEAR)).astype(np.float32) / 255.0)
     # what the makeup does to the skin at the maps' resolution: a gain (through it) and an offset (its own
     # reflection), applied to the full-resolution skin so its detail stays
     gain = trans * trans / np.maximum(1.0 - r_bot * small, 1e-4)
@@ -120,7 +122,7 @@ def baked_albedo(doc: Any, library: Any) -> np.ndarray:
                                     .resize(size, Image.BILINEAR)) for k in range(3)], axis=-1)
 
     out = np.clip(up(r_top) + hi * up(gain), 0.0, 1.0)
-    return np.round(out ** (1.0 / 2.2) * 255.0).astype(np.uint8)
+    return np.round(encode_srgb(out) * 255.0).astype(np.uint8)
 
 
 def export_gltf(doc: Any, library: Any, path: str | Path, progress: Progress = lambda f, m: None,

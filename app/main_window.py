@@ -424,7 +424,9 @@ class StudioWindow(QMainWindow):
         if a is None:
             return (0.6, 0.45, 0.38)
         h, w = a.shape[:2]
-        c = (a[h // 3:2 * h // 3, w // 3:2 * w // 3].reshape(-1, 3).astype(float) / 255.0) ** 2.2
+        from render.km_pass import srgb_decode
+
+        c = srgb_decode(a[h // 3:2 * h // 3, w // 3:2 * w // 3, :3].reshape(-1, 3).astype(np.float32) / 255.0)
         m = np.median(c, axis=0)
         return (float(m[0]), float(m[1]), float(m[2]))
 

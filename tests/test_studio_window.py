@@ -326,6 +326,19 @@ def test_export_maps_and_gltf(window: object, qtbot: object, tmp_path: Path) -> 
     assert len(geom.faces) == len(window.doc.head.faces)
     tex = geom.visual.material.baseColorTexture
     assert tex is not None and tex.size[0] >= 512
+    # the makeup is baked in: where the lipstick layer is thick the colour differs from the bare skin,
+    # where no layer has paint it is the skin's own (the renderer's KM outputs, as its "unlit" view)
+    baked = np.asarray(tex.convert("RGB")).astype(int)
+    skin = np.asarray(window.doc.head.albedo)[..., :3].astype(int)
+    assert baked.shape == skin.shape
+    lip = next(lay for lay in window.doc.layers if lay.name == "Lipstick")
+    thick = np.asarray(Image.fromarray(np.asarray(lip.thickness, np.float32), mode="F")
+                       .resize((skin.shape[1], skin.shape[0]))) > 0.5 * float(np.max(lip.thickness))
+    bare = np.asarray(Image.fromarray(np.asarray(sum(np.asarray(lay.thickness) for lay in window.doc.layers),
+                                                 np.float32), mode="F").resize((skin.shape[1], skin.shape[0]))) == 0
+    assert thick.sum() > 50 and bare.sum() > 50
+    assert np.abs(baked[thick] - skin[thick]).max(axis=-1).mean() > 20
+    assert np.abs(baked[bare] - skin[bare]).max(axis=-1).mean() < 3
 
 
 def test_about_and_shortcut_sheet(window: object) -> None:
