@@ -203,8 +203,6 @@ def test_lightweight_mode_with_a_captured_face(window: object, qtbot: object, tm
     assert vp.renderer.drawn_by == "fast"
 
 
-@pytest.mark.xfail(strict=True, reason="render f33e015 (KM outputs as sRGB8): the lightweight engine shows no "
-                   "makeup — `sheer render --mode lightweight --look red-lip` equals `--look bare` since then")
 def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_path: Path) -> None:
     """A stroke in the lightweight mode shows through the physical renderer's texture-space KM outputs."""
     from PySide6.QtCore import QPointF
