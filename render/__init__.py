@@ -47,10 +47,12 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
 - :mod:`render.camera` — ``OrbitCamera`` (yaw, pitch, distance, fov, target) with view/projection.
 - :mod:`render.lights` — ``Light`` (directional or point, colour, intensity), ``ShadowMaps`` (PCF depth
   maps for up to 8 lights), ``Environment`` (equirectangular EXR → 9 SH coefficients of irradiance).
-- :mod:`render.km_pass` — ``KMTextureSpace``: the spectral texture-space KM evaluation.
+- :mod:`render.km_pass` — ``KMTextureSpace``: the spectral texture-space KM evaluation (41 wavelengths,
+  380–780 nm every 10 nm; outputs as 8-bit sRGB maps for display, or half/full floats).
 - :mod:`render.renderer` — ``TextureIrradiance`` (UV-space irradiance cache, padded across seams),
   ``fast_kernel`` (pre-integrated separable SSS kernel), ``SKIN_GAUSSIANS`` (d'Eon 2007 profile).
-- :mod:`render.glutil` — ``release_all`` (release GL objects without leaving a deleted framebuffer bound).
+- :mod:`render.glutil` — ``release_all`` (release GL objects without leaving a deleted framebuffer bound),
+  ``set_uniform`` / ``write_uniform``; :func:`render.lights.upload_lights` sets lighting.glsl's uniforms.
 - shader includes: ``common.glsl`` (sRGB, tone map, constants), ``lighting.glsl`` (lights, PCF
   shadows from the atlas, SH irradiance), ``specular.glsl`` (Beckmann / Schlick / Kelemen),
   ``km.glsl`` (KM layer and stacking); vertex shaders ``mesh.vert`` (world space), ``uvspace.vert``
