@@ -197,6 +197,19 @@ def test_lightweight_mode_with_a_captured_face(window: object, qtbot: object, tm
         p_light = vp.pick(centre)
         assert p_phys is not None and p_light is not None
         assert np.linalg.norm(p_light - p_phys) < 0.05, "picking the lightweight frame missed the surface"
+        # File → Export Rendered Image in this mode renders with the lightweight engine too
+        from PIL import Image
+
+        done: list[object] = []
+        window.export_image(tmp_path / "lw.png", (200, 150), on_done=done.append)
+        window.set_render_mode("fast")
+        window.export_image(tmp_path / "fast.png", (200, 150), on_done=done.append)
+        window.set_render_mode("lightweight")
+        qtbot.waitUntil(lambda: len(done) == 2, timeout=120000)
+        lw_img = np.asarray(Image.open(tmp_path / "lw.png")).astype(int)
+        fast_img = np.asarray(Image.open(tmp_path / "fast.png")).astype(int)
+        assert lw_img.shape == fast_img.shape == (150, 200, 3) and lw_img.std() > 5
+        assert (np.abs(lw_img - fast_img).max(axis=-1) > 12).mean() > 0.05
     finally:
         window.set_render_mode("fast")
     draw(vp, qtbot)
