@@ -140,7 +140,6 @@ class Document:
         self._stroke: Stroke | None = None
         self._mesh: Any = None
         self._scratches: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        kernels.warm_up()  # compile or load the brush kernels on a background thread, before any dab
 
     @classmethod
     def from_head(cls, path: str | Path | None = None, **kwargs: Any) -> Document:
@@ -414,6 +413,9 @@ class Document:
             brush.validate()
         except BrushError as exc:
             raise DocumentError(str(exc)) from None
+        # Load (or, first time on a machine, compile) the brush kernels on a background thread; dabs take
+        # the numpy path until they are ready. Only processes that paint pay for it.
+        kernels.warm_up()
         return Stroke(self, lay, brush, brush.mirror if mirror is None else bool(mirror))
 
     def fill(self, layer: Layer | int, thickness_um: float | None = None, chart: int | None = None) -> None:

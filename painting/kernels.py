@@ -9,10 +9,11 @@ overhead; the kernels a few ns per texel and a few µs per call.
 The numpy path stays the reference and the fallback: it is used when numba is not installed, or when the
 environment variable ``SHEER_PAINT_KERNEL=numpy`` is set, or ``painting.kernels.set_enabled(False)``.
 
-Compiled code is cached on disk (``cache=True``, beside this file). :func:`warm_up` starts as soon as a
-document exists: on a background thread it loads the cache, after compiling it in a child process the
-first time on a machine (about 25 s of CPU on this project's machine, kept off the studio's GIL); dabs
-take the numpy path until the kernels are loaded, so the JIT cost never lands in a dab.
+Compiled code is cached on disk (``cache=True``, beside this file). :func:`warm_up` starts with a
+document's first stroke: on a background thread it imports numba and loads the cache (about 1 s of CPU),
+after compiling it in a child process the first time on a machine (25–50 s of CPU on this project's
+machine, kept off the caller's GIL); dabs take the numpy path until the kernels are loaded, so the JIT
+cost never lands in a dab, and a process that never paints never imports numba.
 
 Units: positions in mesh units, thickness in µm, weights and coverage in [0, 1].
 """
@@ -22,22 +23,19 @@ from __future__ import annotations
 import atexit
 import contextlib
 import hashlib
+import importlib.metadata
+import importlib.util
 import os
 import subprocess
 import sys
 import threading
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-try:  # numba is a dependency; the numpy reference path keeps painting usable without it.
-    import numba
-
-    HAVE_NUMBA = True
-except ImportError:  # pragma: no cover - exercised only in a partial install
-    numba = None
-    HAVE_NUMBA = False
+#: numba is a dependency; the numpy reference path keeps painting usable without it. It is imported only
+#: by the warm-up thread (importing it takes most of a second: never on the caller's start-up path).
+HAVE_NUMBA = importlib.util.find_spec("numba") is not None
 
 #: Composite modes understood by :func:`composite` (smooth and fill are not per-texel composites).
 MODE_CODES = {"add": 0, "erase": 1, "set": 2}
@@ -65,22 +63,32 @@ def set_enabled(on: bool) -> bool:
     return old
 
 
-def _njit(fn: Any) -> Any:
-    if not HAVE_NUMBA:
-        return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy")(fn)
+#: The functions compiled by :func:`_jit_all`, in dependency order: (name, inline into callers). An
+#: inlined helper saves a call between compiled functions, whose array arguments cost atomic reference
+#: counting (~100 ns: far more than the per-texel work). Until then the names are plain Python.
+_KERNELS = (("_sphere_runs", False), ("nearest", False), ("weights", False), ("_touch", True),
+            ("composite", False))
+_jit_lock = threading.Lock()
+_jitted = False
 
 
-def _inline(fn: Any) -> Any:
-    """A helper compiled into its callers (a call between compiled functions that passes arrays costs
-    atomic reference counting, ~100 ns: far more than the per-texel work)."""
-    if not HAVE_NUMBA:
-        return fn
-    return numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")(fn)
+def _jit_all() -> None:
+    """Import numba and replace each function of :data:`_KERNELS` in this module by its compiled
+    dispatcher (cached on disk); the compiled callers then find their helpers compiled."""
+    global _jitted
+    with _jit_lock:
+        if _jitted:
+            return
+        import numba
+
+        for name, inline in _KERNELS:
+            fn = globals()[name]
+            globals()[name] = numba.njit(cache=True, nogil=True, error_model="numpy",
+                                         inline="always" if inline else "never")(fn)
+        _jitted = True
 
 
 # ---------------------------------------------------------------------------------------- grid runs
-@_njit
 def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
                  c: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Runs [start, end) of cell-sorted texels in the grid cells meeting the sphere, in the order
@@ -124,7 +132,6 @@ def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: 
     return starts[:count], ends[:count], total
 
 
-@_njit
 def nearest(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
             p: np.ndarray, max_distance: float) -> tuple[int, float]:
     """Sorted index and distance (mesh units) of the texel nearest to ``p`` within ``max_distance``
@@ -163,7 +170,6 @@ def nearest(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
     return kbest, d
 
 
-@_njit
 def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
             a_pts: np.ndarray, b_pts: np.ndarray, normals: np.ndarray, r: float, cos_max: np.float32,
             use_angle: bool, kind: int, h: np.float32, xs: np.ndarray, curve: np.ndarray
@@ -268,7 +274,6 @@ def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
 
 
 # ---------------------------------------------------------------------------------------- compositing
-@_inline
 def _touch(tid: int, touched: np.ndarray, mark: np.ndarray, tiles: np.ndarray, ntiles: int,
            data: np.ndarray, base: np.ndarray, res: int, nt: int) -> int:
     """Before writing a texel of tile ``tid``: save the tile in ``base`` if the stroke had not touched it
@@ -287,7 +292,6 @@ def _touch(tid: int, touched: np.ndarray, mark: np.ndarray, tiles: np.ndarray, n
     return ntiles
 
 
-@_njit
 def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarray, tile: np.ndarray,
               has_pad: np.ndarray, pad_src: np.ndarray, pad_dst: np.ndarray, data: np.ndarray,
               mask: np.ndarray, base: np.ndarray, touched: np.ndarray, mark: np.ndarray, res: int,
@@ -347,8 +351,9 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
 
 # ---------------------------------------------------------------------------------------- warm-up
 def _compile_all() -> None:
-    """Call every kernel once on tiny arrays of the types the document uses (compiles or loads the
-    on-disk cache)."""
+    """Compile every kernel (:func:`_jit_all`) and call it once on tiny arrays of the types the document
+    uses (compiles, or loads the on-disk cache)."""
+    _jit_all()
     f32, f64, i64 = np.float32, np.float64, np.int64
     pn = np.zeros((4, 6), f32)
     origin = np.zeros(3, f64)
@@ -372,7 +377,7 @@ def _marker() -> Path | None:
     versions in its name), or None when the cache folder cannot be written."""
     src = Path(__file__)
     # numba's cache is keyed by the source's modification time and size: so is the marker.
-    stamp = f"{src.stat().st_mtime} {numba.__version__} {sys.version}"
+    stamp = f"{src.stat().st_mtime} {importlib.metadata.version('numba')} {sys.version}"
     digest = hashlib.sha256(src.read_bytes() + stamp.encode()).hexdigest()
     folder = src.parent / "__pycache__"
     try:
