@@ -77,13 +77,14 @@ def test_deterministic_and_matches_references(r: Renderer, looks: dict[str, list
     a = r.render_image(SIZE)
     b = r.render_image(SIZE)
     np.testing.assert_array_equal(a, b)
-    assert_image_close(a, "render_bare_fast.png", mean_tol=0.01, max_tol=0.1, frac_tol=0.01)
+    # llvmpipe is deterministic: tight enough that a foundation one shade off (mean 0.005) fails
+    tol = {"mean_tol": 0.002, "max_tol": 0.05, "frac_tol": 0.001}
+    assert_image_close(a, "render_bare_fast.png", **tol)
     r.set_layers(looks["red-lip"])
-    assert_image_close(r.render_image(SIZE), "render_red_lip_fast.png", mean_tol=0.01, max_tol=0.1, frac_tol=0.01)
+    assert_image_close(r.render_image(SIZE), "render_red_lip_fast.png", **tol)
     r.set_layers(looks["evening"])
     r.settings.mode = "reference"
-    assert_image_close(r.render_image(SIZE), "render_evening_reference.png", mean_tol=0.01, max_tol=0.1,
-                       frac_tol=0.01)
+    assert_image_close(r.render_image(SIZE), "render_evening_reference.png", **tol)
 
 
 def test_zero_thickness_layers_render_exactly_like_no_makeup(r: Renderer, looks: dict[str, list[LayerInput]]) -> None:
