@@ -450,7 +450,8 @@ class KioskWindow(QWidget):
         if project:
             from app.project_io import load_project_into
 
-            load_project_into(self.doc, self.library, Path(project))
+            # no dialogs in the kiosk: a project painted at another resolution is resampled
+            load_project_into(self.doc, self.library, Path(project), resample=True)
             self.look = "project"
             self._sync()
         else:

@@ -236,15 +236,17 @@ def install_layers(doc: Any, library: Any, project: Any, opened: Any, maps: list
     doc.clear_history()
 
 
-def load_project_into(doc: Any, library: Any, source: Path | Any) -> str:
-    """Replace the document's layers with a project's (a path, or a ``Project`` already opened).
-    Returns the project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then."""
+def load_project_into(doc: Any, library: Any, source: Path | Any, resample: bool = False) -> str:
+    """Replace the document's layers with a project's (a path, or a ``Project`` already opened); maps at
+    another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`). Returns the
+    project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then."""
     from painting.project import open_project
 
     project = open_project(source) if isinstance(source, str | Path) else source
     opened = project.to_document()
-    check_compatible(project, opened, doc)
-    install_layers(doc, library, project, opened)
+    check_compatible(project, opened, doc, resample=resample)
+    maps = resample_layers(doc, opened) if resample and other_resolution(opened, doc) is not None else None
+    install_layers(doc, library, project, opened, maps)
     return str(project.name)
 
 

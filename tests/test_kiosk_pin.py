@@ -158,6 +158,21 @@ def test_engine_from_the_config(kiosk: object, tmp_path: Path) -> None:
         kiosk.face = None
 
 
+def test_project_at_another_resolution_is_resampled(kiosk: object, tmp_path: Path) -> None:
+    from app import project_io, seams
+
+    want = int(kiosk.doc.resolution)
+    other = 256 if want != 256 else 512
+    doc2 = seams.open_document(None, other, kiosk.library)
+    seams.apply_look(doc2, kiosk.library, "red-lip")
+    path = project_io.save_document(doc2, kiosk.library, tmp_path / "small.sheer", "small")
+    kiosk.last_error = None
+    kiosk.guard(lambda: kiosk._load(str(path)))()
+    assert kiosk.last_error is None
+    assert kiosk.look == "project" and [lay.name for lay in kiosk.doc.layers] == [lay.name for lay in doc2.layers]
+    assert kiosk.doc.layers[0].thickness.shape == (want, want) and kiosk.doc.layers[0].thickness.max() > 0
+
+
 def test_pin_guard(kiosk: object, qtbot: object) -> None:
     from PySide6.QtCore import Qt
 
