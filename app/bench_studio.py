@@ -123,6 +123,8 @@ def main(argv: list[str]) -> int:
         "dab_update_ms": round(statistics.median(upd) * 1000.0, 1) if upd else None,
         "paint_resolution": layer_res,
         "render_mode": "fast",
+        "load_average_1min": round(os.getloadavg()[0], 2),
+        "cpus": os.cpu_count(),
         "renderer_frames": vp.renderer_frames,
         "note": "every timed frame is drawn by render.Renderer at the viewport's full size (no preview, no "
                 "reduced resolution) and finished on the GPU (ctx.finish) before the clock stops; "
