@@ -72,7 +72,8 @@ class TextureIrradiance:
     def __init__(self, ctx: Any, shaders: ShaderLibrary, size: int = 1024) -> None:
         self.ctx = ctx
         self.size = size
-        self.program = shaders.program(ctx, "uvspace.vert", "irradiance.frag")
+        self.shaders = shaders
+        self.programs: dict[tuple[int, ...], Any] = {}
         self.gather = shaders.program(ctx, "fullscreen.vert", "pad_gather.frag")
         self.gather_quad = ctx.vertex_array(self.gather, [])
         self.index: Any = None  # RG32I texture: source texel of every texel (see the class docstring)
@@ -107,7 +108,18 @@ class TextureIrradiance:
         self.index = self.ctx.texture((n, n), 2, idx.tobytes(), dtype="i4")
         self.index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
 
-    def update(self, key: Any, gpu_head: GpuHead, setup: Any) -> bool:
+    def program(self, lights: list[Light], env: bool) -> Any:
+        """irradiance.frag specialised on the light count, which lights cast shadows and which are point
+        lights, and whether there is an environment (loops unroll; nothing is computed for what is off)."""
+        key = (len(lights), sum(1 << i for i, lt in enumerate(lights) if lt.shadows),
+               sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional"), int(env))
+        if key not in self.programs:
+            self.programs[key] = self.shaders.program(
+                self.ctx, "uvspace.vert", "irradiance.frag",
+                {"NLIGHTS": key[0], "SHADOWED": key[1], "POINT_LIGHTS": key[2], "ENV": key[3]})
+        return self.programs[key]
+
+    def update(self, key: Any, gpu_head: GpuHead, setup: Any, lights: list[Light], env: bool) -> bool:
         """Recompute if ``key`` changed; ``setup(program)`` sets the lighting uniforms. Returns True if
         it recomputed."""
         if key == self._key:
@@ -120,10 +132,11 @@ class TextureIrradiance:
         ctx.scissor = None
         fbo.clear(0.0, 0.0, 0.0, 0.0)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        setup(self.program)
+        prog = self.program(lights, env)
+        setup(prog)
         gpu_head.normal.use(1)
-        self.program["u_normal_map"].value = 1
-        gpu_head.draw(self.program)
+        prog["u_normal_map"].value = 1
+        gpu_head.draw(prog)
         if self.index is None:
             self._make_index()
         self.index.use(3)
@@ -146,7 +159,8 @@ class TextureIrradiance:
         from render.glutil import release_all
 
         release_all(self.ctx, [o for texs, fbo in self.sets for o in (fbo, *texs)]
-                    + [self.gather_quad, self.gather, self.program, self.index])
+                    + [self.gather_quad, self.gather, *self.programs.values(), self.index])
+        self.programs = {}
 
 
 @dataclass
@@ -496,7 +510,7 @@ class Renderer:
             self._set(p, "u_normal_strength", float(s.normal_strength))
             self._upload_lights(p)
 
-        self.irradiance.update(irr_key, self.gpu_head, setup_irradiance)
+        self.irradiance.update(irr_key, self.gpu_head, setup_irradiance, self.lights, env is not None)
 
         # 2. lit pass into the G-buffer
         n = len(self.km.active)

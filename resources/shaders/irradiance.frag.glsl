@@ -5,6 +5,21 @@
 // frames then fetch E instead of shading lights and shadows per pixel.
 // o_irr: rgb = E (display units), a = shadow visibility of light 0. o_vis0: lights 1-4; o_vis1.rgb:
 // lights 5-7, o_vis1.a = 1 where covered (the padding's coverage; the clear leaves 0 elsewhere).
+// Defines (specialised per light rig, see TextureIrradiance.program): NLIGHTS, SHADOWED and
+// POINT_LIGHTS (bit i: light i casts shadows / is a point light), ENV (1: SH environment).
+#ifndef NLIGHTS
+#define NLIGHTS 8
+#define DYNAMIC_LIGHTS 1
+#endif
+#ifndef SHADOWED
+#define SHADOWED 255
+#endif
+#ifndef POINT_LIGHTS
+#define POINT_LIGHTS -1
+#endif
+#ifndef ENV
+#define ENV 1
+#endif
 #include "common.glsl"
 #include "lighting.glsl"
 in vec3 v_pos;
@@ -24,14 +39,26 @@ void main() {
     vec3 T = normalize(v_tangent.xyz - Ng * dot(Ng, v_tangent.xyz));
     vec3 B = cross(Ng, T) * v_tangent.w;
     vec3 N = normalize(T * nt.x + B * nt.y + Ng * max(nt.z, 1e-3));
+#if ENV
     vec3 E = sh_irradiance(N);
+#else
+    vec3 E = vec3(0.0);
+#endif
     float vis[8] = float[](1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
-    for (int i = 0; i < u_nlights; ++i) {
-        vec3 L = light_direction(i, v_pos);
+    for (int i = 0; i < NLIGHTS; ++i) {  // unrolled: i is a constant in each copy
+#ifdef DYNAMIC_LIGHTS
+        if (i >= u_nlights) break;
+#endif
+#if POINT_LIGHTS < 0
+        bool point = u_light_vec[i].w > 0.5;
+#else
+        bool point = ((POINT_LIGHTS >> i) & 1) != 0;
+#endif
+        vec3 L = point ? light_direction(i, v_pos) : u_light_vec[i].xyz;  // directional: unit on the CPU
         float ndl = dot(N, L);
-        float sh = shadow_factor(i, v_pos, Ng, L);
+        float sh = ((SHADOWED >> i) & 1) != 0 ? shadow_factor(i, v_pos, Ng, L) : 1.0;
         vis[i] = sh;
-        E += light_irradiance_normal(i, v_pos) * sh * max(ndl, 0.0);
+        E += (point ? light_irradiance_normal(i, v_pos) : u_light_col[i].rgb) * sh * max(ndl, 0.0);
     }
     o_irr = vec4(E, vis[0]);
     o_vis0 = vec4(vis[1], vis[2], vis[3], vis[4]);
