@@ -450,7 +450,7 @@ def warm_up(background: bool = True) -> None:
     on a daemon thread; with ``background`` False, wait for it. Until it ends, dabs take the numpy path
     (bit-identical), so no dab ever waits for the compiler."""
     global _warm_thread
-    if not HAVE_NUMBA:
+    if not _enabled:  # numba missing, or the numpy path chosen: nothing to load
         return
     with _warm_lock:
         if _warm_thread is None:

@@ -20,9 +20,9 @@ pytestmark = pytest.mark.skipif(not kernels.HAVE_NUMBA, reason="numba is not ins
 
 @pytest.fixture(autouse=True)
 def _restore_kernel_setting() -> Iterator[None]:
+    old = kernels.set_enabled(True)
     kernels.warm_up(background=False)
     assert kernels.ready()
-    old = kernels.enabled()
     yield
     kernels.set_enabled(old)
 
