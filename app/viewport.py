@@ -107,6 +107,7 @@ class Viewport(QOpenGLWidget):
         self.layers_source: Callable[[], list[Any]] = list
         self.ctx: Any = None
         self.renderer: Any = None
+        self.renderer_error: str | None = None  # the renderer failed in a frame (reported; the view stays empty)
         self._full_sync = True
         self._dirty: dict[int, set[tuple[int, int]]] = {}
         self._ring: np.ndarray | None = None
@@ -200,7 +201,7 @@ class Viewport(QOpenGLWidget):
             return
         fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
         fbo.use()  # before any GL object is created (see ViewportRenderer.render)
-        if self.renderer is None:
+        if self.renderer is None or self.renderer_error is not None:
             fbo.clear(0.11, 0.11, 0.12, 1.0)
             return
         t0 = time.perf_counter()
@@ -216,12 +217,17 @@ class Viewport(QOpenGLWidget):
         try:
             drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting, split=self.split,
                                         debug=self.debug, mode=mode, brush=ring)
-        except Exception as exc:  # a failing engine: say so once, show the physical renderer
-            if mode == "fast":
-                raise
-            self.mode = "fast"
-            self.gl_failed.emit(f"The {mode} mode could not draw ({exc}); back to the fast mode.")
-            self.update()
+        except Exception as exc:  # never a traceback: say so once; another mode falls back to fast
+            import logging
+
+            logging.getLogger("sheer.app").exception("viewport frame failed")
+            if mode != "fast":
+                self.mode = "fast"
+                self.gl_failed.emit(f"The {mode} mode could not draw ({exc}); back to the fast mode.")
+                self.update()
+            else:
+                self.renderer_error = str(exc)
+                self.gl_failed.emit(f"The renderer could not draw the view: {exc}")
             return
         # Qt composes the frame right after paintGL anyway: finishing here costs nothing and makes the
         # frame time true (it is what the kiosk's fallback to the lightweight engine decides on)

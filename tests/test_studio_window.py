@@ -244,6 +244,30 @@ def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_pa
         window.set_render_mode("fast")
 
 
+def test_a_failing_frame_is_a_message_not_a_traceback(window: object, qtbot: object,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from app import dialogs
+
+    vp = window.viewport
+    real = vp.renderer.render
+
+    def broken(*args: object, **kwargs: object) -> bool:
+        raise RuntimeError("simulated GL failure")
+
+    dialogs.HISTORY.clear()
+    monkeypatch.setattr(vp.renderer, "render", broken)
+    vp.orbit_by(1.0)
+    qtbot.waitUntil(lambda: vp.renderer_error is not None, timeout=20000)
+    qtbot.waitUntil(lambda: any("simulated GL failure" in h[2] for h in dialogs.HISTORY), timeout=5000)
+    monkeypatch.setattr(vp.renderer, "render", real)
+    vp.renderer_error = None
+    vp.orbit_by(-1.0)
+    vp.refresh()
+    drawn = vp.renderer_frames
+    draw(vp, qtbot)
+    assert vp.renderer_frames > drawn
+
+
 def test_layer_opacity_visibility_rename(window: object) -> None:
     panel = window.layers_panel
     panel.list.setCurrentRow(0)  # the top layer
