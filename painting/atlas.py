@@ -533,11 +533,9 @@ def check_resolution(resolution: Any) -> int:
 def cache_dir() -> Path:
     """Where baked atlases are cached: ``$SHEER_CACHE_DIR`` or ``$XDG_CACHE_HOME/sheer/atlas``
     (default ``~/.cache/sheer/atlas``)."""
-    env = os.environ.get("SHEER_CACHE_DIR")
-    if env:
-        return Path(env).expanduser() / "atlas"
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "sheer" / "atlas"
+    from km.cache import cache_dir as km_cache_dir
+
+    return km_cache_dir("atlas")
 
 
 def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,

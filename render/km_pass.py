@@ -99,10 +99,11 @@ def default_wavelengths() -> np.ndarray:
 
 def spectral_matrix(wavelengths: np.ndarray) -> np.ndarray:
     """(n, 3) matrix M with ``rgb = spectrum @ M`` (linear sRGB under km's default illuminant): km's own
-    conversion (``km.colour.spectral_rgb_matrix``, cached per grid), so the GPU matches km exactly."""
-    from km.colour import spectral_rgb_matrix
+    conversion (``km.colour.spectral_rgb_matrix``), so the GPU matches km exactly, through km's disk cache
+    (:func:`km.cache.spectral_rgb_matrix_cached`: start-up then never imports colour-science)."""
+    from km.cache import spectral_rgb_matrix_cached
 
-    return np.array(spectral_rgb_matrix(np.asarray(wavelengths, dtype=np.float64)), dtype=np.float64)
+    return np.array(spectral_rgb_matrix_cached(np.asarray(wavelengths, dtype=np.float64)), dtype=np.float64)
 
 
 def material_sk(material: Any, wavelengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

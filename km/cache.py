@@ -1,0 +1,73 @@
+"""Sheer's on-disk caches (derived data that is expensive to make and cheap to make again).
+
+:func:`cache_dir` is the one place that decides where they live; :func:`spectral_rgb_matrix_cached` is the
+spectral → linear sRGB matrix of :func:`km.colour.spectral_rgb_matrix` kept on disk, so that a process
+which only needs the matrix (the renderer's texture-space pass) never imports colour-science: importing it
+pulls in matplotlib through ``colour.plotting`` and took 1.5–6 s of the studio's start-up on this
+project's machine. A missing, unreadable or malformed cache file is made again; failing to write one is
+not an error (the cache is an optimisation only).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.metadata
+import io
+import os
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+#: bump when the cached matrices' definition changes
+_MATRIX_CACHE_VERSION = 1
+
+
+def cache_dir(kind: str) -> Path:
+    """The folder of one kind of cache: ``$SHEER_CACHE_DIR/<kind>``, else ``$XDG_CACHE_HOME/sheer/<kind>``
+    (default ``~/.cache/sheer/<kind>``)."""
+    env = os.environ.get("SHEER_CACHE_DIR")
+    if env:
+        return Path(env).expanduser() / kind
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "sheer" / kind
+
+
+def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
+    try:
+        version = importlib.metadata.version("colour-science")
+    except importlib.metadata.PackageNotFoundError:
+        version = "none"
+    h = hashlib.sha256()
+    h.update(np.ascontiguousarray(wl, dtype="<f8").tobytes())
+    h.update(f"|{illuminant}|{cat}|colour-science {version}|v{_MATRIX_CACHE_VERSION}".encode())
+    return cache_dir("colour") / f"rgb-{h.hexdigest()[:32]}.npy"
+
+
+def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> np.ndarray:
+    """:func:`km.colour.spectral_rgb_matrix` for ``wavelengths`` (nm), read from the disk cache when it is
+    there (keyed by the grid, the illuminant, the adaptation transform and colour-science's version) and
+    written to it otherwise. Returns a read-only float64 (n_wavelengths, 3) array."""
+    wl = np.asarray(wavelengths, dtype=np.float64)
+    path = _matrix_path(wl, illuminant, cat)
+    try:
+        m = np.load(path, allow_pickle=False)
+        if m.shape == (wl.size, 3) and m.dtype == np.float64 and np.all(np.isfinite(m)):
+            m.setflags(write=False)
+            return m
+    except (OSError, ValueError, EOFError):
+        pass
+    from km.colour import spectral_rgb_matrix
+
+    m = np.array(spectral_rgb_matrix(wl, illuminant, cat), dtype=np.float64)
+    try:
+        from km.atomicio import atomic_write_bytes
+
+        buf = io.BytesIO()
+        np.save(buf, m, allow_pickle=False)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError:
+        pass
+    m.setflags(write=False)
+    return m
