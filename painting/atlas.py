@@ -16,6 +16,7 @@ import contextlib
 import hashlib
 import io
 import os
+import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,6 +42,8 @@ MIN_RESOLUTION = 64
 MAX_RESOLUTION = 8192
 TILE = 64
 _CACHE_VERSION = 4
+#: version of the spatial index kept beside a cached bake (see :attr:`Atlas.index`)
+_INDEX_CACHE_VERSION = 1
 
 
 class AtlasError(SheerError, ValueError):
@@ -470,6 +473,7 @@ class Atlas:
     mm_per_unit: float
     _index: Any = field(default=None, repr=False)
     _has_pad: np.ndarray | None = field(default=None, repr=False)
+    _cache_path: Path | None = field(default=None, repr=False)  # the bake's cache file, if any
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -482,11 +486,20 @@ class Atlas:
 
     @property
     def index(self) -> Any:
-        """The texel spatial index (:class:`painting.spatial.TexelIndex`), built on first use."""
+        """The texel spatial index (:class:`painting.spatial.TexelIndex`), built on first use and kept on
+        disk beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s)."""
         if self._index is None:
             from painting.spatial import TexelIndex
 
-            self._index = TexelIndex.build(self)
+            folder = (None if self._cache_path is None
+                      else self._cache_path.with_name(f"{self._cache_path.stem}.index-v{_INDEX_CACHE_VERSION}"))
+            count = int(np.count_nonzero(self.coverage))
+            index = TexelIndex.load(folder, count) if folder is not None else None
+            if index is None:
+                index = TexelIndex.build(self)
+                if folder is not None:
+                    index.save(folder)
+            self._index = index
         return self._index
 
     def pads_of(self, flat: np.ndarray, has_pad: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -553,6 +566,7 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     if cache and res >= 512 and path.is_file():
         try:
             atlas = _load_cached(path, layout.mm_per_unit)
+            atlas._cache_path = path
             report("bake", 1.0)
             return atlas
         except Exception:  # a truncated or stale cache file: bake again
@@ -605,6 +619,8 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     report("bake", 1.0)
     if cache and res >= 512:
         _save_cached(path, atlas)
+        if path.is_file():
+            atlas._cache_path = path
     return atlas
 
 
@@ -677,6 +693,8 @@ def _prune_cache(folder: Path, keep: Path) -> None:
         total += f.stat().st_size
         if total > CACHE_LIMIT_BYTES and f != keep:
             f.unlink(missing_ok=True)
+            for index in folder.glob(f"{f.stem}.index-v*"):  # its spatial index goes with it
+                shutil.rmtree(index, ignore_errors=True)
 
 
 def _load_cached(path: Path, mm_per_unit: float) -> Atlas:

@@ -10,7 +10,10 @@ Units: mesh units throughout.
 
 from __future__ import annotations
 
+import os
+import shutil
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -88,6 +91,50 @@ class TexelIndex:
 
     def __len__(self) -> int:
         return len(self.flat)
+
+    #: arrays written by :meth:`save` (``meta``: origin x, y, z, cell, dims x, y, z)
+    _SAVED = ("cell_start", "pn", "flat", "tile", "has_pad")
+
+    def save(self, folder: Path) -> None:
+        """Write the index as ``.npy`` files into ``folder`` (made atomically: a sibling folder renamed
+        into place; an existing folder is left as it is). Failing to write is not an error: the index is
+        a cache (it takes about 2 s to build at 2048², 0.1 s to read)."""
+        tmp = folder.with_name(f".{folder.name}.{os.getpid()}.tmp")
+        try:
+            if folder.exists():
+                return
+            tmp.mkdir(parents=True, exist_ok=True)
+            np.save(tmp / "meta.npy", np.array([*self.origin, self.cell, *self.dims], dtype=np.float64))
+            for name in self._SAVED:
+                np.save(tmp / f"{name}.npy", getattr(self, name), allow_pickle=False)
+            os.replace(tmp, folder)
+        except OSError:
+            pass
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
+
+    @classmethod
+    def load(cls, folder: Path, count: int) -> TexelIndex | None:
+        """An index written by :meth:`save`, or None if ``folder`` is missing, unreadable or inconsistent
+        (``count``: the number of covered texels it must hold)."""
+        try:
+            meta = np.load(folder / "meta.npy", allow_pickle=False)
+            arrays = {name: np.load(folder / f"{name}.npy", allow_pickle=False) for name in cls._SAVED}
+        except (OSError, ValueError, EOFError):
+            return None
+        if meta.shape != (7,) or not np.all(np.isfinite(meta)):
+            return None
+        dims = tuple(int(v) for v in meta[4:])
+        pn, cs = arrays["pn"], arrays["cell_start"]
+        if (pn.shape != (count, 6) or pn.dtype != np.float32 or arrays["flat"].shape != (count,)
+                or arrays["tile"].shape != (count,) or arrays["has_pad"].shape != (count,)
+                or cs.shape != (dims[0] * dims[1] * dims[2] + 1,) or int(cs[-1]) != count or meta[3] <= 0):
+            return None
+        cols = [pn[:, k] for k in range(6)]
+        return cls(origin=meta[:3].copy(), cell=float(meta[3]), dims=(dims[0], dims[1], dims[2]), cell_start=cs,
+                   x=cols[0], y=cols[1], z=cols[2], nx=cols[3], ny=cols[4], nz=cols[5], flat=arrays["flat"],
+                   tile=arrays["tile"], has_pad=arrays["has_pad"], pn=pn)
 
     @property
     def dims_array(self) -> np.ndarray:
