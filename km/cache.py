@@ -21,6 +21,8 @@ from numpy.typing import ArrayLike
 
 #: bump when the cached matrices' definition changes
 _MATRIX_CACHE_VERSION = 1
+#: matrices already read in this process, by cache file
+_IN_MEMORY: dict[Path, np.ndarray] = {}
 
 
 def cache_dir(kind: str) -> Path:
@@ -50,10 +52,14 @@ def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", 
     written to it otherwise. Returns a read-only float64 (n_wavelengths, 3) array."""
     wl = np.asarray(wavelengths, dtype=np.float64)
     path = _matrix_path(wl, illuminant, cat)
+    hit = _IN_MEMORY.get(path)
+    if hit is not None:
+        return hit
     try:
         m = np.load(path, allow_pickle=False)
         if m.shape == (wl.size, 3) and m.dtype == np.float64 and np.all(np.isfinite(m)):
             m.setflags(write=False)
+            _IN_MEMORY[path] = m
             return m
     except (OSError, ValueError, EOFError):
         pass
@@ -70,4 +76,5 @@ def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", 
     except OSError:
         pass
     m.setflags(write=False)
+    _IN_MEMORY[path] = m
     return m

@@ -462,13 +462,17 @@ class Material:
         """Display colour of the layer over ``background`` (see :meth:`reflectance_over`) under
         ``illuminant``: gamma-encoded sRGB in [0, 1] (clipped), or linear sRGB (unclipped) with
         ``encoded=False``. ``background="opaque"`` gives the colour of R∞."""
-        from km.colour import spectrum_to_rgb
+        # km.colour.spectrum_to_rgb's matrix through km's disk cache: swatches are drawn while the studio
+        # starts, and importing colour-science for them cost about a second there (the same product)
+        from km.cache import spectral_rgb_matrix_cached
 
         if isinstance(background, str) and background == "opaque":
             refl = self.r_inf()
         else:
             refl = self.reflectance_over(background, thickness_um)
-        rgb = np.asarray(spectrum_to_rgb(refl, self.wavelengths, illuminant=illuminant), dtype=np.float64)
+        m = spectral_rgb_matrix_cached(np.asarray(self.wavelengths, dtype=np.float64), illuminant)
+        with np.errstate(all="ignore"):
+            rgb = np.asarray(np.asarray(refl, dtype=np.float64) @ m, dtype=np.float64)
         return encode_srgb(rgb) if encoded else rgb
 
     def swatch_hex(self, background: float | np.ndarray | str = "opaque", thickness_um: float | None = None,
@@ -528,10 +532,13 @@ class Material:
 
 
 def encode_srgb(linear_rgb: np.ndarray) -> np.ndarray:
-    """Linear sRGB → gamma-encoded sRGB (IEC 61966-2-1) in [0, 1] (clipped first), via colour-science."""
-    import colour
+    """Linear sRGB → gamma-encoded sRGB (IEC 61966-2-1) in [0, 1] (clipped first).
 
-    return np.asarray(colour.cctf_encoding(np.clip(linear_rgb, 0.0, 1.0), function="sRGB"), dtype=np.float64)
+    The standard's two-piece formula, written out rather than ``colour.cctf_encoding(..., "sRGB")`` so
+    that drawing a swatch does not import colour-science (about a second of the studio's start-up); a
+    test checks the two agree to 1e-12."""
+    c = np.clip(np.asarray(linear_rgb, dtype=np.float64), 0.0, 1.0)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
 
 
 def _background(background: float | np.ndarray | str, n: int) -> np.ndarray:

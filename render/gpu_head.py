@@ -88,6 +88,11 @@ class GpuHead:
             "in_tangent": (ctx.buffer(tangents.astype("f4").tobytes()), "4f"),
         }
         self.index_buffer = ctx.buffer(np.asarray(faces, dtype="u4").tobytes())
+        import hashlib
+
+        # identifies the mesh's texture-space footprint (UVs and triangles), for caches of UV-space data
+        self.uv_key = hashlib.sha256(np.ascontiguousarray(uv, dtype="<f4").tobytes()
+                                     + np.ascontiguousarray(faces, dtype="<u4").tobytes()).hexdigest()[:32]
         self.triangle_count = len(faces)
         self.vertices = v
         self._vaos: dict[int, Any] = {}

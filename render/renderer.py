@@ -93,18 +93,42 @@ class TextureIrradiance:
     def textures(self) -> list[Any]:
         return self.sets[self.current][0]
 
-    def _make_index(self) -> None:
-        """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance."""
-        from scipy.ndimage import distance_transform_edt
+    def _make_index(self, uv_key: str) -> None:
+        """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance; kept
+        on disk per mesh footprint and size (scipy's distance transform plus the read-back take about
+        0.6 s of a start-up)."""
+        from km.cache import cache_dir
 
         n = self.size
-        alpha = np.frombuffer(self.sets[0][0][2].read(), np.uint8).reshape(n, n, 4)[..., 3]  # see irradiance.frag
-        covered = alpha > 0
-        if covered.any():
-            iy, ix = distance_transform_edt(~covered, return_distances=False, return_indices=True)
-        else:
-            iy, ix = np.mgrid[0:n, 0:n]
-        idx = np.ascontiguousarray(np.stack([ix, iy], axis=-1).astype(np.int32))
+        path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.npy"
+        idx = None
+        try:
+            idx = np.load(path, allow_pickle=False)
+            if idx.shape != (n, n, 2) or idx.dtype != np.int32 or idx.min() < 0 or idx.max() >= n:
+                idx = None
+        except (OSError, ValueError, EOFError):
+            idx = None
+        if idx is None:
+            from scipy.ndimage import distance_transform_edt
+
+            alpha = np.frombuffer(self.sets[0][0][2].read(), np.uint8).reshape(n, n, 4)[..., 3]  # irradiance.frag
+            covered = alpha > 0
+            if covered.any():
+                iy, ix = distance_transform_edt(~covered, return_distances=False, return_indices=True)
+            else:
+                iy, ix = np.mgrid[0:n, 0:n]
+            idx = np.ascontiguousarray(np.stack([ix, iy], axis=-1).astype(np.int32))
+            try:
+                import io
+
+                from km.atomicio import atomic_write_bytes
+
+                buf = io.BytesIO()
+                np.save(buf, idx, allow_pickle=False)
+                path.parent.mkdir(parents=True, exist_ok=True)
+                atomic_write_bytes(path, buf.getvalue())
+            except OSError:
+                pass  # the cache is an optimisation only
         self.index = self.ctx.texture((n, n), 2, idx.tobytes(), dtype="i4")
         self.index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
 
@@ -138,7 +162,7 @@ class TextureIrradiance:
         prog["u_normal_map"].value = 1
         gpu_head.draw(prog)
         if self.index is None:
-            self._make_index()
+            self._make_index(gpu_head.uv_key)
         self.index.use(3)
         for i, t in enumerate(texs):
             t.use(i)

@@ -63,3 +63,21 @@ def test_reading_the_cache_does_not_import_colour_science(tmp_path: Path) -> Non
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={"SHEER_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"})
     assert out.stdout.strip() == "False"
+
+
+def test_swatches_equal_km_colour_and_srgb_encoding_equals_colour_science() -> None:
+    import colour
+
+    import km
+    from km.colour import spectrum_to_rgb
+    from km.material import encode_srgb
+
+    x = np.concatenate([np.linspace(-0.1, 1.2, 400), [0.0031308, 0.0031309, 1.0]])
+    np.testing.assert_allclose(encode_srgb(x), colour.cctf_encoding(np.clip(x, 0, 1), function="sRGB"),
+                               rtol=0, atol=1e-12)
+    for mat in list(km.default_library())[:6]:
+        for bg, illum in (("opaque", "D65"), ("black", "D50"), (0.4, "A")):
+            refl = mat.r_inf() if bg == "opaque" else mat.reflectance_over(bg, None)
+            want = spectrum_to_rgb(refl, mat.wavelengths, illuminant=illum)
+            np.testing.assert_allclose(mat.swatch_rgb(bg, illuminant=illum, encoded=False), want, rtol=1e-13,
+                                       atol=1e-15)

@@ -267,3 +267,23 @@ def test_light_order_does_not_change_the_frame(r: Renderer, looks: dict[str, lis
     assert float(images[0].max()) > 0.1
     for img in images[1:]:
         np.testing.assert_allclose(img, images[0], rtol=2e-3, atol=2e-3)  # float sums in another order
+
+
+def test_irradiance_padding_index_is_cached_on_disk(gl_ctx: Any, doc: Any, tmp_path: Any,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    """The irradiance's padding index is made once per mesh footprint and size, read back equal, and a
+    damaged file is made again: the frames are identical in all three cases."""
+    monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
+    images = []
+    for damage in (None, None, b"broken"):
+        files = list((tmp_path / "render").glob("pad-index-*.npy"))
+        if damage is not None:
+            files[0].write_bytes(damage)
+        r = Renderer(gl_ctx, doc.head, layout=doc.layout)
+        r.settings.irradiance_size = 256
+        r.lights = [Light.directional(35.0, 25.0, 1.5)]
+        images.append(r.render_image((160, 120), linear=True))
+        r.release()
+        assert len(list((tmp_path / "render").glob("pad-index-*.npy"))) == 1
+    np.testing.assert_array_equal(images[1], images[0])
+    np.testing.assert_array_equal(images[2], images[0])
