@@ -25,6 +25,13 @@ k = 0.25 (studio, lobby), and the photograph alone prefers k = 0.59–0.86 in fi
 0.015 in the studio (whose probe misses 63 % of the ambient in clipped softboxes). ``fit_ambient=True``
 still runs the paper's step, and :func:`photo_ambient_scale` reports the k the photograph alone would
 choose.
+
+The specular intensity i_s: the paper fits it jointly with D; that fit reads albedo that is brighter
+under the lobe as specular (+15 to +35 % on the synthetic truth). The capture then refits i_s with the
+diffuse term modulated by the low-frequency detail, :func:`specular_from_detail` (a departure from the
+paper, explained there), and D once more with that i_s fixed. Measured beyond the validation test's
+truth (s 24, i_s 0.18: within 2 % in all six environments): s 12 studio +5.7 % (joint fit +29 %),
+s 40 city −4.1 % (+15 %), i_s 0.10 warehouse −3.1 % (+35 %), i_s 0.30 sunset −1.4 % (+16 %).
 """
 
 from __future__ import annotations
@@ -136,7 +143,8 @@ class FitResult:
 
 def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: np.ndarray,
               ambient_rgb: np.ndarray, start: np.ndarray | None = None, start_k: float = 1.0,
-              levels: tuple[int, ...] = (16, 4, 1), fit_ambient: bool = False) -> FitResult:
+              levels: tuple[int, ...] = (16, 4, 1), fit_ambient: bool = False,
+              fix_specular: bool = False) -> FitResult:
     """Fit D (3) and i_s with the ambient scale k fixed at ``start_k``; with ``fit_ambient``, then k
     alone and D, i_s once more (the paper's order; biased, see the module docstring).
 
@@ -149,6 +157,7 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
         start_k: k (dimensionless, ambient relative to the probe's measurement), or its start value.
         levels: pixel subsampling strides, coarse to fine.
         fit_ambient: also optimise k on the photograph.
+        fix_specular: keep i_s at its start value (``start[3]``) and fit D alone.
     """
     target = linear_rgb_to_luv(np.clip(photo_rgb, 0, 1))
     flash = np.asarray(flash_rgb, dtype=float)
@@ -170,11 +179,16 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
     lb = np.array([1e-4, 1e-4, 1e-4, 0.0])
     ub = np.array([4.0, 4.0, 4.0, 10.0])
     x = np.clip(x, lb + 1e-6, ub - 1e-6)
+    free = slice(0, 3) if fix_specular else slice(0, 4)
+
+    def resid_free(xf: np.ndarray, kv: float, idx: slice | np.ndarray) -> np.ndarray:
+        return resid(np.r_[xf, x[len(xf):]], kv, idx)
+
     n = len(target)
     for stride in levels:
         idx = np.arange(0, n, stride)
-        x = least_squares(resid, x, args=(k, idx), bounds=(lb, ub), x_scale="jac", xtol=1e-6,
-                          ftol=1e-8).x
+        x[free] = least_squares(resid_free, x[free], args=(k, idx), bounds=(lb[free], ub[free]), x_scale="jac",
+                                xtol=1e-6, ftol=1e-8).x
     full = np.arange(n)
     if fit_ambient and np.any(amb > 0):
         def cost_k(logk: float) -> float:
@@ -183,7 +197,8 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
 
         k = float(np.exp(minimize_scalar(cost_k, bounds=(np.log(1e-3), np.log(1e3)), method="bounded",
                                          options={"xatol": 1e-4}).x))
-        x = least_squares(resid, x, args=(k, full), bounds=(lb, ub), x_scale="jac", xtol=1e-8, ftol=1e-10).x
+        x[free] = least_squares(resid_free, x[free], args=(k, full), bounds=(lb[free], ub[free]), x_scale="jac",
+                                xtol=1e-8, ftol=1e-10).x
     r = resid(x, k, full).reshape(-1, 3)
     d = np.sqrt((r ** 2).sum(axis=1))
     return FitResult(params=params(x, k), rms_luv=float(np.sqrt(np.mean(d ** 2))),
@@ -276,3 +291,85 @@ def robustness(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb:
     names = ["diffuse_r", "diffuse_g", "diffuse_b", "specular_intensity", "ambient_scale"]
     return {"starts": starts, "relative_std": dict(zip(names, rel.tolist())),
             "max_relative_std": float(rel.max()), "mean": dict(zip(names, a.mean(axis=0).tolist()))}
+
+
+#: The high-pass of :func:`specular_from_detail` keeps structure finer than this fraction of the specular
+#: core's equivalent radius (the core: pixels where the lobe is at least half its peak).
+LOBE_SCALE_FRACTION = 0.4
+
+
+@dataclass
+class DetailSpecular:
+    """The specular intensity separated from the skin's albedo variation (:func:`specular_from_detail`).
+
+    Attributes:
+        specular: i_s (photograph units, like :attr:`PhongParams.specular`).
+        sigma_px: the high-pass scale used (pixels). core_radius_px: the specular core's equivalent
+        radius (pixels). pixels: the skin pixels used.
+    """
+
+    specular: float
+    sigma_px: float
+    core_radius_px: float
+    pixels: int
+
+
+def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
+                         cols: np.ndarray, shape: tuple[int, int]) -> DetailSpecular | None:
+    """i_s refitted with the diffuse term modulated by the low-frequency detail (a departure from the
+    paper, which fits i_s jointly with D on the photograph).
+
+    Why: the joint fit reads any albedo that is brighter where the lobe is as specular. The sample
+    head's skin is (the synthetic truth: 9-10 % brighter than the skin's mean where the lobe is 1-40 % of
+    its peak, 3-5 % under its core), and the joint fit gives i_s = 0.22 for a true 0.18 in every
+    environment; on an untextured photograph it gives 0.18 exactly.
+
+    How: per pixel, with D·L = D ⊙ (k·A + F·max(n·l, 0)) the fitted diffuse shading, the photograph is
+    ``D·L ⊙ m + i_s·S·F`` with m the detail (S = max(r·v, 0)^s the lobe). Alternating "m = low-pass of
+    (photo − i_s·S·F) / D·L; refit i_s with the diffuse term modulated by m" converges to the least-squares
+    i_s of the high-passed equation, computed here directly (linear RGB, weighted back to photograph
+    units): i_s = Σ w·HP(r)·HP(q) / Σ w·HP(q)², r = photo / D·L, q = S·F / D·L, w = (D·L)², HP = x minus its
+    normalised Gaussian average over the unclipped lit skin pixels in the image. The albedo's variation
+    broader than σ drops out; the lobe's core, curved at the scale of its own size, stays. σ =
+    ``LOBE_SCALE_FRACTION`` × the core's equivalent radius (at least 1 px), so the scale follows the
+    exponent and the photograph's resolution. Measured on the synthetic truth (true i_s 0.18; core radius
+    18 px, so σ = 7.2 px): i_s within 5 % for σ from 1 to 10 px (0.183 at 1, 0.173 at 3-5, 0.176 at 7,
+    0.182 at 9, 0.185 at 10; 0.19 at 12 and 0.20 at 15, where the brighter albedo around the core is
+    broad enough to pass).
+
+    Returns None when the lobe has no core on unclipped skin (fewer than 20 pixels at half its peak).
+    """
+    from scipy import ndimage
+
+    photo = np.asarray(photo_rgb, dtype=np.float64)
+    ndl = np.clip(geo.n_dot_l, 0.0, None)
+    lobe = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None) ** params.exponent, 0.0)
+    dl = params.diffuse[None, :] * (params.ambient_scale * params.ambient_rgb[None, :]
+                                    + params.flash_rgb[None, :] * ndl[:, None])
+    ok = (photo.max(axis=1) < 0.98) & (geo.n_dot_l > 0) & (dl.min(axis=1) > 1e-6)
+    core = ok & (lobe >= 0.5)
+    if core.sum() < 20:
+        return None
+    radius = float(np.sqrt(core.sum() / np.pi))
+    sigma = max(1.0, LOBE_SCALE_FRACTION * radius)
+    r = np.where(ok[:, None], photo / np.maximum(dl, 1e-6), 0.0)
+    q = np.where(ok[:, None], lobe[:, None] * params.flash_rgb[None, :] / np.maximum(dl, 1e-6), 0.0)
+    weight = np.zeros(shape)
+    weight[rows[ok], cols[ok]] = 1.0
+    wsum = ndimage.gaussian_filter(weight, sigma)[rows, cols]
+
+    def high_pass(x: np.ndarray) -> np.ndarray:
+        out = np.empty_like(x)
+        for c in range(x.shape[1]):
+            img = np.zeros(shape)
+            img[rows, cols] = x[:, c]
+            out[:, c] = x[:, c] - ndimage.gaussian_filter(img, sigma)[rows, cols] / np.maximum(wsum, 1e-12)
+        return out
+
+    hr, hq = high_pass(r), high_pass(q)
+    w = np.where(ok[:, None], dl ** 2, 0.0)
+    den = float((w * hq * hq).sum())
+    if den <= 0:
+        return None
+    return DetailSpecular(specular=max(0.0, float((w * hr * hq).sum()) / den), sigma_px=sigma,
+                          core_radius_px=radius, pixels=int(ok.sum()))

@@ -32,6 +32,7 @@ from km.errors import SheerError
 from .camera import Camera
 from .mask import landmark_region, refine_by_skin_colour
 from .phong import (
+    DetailSpecular,
     FitResult,
     Geometry,
     PhongParams,
@@ -40,6 +41,7 @@ from .phong import (
     photo_ambient_scale,
     refine_exponent,
     shade,
+    specular_from_detail,
 )
 from .probe import ProbeAnalysis
 from .raster import rasterize_uv
@@ -174,6 +176,8 @@ class CaptureResult:
     timings_s: dict[str, float] = field(default_factory=dict)
     robustness: dict[str, Any] | None = None
     ambient_scale_photo: float | None = None
+    specular_joint: float | None = None
+    specular_separation: DetailSpecular | None = None
 
     def to_json(self) -> dict[str, Any]:
         e = self.exponent
@@ -187,6 +191,12 @@ class CaptureResult:
                          "evaluations": self.fit.evaluations,
                          "ambient_scale_photo": self.ambient_scale_photo,
                          "reproduction_mean_de2000_skin": self.reproduction_de2000_skin},
+            "specular_separation": None if self.specular_separation is None else {
+                "specular_intensity": self.specular_separation.specular,
+                "specular_intensity_joint_fit": self.specular_joint,
+                "high_pass_sigma_px": self.specular_separation.sigma_px,
+                "specular_core_radius_px": self.specular_separation.core_radius_px,
+                "pixels": self.specular_separation.pixels},
             "camera": self.camera.to_json(),
             "probe": None if self.probe is None else self.probe.to_json(),
             "skin_pixels": int(self.skin_mask.sum()),
@@ -294,6 +304,21 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
     exp_est = replace(exp_est, s=refined.exponent, s_saturation=exp_est.s)
     fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb,
                     start=np.r_[refined.diffuse, refined.specular])
+    # i_s separated from the skin's albedo variation under the lobe (the joint fit reads brighter skin
+    # there as specular), then D refitted with it (see :func:`capture.phong.specular_from_detail`).
+    specular_joint = fit.params.specular
+    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w))
+    if sep is not None:
+        diffuse_joint = fit.params.diffuse
+        fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb,
+                        start=np.r_[fit.params.diffuse, sep.specular], fix_specular=True)
+        _log(progress, f"specular intensity with the diffuse term modulated by the low-frequency detail: "
+                       f"i_s = {sep.specular:.4f} (joint fit {specular_joint:.4f}; high-pass σ = {sep.sigma_px:.1f} px, "
+                       f"the specular core's radius {sep.core_radius_px:.1f} px); D refitted, moved by ΔE2000 "
+                       f"{float(delta_e2000(fit.params.diffuse, diffuse_joint)):.2f}")
+    else:
+        _log(progress, "warning: the specular lobe has no unclipped core on the skin: i_s from the joint fit "
+                       "(it reads albedo brighter under the lobe as specular)")
     p = fit.params
     k_photo = photo_ambient_scale(colours, geo, p)
     timings["phong_fit"] = time.perf_counter() - t
@@ -331,7 +356,8 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
     return CaptureResult(camera=camera, params=p, light_dir_world=light_world, exponent=exp_est, fit=fit,
                          rmap=rmap, detail=detail, detail_valid=valid, skin_mask=skin_used, photo_lin=photo_lin,
                          fitted_render=fitted, reproduction=repro, reproduction_de2000_skin=float(de.mean()),
-                         probe=probe, timings_s=timings, robustness=rob, ambient_scale_photo=k_photo)
+                         probe=probe, timings_s=timings, robustness=rob, ambient_scale_photo=k_photo,
+                         specular_joint=specular_joint, specular_separation=sep)
 
 
 def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
