@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -258,3 +259,30 @@ def test_with_the_default_material_library() -> None:
     assert layer.thickness.max() == pytest.approx(min(material.thickness_um, material.max_thickness_um))
     with pytest.raises(DocumentError, match="no material named"):
         doc.add_layer("Definitely Not A Material")
+
+
+def test_a_look_from_the_cache_equals_a_look_painted(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Applying a look caches its painted maps; applying it again (a new document on the same layout) sets
+    the same maps to the bit. A damaged cache file is painted again."""
+    from painting.looks import apply_look
+
+    monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
+    first = Document.from_head(resolution=256)
+    apply_look(first, "evening")
+    files = list((tmp_path / "looks").glob("maps-*.npz"))
+    assert len(files) == 1
+    second = Document.from_head(resolution=256)
+    apply_look(second, "evening")
+    assert [lay.name for lay in second.layers] == [lay.name for lay in first.layers]
+    for a, b in zip(first.layers, second.layers):
+        assert a.material == b.material
+        np.testing.assert_array_equal(a.thickness, b.thickness)
+    assert any(lay.thickness.max() > 0 for lay in second.layers)
+    top = len(second.layers) - 1
+    second.undo()  # from the cache, a layer's map is one undo step
+    assert second.layers[top].thickness.max() == 0
+    files[0].write_bytes(b"broken")
+    third = Document.from_head(resolution=256)
+    apply_look(third, "evening")
+    for a, b in zip(first.layers, third.layers):
+        np.testing.assert_array_equal(a.thickness, b.thickness)
