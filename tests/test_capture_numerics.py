@@ -130,3 +130,34 @@ def test_camera_gbuffer_is_perspective_correct_on_paintings_rasteriser() -> None
     pos = gb.interpolate(faces, verts)[rows, cols]
     px, _ = cam.project(pos)
     assert np.abs(px - np.stack([cols + 0.5, rows + 0.5], axis=1)).max() < 1e-3
+
+
+def test_specular_intensity_is_separated_from_albedo_brighter_under_the_lobe() -> None:
+    # A sphere seen head-on (240² pixels), Phong with s 24 and i_s 0.18, its albedo 12 % brighter in a
+    # broad patch around the highlight (σ 3× the specular core's radius) plus fine pore-like noise. The
+    # paper's joint fit reads the brighter skin as specular; the refit on the high-passed photograph
+    # (capture.phong.specular_from_detail) does not. Measured: joint 0.219 (+22 %), separated 0.183 (+1.5 %).
+    from capture.phong import Geometry, PhongParams, fit_phong, shade, specular_from_detail
+
+    n_px = 240
+    yy, xx = np.mgrid[0:n_px, 0:n_px]
+    x, y = (xx + 0.5) / n_px * 2 - 1, (yy + 0.5) / n_px * 2 - 1
+    inside = x ** 2 + y ** 2 < 0.95 ** 2
+    rows, cols = np.nonzero(inside)
+    nrm = np.stack([x[inside], -y[inside], np.sqrt(1 - x[inside] ** 2 - y[inside] ** 2)], axis=1)
+    view = np.tile([0.0, 0.0, 1.0], (len(rows), 1))
+    light = np.array([0.08, 0.06, 1.0]) / np.linalg.norm([0.08, 0.06, 1.0])
+    geo = Geometry.from_vectors(nrm, view, light)
+    truth = PhongParams(diffuse=np.array([0.46, 0.31, 0.245]), specular=0.18, exponent=24.0, ambient_scale=1.0,
+                        flash_rgb=np.ones(3), ambient_rgb=np.full(3, 0.04))
+    lobe = np.clip(geo.r_dot_v, 0, None) ** 24
+    core_r = np.sqrt((lobe >= 0.5).sum() / np.pi)
+    peak = np.array([rows[lobe.argmax()], cols[lobe.argmax()]])
+    d2 = (rows - peak[0]) ** 2 + (cols - peak[1]) ** 2
+    albedo = (1 + 0.12 * np.exp(-d2 / (2 * (3 * core_r) ** 2))) * (1 + 0.05 * np.random.default_rng(0).standard_normal(len(rows)))
+    body = PhongParams(**{**truth.__dict__, "specular": 0.0})
+    photo = np.clip(shade(body, geo, clip=False) * albedo[:, None] + 0.18 * lobe[:, None], 0, 1)
+    joint = fit_phong(photo, geo, 24.0, truth.flash_rgb, truth.ambient_rgb).params
+    sep = specular_from_detail(photo, geo, joint, rows, cols, (n_px, n_px))
+    assert joint.specular > 0.18 * 1.10  # the paper's joint fit: biased by the brighter albedo
+    assert sep is not None and abs(sep.specular / 0.18 - 1) < 0.03
