@@ -10,6 +10,7 @@ not an error (the cache is an optimisation only).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import importlib.metadata
 import io
@@ -21,8 +22,8 @@ from numpy.typing import ArrayLike
 
 #: bump when the cached matrices' definition changes
 _MATRIX_CACHE_VERSION = 1
-#: matrices already read in this process, by cache file
-_IN_MEMORY: dict[Path, np.ndarray] = {}
+#: matrices already read or made in this process, by (grid bytes, illuminant, transform, cache folder)
+_IN_MEMORY: dict[tuple[bytes, str, str, str], np.ndarray] = {}
 
 
 def cache_dir(kind: str) -> Path:
@@ -35,11 +36,16 @@ def cache_dir(kind: str) -> Path:
     return Path(base) / "sheer" / kind
 
 
-def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
-    try:
-        version = importlib.metadata.version("colour-science")
+@functools.lru_cache(maxsize=1)
+def _colour_science_version() -> str:
+    try:  # read from the installed metadata (about 10 ms: once per process)
+        return importlib.metadata.version("colour-science")
     except importlib.metadata.PackageNotFoundError:
-        version = "none"
+        return "none"
+
+
+def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
+    version = _colour_science_version()
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(wl, dtype="<f8").tobytes())
     h.update(f"|{illuminant}|{cat}|colour-science {version}|v{_MATRIX_CACHE_VERSION}".encode())
@@ -51,15 +57,16 @@ def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", 
     there (keyed by the grid, the illuminant, the adaptation transform and colour-science's version) and
     written to it otherwise. Returns a read-only float64 (n_wavelengths, 3) array."""
     wl = np.asarray(wavelengths, dtype=np.float64)
-    path = _matrix_path(wl, illuminant, cat)
-    hit = _IN_MEMORY.get(path)
+    memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))
+    hit = _IN_MEMORY.get(memo)
     if hit is not None:
         return hit
+    path = _matrix_path(wl, illuminant, cat)
     try:
         m = np.load(path, allow_pickle=False)
         if m.shape == (wl.size, 3) and m.dtype == np.float64 and np.all(np.isfinite(m)):
             m.setflags(write=False)
-            _IN_MEMORY[path] = m
+            _IN_MEMORY[memo] = m
             return m
     except (OSError, ValueError, EOFError):
         pass
@@ -76,5 +83,5 @@ def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", 
     except OSError:
         pass
     m.setflags(write=False)
-    _IN_MEMORY[path] = m
+    _IN_MEMORY[memo] = m
     return m

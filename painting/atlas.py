@@ -41,7 +41,7 @@ MAX_DEGENERATE_AREA_FRACTION = 1e-3
 MIN_RESOLUTION = 64
 MAX_RESOLUTION = 8192
 TILE = 64
-_CACHE_VERSION = 4
+_CACHE_VERSION = 5
 #: version of the spatial index kept beside a cached bake (see :attr:`Atlas.index`)
 _INDEX_CACHE_VERSION = 1
 
@@ -492,12 +492,13 @@ class Atlas:
             from painting.spatial import TexelIndex
 
             folder = (None if self._cache_path is None
-                      else self._cache_path.with_name(f"{self._cache_path.stem}.index-v{_INDEX_CACHE_VERSION}"))
+                      else self._cache_path.with_name(f"{self._cache_path.name}.index-v{_INDEX_CACHE_VERSION}"))
             count = int(np.count_nonzero(self.coverage))
             index = TexelIndex.load(folder, count) if folder is not None else None
             if index is None:
                 index = TexelIndex.build(self)
                 if folder is not None:
+                    shutil.rmtree(folder, ignore_errors=True)  # a damaged copy, if any
                     index.save(folder)
             self._index = index
         return self._index
@@ -562,15 +563,15 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     """
     res = check_resolution(resolution)
     report = progress or (lambda stage, fraction: None)
-    path = cache_dir() / f"{layout.key}-{res}-p{padding}-v{_CACHE_VERSION}.npz"
-    if cache and res >= 512 and path.is_file():
+    path = cache_dir() / f"{layout.key}-{res}-p{padding}-v{_CACHE_VERSION}"
+    if cache and res >= 512 and path.is_dir():
         try:
             atlas = _load_cached(path, layout.mm_per_unit)
             atlas._cache_path = path
             report("bake", 1.0)
             return atlas
-        except Exception:  # a truncated or stale cache file: bake again
-            pass
+        except Exception:  # a truncated or stale cache: bake again, and write it anew
+            shutil.rmtree(path, ignore_errors=True)
     report("bake", 0.0)
     tri = layout.uv[layout.faces] * float(res)
     face, bary = rasterize(tri, res, res, conservative=True)
@@ -619,7 +620,7 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     report("bake", 1.0)
     if cache and res >= 512:
         _save_cached(path, atlas)
-        if path.is_file():
+        if path.is_dir():
             atlas._cache_path = path
     return atlas
 
@@ -672,35 +673,54 @@ CACHE_LIMIT_BYTES = 3 * 1024**3
 
 
 def _save_cached(path: Path, atlas: Atlas) -> None:
-    from km.atomicio import atomic_write_bytes
-
+    """Write ``atlas`` as a folder of ``.npy`` files (no zip: reading a 2048² bake from a ``.npz``
+    spent half its second on decompressing nothing and checking CRCs), made atomically: a sibling
+    folder renamed into place."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        np.savez(buf, resolution=atlas.resolution, padding=atlas.padding, texel_mm=atlas.texel_mm,
-                 **{k: getattr(atlas, k) for k in _FIELDS})
-        atomic_write_bytes(path, buf.getvalue())
+        if path.exists():
+            return
+        tmp.mkdir(parents=True, exist_ok=True)
+        np.save(tmp / "meta.npy", np.array([atlas.resolution, atlas.padding, atlas.texel_mm], dtype=np.float64))
+        for k in _FIELDS:
+            np.save(tmp / f"{k}.npy", getattr(atlas, k), allow_pickle=False)
+        os.replace(tmp, path)
         _prune_cache(path.parent, keep=path)
     except OSError:
         pass  # the cache is an optimisation only
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _folder_bytes(folder: Path) -> int:
+    return sum(f.stat().st_size for f in folder.glob("*.npy"))
 
 
 def _prune_cache(folder: Path, keep: Path) -> None:
-    """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``)."""
-    files = sorted(folder.glob("*.npz"), key=lambda f: f.stat().st_mtime, reverse=True)
+    """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``), each with its
+    spatial index."""
+    bakes = sorted((d for d in folder.glob(f"*-v{_CACHE_VERSION}") if d.is_dir()),
+                   key=lambda d: d.stat().st_mtime, reverse=True)
     total = 0
-    for f in files:
-        total += f.stat().st_size
-        if total > CACHE_LIMIT_BYTES and f != keep:
-            f.unlink(missing_ok=True)
-            for index in folder.glob(f"{f.stem}.index-v*"):  # its spatial index goes with it
+    for d in bakes:
+        total += _folder_bytes(d)
+        if total > CACHE_LIMIT_BYTES and d != keep:
+            shutil.rmtree(d, ignore_errors=True)
+            for index in folder.glob(f"{d.name}.index-v*"):
                 shutil.rmtree(index, ignore_errors=True)
 
 
 def _load_cached(path: Path, mm_per_unit: float) -> Atlas:
     with contextlib.suppress(OSError):
         os.utime(path)  # most recently used: pruned last
-    with np.load(path) as data:
-        values = {k: data[k] for k in _FIELDS}
-        return Atlas(resolution=int(data["resolution"]), padding=int(data["padding"]),
-                     texel_mm=float(data["texel_mm"]), mm_per_unit=mm_per_unit, **values)
+    meta = np.load(path / "meta.npy", allow_pickle=False)
+    values = {k: np.load(path / f"{k}.npy", allow_pickle=False) for k in _FIELDS}
+    res = int(meta[0])
+    for k in ("position", "normal"):
+        if values[k].shape != (res, res, 3):
+            raise ValueError(f"cached {k} has shape {values[k].shape}")
+    for k in ("face", "chart", "coverage", "padded"):
+        if values[k].shape != (res, res):
+            raise ValueError(f"cached {k} has shape {values[k].shape}")
+    return Atlas(resolution=res, padding=int(meta[1]), texel_mm=float(meta[2]), mm_per_unit=mm_per_unit, **values)

@@ -127,14 +127,18 @@ def test_bake_cache_round_trip(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
     layout = sample_layout()
     first = bake(layout, 512, cache=True)
-    files = list((tmp_path / "atlas").glob("*.npz"))
-    assert len(files) == 1
+    folders = [d for d in (tmp_path / "atlas").iterdir() if d.is_dir() and ".index" not in d.name]
+    assert len(folders) == 1 and (folders[0] / "position.npy").is_file()
     second = bake(layout, 512, cache=True)
     for name in ("position", "normal", "face", "chart", "coverage", "padded", "pad_dst", "pad_src"):
         assert np.array_equal(getattr(first, name), getattr(second, name))
-    files[0].write_bytes(b"broken")  # a damaged cache file is ignored and rewritten
+    assert (second.resolution, second.padding, second.texel_mm) == (first.resolution, first.padding, first.texel_mm)
+    (folders[0] / "position.npy").write_bytes(b"broken")  # a damaged cache is ignored, baked and written again
     third = bake(layout, 512, cache=True)
     assert np.array_equal(third.position, first.position)
+    assert np.array_equal(np.load(folders[0] / "position.npy"), first.position)
+    np.save(folders[0] / "position.npy", np.zeros((4, 4, 3), np.float32))  # the wrong shape: baked again
+    assert np.array_equal(bake(layout, 512, cache=True).position, first.position)
 
 
 def test_spatial_index_is_kept_beside_the_bake(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -156,8 +160,9 @@ def test_spatial_index_is_kept_beside_the_bake(tmp_path: Path, monkeypatch: pyte
     (folders[0] / "pn.npy").write_bytes(b"broken")
     again = bake(layout, 512, cache=True).index
     assert np.array_equal(again.pn, built.pn)
+    assert np.array_equal(np.load(folders[0] / "pn.npy"), built.pn)  # written anew
     shutil.rmtree(folders[0])
-    (folders[0]).mkdir()  # an empty folder: inconsistent, rebuilt (and left alone)
+    (folders[0]).mkdir()  # an empty folder: inconsistent, rebuilt and written anew
     assert np.array_equal(bake(layout, 512, cache=True).index.flat, built.flat)
 
 
