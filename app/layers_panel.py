@@ -30,8 +30,9 @@ def material_rgb(material: Any, thickness_um: float | None = None,
                  background: tuple[float, float, float] | None = None) -> tuple[int, int, int]:
     """sRGB 0..255 of a km material: its opaque colour (R∞) when ``thickness_um`` is None, else a layer
     of ``thickness_um`` over ``background`` (linear RGB; black when None). The spectra and colours are
-    ``km``'s (``Material.swatch_rgb``, ``Material.rt``, ``km.spectrum_to_rgb``, ``km.over``)."""
+    ``km``'s (``Material.swatch_rgb``, ``Material.rt``, km's spectral → RGB matrix, ``km.over``)."""
     import km
+    from km.cache import spectral_rgb_matrix_cached
     from km.material import encode_srgb
 
     if thickness_um is None:
@@ -40,8 +41,9 @@ def material_rgb(material: Any, thickness_um: float | None = None,
         srgb = material.swatch_rgb("black", thickness_um)
     else:
         r0, t = material.rt(float(thickness_um))
-        r_rgb = np.asarray(km.spectrum_to_rgb(r0, material.wavelengths), float)
-        t_rgb = np.asarray(km.spectrum_to_rgb(t, material.wavelengths), float)
+        m = spectral_rgb_matrix_cached(np.asarray(material.wavelengths, float))  # = km.spectrum_to_rgb's
+        r_rgb = np.asarray(r0, float) @ m
+        t_rgb = np.asarray(t, float) @ m
         bg = np.clip(np.asarray(background, float), 0.0, 1.0)
         lin = km.over(np.clip(r_rgb, 0.0, 1.0), np.clip(t_rgb, 0.0, 1.0), bg)
         srgb = encode_srgb(np.asarray(lin, float))
@@ -49,12 +51,16 @@ def material_rgb(material: Any, thickness_um: float | None = None,
 
 
 def colours_ready() -> bool:
-    """km's colour maths is loaded. Its import (colour-science, with matplotlib: seconds on a loaded
-    machine) happens in a worker at start-up (app.render_adapter.preload_renderer); until it is done the
-    swatches are grey placeholders, so the window never waits for it."""
+    """km's spectral → RGB matrix of the materials' grid is at hand without importing colour-science
+    (in km's disk cache, or colour-science is loaded). The first run on a machine makes it in a worker at
+    start-up (app.render_adapter.preload_renderer: colour-science with matplotlib takes seconds); until
+    then the swatches are grey placeholders, so the window never waits for it."""
     import sys
 
-    return "km.colour" in sys.modules
+    from km.cache import spectral_rgb_matrix_ready
+    from km.spectra import DEFAULT_GRID
+
+    return "km.colour" in sys.modules or spectral_rgb_matrix_ready(DEFAULT_GRID.wavelengths)
 
 
 def swatch_of(material: Any) -> tuple[int, int, int] | None:

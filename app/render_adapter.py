@@ -441,9 +441,16 @@ class ViewportRenderer:
 
 
 def preload_renderer(progress: Any = None, cancelled: Any = None) -> bool:
-    """Import what ``render.Renderer`` needs (colour-science's tables via ``km.colour``) off the GUI thread."""
+    """Import ``render.Renderer`` and load the spectral → RGB matrices it and the swatches need, off the GUI
+    thread: from km's disk cache, or (the first run on a machine) made with colour-science, which takes
+    seconds to import."""
     import importlib
 
-    for name in ("render.renderer", "km.colour"):
-        importlib.import_module(name)
+    importlib.import_module("render.renderer")
+    from km.cache import spectral_rgb_matrix_cached
+    from km.spectra import DEFAULT_GRID
+    from render.km_pass import default_wavelengths, spectral_matrix
+
+    spectral_matrix(default_wavelengths())
+    spectral_rgb_matrix_cached(DEFAULT_GRID.wavelengths)
     return True

@@ -34,10 +34,16 @@ _PRELOAD: dict[str, Any] = {"task": None, "waiting": []}
 
 
 def renderer_modules_loaded() -> bool:
-    """The renderer's imports (``render.renderer``, ``km.colour`` with colour-science) are done."""
+    """The renderer is imported and its spectral → RGB matrix is at hand (see
+    app.render_adapter.preload_renderer)."""
     import sys
 
-    return "render.renderer" in sys.modules and "km.colour" in sys.modules
+    if "render.renderer" not in sys.modules:
+        return False
+    from km.cache import spectral_rgb_matrix_ready
+    from render.km_pass import default_wavelengths
+
+    return spectral_rgb_matrix_ready(default_wavelengths())
 
 
 def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:

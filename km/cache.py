@@ -52,6 +52,14 @@ def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
     return cache_dir("colour") / f"rgb-{h.hexdigest()[:32]}.npy"
 
 
+def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> bool:
+    """Whether :func:`spectral_rgb_matrix_cached` would answer without colour-science: the matrix is in
+    this process already or its cache file exists."""
+    wl = np.asarray(wavelengths, dtype=np.float64)
+    memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))
+    return memo in _IN_MEMORY or _matrix_path(wl, illuminant, cat).is_file()
+
+
 def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> np.ndarray:
     """:func:`km.colour.spectral_rgb_matrix` for ``wavelengths`` (nm), read from the disk cache when it is
     there (keyed by the grid, the illuminant, the adaptation transform and colour-science's version) and
