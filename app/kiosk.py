@@ -417,6 +417,13 @@ class KioskWindow(QWidget):
         side.addWidget(self.snapshot_button)
         side.addWidget(self.toast)
         side.addStretch(1)
+        # the head scan's licence (CC BY) asks for its credit wherever it is shown
+        credit = getattr(self.doc.head, "credit", None)
+        if credit:
+            self.credit_label = QLabel(f"Head: {credit}")
+            self.credit_label.setWordWrap(True)
+            self.credit_label.setStyleSheet("color: #9a9a9a; font-size: 12px;")
+            side.addWidget(self.credit_label)
         body = QHBoxLayout()
         body.addWidget(self.viewport, 3)
         body.addLayout(side, 2)

@@ -112,6 +112,10 @@ class StudioWindow(QMainWindow):
         self.statusBar().addPermanentWidget(self.status)
         self.frame_label = QLabel()
         self.statusBar().addWidget(self.frame_label)
+        # the head scan's licence (CC BY) asks for its credit wherever it is shown
+        self.credit_label = QLabel()
+        self.credit_label.setStyleSheet("color: gray;")
+        self.statusBar().addWidget(self.credit_label)
         # the frame time is shown twice a second: relabelling on every frame would make Qt recompose the
         # window each time (costly on a software rasteriser)
         self._frame_ms = 0.0
@@ -335,6 +339,8 @@ class StudioWindow(QMainWindow):
         vp.set_overlay(s.overlay)
         vp.environment = s.environment
         self._update_actions()
+        credit = getattr(self.doc.head, "credit", None)
+        self.credit_label.setText(f"Head: {credit}" if credit else "")
         self.status.setText(f"brush {s.brush_radius_mm:.1f} mm · strength {s.brush_strength:.2f} · "
                             f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''} · renderer: "
                             f"{seams.backends().get('renderer', '…')}")

@@ -59,6 +59,11 @@ def test_looks_products_and_snapshot(kiosk: object, qtbot: object) -> None:
     assert Path(path).is_file() and Path(path).stat().st_size > 1000
 
 
+def test_the_head_scan_is_credited_on_screen(kiosk: object) -> None:
+    """CC BY 3.0: the scan's credit is shown beside the face."""
+    assert "Lee Perry-Smith" in kiosk.credit_label.text() and kiosk.credit_label.isVisibleTo(kiosk)
+
+
 def test_attract_mode_and_touch_returns_to_start(kiosk: object, qtbot: object) -> None:
     kiosk.start_attract()
     yaw = kiosk.viewport.camera.yaw

@@ -383,6 +383,8 @@ def test_about_and_shortcut_sheet(window: object) -> None:
     window.show_shortcuts()
     keys = {row[2] for row in shortcut_sheet()}
     assert {"[", "]", "Shift+[", "Shift+]", "E", "S", "X", "Ctrl+Z", "Ctrl+Shift+Z", "F"} <= keys
+    window.apply()
+    assert "Lee Perry-Smith" in window.credit_label.text()  # CC BY: credited while the head is shown
 
 
 def test_brush_shortcuts(window: object, qtbot: object) -> None:
