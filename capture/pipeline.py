@@ -6,12 +6,15 @@ detail texture (photograph / shaded model) baked into the head's UV space.
 
 A face folder (``write_face``) holds:
 
-- ``face.json`` — parameters (:class:`capture.phong.PhongParams`), light, camera, residuals, timings;
+- ``face.json`` — parameters (:class:`capture.phong.PhongParams`), light, camera, residuals, timings,
+  the separation of i_s from the albedo (``specular_separation``) and every number's unit (``units``,
+  where the key's name does not say it);
 - ``detail.exr`` — the detail texture, **float32** RGB in the head's UV space (top row first, the
   conventions of :mod:`painting.head`), values in [0, 2ⁿ] with n = 3 (the paper's [0, 8] range; we store
   floats rather than n doubling passes over an 8-bit texture);
 - ``report.png`` — photograph | fitted Phong render | difference (ΔE2000 × 10 as grey), like Fig. 9 |
-  the detail texture (×½) with the texels the photograph did not see tinted magenta;
+  the detail texture (×½) with the texels the photograph did not see tinted magenta, under a caption
+  strip naming each panel and its scale;
 - ``skin_mask.png`` — the skin pixels used.
 """
 
@@ -56,6 +59,37 @@ DETAIL_DOUBLINGS = 3
 FLASH_HUE_SPREAD_WARN = 0.015
 #: A shaded-model value below this is replaced by it before dividing (the paper's "small value").
 SHADED_FLOOR = 1e-3
+
+
+#: face.json's ``units``: the unit of every number a key name does not already say (``_deg``, ``_px``,
+#: ``timings_s``). "photograph units": linear sRGB, the sensor saturating at 1.
+FACE_JSON_UNITS: dict[str, str] = {
+    "phong.diffuse_rgb": "linear sRGB reflectance D (the detail texture averages 1 over the skin)",
+    "phong.specular_intensity": "photograph units at the lobe's peak, times the flash colour",
+    "phong.exponent": "dimensionless (Phong exponent s)",
+    "phong.ambient_scale": "dimensionless k, relative to the probe's ambient_rgb",
+    "phong.flash_rgb": "linear sRGB, luminance 1 (the flash's intensity is folded into D and i_s)",
+    "phong.ambient_rgb": "photograph units (the probe's mean radiance, same exposure)",
+    "light_dir_world": "unit vector towards the flash, mesh coordinates",
+    "exponent.s": "dimensionless (the exponent used)", "exponent.s_saturation": "dimensionless (saturation curve)",
+    "exponent.s_eq3": "dimensionless (the paper's Eq. 3)", "exponent.spec_over_diffuse": "dimensionless ratio",
+    "residual.rms_luv_per_pixel": "CIE L*u*v* distance (D65), RMS over skin pixels",
+    "residual.l2_luv": "CIE L*u*v* distance, L2 norm over skin pixels",
+    "residual.evaluations": "model evaluations",
+    "residual.ambient_scale_photo": "dimensionless k (diagnostic)",
+    "residual.reproduction_mean_de2000_skin": "CIEDE2000, mean over skin pixels",
+    "specular_separation.specular_intensity": "as phong.specular_intensity",
+    "specular_separation.specular_intensity_joint_fit": "as phong.specular_intensity",
+    "specular_separation.pixels": "skin pixels",
+    "camera.K": "pixels", "camera.R": "rotation, world to camera", "camera.t": "mesh units",
+    "camera.P": "pixels per mesh unit (3x4 projection)", "camera.width": "pixels", "camera.height": "pixels",
+    "probe.light_dir_camera": "unit vector, camera coordinates (x right, y down, z forward)",
+    "probe.flash_rgb": "linear sRGB, luminance 1", "probe.ambient_rgb": "photograph units",
+    "probe.clipped_fraction": "fraction of the ball's pixels", "probe.flash_hue_spread": "relative (0.01 = 1 %)",
+    "skin_pixels": "pixels", "detail_texture.range": "dimensionless ratio (photograph / shaded model)",
+    "detail_texture.size": "texels (height, width)", "detail_texture.texels_seen": "texels",
+    "timings_s": "seconds", "robustness.relative_std": "std / |mean|, dimensionless",
+}
 
 
 class CaptureError(SheerError, ValueError):
@@ -183,6 +217,7 @@ class CaptureResult:
         e = self.exponent
         return {
             "schema_version": FACE_SCHEMA_VERSION,
+            "units": FACE_JSON_UNITS,
             "phong": self.params.to_json(),
             "light_dir_world": self.light_dir_world.tolist(),
             "exponent": {"s": e.s, "s_saturation": e.s_saturation, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
@@ -459,24 +494,42 @@ def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndar
     return detail, valid
 
 
+#: The report's difference panel: grey level 255 × ΔE2000 / ``REPORT_DE_WHITE`` (white at and above).
+REPORT_DE_WHITE = 25.5
+
+
 def report_image(result: CaptureResult) -> np.ndarray:
-    """photograph | fitted Phong render | difference (ΔE2000 × 10 as grey, skin pixels) | the detail
-    texture in UV space, with the texels the photograph did not see (filled, see :func:`bake_detail`)
-    tinted magenta; uint8 (H, 4W, 3)."""
-    from PIL import Image
+    """photograph | fitted Phong render (no detail) | difference (ΔE2000 as grey, white at
+    ``REPORT_DE_WHITE`` and above, skin pixels) | the detail texture in UV space (× ½), with the texels
+    the photograph did not see (filled, see :func:`bake_detail`) tinted magenta; a caption strip above
+    names each panel and its scale. uint8 (H + caption, 4W, 3)."""
+    from PIL import Image, ImageDraw, ImageFont
 
     photo = result.photo_lin
     h, w = photo.shape[:2]
     de = np.zeros(photo.shape[:2])
     m = result.skin_mask
     de[m] = delta_e2000(result.fitted_render[m], photo[m])
-    diff = np.repeat(np.clip(de * 10.0 / 255.0, 0, 1)[..., None], 3, axis=2)
+    diff = np.repeat(np.clip(de / REPORT_DE_WHITE, 0, 1)[..., None], 3, axis=2)
     det = to_uint8(linear_to_srgb(np.asarray(result.detail, dtype=np.float64) * 0.5))
     tint = ~result.detail_valid
     det[tint] = (0.5 * det[tint] + 0.5 * np.array([255, 0, 255])).astype(np.uint8)
     det = np.asarray(Image.fromarray(det).resize((w, h), Image.Resampling.NEAREST))
-    return np.concatenate([to_uint8(linear_to_srgb(photo)), to_uint8(linear_to_srgb(result.fitted_render)),
-                           to_uint8(diff), det], axis=1)
+    panels = np.concatenate([to_uint8(linear_to_srgb(photo)), to_uint8(linear_to_srgb(result.fitted_render)),
+                             to_uint8(diff), det], axis=1)
+    mean_de = float(de[m].mean()) if m.any() else 0.0
+    # ASCII only: Pillow's built-in font has no Δ, × or ½.
+    captions = ["photograph", "fitted Phong, no detail", f"dE2000 0-{REPORT_DE_WHITE:g} (skin mean {mean_de:.1f})",
+                "detail x0.5 (magenta: unseen)"]
+    size = max(8, min(w // 20, 24))
+    strip = Image.new("RGB", (4 * w, size + size // 2), (32, 32, 32))
+    draw = ImageDraw.Draw(strip)
+    font = ImageFont.load_default(size=size)
+    for i, text in enumerate(captions):
+        while len(text) > 4 and draw.textlength(text, font=font) > w - 8:
+            text = text[:-4] + "..."
+        draw.text((i * w + 4, size // 4), text, fill=(230, 230, 230), font=font)
+    return np.concatenate([np.asarray(strip), panels], axis=0)
 
 
 def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None) -> Path:

@@ -46,7 +46,38 @@ def test_capture_writes_face_folder(inputs: dict[str, Path], capsys: pytest.Capt
     for name in ("face.json", "detail.exr", "report.png", "skin_mask.png"):
         assert (out / name).is_file()
     report = np.asarray(Image.open(out / "report.png"))
-    assert report.shape == (256, 1024, 3)  # photo | fitted | difference | detail (unseen texels marked)
+    # A caption strip over photo | fitted | difference | detail (unseen texels marked), 256 px each.
+    assert report.shape[1:] == (1024, 3) and 256 + 8 <= report.shape[0] <= 256 + 40
+    caption = report[: report.shape[0] - 256]
+    assert all(caption[:, i * 256:(i + 1) * 256].std() > 5 for i in range(4))  # each panel is named
+    assert "i_s = " in err and "joint fit" in err
+
+
+def _numbers(x: object, path: str = "") -> list[str]:
+    """Paths of the numeric leaves (a list of numbers counts as one) of a JSON value."""
+    if isinstance(x, dict):
+        return [p for k, v in x.items() for p in _numbers(v, f"{path}.{k}" if path else k)]
+    if isinstance(x, list) and x and not all(isinstance(v, (int, float)) for v in x):
+        return [p for v in x for p in _numbers(v, path)]
+    if isinstance(x, bool):
+        return []
+    return [path] if isinstance(x, (int, float)) or (isinstance(x, list) and x) else []
+
+
+def test_every_number_in_face_json_has_a_unit(inputs: dict[str, Path]) -> None:
+    # A key names its unit (…_deg, …_px, timings_s…) or face.json's "units" gives it (for the path or
+    # an enclosing object's path).
+    data = json.loads((inputs["dir"] / "face" / "face.json").read_text())
+    units = data["units"]
+    suffixes = ("_deg", "_px", "_s", "schema_version", "starts")
+
+    def has_unit(path: str) -> bool:
+        parts = path.split(".")
+        return (parts[-1].endswith(suffixes) or any(p.endswith("_s") for p in parts)
+                or any(".".join(parts[:i]) in units for i in range(1, len(parts) + 1)))
+
+    missing = [p for p in _numbers(data) if not p.startswith("units") and not has_unit(p)]
+    assert not missing, missing
 
 
 @pytest.mark.parametrize("case", ["missing_photo", "few_points", "bad_mask"])
