@@ -30,8 +30,8 @@ The specular intensity i_s: the paper fits it jointly with D; that fit reads alb
 under the lobe as specular (+15 to +35 % on the synthetic truth). The capture then refits i_s with the
 diffuse term modulated by the low-frequency detail, :func:`specular_from_detail` (a departure from the
 paper, explained there), and D once more with that i_s fixed. Measured beyond the validation test's
-truth (s 24, i_s 0.18: within 2 % in all six environments): s 12 studio +5.7 % (joint fit +29 %),
-s 40 city −4.1 % (+15 %), i_s 0.10 warehouse −3.1 % (+35 %), i_s 0.30 sunset −1.4 % (+16 %).
+truth (s 24, i_s 0.18: within 2 % in all six environments): s 12 studio +0.6 % (joint fit +29 %),
+s 40 city −3.2 % (+15 %), i_s 0.10 warehouse −3.0 % (+35 %), i_s 0.30 sunset −1.5 % (+16 %).
 """
 
 from __future__ import annotations
@@ -293,9 +293,12 @@ def robustness(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb:
             "max_relative_std": float(rel.max()), "mean": dict(zip(names, a.mean(axis=0).tolist()))}
 
 
-#: The high-pass of :func:`specular_from_detail` keeps structure finer than this fraction of the specular
-#: core's equivalent radius (the core: pixels where the lobe is at least half its peak).
-LOBE_SCALE_FRACTION = 0.4
+#: The high-pass scale of :func:`specular_from_detail` on the skin (mm): the skin's regional albedo
+#: variation (nose, cheeks, forehead: tens of mm) drops out, its pores (under 1 mm) stay as noise.
+DETAIL_HIGH_PASS_MM = 3.5
+#: ... and at most this fraction of the specular core's equivalent radius (the core: pixels where the
+#: lobe is at least half its peak), so the lobe's own curvature stays in the high-passed photograph.
+LOBE_SCALE_FRACTION = 0.5
 
 
 @dataclass
@@ -315,7 +318,8 @@ class DetailSpecular:
 
 
 def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
-                         cols: np.ndarray, shape: tuple[int, int]) -> DetailSpecular | None:
+                         cols: np.ndarray, shape: tuple[int, int],
+                         px_per_mm: float | None = None) -> DetailSpecular | None:
     """i_s refitted with the diffuse term modulated by the low-frequency detail (a departure from the
     paper, which fits i_s jointly with D on the photograph).
 
@@ -331,11 +335,15 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
     units): i_s = Σ w·HP(r)·HP(q) / Σ w·HP(q)², r = photo / D·L, q = S·F / D·L, w = (D·L)², HP = x minus its
     normalised Gaussian average over the unclipped lit skin pixels in the image. The albedo's variation
     broader than σ drops out; the lobe's core, curved at the scale of its own size, stays. σ =
-    ``LOBE_SCALE_FRACTION`` × the core's equivalent radius (at least 1 px), so the scale follows the
-    exponent and the photograph's resolution. Measured on the synthetic truth (true i_s 0.18; core radius
-    18 px, so σ = 7.2 px): i_s within 5 % for σ from 1 to 10 px (0.183 at 1, 0.173 at 3-5, 0.176 at 7,
-    0.182 at 9, 0.185 at 10; 0.19 at 12 and 0.20 at 15, where the brighter albedo around the core is
-    broad enough to pass).
+    ``DETAIL_HIGH_PASS_MM`` on the skin (``px_per_mm``: photograph pixels per millimetre there), at most
+    ``LOBE_SCALE_FRACTION`` × the core's equivalent radius, at least 1 px (without ``px_per_mm``, that
+    fraction of the radius alone).
+
+    Measured on the synthetic truth (true i_s 0.18; 0.5 mm per pixel, so σ = 7 px): with s 24 (core
+    radius 18 px) i_s is within 5 % for σ from 1 to 10 px (0.183 at 1, 0.173 at 3-5, 0.176 at 7, 0.185
+    at 10; 0.20 at 15, where the brighter albedo around the core is broad enough to pass); with s 12
+    (radius 25 px) 0.174-0.178 at 2-6 px, 0.184 at 8, 0.191 at 10; with s 40 (radius 15 px) 0.172-0.176
+    at 3-8 px. The bias thus follows a scale on the skin, not the lobe's size.
 
     Returns None when the lobe has no core on unclipped skin (fewer than 20 pixels at half its peak).
     """
@@ -351,7 +359,10 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
     if core.sum() < 20:
         return None
     radius = float(np.sqrt(core.sum() / np.pi))
-    sigma = max(1.0, LOBE_SCALE_FRACTION * radius)
+    sigma = LOBE_SCALE_FRACTION * radius
+    if px_per_mm is not None and px_per_mm > 0:
+        sigma = min(sigma, DETAIL_HIGH_PASS_MM * px_per_mm)
+    sigma = max(1.0, sigma)
     r = np.where(ok[:, None], photo / np.maximum(dl, 1e-6), 0.0)
     q = np.where(ok[:, None], lobe[:, None] * params.flash_rgb[None, :] / np.maximum(dl, 1e-6), 0.0)
     weight = np.zeros(shape)

@@ -342,7 +342,10 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
     # i_s separated from the skin's albedo variation under the lobe (the joint fit reads brighter skin
     # there as specular), then D refitted with it (see :func:`capture.phong.specular_from_detail`).
     specular_joint = fit.params.specular
-    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w))
+    # Photograph pixels per millimetre on the skin: the focal length over the skin's median depth.
+    px_per_mm = float(camera.K[1, 1]) / (float(np.median(pix.depth[pix.rows[sel], pix.cols[sel]]))
+                                          * float(getattr(head, "mm_per_unit", 1.0)))
+    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w), px_per_mm=px_per_mm)
     if sep is not None:
         diffuse_joint = fit.params.diffuse
         fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb,
