@@ -136,7 +136,7 @@ def test_specular_intensity_is_separated_from_albedo_brighter_under_the_lobe() -
     # A sphere seen head-on (240² pixels), Phong with s 24 and i_s 0.18, its albedo 12 % brighter in a
     # broad patch around the highlight (σ 3× the specular core's radius) plus fine pore-like noise. The
     # paper's joint fit reads the brighter skin as specular; the refit on the high-passed photograph
-    # (capture.phong.specular_from_detail) does not. Measured: joint 0.219 (+22 %), separated 0.183 (+1.5 %).
+    # (capture.phong.specular_from_detail) does not. Measured: joint 0.219 (+22 %), separated 0.183 (+1.7 %).
     from capture.phong import Geometry, PhongParams, fit_phong, shade, specular_from_detail
 
     n_px = 240
