@@ -16,7 +16,8 @@ Units: thickness µm; positions mesh units (exactly as trimesh loads the file); 
 Texture space: row 0 is the top row and covers v ∈ [0, 1/H) (see :mod:`painting.head`).
 
 Modules: :mod:`painting.head` (loading, metadata), :mod:`painting.atlas` (cleaning, UV check, xatlas,
-bake, cache), :mod:`painting.spatial` (texel grid), :mod:`painting.brush` (Brush, modes),
+bake, cache), :mod:`painting.spatial` (texel grid), :mod:`painting.kernels` (compiled dab kernels, numba,
+bit-identical to the numpy path), :mod:`painting.brush` (Brush, modes),
 :mod:`painting.document` (Document, Layer, Stroke, ChangeEvent), :mod:`painting.history` (undo),
 :mod:`painting.hit` (ray and depth picking), :mod:`painting.maps_io` (PNG16/EXR).
 

@@ -13,7 +13,8 @@
   computed from the head's landmarks and a skin-colour model.
 
 Writes FACE_DIR/face.json (parameters, light, camera, residuals), detail.exr (float32 detail texture in the
-head's UV space), report.png (photo | fitted render | difference) and skin_mask.png.
+head's UV space), report.png (photo | fitted render | difference | detail texture with the texels the
+photograph never saw in magenta, with a caption strip) and skin_mask.png.
 """
 
 from __future__ import annotations
