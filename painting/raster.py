@@ -142,15 +142,7 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
         flat = rows * width + cols
         if depth is not None:
             key = np.einsum("ij,ij->i", bc, depth[tri_idx])
-            order = np.lexsort((key, flat))
-            flat_s = flat[order]
-            first = np.ones(len(flat_s), dtype=bool)
-            first[1:] = flat_s[1:] != flat_s[:-1]
-            sel = order[first]
-            f_sel = flat[sel]
-            better = key[sel] < best[f_sel]
-            f_sel, sel = f_sel[better], sel[better]
-            best[f_sel] = key[sel]
+            f_sel, sel = _keep_nearest(flat, key, best)
         else:
             # Texel centres inside two triangles only happen where UVs overlap: the last one wins.
             sel = np.arange(len(flat))
@@ -169,18 +161,25 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
         y = rows + 0.5
         cen = centroid[tri_idx]
         key = np.hypot(cen[:, 0] - x, cen[:, 1] - y)
-        order = np.lexsort((key, flat))
-        flat_s = flat[order]
-        first = np.ones(len(flat_s), dtype=bool)
-        first[1:] = flat_s[1:] != flat_s[:-1]
-        sel = order[first]
-        f_sel = flat[sel]
-        better = key[sel] < best[f_sel]
-        f_sel, sel = f_sel[better], sel[better]
-        best[f_sel] = key[sel]
+        f_sel, sel = _keep_nearest(flat, key, best)
         face[f_sel] = tri_idx[sel]
         bary_out[f_sel] = _clamp_to_triangle(tri, tri_idx[sel], x[sel], y[sel])
     return face.reshape(height, width), bary_out.reshape(height, width, 3)
+
+
+def _keep_nearest(flat: np.ndarray, key: np.ndarray, best: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Of the candidates (texel ``flat[i]``, ordering ``key[i]``), the one with the smallest key per texel,
+    kept only where it beats ``best`` (updated in place). Returns (texels, candidate indices)."""
+    order = np.lexsort((key, flat))
+    flat_s = flat[order]
+    first = np.ones(len(flat_s), dtype=bool)
+    first[1:] = flat_s[1:] != flat_s[:-1]
+    sel = order[first]
+    f_sel = flat[sel]
+    better = key[sel] < best[f_sel]
+    f_sel, sel = f_sel[better], sel[better]
+    best[f_sel] = key[sel]
+    return f_sel, sel
 
 
 def _clamp_to_triangle(tri: np.ndarray, tri_idx: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
