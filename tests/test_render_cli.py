@@ -147,3 +147,33 @@ def test_renders_a_project(tmp_path: Path, capsys: pytest.CaptureFixture[str], g
     assert (img[..., 0] - img[..., 1] > 80).sum() > 20  # red lips
     code, err = _run(capsys, "--project", str(tmp_path / "missing.sheer"), "--out", str(out))
     assert code == 2 and "missing.sheer" in err
+
+
+def test_thickness_view_names_a_document_layer(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                               gl_ctx: object) -> None:
+    """--debug-layer counts the document's layers, hidden ones too: with the foundation (layer 0) hidden,
+    layer 1 (the lipstick) still shows the lipstick's map; the hidden one and a missing one are refused."""
+    from painting import Document
+    from painting.looks import apply_look
+    from painting.project import save_project
+    from painting.project_document import project_from_document
+
+    doc = Document.from_head(resolution=256)
+    apply_look(doc, "red-lip")  # layer 0 foundation, layer 1 lipstick
+    names = [lay.name for lay in doc.layers]
+    outs = {}
+    for hidden in (False, True):
+        doc.set_layer_visible(0, not hidden)
+        project = tmp_path / f"look-{hidden}.sheer"
+        save_project(project_from_document(doc), project)
+        outs[hidden] = tmp_path / f"lips-{hidden}.png"
+        code, err = _run(capsys, "--project", str(project), "--size", "160x120", "--debug-view", "thickness",
+                         "--debug-layer", "1", "--out", str(outs[hidden]))
+        assert code == 0, err
+    np.testing.assert_array_equal(np.asarray(Image.open(outs[True])), np.asarray(Image.open(outs[False])))
+    code, err = _run(capsys, "--project", str(tmp_path / "look-True.sheer"), "--debug-view", "thickness",
+                     "--debug-layer", "0", "--out", str(tmp_path / "x.png"))
+    assert code == 2 and names[0] in err and "hidden" in err
+    code, err = _run(capsys, "--project", str(tmp_path / "look-True.sheer"), "--debug-view", "thickness",
+                     "--debug-layer", "5", "--out", str(tmp_path / "x.png"))
+    assert code == 2 and "2 layers" in err

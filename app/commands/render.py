@@ -154,7 +154,19 @@ def run(args: argparse.Namespace) -> int:
             if doc is not None:
                 renderer.sync_document(doc)
             s = renderer.settings
-            s.exposure, s.debug_view, s.debug_layer = args.exposure, args.debug_view, args.debug_layer
+            s.exposure, s.debug_view = args.exposure, args.debug_view
+            if args.debug_view == "thickness":  # --debug-layer is a document layer; the renderer's is a slot
+                from app.render_adapter import debug_slot
+
+                n = len(renderer.km.layers)
+                if not 0 <= args.debug_layer < max(n, 1):
+                    raise SheerError(f"--debug-layer {args.debug_layer}: there are {n} layers (0 to {n - 1})"
+                                     if n else f"--debug-layer {args.debug_layer}: there are no layers")
+                slot = debug_slot(renderer.km.active, args.debug_layer) if n else 0
+                if slot is None:
+                    raise SheerError(f"--debug-layer {args.debug_layer}: layer "
+                                     f"'{renderer.km.layers[args.debug_layer].name}' is hidden or transparent")
+                s.debug_layer = slot
             if face is None:
                 s.mode = args.mode
             renderer.camera.yaw, renderer.camera.pitch = args.yaw, args.pitch
