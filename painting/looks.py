@@ -247,8 +247,8 @@ def _code_digest() -> str:
 
 def _maps_cache_path(doc: Any, look: Look, points: list[list[list[np.ndarray]]]) -> Path | None:
     """Where the painted maps of ``look`` on ``doc`` are cached: keyed by the paint layout, the layers'
-    resolution and materials' maximum thickness, every stroke's brush and resolved surface points, the
-    mirror plane and the painting code (a real :class:`painting.Document` only)."""
+    resolution, the materials' maximum and default thickness, every stroke's brush and resolved surface
+    points, the mirror plane and the painting code (a real :class:`painting.Document` only)."""
     from painting.document import Document
 
     if not isinstance(doc, Document) or type(doc).add_layer is not Document.add_layer:
@@ -257,8 +257,10 @@ def _maps_cache_path(doc: Any, look: Look, points: list[list[list[np.ndarray]]])
     md = doc.head.metadata
     h.update(f"{doc.layout.key}|{doc.resolution}|{_code_digest()}|{md.midplane_point}|{md.midplane_normal}".encode())
     for lay, lay_points in zip(look.layers, points):
-        mat = doc.library.get(lay.material)
-        h.update(f"|{lay.material}|{float(mat.max_thickness_um)!r}".encode())
+        mat = doc.library.get(lay.material)  # a stroke without amount_um adds the material's default
+        h.update(f"|{lay.material}|{float(mat.max_thickness_um)!r}|{getattr(mat, 'default_thickness_um', None)!r}"
+                 f"|{getattr(mat, 'thickness_um', None)!r}"
+                 .encode())
         for st, pts in zip(lay.strokes, lay_points):
             h.update(repr((st.radius_mm, st.hardness, st.strength, st.mode, st.flow, st.amount_um, st.spacing,
                            st.mirror)).encode())
