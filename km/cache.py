@@ -44,6 +44,20 @@ def _colour_science_version() -> str:
         return "none"
 
 
+def save_array(path: Path, array: np.ndarray) -> None:
+    """Write ``array`` to the cache file ``path`` (``.npy``) atomically, making its folder; failing to
+    write is not an error (a cache is an optimisation only)."""
+    from km.atomicio import atomic_write_bytes
+
+    try:
+        buf = io.BytesIO()
+        np.save(buf, array, allow_pickle=False)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError:
+        pass
+
+
 def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
     version = _colour_science_version()
     h = hashlib.sha256()
@@ -81,15 +95,7 @@ def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", 
     from km.colour import spectral_rgb_matrix
 
     m = np.array(spectral_rgb_matrix(wl, illuminant, cat), dtype=np.float64)
-    try:
-        from km.atomicio import atomic_write_bytes
-
-        buf = io.BytesIO()
-        np.save(buf, m, allow_pickle=False)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass
+    save_array(path, m)
     m.setflags(write=False)
     _IN_MEMORY[memo] = m
     return m

@@ -97,7 +97,7 @@ class TextureIrradiance:
         """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance; kept
         on disk per mesh footprint and size (scipy's distance transform plus the read-back take about
         0.6 s of a start-up)."""
-        from km.cache import cache_dir
+        from km.cache import cache_dir, save_array
 
         n = self.size
         path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.npy"
@@ -118,17 +118,7 @@ class TextureIrradiance:
             else:
                 iy, ix = np.mgrid[0:n, 0:n]
             idx = np.ascontiguousarray(np.stack([ix, iy], axis=-1).astype(np.int32))
-            try:
-                import io
-
-                from km.atomicio import atomic_write_bytes
-
-                buf = io.BytesIO()
-                np.save(buf, idx, allow_pickle=False)
-                path.parent.mkdir(parents=True, exist_ok=True)
-                atomic_write_bytes(path, buf.getvalue())
-            except OSError:
-                pass  # the cache is an optimisation only
+            save_array(path, idx)
         self.index = self.ctx.texture((n, n), 2, idx.tobytes(), dtype="i4")
         self.index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
 

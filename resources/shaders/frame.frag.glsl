@@ -25,12 +25,6 @@
 #ifndef HAS_SKIN_MASK
 #define HAS_SKIN_MASK 1
 #endif
-#ifndef SHADOWED
-#define SHADOWED 255
-#endif
-#ifndef POINT_LIGHTS
-#define POINT_LIGHTS -1
-#endif
 #include "common.glsl"
 #include "lighting.glsl"
 #include "specular.glsl"

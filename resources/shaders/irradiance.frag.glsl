@@ -11,12 +11,6 @@
 #define NLIGHTS 8
 #define DYNAMIC_LIGHTS 1
 #endif
-#ifndef SHADOWED
-#define SHADOWED 255
-#endif
-#ifndef POINT_LIGHTS
-#define POINT_LIGHTS -1
-#endif
 #ifndef ENV
 #define ENV 1
 #endif

@@ -1,6 +1,14 @@
 // Lights (up to 8 directional/point), PCF shadow maps and SH environment irradiance.
 // Display units: E is the irradiance; a Lambert surface of reflectance R shows R E.
 #define MAX_LIGHTS 8
+// A program specialised on a light rig defines SHADOWED and POINT_LIGHTS (bit i: light i casts shadows /
+// is a point light); unspecialised, every light may cast shadows and each decides per pixel if it is a point.
+#ifndef SHADOWED
+#define SHADOWED 255
+#endif
+#ifndef POINT_LIGHTS
+#define POINT_LIGHTS -1
+#endif
 uniform int u_nlights;
 uniform vec4 u_light_vec[MAX_LIGHTS];     // xyz: direction to light (w = 0) or position (w = 1)
 uniform vec4 u_light_col[MAX_LIGHTS];     // rgb: colour x intensity; a: reference distance (point)
