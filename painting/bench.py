@@ -8,6 +8,16 @@ event sent; ``dab_cpu_ms_*`` the same in process CPU time, which a busy shared m
 ``undo_ms``, ``redo_ms``, ``undo_peak_mb`` (peak bytes held by the undo stack), texel counts (in a 1 cm
 dab, and ``dab_new_texels_*`` the median a dab newly painted), ``paint_path`` ("numba" kernels, or the
 "numpy" reference under ``SHEER_PAINT_KERNEL=numpy``: see :mod:`painting.kernels`) and the targets.
+
+What bounds ``dab_ratio_4096_1024`` (with the compiled kernels): ``dab_fixed_ms_*`` is the median dab
+of 0.2 mm radius (a texel or none: the cost of a dab that does not grow with its texels — checks, the
+nearest texel, the capsule, the call, the change event); ``dab_floor_ms_*`` the least any dab must
+spend per texel, measured: one compiled pass over exactly the 1 cm dab's texels, in map order, that
+reads each texel's position and writes one value (no falloff, no facing test, no undo, no padding;
+the map's pages already mapped). ``dab_floor_ratio_4096_1024`` = (fixed₁₀₂₄ + floor₄₀₉₆) /
+(fixed₁₀₂₄ + floor₁₀₂₄) is the best ratio a dab with this fixed cost could reach, and
+``dab_fixed_needed_ms`` = 2·floor₄₀₉₆ − 3·floor₁₀₂₄ the fixed cost a dab would need for the ratio to reach
+1.5 even with floor-speed texel work: a 1 cm dab covers 16× the texels on a 4096² map.
 Atlases are baked once and cached on disk (the first run takes longer); the kernels are compiled (or
 loaded from their cache) before timing.
 """
@@ -73,6 +83,77 @@ def _face_path(doc: Any, n: int) -> np.ndarray:
     return out[np.isin(np.arange(n), ray)]
 
 
+_FLOOR_KERNEL: Any = None
+
+
+def _floor_kernel() -> Any:
+    """The compiled floor pass (see the module docstring), or None without numba."""
+    global _FLOOR_KERNEL
+    if _FLOOR_KERNEL is None:
+        from painting import kernels
+
+        if not kernels.HAVE_NUMBA:
+            return None
+        import numba
+
+        def texel_floor(flat: np.ndarray, pos: np.ndarray, c: np.ndarray, r2: np.float32,
+                        out: np.ndarray) -> int:
+            """Read the position (``pos``: flat (H·W·3,) float32) of each texel ``flat`` (ascending) and
+            write its squared distance to ``c`` into ``out`` when inside ``r2``; returns the count."""
+            n = 0
+            for i in range(len(flat)):
+                f = flat[i]
+                dx = pos[3 * f] - c[0]
+                dy = pos[3 * f + 1] - c[1]
+                dz = pos[3 * f + 2] - c[2]
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 < r2:
+                    out[f] = d2
+                    n += 1
+            return n
+
+        _FLOOR_KERNEL = numba.njit(nogil=True, error_model="numpy")(texel_floor)
+    return _FLOOR_KERNEL
+
+
+def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10.0) -> dict[str, float]:
+    """``floor_ms``: the median floor pass (module docstring) over each point's dab texels (the covered
+    texels within ``radius_mm``, found outside the timing); ``fixed_ms``: the median real dab of 0.2 mm
+    radius at the same points (each the first of its stroke, as in :func:`measure`)."""
+    from painting import Brush
+
+    out: dict[str, float] = {}
+    kernel = _floor_kernel()
+    if kernel is not None:
+        index = doc.atlas.index
+        pos = doc.atlas.position.reshape(-1)
+        res = doc.atlas.resolution
+        target = np.zeros(res * res, dtype=np.float32)
+        target[:] = 0.0  # map the pages now: the floor leaves out first-touch faults
+        r = radius_mm / doc.mm_per_unit
+        r2 = np.float32(r * r)
+        times = []
+        for i, p in enumerate(pts):
+            c = p.astype(np.float32)
+            idx = index.query_sphere(p, r)
+            flat = np.sort(index.flat[idx[index.distance2(idx, p) < r2]])
+            if i == 0:
+                kernel(flat, pos, c, r2, target)  # compile
+            t0 = time.perf_counter()
+            kernel(flat, pos, c, r2, target)
+            times.append(time.perf_counter() - t0)
+        out["floor_ms"] = 1000 * statistics.median(times)
+    tiny = Brush(radius_mm=0.2, hardness=0.5, strength=1.0, mode="add")
+    times = []
+    for p in pts:
+        with doc.stroke(layer, tiny) as s:
+            t0 = time.perf_counter()
+            s.dab(p)
+            times.append(time.perf_counter() - t0)
+    out["fixed_ms"] = 1000 * statistics.median(times)
+    return out
+
+
 def measure(resolution: int, library: Any, material: str, dabs: int = 40) -> dict[str, Any]:
     from painting import Brush, Document
 
@@ -95,7 +176,8 @@ def measure(resolution: int, library: Any, material: str, dabs: int = 40) -> dic
             cpu.append(time.process_time() - c0)
         strokes.append(time.perf_counter() - s0)
         texels.append(int(np.count_nonzero(layer.thickness)))
-    return {"doc": doc, "layer": layer, "dab_ms": 1000 * statistics.median(times),
+    extra = floor_and_fixed(doc, layer, pts)
+    return {"doc": doc, "layer": layer, "dab_ms": 1000 * statistics.median(times), **extra,
             "dab_cpu_ms": 1000 * statistics.median(cpu), "dab_stroke_ms": 1000 * statistics.median(strokes),
             "texels_per_dab": int(np.median(np.diff([0, *texels])[1:]) if len(texels) > 1 else texels[0])}
 
@@ -120,6 +202,9 @@ def main(argv: list[str] | None = None) -> int:
         out[f"dab_stroke_ms_{res}"] = round(r["dab_stroke_ms"], 3)
         out[f"dab_new_texels_{res}"] = r["texels_per_dab"]
         out[f"texels_in_1cm_dab_{res}"] = int(round(np.pi * (10.0 / r["doc"].atlas.texel_mm) ** 2))
+        out[f"dab_fixed_ms_{res}"] = round(r["fixed_ms"], 3)
+        if "floor_ms" in r:
+            out[f"dab_floor_ms_{res}"] = round(r["floor_ms"], 3)
         if res == 2048:
             keep = r
         else:
@@ -127,6 +212,10 @@ def main(argv: list[str] | None = None) -> int:
     if "dab_ms_4096" in out:
         out["dab_ratio_4096_1024"] = round(out["dab_ms_4096"] / out["dab_ms_1024"], 3)
         out["dab_cpu_ratio_4096_1024"] = round(out["dab_cpu_ms_4096"] / out["dab_cpu_ms_1024"], 3)
+        if "dab_floor_ms_4096" in out:
+            fixed, lo, hi = out["dab_fixed_ms_1024"], out["dab_floor_ms_1024"], out["dab_floor_ms_4096"]
+            out["dab_floor_ratio_4096_1024"] = round((fixed + hi) / (fixed + lo), 3)
+            out["dab_fixed_needed_ms"] = round(2 * hi - 3 * lo, 3)
     from painting import Brush
 
     doc, layer = keep["doc"], keep["layer"]
