@@ -18,6 +18,8 @@ the map's pages already mapped). ``dab_floor_ratio_4096_1024`` = (fixed₁₀₂
 (fixed₁₀₂₄ + floor₁₀₂₄) is the best ratio a dab with this fixed cost could reach, and
 ``dab_fixed_needed_ms`` = 2·floor₄₀₉₆ − 3·floor₁₀₂₄ the fixed cost a dab would need for the ratio to reach
 1.5 even with floor-speed texel work: a 1 cm dab covers 16× the texels on a 4096² map.
+``dab_ns_per_texel_*`` = (dab − fixed) / texels in the dab: flat or falling with the map size when a
+dab's cost follows the texels under the brush and nothing else.
 Atlases are baked once and cached on disk (the first run takes longer); the kernels are compiled (or
 loaded from their cache) before timing.
 """
@@ -203,6 +205,8 @@ def main(argv: list[str] | None = None) -> int:
         out[f"dab_new_texels_{res}"] = r["texels_per_dab"]
         out[f"texels_in_1cm_dab_{res}"] = int(round(np.pi * (10.0 / r["doc"].atlas.texel_mm) ** 2))
         out[f"dab_fixed_ms_{res}"] = round(r["fixed_ms"], 3)
+        texels = out[f"texels_in_1cm_dab_{res}"]
+        out[f"dab_ns_per_texel_{res}"] = round(1e6 * (r["dab_ms"] - r["fixed_ms"]) / max(texels, 1), 1)
         if "floor_ms" in r:
             out[f"dab_floor_ms_{res}"] = round(r["floor_ms"], 3)
         if res == 2048:
