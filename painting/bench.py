@@ -3,8 +3,9 @@
 Prints one JSON object: ``dab_ms_1024``, ``dab_ms_2048``, ``dab_ms_4096`` (median wall-clock ms of one
 1 cm radius dab, the first of its stroke: the map written, the touched tiles saved for undo, the change
 event sent; ``dab_cpu_ms_*`` the same in process CPU time, which a busy shared machine disturbs less;
-``dab_stroke_ms_*`` the whole one-dab stroke, its undo step pushed at the end included),
-``dab_ratio_4096_1024``, ``stroke_1000_ms`` (a 1000-dab stroke including its undo record),
+``dab_stroke_ms_*`` the whole one-dab stroke, its undo step pushed at the end included;
+``dab_cold_ms_*`` the same dabs on a fresh layer, each after reading 160 MB, so that the caches are as
+cold at every map size), ``dab_ratio_4096_1024`` (and ``dab_cold_ratio_4096_1024``), ``stroke_1000_ms`` (a 1000-dab stroke including its undo record),
 ``undo_ms``, ``redo_ms``, ``undo_peak_mb`` (peak bytes held by the undo stack), texel counts (in a 1 cm
 dab, and ``dab_new_texels_*`` the median a dab newly painted), ``paint_path`` ("numba" kernels, or the
 "numpy" reference under ``SHEER_PAINT_KERNEL=numpy``: see :mod:`painting.kernels`) and the targets.
@@ -18,6 +19,7 @@ the map's pages already mapped). ``dab_floor_ratio_4096_1024`` = (fixed₁₀₂
 (fixed₁₀₂₄ + floor₁₀₂₄) is the best ratio a dab with this fixed cost could reach, and
 ``dab_fixed_needed_ms`` = 2·floor₄₀₉₆ − 3·floor₁₀₂₄ the fixed cost a dab would need for the ratio to reach
 1.5 even with floor-speed texel work: a 1 cm dab covers 16× the texels on a 4096² map.
+The ``_cold`` variants measure the same with the caches cold (160 MB read before each pass or dab).
 ``dab_ns_per_texel_*`` = (dab − fixed) / texels in the dab: flat or falling with the map size when a
 dab's cost follows the texels under the brush and nothing else.
 Atlases are baked once and cached on disk (the first run takes longer); the kernels are compiled (or
@@ -118,13 +120,17 @@ def _floor_kernel() -> Any:
     return _FLOOR_KERNEL
 
 
-def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10.0) -> dict[str, float]:
+def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10.0,
+                    evict: np.ndarray | None = None) -> dict[str, float]:
     """``floor_ms``: the median floor pass (module docstring) over each point's dab texels (the covered
     texels within ``radius_mm``, found outside the timing); ``fixed_ms``: the median real dab of 0.2 mm
-    radius at the same points (each the first of its stroke, as in :func:`measure`)."""
+    radius at the same points (each the first of its stroke, as in :func:`measure`). With ``evict``,
+    also ``floor_cold_ms`` and ``fixed_cold_ms``, each pass or dab after reading ``evict``."""
     from painting import Brush
 
     out: dict[str, float] = {}
+    passes: tuple[tuple[str, np.ndarray | None], ...] = (("", None),) if evict is None else (("", None),
+                                                                                              ("_cold", evict))
     kernel = _floor_kernel()
     if kernel is not None:
         index = doc.atlas.index
@@ -134,29 +140,75 @@ def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10
         target[:] = 0.0  # map the pages now: the floor leaves out first-touch faults
         r = radius_mm / doc.mm_per_unit
         r2 = np.float32(r * r)
-        times = []
-        for i, p in enumerate(pts):
-            c = p.astype(np.float32)
+        lists = []
+        for p in pts:
             idx = index.query_sphere(p, r)
-            flat = np.sort(index.flat[idx[index.distance2(idx, p) < r2]])
-            if i == 0:
-                kernel(flat, pos, c, r2, target)  # compile
-            t0 = time.perf_counter()
-            kernel(flat, pos, c, r2, target)
-            times.append(time.perf_counter() - t0)
-        out["floor_ms"] = 1000 * statistics.median(times)
+            lists.append(np.sort(index.flat[idx[index.distance2(idx, p) < r2]]))
+        kernel(lists[0], pos, pts[0].astype(np.float32), r2, target)  # compile
+        for suffix, buffer in passes:
+            times = []
+            for p, flat in zip(pts, lists):
+                c = p.astype(np.float32)
+                if buffer is not None:
+                    float(buffer.sum())
+                t0 = time.perf_counter()
+                kernel(flat, pos, c, r2, target)
+                times.append(time.perf_counter() - t0)
+            out[f"floor{suffix}_ms"] = 1000 * statistics.median(times)
     tiny = Brush(radius_mm=0.2, hardness=0.5, strength=1.0, mode="add")
-    times = []
-    for p in pts:
-        with doc.stroke(layer, tiny) as s:
-            t0 = time.perf_counter()
-            s.dab(p)
-            times.append(time.perf_counter() - t0)
-    out["fixed_ms"] = 1000 * statistics.median(times)
+    for suffix, buffer in passes:
+        times = []
+        for p in pts:
+            if buffer is not None:
+                float(buffer.sum())
+            with doc.stroke(layer, tiny) as s:
+                t0 = time.perf_counter()
+                s.dab(p)
+                times.append(time.perf_counter() - t0)
+        out[f"fixed{suffix}_ms"] = 1000 * statistics.median(times)
     return out
 
 
-def measure(resolution: int, library: Any, material: str, dabs: int = 40) -> dict[str, Any]:
+#: Bytes read before each "cold" dab: more than this machine's last-level cache (105 MB), the same at
+#: every map size.
+EVICT_BYTES = 160 * 2**20
+
+
+def _timed_dabs(doc: Any, layer: Any, pts: np.ndarray, brush: Any,
+                evict: np.ndarray | None = None) -> tuple[list[float], list[float], list[float], list[int]]:
+    """One single-dab stroke at each point: (dab wall s, dab CPU s, whole stroke s, texels newly
+    painted). The new texels are counted in the dab's own 64² tiles (a count over the whole map between
+    dabs would itself read 64 MB at 4096² and leave the next dab with cold caches only there). With
+    ``evict`` (a large array), it is read before each dab: the caches cold, alike at every map size."""
+    res = layer.resolution
+    nt = res // 64
+    counts = np.zeros(nt * nt, dtype=np.int64)
+    tiles_view = layer.thickness.reshape(nt, 64, nt, 64)
+    times, cpu, strokes, new = [], [], [], []
+    for p in pts:
+        if evict is not None:
+            float(evict.sum())
+        s0 = time.perf_counter()
+        with doc.stroke(layer, brush) as s:
+            c0 = time.process_time()
+            t0 = time.perf_counter()
+            tiles = s.dab(p)
+            times.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+        strokes.append(time.perf_counter() - s0)
+        added = 0
+        for ty, tx in tiles:
+            n = int(np.count_nonzero(tiles_view[ty, :, tx, :]))
+            added += n - int(counts[ty * nt + tx])
+            counts[ty * nt + tx] = n
+        new.append(added)
+    return times, cpu, strokes, new
+
+
+def measure(resolution: int, library: Any, material: str, dabs: int = 40,
+            evict: np.ndarray | None = None) -> dict[str, Any]:
+    """The dab figures at one map size (see the module docstring); ``evict`` as :func:`_timed_dabs`, for
+    a second pass on a fresh layer with cold caches (``dab_cold_ms``)."""
     from painting import Brush, Document
 
     doc = Document.from_head(None, library=library, resolution=resolution)
@@ -164,24 +216,15 @@ def measure(resolution: int, library: Any, material: str, dabs: int = 40) -> dic
     _ = doc.atlas.index  # build the spatial index outside the timing
     pts = _face_path(doc, dabs)
     brush = Brush(radius_mm=10.0, hardness=0.5, strength=1.0, mode="add")
-    times = []
-    cpu = []
-    strokes = []
-    texels = []
-    for p in pts:
-        s0 = time.perf_counter()
-        with doc.stroke(layer, brush) as s:
-            c0 = time.process_time()
-            t0 = time.perf_counter()
-            s.dab(p)
-            times.append(time.perf_counter() - t0)
-            cpu.append(time.process_time() - c0)
-        strokes.append(time.perf_counter() - s0)
-        texels.append(int(np.count_nonzero(layer.thickness)))
-    extra = floor_and_fixed(doc, layer, pts)
-    return {"doc": doc, "layer": layer, "dab_ms": 1000 * statistics.median(times), **extra,
-            "dab_cpu_ms": 1000 * statistics.median(cpu), "dab_stroke_ms": 1000 * statistics.median(strokes),
-            "texels_per_dab": int(np.median(np.diff([0, *texels])[1:]) if len(texels) > 1 else texels[0])}
+    times, cpu, strokes, new = _timed_dabs(doc, layer, pts, brush)
+    out = {"doc": doc, "layer": layer, "dab_ms": 1000 * statistics.median(times),
+           "dab_cpu_ms": 1000 * statistics.median(cpu), "dab_stroke_ms": 1000 * statistics.median(strokes),
+           "texels_per_dab": int(np.median(new))}
+    if evict is not None:
+        cold, _, _, _ = _timed_dabs(doc, doc.add_layer(material), pts, brush, evict)
+        out["dab_cold_ms"] = 1000 * statistics.median(cold)
+    out.update(floor_and_fixed(doc, layer, pts, evict=evict))
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -197,18 +240,20 @@ def main(argv: list[str] | None = None) -> int:
     out: dict[str, Any] = {"paint_path": "numba" if kernels.active() else "numpy"}
     sizes = (1024, 2048) if args.quick else (1024, 2048, 4096)
     keep: dict[str, Any] = {}
+    evict = np.ones(EVICT_BYTES // 4, dtype=np.float32)
     for res in sizes:
-        r = measure(res, library, material)
+        r = measure(res, library, material, evict=evict)
         out[f"dab_ms_{res}"] = round(r["dab_ms"], 3)
         out[f"dab_cpu_ms_{res}"] = round(r["dab_cpu_ms"], 3)
+        out[f"dab_cold_ms_{res}"] = round(r["dab_cold_ms"], 3)
         out[f"dab_stroke_ms_{res}"] = round(r["dab_stroke_ms"], 3)
         out[f"dab_new_texels_{res}"] = r["texels_per_dab"]
         out[f"texels_in_1cm_dab_{res}"] = int(round(np.pi * (10.0 / r["doc"].atlas.texel_mm) ** 2))
-        out[f"dab_fixed_ms_{res}"] = round(r["fixed_ms"], 3)
+        for key in ("fixed", "fixed_cold", "floor", "floor_cold"):
+            if f"{key}_ms" in r:
+                out[f"dab_{key}_ms_{res}"] = round(r[f"{key}_ms"], 3)
         texels = out[f"texels_in_1cm_dab_{res}"]
         out[f"dab_ns_per_texel_{res}"] = round(1e6 * (r["dab_ms"] - r["fixed_ms"]) / max(texels, 1), 1)
-        if "floor_ms" in r:
-            out[f"dab_floor_ms_{res}"] = round(r["floor_ms"], 3)
         if res == 2048:
             keep = r
         else:
@@ -216,14 +261,18 @@ def main(argv: list[str] | None = None) -> int:
     if "dab_ms_4096" in out:
         out["dab_ratio_4096_1024"] = round(out["dab_ms_4096"] / out["dab_ms_1024"], 3)
         out["dab_cpu_ratio_4096_1024"] = round(out["dab_cpu_ms_4096"] / out["dab_cpu_ms_1024"], 3)
-        if "dab_floor_ms_4096" in out:
-            fixed, lo, hi = out["dab_fixed_ms_1024"], out["dab_floor_ms_1024"], out["dab_floor_ms_4096"]
-            out["dab_floor_ratio_4096_1024"] = round((fixed + hi) / (fixed + lo), 3)
-            out["dab_fixed_needed_ms"] = round(2 * hi - 3 * lo, 3)
+        out["dab_cold_ratio_4096_1024"] = round(out["dab_cold_ms_4096"] / out["dab_cold_ms_1024"], 3)
+        for cold in ("", "_cold"):
+            if f"dab_floor{cold}_ms_4096" in out:
+                fixed = out[f"dab_fixed{cold}_ms_1024"]
+                lo, hi = out[f"dab_floor{cold}_ms_1024"], out[f"dab_floor{cold}_ms_4096"]
+                out[f"dab_floor{cold}_ratio_4096_1024"] = round((fixed + hi) / (fixed + lo), 3)
+                out[f"dab_fixed{cold}_needed_ms"] = round(2 * hi - 3 * lo, 3)
     from painting import Brush
 
     doc, layer = keep["doc"], keep["layer"]
     doc.clear_history()
+    doc.history.peak_bytes = 0  # the peak of the 1000-dab stroke alone, not of the single dabs above
     pts = _face_path(doc, 1100)[:1000]  # a few rays may miss the face: keep exactly 1000 points
     brush = Brush(radius_mm=10.0, hardness=0.5, strength=0.8, mode="add", spacing=0.001)
     c0 = time.process_time()
