@@ -5,8 +5,8 @@ Prints one JSON object: ``dab_ms_1024``, ``dab_ms_2048``, ``dab_ms_4096`` (media
 event sent; ``dab_cpu_ms_*`` the same in process CPU time, which a busy shared machine disturbs less;
 ``dab_stroke_ms_*`` the whole one-dab stroke, its undo step pushed at the end included;
 ``dab_cold_ms_*`` the same dabs on a fresh layer, each after reading 160 MB, so that the caches are as
-cold at every map size), ``dab_ratio_4096_1024`` (and ``dab_cold_ratio_4096_1024``), ``stroke_1000_ms`` (a 1000-dab stroke including its undo record),
-``undo_ms``, ``redo_ms``, ``undo_peak_mb`` (peak bytes held by the undo stack), texel counts (in a 1 cm
+cold at every map size), ``dab_ratio_4096_1024`` (and ``dab_cold_ratio_4096_1024``),
+``stroke_1000_ms`` (a 1000-dab stroke including its undo record), ``undo_ms``, ``redo_ms``, ``undo_peak_mb`` (peak bytes held by the undo stack), texel counts (in a 1 cm
 dab, and ``dab_new_texels_*`` the median a dab newly painted), ``paint_path`` ("numba" kernels, or the
 "numpy" reference under ``SHEER_PAINT_KERNEL=numpy``: see :mod:`painting.kernels`) and the targets.
 
@@ -129,8 +129,9 @@ def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10
     from painting import Brush
 
     out: dict[str, float] = {}
-    passes: tuple[tuple[str, np.ndarray | None], ...] = (("", None),) if evict is None else (("", None),
-                                                                                              ("_cold", evict))
+    passes: list[tuple[str, np.ndarray | None]] = [("", None)]
+    if evict is not None:
+        passes.append(("_cold", evict))
     kernel = _floor_kernel()
     if kernel is not None:
         index = doc.atlas.index
