@@ -718,22 +718,18 @@ class Stroke:
             chart = int(self.atlas.chart.reshape(-1)[index.flat[k]])
             amount = min(brush.strength * self._amount, self.layer.max_thickness)
             tiles = self._fill_region(self.atlas, chart, amount, emit=False)
-        elif kernels.active():
-            flat, w, sidx = self._weights_fast(pieces, r, index)
-            if len(flat) == 0:
-                return ()
-            if brush.mode == "smooth":
-                tiles = self._smooth(flat, w * np.float32(alpha), sidx, r, index)
-            else:
-                tiles = self._composite_fast(sidx, w, np.float32(alpha), index)
         else:
-            flat, w, sidx = self._weights(pieces, r, index)
+            fast = kernels.active()  # compiled kernels, bit-identical to the numpy reference
+            flat, w, sidx = (self._weights_fast if fast else self._weights)(pieces, r, index)
             if len(flat) == 0:
                 return ()
+            a32 = np.float32(alpha)
             if brush.mode == "smooth":
-                tiles = self._smooth(flat, w * np.float32(alpha), sidx, r, index)
+                tiles = self._smooth(flat, w * a32, sidx, r, index)
+            elif fast:
+                tiles = self._composite_fast(sidx, w, a32, index)
             else:
-                tiles = self._composite(flat, w * np.float32(alpha), sidx)
+                tiles = self._composite(flat, w * a32, sidx)
         if tiles:
             self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles
