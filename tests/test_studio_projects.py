@@ -132,17 +132,25 @@ def test_save_open_round_trip_restores_layers_lights_and_camera(window: Any, tmp
         assert np.allclose(again.camera[key], saved.camera[key], rtol=1e-9), key
 
 
+def _project_on_retouched_head(window: Any, tmp_path: Path, seed: int) -> tuple[list[Any], Path, Path]:
+    """A project saved with the maps painted from ``seed`` on a copy of the head, whose albedo is then
+    retouched (its hash no longer matches), and the window painted on (``seed + 1``) so that opening
+    the project must bring the saved maps back: (saved maps, the copy's mesh, the project)."""
+    maps = _paint(window, seed)
+    mesh = _head_copy(tmp_path / "head")
+    path = _project_on(window, mesh, tmp_path / "changed.sheer")
+    with (mesh.parent / "albedo.jpg").open("ab") as fh:
+        fh.write(b"retouched")
+    _paint(window, seed + 1)
+    return maps, mesh, path
+
+
 def test_changed_head_offers_relink_and_opens_with_use_it_anyway(window: Any, tmp_path: Path,
                                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     from app import dialogs
     from painting.project import sha256_file
 
-    maps = _paint(window, 2)
-    mesh = _head_copy(tmp_path / "head")
-    path = _project_on(window, mesh, tmp_path / "changed.sheer")
-    with (mesh.parent / "albedo.jpg").open("ab") as fh:
-        fh.write(b"retouched")
-    _paint(window, 3)
+    maps, mesh, path = _project_on_retouched_head(window, tmp_path, 2)
     answers = Answers("accept")
     monkeypatch.setattr(dialogs, "ask", answers)
     assert window.open_project(path)
@@ -157,12 +165,7 @@ def test_changed_head_relink_in_the_background(window: Any, qtbot: Any, tmp_path
                                                monkeypatch: pytest.MonkeyPatch) -> None:
     from app import dialogs
 
-    maps = _paint(window, 4)
-    mesh = _head_copy(tmp_path / "head")
-    path = _project_on(window, mesh, tmp_path / "changed.sheer")
-    with (mesh.parent / "albedo.jpg").open("ab") as fh:
-        fh.write(b"retouched")
-    _paint(window, 5)
+    maps, mesh, path = _project_on_retouched_head(window, tmp_path, 4)
     answers = Answers("accept")
     monkeypatch.setattr(dialogs, "ask", answers)
     window.open_project(path, background=True)

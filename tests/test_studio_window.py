@@ -40,6 +40,21 @@ def grab(win: object) -> np.ndarray:
     return qimage_to_rgb(win.viewport.grabFramebuffer())
 
 
+def stroke_across(win: object, y_frac: float) -> None:
+    """A 30-pixel stroke rightwards from the viewport's centre column at ``y_frac`` of its height,
+    picked on the face (a miss repeats the first hit)."""
+    from PySide6.QtCore import QPointF
+
+    vp = win.viewport
+    hit = vp.pick(QPointF(vp.width() / 2, vp.height() * y_frac))
+    assert hit is not None
+    win._stroke_begin(hit, 1.0)
+    for dx in range(0, 30, 3):
+        p = vp.pick(QPointF(vp.width() / 2 + dx, vp.height() * y_frac))
+        win._stroke_move(p if p is not None else hit, 1.0)
+    win._stroke_end()
+
+
 def test_viewport_shows_the_head(window: object) -> None:
     img = grab(window)
     h, w = img.shape[:2]
@@ -110,20 +125,13 @@ def test_paint_stroke_changes_the_map_then_undo_redo(window: object, qtbot: obje
 
 def test_painting_changes_the_rendered_face(window: object, qtbot: object) -> None:
     """A stroke reaches the screen: dirty tiles → the renderer's texture-space KM → a new frame."""
-    from PySide6.QtCore import QPointF
 
     window.add_layer("Lipstick Classic Red")
     vp = window.viewport
     vp._ring = None
     qtbot.waitUntil(lambda: not vp.pending_changes, timeout=5000)
     before = grab(window).astype(int)
-    hit = vp.pick(QPointF(vp.width() / 2, vp.height() * 0.55))
-    assert hit is not None
-    window._stroke_begin(hit, 1.0)
-    for dx in range(0, 30, 3):
-        p = vp.pick(QPointF(vp.width() / 2 + dx, vp.height() * 0.55))
-        window._stroke_move(p if p is not None else hit, 1.0)
-    window._stroke_end()
+    stroke_across(window, 0.55)
     assert vp.pending_changes
     vp._ring = None
     after = grab(window).astype(int)
@@ -218,7 +226,6 @@ def test_lightweight_mode_with_a_captured_face(window: object, qtbot: object, tm
 
 def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_path: Path) -> None:
     """A stroke in the lightweight mode shows through the physical renderer's texture-space KM outputs."""
-    from PySide6.QtCore import QPointF
     from studio_support import write_test_face
 
     vp = window.viewport
@@ -230,13 +237,7 @@ def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_pa
         window.add_layer("Lipstick Classic Red")
         draw(vp, qtbot)
         before = grab(window).astype(int)
-        hit = vp.pick(QPointF(vp.width() / 2, vp.height() * 0.5))
-        assert hit is not None
-        window._stroke_begin(hit, 1.0)
-        for dx in range(0, 30, 3):
-            q = vp.pick(QPointF(vp.width() / 2 + dx, vp.height() * 0.5))
-            window._stroke_move(q if q is not None else hit, 1.0)
-        window._stroke_end()
+        stroke_across(window, 0.5)
         after = grab(window).astype(int)
         window.undo()
         assert (np.abs(after - before).max(axis=-1) > 10).sum() > 100, "the stroke did not show"
