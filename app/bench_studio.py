@@ -40,7 +40,7 @@ def main(argv: list[str]) -> int:
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         xvfb = shutil.which("xvfb-run")
         if xvfb is None:
-            from km.errors import SheerError
+            from core.errors import SheerError
 
             raise SheerError("the studio benchmark needs a display (or xvfb-run)")
         cmd = [xvfb, "-a", "-s", "-screen 0 1920x1080x24", sys.executable, "-m", "app", "bench", "studio", *argv]
@@ -60,7 +60,7 @@ def main(argv: list[str]) -> int:
     dialogs.AUTO_DISMISS_MS, dialogs.AUTO_ANSWER = 0, "discard"
     from app import seams
     from app.main_window import StudioWindow
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     ini = os.path.join(tempfile.mkdtemp(prefix="sheer-bench-"), "bench.ini")
     from app.studio_app import DEFAULT_RESOLUTION
@@ -142,7 +142,7 @@ def _timed_orbit(vp: Any, frames: int) -> tuple[list[float], list[float]]:
     """Seconds per orbit step (2° each), each a new frame drawn by the renderer, and the milliseconds of
     each step spent in the viewport's paintGL (the renderer, finished; the rest is Qt composing the
     window); the first 3 steps untimed."""
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     times, paint = [], []
     for i in range(frames + 3):
@@ -179,7 +179,7 @@ def _draw_frame(vp: Any) -> None:
     """
     from PySide6.QtWidgets import QApplication
 
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     before = vp.frames
     vp.repaint()

@@ -5,7 +5,7 @@ adds an ``argparse`` sub-parser whose ``func(args) -> int`` runs it. Command mod
 standard library at import time (heavy imports go inside ``func``), so ``sheer --help`` is instant and
 headless commands never load Qt.
 
-Errors: a :class:`km.errors.SheerError` (bad input) or an ``OSError`` is printed as one line on stderr
+Errors: a :class:`core.errors.SheerError` (bad input) or an ``OSError`` is printed as one line on stderr
 and exits with status 2; any other exception is an internal error (status 70), reported without a
 traceback unless ``SHEER_DEBUG=1``.
 """
@@ -56,7 +56,7 @@ def _report(message: str) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit status."""
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     args_list = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 Progress = Callable[[float, str], None]
 IsCancelled = Callable[[], bool]
@@ -146,7 +146,7 @@ def export_gltf(doc: Any, library: Any, path: str | Path, progress: Progress = l
     scene = trimesh.Scene(mesh)
     scene.metadata["credit"] = head.credit
     data = scene.export(file_type=path.suffix.lower()[1:])
-    from km.atomicio import atomic_write_bytes
+    from core.atomicio import atomic_write_bytes
 
     if isinstance(data, dict):  # .gltf: several files
         for name, blob in data.items():

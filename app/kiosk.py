@@ -122,7 +122,7 @@ class KioskConfig:
         return cfg
 
     def save(self, path: Path | None = None) -> Path:
-        from km.atomicio import atomic_write_text
+        from core.atomicio import atomic_write_text
 
         path = path or self.default_path()
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -223,7 +223,7 @@ NO_PIN_MESSAGE = ("the kiosk has no administrator PIN yet; set one with `sheer k
 def require_pin(config: KioskConfig) -> None:
     """Refuse to run a kiosk nobody can leave, or that a shopper leaves with a PIN shipped by default."""
     if not config.has_pin:
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         raise SheerError(NO_PIN_MESSAGE)
 

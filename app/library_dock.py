@@ -521,7 +521,7 @@ class LibraryDock(QWidget):
         A file that cannot be read, or that yields no material → an error dialog, library unchanged;
         rejected rows are reported. ``background``: read and invert in a worker (progress, Cancel) and
         return at once."""
-        from km.errors import SheerError
+        from core.errors import SheerError
         from km.measurements import import_file
 
         if background:
@@ -562,7 +562,7 @@ class LibraryDock(QWidget):
         return Path(base or ".") / "library.json"
 
     def save(self, path: Path | None = None) -> Path | None:
-        from resources import RESOURCES_DIR
+        from core.assets import RESOURCES_DIR
 
         own = getattr(self.library, "path", None)
         if own is not None and Path(own).resolve().is_relative_to(RESOURCES_DIR):

@@ -355,7 +355,7 @@ class StudioWindow(QMainWindow):
             try:
                 import OpenEXR
 
-                from resources import find_asset
+                from core.assets import find_asset
 
                 px = OpenEXR.File(str(find_asset(f"environments/{env}.exr"))).channels()["RGB"].pixels
                 mean = np.asarray(px, np.float32).reshape(-1, 3).mean(axis=0)
@@ -479,7 +479,7 @@ class StudioWindow(QMainWindow):
             self.viewport.update()
 
     def _layer_cmd(self, fn: Any) -> None:
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         try:
             fn()
@@ -544,7 +544,7 @@ class StudioWindow(QMainWindow):
         self.setWindowTitle(f"{self.project_name}[*] — Sheer Studio")
 
     def new_project(self) -> None:
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         try:
             seams.apply_look(self.doc, self.library, "bare")
@@ -599,7 +599,7 @@ class StudioWindow(QMainWindow):
         if background:
             run_task(self, "Opening the project", job, done, failed)
             return True
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         try:
             result = job()
@@ -633,7 +633,7 @@ class StudioWindow(QMainWindow):
         """Install an opened project. Maps at another resolution than the studio's are resampled if the
         user agrees (in a worker; returns True once started), else the project is not opened."""
         from app import project_io
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         other = project_io.other_resolution(opened, self.doc) if maps is None else None
         if other is not None:
@@ -706,7 +706,7 @@ class StudioWindow(QMainWindow):
     def save_project(self, ask: bool = False, path: Path | None = None, self_contained: bool | None = None) -> bool:
         """Save (``ask``: Save As); ``self_contained=True`` embeds the head in the file."""
         from app import project_io
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         target = path or (None if ask else self.project_path)
         if target is None:
@@ -766,7 +766,7 @@ class StudioWindow(QMainWindow):
     def offer_recovery(self) -> None:
         """After a crash: offer the newest recovery file left by a session that did not end normally."""
         from app import project_io
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         pending = project_io.pending_recoveries()
         if not pending:
@@ -861,7 +861,7 @@ class StudioWindow(QMainWindow):
     def import_map(self, index: int, path: Path) -> bool:
         from PIL import Image, UnidentifiedImageError
 
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         lay = self.doc.layers[index]
         if hasattr(self.doc, "import_layer"):
@@ -912,7 +912,7 @@ class StudioWindow(QMainWindow):
 
     # ------------------------------------------------------------------ help
     def show_about(self) -> None:
-        from resources import ASSET_CREDITS
+        from core.assets import ASSET_CREDITS
 
         credits = "".join(f"<li>{v}</li>" for v in ASSET_CREDITS.values())
         used = ", ".join(f"{k}: {v}" for k, v in seams.backends().items())

@@ -161,7 +161,7 @@ class ViewportRenderer:
         self._scene_key = None
 
     def _lightweight(self) -> Any:
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         if self.face is None:
             raise SheerError("the lightweight mode needs a captured face (File → Open Captured Face…)")

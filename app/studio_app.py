@@ -42,7 +42,7 @@ def make_application(argv: list[str] | None = None) -> object:
     app.setApplicationName(APPLICATION)
     from PySide6.QtGui import QIcon
 
-    from resources import resource_path
+    from core.assets import resource_path
 
     icon = resource_path("icons", "sheer.png")
     if icon.is_file():
@@ -52,7 +52,7 @@ def make_application(argv: list[str] | None = None) -> object:
 
 def run_studio(head: str | None = None, look: str = "natural", project: str | None = None,
                resolution: int = DEFAULT_RESOLUTION) -> int:
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     app = make_application()
     from app import dialogs, seams

@@ -40,7 +40,7 @@ class Task(QRunnable):
         self._cancel.set()
 
     def run(self) -> None:
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         try:
             result = self.job(lambda f, m="": self.signals.progress.emit(float(f), str(m)), self._cancel.is_set)

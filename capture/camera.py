@@ -24,7 +24,7 @@ import scipy.linalg
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 from .raster import GBuffer, rasterize
 

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 from .raster import rasterize_uv
 

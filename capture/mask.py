@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.path import Path as MplPath
 from scipy.spatial import ConvexHull
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 from .camera import Camera
 

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 from .camera import Camera
 from .mask import landmark_region, refine_by_skin_colour
@@ -540,7 +540,7 @@ def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path
     import OpenEXR
     from PIL import Image
 
-    from km.atomicio import atomic_write_text
+    from core.atomicio import atomic_write_text
 
     out = Path(out_dir)
     try:

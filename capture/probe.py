@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 #: Rec. 709 / sRGB luminance weights of linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])

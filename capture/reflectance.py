@@ -15,7 +15,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 #: The exponent's upper bound (skin is never a mirror; beyond this the highlight is below a pixel).
 MAX_EXPONENT = 1000.0

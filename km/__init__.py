@@ -4,15 +4,12 @@ Units: wavelengths in nm; S and K per mm; thicknesses X and D in mm; reflectance
 are fractions in [0, 1]. Arrays broadcast, wavelengths on the last axis.
 
 The public names are exported lazily (PEP 562), so ``import km`` stays cheap and each module is
-loaded on first use: add a public name by adding one line to ``_EXPORTS``.
+loaded on first use (:func:`core.lazy.install_lazy`): add a public name by adding one line to ``_EXPORTS``.
 """
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
-
-from km.errors import AssetNotFoundError, SheerError
+from core.lazy import install_lazy
 
 #: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
@@ -45,17 +42,4 @@ _EXPORTS: dict[str, str] = {
     "default_library": "km.library",
 }
 
-__all__ = ["AssetNotFoundError", "SheerError", *sorted(_EXPORTS)]
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _EXPORTS.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'km' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module_name), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__, __all__ = install_lazy(__name__, _EXPORTS)

@@ -1,6 +1,6 @@
-"""Sheer's on-disk caches (derived data that is expensive to make and cheap to make again).
+"""The spectral → linear sRGB matrix, cached on disk (colour-science is imported only to make it).
 
-:func:`cache_dir` is the one place that decides where they live; :func:`spectral_rgb_matrix_cached` is the
+The folder is :func:`core.cache.cache_dir`; :func:`spectral_rgb_matrix_cached` is the
 spectral → linear sRGB matrix of :func:`km.colour.spectral_rgb_matrix` kept on disk, so that a process
 which only needs the matrix (the renderer's texture-space pass) never imports colour-science: importing it
 pulls in matplotlib through ``colour.plotting`` and took 1.5–6 s of the studio's start-up on this
@@ -13,27 +13,18 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib.metadata
-import io
 import os
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from core.cache import cache_dir, save_array
+
 #: bump when the cached matrices' definition changes
 _MATRIX_CACHE_VERSION = 1
 #: matrices already read or made in this process, by (grid bytes, illuminant, transform, cache folder)
 _IN_MEMORY: dict[tuple[bytes, str, str, str], np.ndarray] = {}
-
-
-def cache_dir(kind: str) -> Path:
-    """The folder of one kind of cache: ``$SHEER_CACHE_DIR/<kind>``, else ``$XDG_CACHE_HOME/sheer/<kind>``
-    (default ``~/.cache/sheer/<kind>``)."""
-    env = os.environ.get("SHEER_CACHE_DIR")
-    if env:
-        return Path(env).expanduser() / kind
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "sheer" / kind
 
 
 @functools.lru_cache(maxsize=1)
@@ -42,20 +33,6 @@ def _colour_science_version() -> str:
         return importlib.metadata.version("colour-science")
     except importlib.metadata.PackageNotFoundError:
         return "none"
-
-
-def save_array(path: Path, array: np.ndarray) -> None:
-    """Write ``array`` to the cache file ``path`` (``.npy``) atomically, making its folder; failing to
-    write is not an error (a cache is an optimisation only)."""
-    from km.atomicio import atomic_write_bytes
-
-    try:
-        buf = io.BytesIO()
-        np.save(buf, array, allow_pickle=False)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass
 
 
 def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:

@@ -12,7 +12,7 @@ field (``default.json: materials[3].S[12]: negative (-0.5)``).
 Schema versions: files written by an older Sheer are upgraded in memory by the migrations registered
 in :data:`MIGRATIONS` (one function per version step, ``v -> v + 1``, registered with
 :func:`register_migration`); a file from a newer Sheer is refused. Saving is atomic
-(:mod:`km.atomicio`): a failed save never damages the file, and the previous file is kept as
+(:mod:`core.atomicio`): a failed save never damages the file, and the previous file is kept as
 ``FILE.bak``.
 """
 
@@ -27,7 +27,7 @@ from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
-from km.errors import SheerError
+from core.errors import SheerError
 from km.material import MAX_NAME_CHARS, Material, MaterialError
 
 FORMAT = "sheer.materials"
@@ -337,7 +337,7 @@ class Library:
     def save(self, path: str | Path | None = None, *, keep_backup: bool = True) -> Path:
         """Write the library atomically to ``path`` (default: where it was loaded from); the previous
         file is kept as ``FILE.bak`` unless ``keep_backup=False``. Returns the path written."""
-        from km.atomicio import atomic_write_text
+        from core.atomicio import atomic_write_text
 
         target = Path(path) if path is not None else self.path
         if target is None:
@@ -378,7 +378,7 @@ def _file_size(fh: Any) -> int | None:
 
 def default_library_path() -> Path:
     """``resources/materials/default.json``."""
-    from resources import resource_path
+    from core.assets import resource_path
 
     return resource_path("materials", "default.json")
 

@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 #: Categories the studio knows (others are allowed if they are short lowercase words).
 CATEGORIES: tuple[str, ...] = (

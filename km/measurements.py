@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 from km.material import Material, MaterialError, Measurement
 
 #: Largest measurement file read, in bytes.
@@ -588,7 +588,7 @@ def export_csv(material: Material, path: str | Path) -> Path:
     (linearly resampled) with ``# D_mm`` and the other metadata, plus ``S_per_mm`` and ``K_per_mm``
     columns. A material without a measurement gets the triplet its S and K predict (R∞, R over black
     at D = 0.15 mm, Rg = 0). :func:`read_csv` reads the file back."""
-    from km.atomicio import atomic_write_text
+    from core.atomicio import atomic_write_text
 
     wl = material.wavelengths
     meas = material.measurement

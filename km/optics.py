@@ -26,7 +26,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 __all__ = [
     "KMDomainError",

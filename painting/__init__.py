@@ -57,7 +57,7 @@ Strokes and undo
 is one undo step holding only the 64² tiles it touched (their previous values); undo/redo swap them
 back bit-exactly. ``doc.history`` has ``nbytes``, ``peak_bytes``, ``budget_bytes`` (default 256 MB;
 oldest steps dropped). A new edit clears redo. If the ``with`` block raises, the stroke is rolled back.
-Bad input raises :class:`DocumentError` (a ``km.errors.SheerError``) and leaves the document unchanged.
+Bad input raises :class:`DocumentError` (a ``core.errors.SheerError``) and leaves the document unchanged.
 See :mod:`painting.brush` for the modes (add, erase, smooth, set, fill), falloff, spacing, pressure,
 mirror and back-face rejection.
 
@@ -79,8 +79,9 @@ from a GL depth-buffer value (see :mod:`painting.hit`; both agree to well under 
 
 from __future__ import annotations
 
-from typing import Any
+from core.lazy import install_lazy
 
+#: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
     "Document": "painting.document",
     "Layer": "painting.document",
@@ -102,19 +103,4 @@ _EXPORTS: dict[str, str] = {
     "load_head": "painting.head",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    import importlib
-
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'painting' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__, __all__ = install_lazy(__name__, _EXPORTS)

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 from painting.raster import barycentric, iter_candidates, rasterize
 
 #: ``progress(stage, fraction)``: stage is "clean", "check", "unwrap" or "bake"; fraction in [0, 1].
@@ -350,7 +350,7 @@ def _prep_cache_path(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, ch
 
 def _save_prep(path: Path, faces: np.ndarray, face_index: np.ndarray, normals: np.ndarray, clean: CleanReport,
                check: UVCheck, chart: np.ndarray, utilisation: float) -> None:
-    from km.atomicio import atomic_write_bytes
+    from core.atomicio import atomic_write_bytes
 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -547,7 +547,7 @@ def check_resolution(resolution: Any) -> int:
 def cache_dir() -> Path:
     """Where baked atlases are cached: ``$SHEER_CACHE_DIR`` or ``$XDG_CACHE_HOME/sheer/atlas``
     (default ``~/.cache/sheer/atlas``)."""
-    from km.cache import cache_dir as km_cache_dir
+    from core.cache import cache_dir as km_cache_dir
 
     return km_cache_dir("atlas")
 

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 MODES = ("add", "erase", "smooth", "set", "fill")
 

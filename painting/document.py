@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 from painting import kernels
 from painting.atlas import TILE, Atlas, UVLayout, bake, build_layout, check_resolution
 from painting.brush import Brush, BrushError

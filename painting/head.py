@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 #: Refuse meshes larger than this many triangles (a 3D scan for real-time painting is far smaller).
 MAX_FACES = 2_000_000
@@ -202,7 +202,7 @@ class Head:
 
 def sidecar_candidates(mesh_path: Path) -> list[Path]:
     """Where the metadata of the head at ``mesh_path`` is looked for, in order."""
-    from resources import resource_path
+    from core.assets import resource_path
 
     return [
         mesh_path.with_name(mesh_path.name + SIDECAR_SUFFIX),
@@ -371,7 +371,7 @@ def _load_mesh_cache(cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
 def _save_mesh_cache(cache: Path, arrays: tuple[np.ndarray, ...]) -> None:
     import io
 
-    from km.atomicio import atomic_write_bytes
+    from core.atomicio import atomic_write_bytes
 
     try:
         cache.parent.mkdir(parents=True, exist_ok=True)
@@ -388,7 +388,7 @@ def load_head(path: str | Path | None = None) -> Head:
     ``path=None`` loads the sample head from the assets (:data:`SAMPLE_HEAD`).
     """
     if path is None:
-        from resources import find_asset
+        from core.assets import find_asset
 
         path = find_asset(SAMPLE_HEAD)
     mesh_path = Path(path)

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 
 class PickError(SheerError, ValueError):

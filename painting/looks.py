@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 LOOK_SCHEMA_VERSION = 1
 BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip")
@@ -111,14 +111,14 @@ class Look:
 
 
 def look_path(name: str) -> Path:
-    from resources import resource_path
+    from core.assets import resource_path
 
     return resource_path("looks", f"{name}.json")
 
 
 def available_looks() -> list[str]:
     """Names of the looks in ``resources/looks``."""
-    from resources import resource_path
+    from core.assets import resource_path
 
     return sorted(p.stem for p in resource_path("looks").glob("*.json"))
 
@@ -211,7 +211,7 @@ def _ray_cache(doc: Any) -> tuple[Path, dict[bytes, np.ndarray]] | None:
 def _save_ray_cache(path: Path, entries: dict[bytes, np.ndarray]) -> None:
     import io
 
-    from km.atomicio import atomic_write_bytes
+    from core.atomicio import atomic_write_bytes
 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -266,7 +266,7 @@ def _maps_cache_path(doc: Any, look: Look, points: list[list[list[np.ndarray]]])
                            st.mirror)).encode())
             for p in pts:
                 h.update(np.ascontiguousarray(p, dtype="<f8").tobytes())
-    from km.cache import cache_dir
+    from core.cache import cache_dir
 
     return cache_dir("looks") / f"maps-{h.hexdigest()[:32]}-v{_MAPS_CACHE_VERSION}.npz"
 
@@ -288,7 +288,7 @@ def _load_maps(path: Path | None, count: int, shape: tuple[int, int]) -> list[np
 def _save_maps(path: Path, maps: list[np.ndarray]) -> None:
     import io
 
-    from km.atomicio import atomic_write_bytes
+    from core.atomicio import atomic_write_bytes
 
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

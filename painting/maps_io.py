@@ -5,7 +5,7 @@
 - EXR: one float32 channel ``Y`` in µm (ZIP compression); header ``sheer:unit`` = ``um``.
 - Masks: PNG 8/16-bit greyscale or EXR ``Y``, values in [0, 1] (PNG white = 1).
 
-Images are top row first (see :mod:`painting.head`). Files are written atomically (:mod:`km.atomicio`).
+Images are top row first (see :mod:`painting.head`). Files are written atomically (:mod:`core.atomicio`).
 Sizes are checked against the layer's (``expected_shape``).
 """
 
@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from km.atomicio import atomic_writer
-from km.errors import SheerError
+from core.atomicio import atomic_writer
+from core.errors import SheerError
 
 SCALE_KEY = "sheer:scale_um"
 UNIT_KEY = "sheer:unit"

@@ -13,7 +13,7 @@ Public API (what the studio, the kiosk and the command line call)::
 
 Units: thickness maps float32 (H, W) in micrometres; ``max_thickness_um`` in µm; light and camera
 positions in head mesh units; angles in degrees. Every failure to open is a :class:`ProjectError`
-(a :class:`km.errors.SheerError` and a ``ValueError``) whose message names the file, the entry or
+(a :class:`core.errors.SheerError` and a ``ValueError``) whose message names the file, the entry or
 JSON path, and the problem.
 """
 
@@ -33,7 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from km.atomicio import atomic_writer
+from core.atomicio import atomic_writer
+from core.errors import SheerError
 from painting.project_errors import (
     HeadChecksumError,
     HeadMissingError,
@@ -253,7 +254,7 @@ def head_file_set(mesh_path: Path) -> dict[str, Path]:
 
 def _asset_key(mesh_path: Path) -> str | None:
     """``mesh_path`` relative to an assets folder of the search path, or None."""
-    from resources import assets_search_path
+    from core.assets import assets_search_path
 
     resolved = mesh_path.resolve()
     for folder in assets_search_path():
@@ -267,7 +268,7 @@ def make_head_ref(mesh_path: str | Path | None = None, embed: bool = False) -> H
     from painting.head import SAMPLE_HEAD, load_metadata
 
     if mesh_path is None:
-        from resources import find_asset
+        from core.assets import find_asset
 
         mesh_path = find_asset(SAMPLE_HEAD)
     path = Path(mesh_path).absolute()
@@ -372,7 +373,7 @@ _VALIDATOR: Any = None
 
 def schema() -> dict[str, Any]:
     """The JSON Schema of project.json (``resources/project.schema.json``)."""
-    from resources import resource_path
+    from core.assets import resource_path
 
     return json.loads(resource_path("project.schema.json").read_text(encoding="utf-8"))
 
@@ -423,7 +424,7 @@ def _check_semantics(data: dict[str, Any], where: str) -> None:
     for name, mat in data["materials"].items():
         try:
             material = km.Material.from_json(mat, where=f"materials[{name!r}]")
-        except km.SheerError as exc:
+        except SheerError as exc:
             raise ProjectError(f"{where}: {exc}") from None
         if material.name != name:
             raise ProjectError(f"{where}: materials[{name!r}].name: {material.name!r} differs from its key")
@@ -463,7 +464,7 @@ def _resolve_head_path(head: dict[str, Any], project_dir: Path | None) -> Path |
             p = project_dir / p
         candidates.append(p)
     if head["asset"] is not None and check_entry_name(head["asset"]) is None:
-        from resources import assets_search_path
+        from core.assets import assets_search_path
 
         candidates += [folder / head["asset"] for folder in assets_search_path()]
     candidates = [Path(os.path.normpath(c.absolute())) for c in candidates]

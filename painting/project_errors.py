@@ -1,6 +1,6 @@
 """Errors raised while reading or writing a ``.sheer`` project (see ``docs/FORMAT.md``).
 
-All of them are :class:`ProjectError`, a :class:`km.errors.SheerError` and a ``ValueError``, whose
+All of them are :class:`ProjectError`, a :class:`core.errors.SheerError` and a ``ValueError``, whose
 message names the file, the entry (or JSON path) and the problem. The subclasses let the studio react
 to the cases it can do something about:
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 
 class ProjectError(SheerError, ValueError):

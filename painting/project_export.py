@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from km.atomicio import atomic_write_bytes
+from core.atomicio import atomic_write_bytes
 from painting.project import Project, open_project
 from painting.project_maps import encode_exr, encode_png16, png16_scale
 from painting.project_zip import container_bytes

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from km.errors import SheerError
+from core.errors import SheerError
 from painting.project import HeadRef, Project, ProjectLayer, open_project, project_bytes, read_project
 from painting.project_errors import ProjectError
 

@@ -61,9 +61,9 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
 
 from __future__ import annotations
 
-import importlib
-from typing import Any
+from core.lazy import install_lazy
 
+#: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
     "RenderError": "render.errors",
     "ShaderLibrary": "render.shaders",
@@ -79,17 +79,4 @@ _EXPORTS: dict[str, str] = {
     "DEBUG_VIEWS": "render.renderer",
 }
 
-__all__ = sorted(_EXPORTS)
-
-
-def __getattr__(name: str) -> Any:
-    module_name = _EXPORTS.get(name)
-    if module_name is None:
-        raise AttributeError(f"module 'render' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module_name), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__, __all__ = install_lazy(__name__, _EXPORTS)

@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--km-resolution", type=int, default=2048)
     p.add_argument("--json", action="store_true", help="print JSON (the only output format)")
     args = p.parse_args(argv)
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     if args.frames < 1:
         raise SheerError("--frames must be ≥ 1")

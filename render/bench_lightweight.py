@@ -42,11 +42,11 @@ def main(argv: list[str] | None = None) -> int:
     from capture.pipeline import capture
     from capture.probe import analyse_probe
     from capture.synthetic import make_scene, read_env
+    from core.assets import find_asset
     from painting.head import load_head
     from render.lights import Light
     from render.lightweight import LightweightRenderer
     from render.renderer import Renderer
-    from resources import find_asset
 
     p = argparse.ArgumentParser(prog="sheer bench lightweight")
     p.add_argument("--size", default="1280x720")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 
 class RenderError(SheerError, ValueError):

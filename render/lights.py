@@ -90,7 +90,7 @@ def find_environment(name_or_path: str) -> Path:
         return p
     if p.suffix.lower() == ".exr" or "/" in name_or_path:
         raise RenderError(f"{name_or_path}: environment file not found")
-    from resources import find_asset
+    from core.assets import find_asset
 
     try:
         return find_asset(f"environments/{name_or_path}.exr")

@@ -97,7 +97,7 @@ class TextureIrradiance:
         """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance; kept
         on disk per mesh footprint and size (scipy's distance transform plus the read-back take about
         0.6 s of a start-up)."""
-        from km.cache import cache_dir, save_array
+        from core.cache import cache_dir, save_array
 
         n = self.size
         path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.npy"

@@ -19,7 +19,7 @@ _VERSION = "#version 450 core"
 
 def default_shader_dir() -> Path:
     """``resources/shaders`` of this checkout."""
-    from resources import resource_path
+    from core.assets import resource_path
 
     return resource_path("shaders")
 

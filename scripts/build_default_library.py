@@ -241,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
             return 1
         print(f"{args.out} is up to date")
         return 0
-    from km.atomicio import atomic_write_text
+    from core.atomicio import atomic_write_text
 
     atomic_write_text(args.out, text)
     print(f"wrote {args.out} ({text.count(chr(10))} lines)")

@@ -42,7 +42,7 @@ def test_package_never_imports_forbidden_modules(package: str) -> None:
 
 
 def test_resources_search_path_order(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    import resources
+    import core.assets as resources
 
     monkeypatch.setenv("SHEER_ASSETS", str(tmp_path))
     (tmp_path / "x.txt").write_text("here")

@@ -15,8 +15,8 @@ pytestmark = pytest.mark.slow
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     from capture.synthetic import make_scene, read_env
+    from core.assets import find_asset
     from painting.head import load_head
-    from resources import find_asset
 
     d = tmp_path_factory.mktemp("capture_cli")
     scene = make_scene(load_head(), read_env(str(find_asset("environments/warehouse.exr"))), size=256,

@@ -33,10 +33,10 @@ def test_photo_capture_and_relight(name: str, gl_ctx: Any, tmp_path: Path) -> No
 
     from capture.camera import load_points
     from capture.pipeline import Face, capture, linear_to_srgb, read_photo, to_uint8
+    from core.assets import find_asset
     from painting.head import load_head
     from render.lights import Light
     from render.lightweight import LightweightRenderer
-    from resources import find_asset
 
     spec = json.loads((DATA / f"{name}_points.json").read_text())
     head = load_head()

@@ -20,7 +20,7 @@ pytestmark = pytest.mark.slow
 
 
 def _environments() -> list[str]:
-    from resources import find_asset
+    from core.assets import find_asset
 
     return sorted(p.stem for p in find_asset("environments").glob("*.exr"))
 
@@ -34,8 +34,8 @@ def _captured(env: str, starts: int = 0) -> tuple[object, object, object]:
     from capture.pipeline import capture
     from capture.probe import analyse_probe
     from capture.synthetic import make_scene, read_env
+    from core.assets import find_asset
     from painting.head import load_head
-    from resources import find_asset
 
     head = load_head()
     scene = make_scene(head, read_env(str(find_asset(f"environments/{env}.exr"))))
@@ -182,7 +182,7 @@ def test_night_probe_finds_the_flash_or_says_it_is_ambiguous(level: float) -> No
     from capture.pipeline import linear_to_srgb, srgb_to_linear, to_uint8
     from capture.probe import ProbeError, analyse_probe, synthetic_probe
     from capture.synthetic import env_mean_radiance, light_from_camera, read_env
-    from resources import find_asset
+    from core.assets import find_asset
 
     env = read_env(str(find_asset("environments/night.exr")))
     cam = look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import trimesh
 
+from core.assets import find_asset
 from painting.head import load_head, resolve_texture_path
-from resources import find_asset
 
 REQUIRED = ["left_eye", "right_eye", "left_eye_inner", "left_eye_outer", "right_eye_inner", "right_eye_outer",
             "lip_centre", "upper_lip", "lower_lip", "mouth_left", "mouth_right", "left_cheek", "right_cheek",

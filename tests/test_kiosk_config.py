@@ -10,7 +10,7 @@ import pytest
 
 from app.cli import main
 from app.kiosk import KioskConfig, check_pin, require_pin
-from km.errors import SheerError
+from core.errors import SheerError
 
 
 def test_a_missing_config_has_no_pin(tmp_path: Path) -> None:

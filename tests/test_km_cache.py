@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from km.cache import _matrix_path, cache_dir, spectral_rgb_matrix_cached
+from core.cache import cache_dir
+from km.cache import _matrix_path, spectral_rgb_matrix_cached
 
 
 @pytest.fixture(autouse=True)

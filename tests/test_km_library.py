@@ -15,12 +15,13 @@ from types import ModuleType
 import numpy as np
 import pytest
 
+import core.atomicio
 import km
-import km.atomicio
 import km.library as library_mod
+from core.assets import resource_path
+from core.errors import SheerError
 from km.library import Library, LibraryError
 from km.material import Material, Measurement
-from resources import resource_path
 
 ROOT = Path(__file__).resolve().parents[1]
 WL = np.arange(380.0, 781.0, 5.0)
@@ -130,7 +131,7 @@ def test_malformed_files_are_refused_naming_file_and_field(lib: Library, tmp_pat
     message = str(info.value)
     assert str(path) in message and words in message, message
     assert "\n" not in message
-    assert isinstance(info.value, ValueError) and isinstance(info.value, km.SheerError)
+    assert isinstance(info.value, ValueError) and isinstance(info.value, SheerError)
 
 
 def test_missing_file_folder_and_size_cap(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, lib: Library) -> None:
@@ -155,10 +156,10 @@ def test_failed_save_leaves_the_old_file_intact(lib: Library, tmp_path: Path,
     def failing_fsync(fd: int) -> None:  # the data has been written to the temporary file: fail mid-way
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(km.atomicio.os, "fsync", failing_fsync)
+    monkeypatch.setattr(core.atomicio.os, "fsync", failing_fsync)
     with pytest.raises(LibraryError, match="No space left"):
         lib.save(path)
-    monkeypatch.setattr(km.atomicio.os, "fsync", real_fsync)
+    monkeypatch.setattr(core.atomicio.os, "fsync", real_fsync)
     assert path.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lib.json"]  # no temporary file left behind
     assert Library.load(path).names() == ["Red", "Nude", "Rose", "Berry"]
@@ -174,7 +175,7 @@ def test_failed_rename_leaves_the_old_file_intact(lib: Library, tmp_path: Path,
         raise OSError(5, "Input/output error")
 
     lib.remove("Nude")
-    monkeypatch.setattr(km.atomicio.os, "replace", failing_replace)
+    monkeypatch.setattr(core.atomicio.os, "replace", failing_replace)
     with pytest.raises(LibraryError, match="Input/output error"):
         lib.save(path)
     monkeypatch.undo()

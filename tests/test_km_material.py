@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import km
+from core.errors import SheerError
 from km.material import Material, MaterialError, Measurement
 
 WL = np.arange(380.0, 781.0, 5.0)
@@ -68,7 +69,7 @@ def test_constructor_rejects_bad_values(changes: dict, field: str, words: str) -
         make_material(**changes)
     assert info.value.field == field
     assert words in str(info.value)
-    assert isinstance(info.value, ValueError) and isinstance(info.value, km.SheerError)
+    assert isinstance(info.value, ValueError) and isinstance(info.value, SheerError)
 
 
 def test_json_round_trip_is_bit_identical_and_stable() -> None:

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import km
+from core.errors import SheerError
 from km.optics import (
     KMDomainError,
     SKInversion,
@@ -404,7 +405,7 @@ def test_invert_sk_errors_name_the_wavelengths() -> None:
     with pytest.raises(KMDomainError) as info:
         invert_sk(R_inf, R, 0.0, 0.1, wavelengths=wl)
     msg = str(info.value)
-    assert isinstance(info.value, ValueError) and isinstance(info.value, km.SheerError)
+    assert isinstance(info.value, ValueError) and isinstance(info.value, SheerError)
     assert "R_inf outside (0, 1) at 405 nm" in msg
     assert "R not strictly between Rg and R_inf at 410 nm" in msg
     assert "NaN at 415 nm" in msg

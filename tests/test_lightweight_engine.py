@@ -130,8 +130,8 @@ def test_lipstick_from_the_km_pass_shows(engine: Any, gl_ctx: Any, head: Any) ->
 
 def test_hdr_environment_adds_light(engine: Any) -> None:
     from capture.synthetic import read_env
+    from core.assets import find_asset
     from render.lights import Environment, Light
-    from resources import find_asset
 
     engine.lights = [Light.directional(90, 0, 0.5)]
     dark = engine.render_image(SIZE).astype(float)

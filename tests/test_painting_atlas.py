@@ -10,9 +10,9 @@ import pytest
 import trimesh
 from test_painting_helpers import StandInLibrary, sample_atlas, sample_layout
 
+from core.assets import find_asset
 from painting import Brush, Document
 from painting.atlas import bake, build_layout, check_uvs
-from resources import find_asset
 
 
 def _grid(n: int = 12, offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from test_painting_helpers import make_doc
 
-from km.errors import SheerError
+from core.errors import SheerError
 from painting import Brush, ChangeEvent, Document, DocumentError
 
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from test_painting_helpers import StandInLibrary, make_doc, texel_positions
 
+from core.assets import find_asset
 from painting import Brush, Document, kernels
-from resources import find_asset
 
 pytestmark = pytest.mark.skipif(not kernels.HAVE_NUMBA, reason="numba is not installed")
 

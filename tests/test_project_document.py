@@ -60,7 +60,7 @@ def test_a_changed_paint_layout_is_refused(tmp_path: Path) -> None:
 
 def test_self_contained_sample_head_document(tmp_path: Path) -> None:
     """The sample head embedded: the document is rebuilt from the zip alone."""
-    from resources import AssetNotFoundError
+    from core.assets import AssetNotFoundError
 
     try:
         project = new_project("portable", resolution=64)

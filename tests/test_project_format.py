@@ -97,7 +97,7 @@ def test_self_contained_project_opens_without_the_original_head(tmp_path: Path) 
 
 
 def test_self_contained_sample_head_loads_in_memory(tmp_path: Path) -> None:
-    from resources import AssetNotFoundError
+    from core.assets import AssetNotFoundError
 
     try:
         ref = make_head_ref(None, embed=True)
@@ -233,7 +233,7 @@ def test_cli_validate_reports_one_line_without_traceback(tmp_path: Path, capsys:
 
 def test_cli_new_with_a_look_paints_it(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     from app.cli import main
-    from resources import AssetNotFoundError, find_asset
+    from core.assets import AssetNotFoundError, find_asset
 
     try:
         find_asset("heads/lee-perry-smith/head.glb")

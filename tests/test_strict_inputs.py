@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from km.errors import SheerError
+from core.errors import SheerError
 
 
 def _noise(n: int) -> bytes:
@@ -234,8 +234,8 @@ def test_meshes(name: str, tmp_path: Path) -> None:
 
 
 def test_truncated_sample_head(tmp_path: Path) -> None:
+    from core.assets import AssetNotFoundError, find_asset
     from painting.head import load_mesh_arrays
-    from resources import AssetNotFoundError, find_asset
 
     try:
         glb = find_asset("heads/lee-perry-smith/head.glb").read_bytes()

@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     module_name, func_name = BENCHMARKS[args.name].split(":")
     try:

@@ -36,8 +36,8 @@ def run_simplify(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from capture.lod import rebake_detail, simplify_head, write_obj
-    from km.atomicio import atomic_write_text
-    from km.errors import SheerError
+    from core.atomicio import atomic_write_text
+    from core.errors import SheerError
     from painting.head import SIDECAR_SUFFIX, load_head
 
     try:
@@ -109,7 +109,7 @@ def _compare(fine: object, coarse: object, face: object, coarse_detail: object, 
 
     from capture.phong import delta_e2000
     from capture.pipeline import srgb_to_linear
-    from km.errors import SheerError
+    from core.errors import SheerError
     from render.lights import Light
     from render.lightweight import LightweightRenderer
 

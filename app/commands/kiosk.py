@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     if args.set_pin or args.snapshot_dir:
         import getpass

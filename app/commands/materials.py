@@ -74,7 +74,7 @@ def run_list(args: argparse.Namespace) -> int:
     lib = _library(args.library)
     mats = lib.materials if args.category is None else lib.by_category(args.category)
     if args.category is not None and not mats:
-        from km.errors import SheerError
+        from core.errors import SheerError
 
         raise SheerError(f"no materials in category {args.category!r}; categories: {', '.join(lib.categories())}")
     width = max([len(m.name) for m in mats] + [4])
@@ -97,7 +97,7 @@ def run_show(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     if not (args.step_nm > 0):
         raise SheerError("--step-nm must be positive")
@@ -145,7 +145,7 @@ def run_show(args: argparse.Namespace) -> int:
 
 
 def run_plot(args: argparse.Namespace) -> int:
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     if args.out.suffix.lower() != ".png":
         raise SheerError(f"--out must name a .png file (got {args.out})")
@@ -166,7 +166,7 @@ def plot_material(m: Any, out: Path) -> None:
     from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle
 
-    from km.atomicio import atomic_write_with
+    from core.atomicio import atomic_write_with
 
     wl = m.wavelengths
     r0, t = m.rt()
@@ -239,7 +239,7 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from km.errors import SheerError
+    from core.errors import SheerError
     from km.measurements import export_csv
 
     if not args.out.parent.exists() and str(args.out.parent):

@@ -56,7 +56,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_new(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from km.errors import SheerError
+    from core.errors import SheerError
     from painting.project import new_project, save_project
 
     out = Path(args.out)
@@ -129,7 +129,7 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_validate(args: argparse.Namespace) -> int:
-    from km.errors import SheerError
+    from core.errors import SheerError
     from painting.project import open_project
 
     try:

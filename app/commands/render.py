@@ -67,7 +67,7 @@ def _check_output(path: str) -> Any:
     import os
     from pathlib import Path
 
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     out = Path(path)
     if out.suffix.lower() != ".png":
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     import math
     import sys
 
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     out = _check_output(args.out)
     for name in ("yaw", "pitch", "exposure", "env_intensity"):
@@ -218,7 +218,7 @@ def _library() -> Any:
 
 def _check_head(head: Any) -> None:
     """Refuse heads the renderer cannot show sensibly: missing albedo, non-manifold meshes."""
-    from km.errors import SheerError
+    from core.errors import SheerError
 
     if head.albedo is None:
         raise SheerError(f"{head.path}: the head has no albedo texture (set 'albedo' in its metadata sidecar)")

@@ -1,0 +1,12 @@
+"""The ground floor: what every Sheer package shares, and nothing else.
+
+- :mod:`core.errors`: :class:`~core.errors.SheerError`, the base of every error whose message is meant
+  for the user (the CLI and the studio show it without a traceback), and
+  :class:`~core.errors.AssetNotFoundError`.
+- :mod:`core.atomicio`: atomic file writes (fsync of the file and of its folder, an optional ``.bak``).
+- :mod:`core.cache`: the cache folder (``$SHEER_CACHE_DIR``, else ``$XDG_CACHE_HOME/sheer``) and
+  :func:`~core.cache.save_array`.
+- :mod:`core.lazy`: :func:`~core.lazy.install_lazy`, lazy public names for a package's ``__init__``.
+
+May import: the standard library and numpy only. Every other Sheer package may import it.
+"""
