@@ -28,7 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.project",
     "app.commands.capture",
     "app.commands.head",
-    "app.commands.bench",
+    "bench.cli",
 )
 
 

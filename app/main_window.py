@@ -71,7 +71,7 @@ class StudioWindow(QMainWindow):
         self.doc = document
         self.project_path: Path | None = None
         self.project_name = "Untitled"
-        self.project: Any = None  # the painting.project.Project last opened or saved (the base of the next save)
+        self.project: Any = None  # the project.io.Project last opened or saved (the base of the next save)
         self.look_record: dict[str, Any] | None = {"name": look, "tags": []} if look else None
         self._stroke: Any = None
         self.face_path: Path | None = None  # the captured face shown by the lightweight mode
@@ -575,7 +575,7 @@ class StudioWindow(QMainWindow):
 
     def _open_attempt(self, path: Path, background: bool, head_path: Path | None, accept: bool) -> bool:
         from app import project_io
-        from painting.project_errors import HeadChecksumError, HeadMissingError
+        from project.errors import HeadChecksumError, HeadMissingError
 
         def job(_p: Any = None, _c: Any = None) -> Any:
             try:
@@ -611,7 +611,7 @@ class StudioWindow(QMainWindow):
     def _offer_relink(self, path: Path, exc: Exception) -> Path | str | None:
         """Ask what to do about a missing or changed head: the head file located (retry with
         ``head_path=``), ``"accept"`` (retry with ``accept_head_change=True``) or None (Cancel)."""
-        from painting.project_errors import HeadChecksumError
+        from project.errors import HeadChecksumError
 
         choices = {"locate": "Locate head…"}
         if isinstance(exc, HeadChecksumError):
@@ -782,7 +782,7 @@ class StudioWindow(QMainWindow):
         if answer != "recover":
             return
         try:
-            from painting.recovery import recover
+            from project.recovery import recover
 
             project = recover(info)
             self.project_name = project_io.load_project_into(self.doc, self.library, project)

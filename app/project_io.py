@@ -1,4 +1,4 @@
-"""Adapter between the studio and ``painting.project`` (the ``.sheer`` format of issue 6, docs/FORMAT.md):
+"""Adapter between the studio and ``project.io`` (the ``.sheer`` format of issue 6, docs/FORMAT.md):
 open, save, autosave snapshots and crash recovery.
 
 - Saving: :func:`snapshot` is ``Project.from_document(doc, base=…)`` (the project last opened or saved, so
@@ -21,7 +21,7 @@ import numpy as np
 
 def available() -> bool:
     try:
-        from painting.project import open_project, save_project  # noqa: F401
+        from project.io import open_project, save_project  # noqa: F401
     except ImportError:
         return False
     return True
@@ -117,9 +117,9 @@ def restore_camera(camera: Any, record: dict[str, Any] | None) -> None:
 
 
 def snapshot(doc: Any, library: Any, name: str, base: Any = None, view: ViewState | None = None) -> Any:
-    """A ``painting.project.Project`` of the document now (maps copied): ``Project.from_document`` with
+    """A ``project.io.Project`` of the document now (maps copied): ``Project.from_document`` with
     ``base`` (the project last opened or saved) and the view state, when given."""
-    from painting.project import Project
+    from project.io import Project
 
     kwargs: dict[str, Any] = {"name": name, "base": base}
     if view is not None:
@@ -135,7 +135,7 @@ def save_document(doc: Any, library: Any, path: Path, name: str, base: Any = Non
 
 def save_project_file(project: Any, path: Path, self_contained: bool | None = None) -> Path:
     """``save_project``; ``self_contained=True`` embeds the head, None keeps it as the project had it."""
-    from painting.project import save_project
+    from project.io import save_project
 
     return save_project(project, path, self_contained=self_contained)
 
@@ -147,7 +147,7 @@ def read_document(path: Path, head_path: Path | None = None, accept_head_change:
     """``open_project`` + ``project.to_document()``: (project, painting.Document). Safe in a worker.
 
     Raises ``HeadMissingError`` / ``HeadChecksumError`` (offer to relink) and other ``ProjectError``s."""
-    from painting.project import open_project
+    from project.io import open_project
 
     project = open_project(path, head_path=head_path, accept_head_change=accept_head_change)
     return project, project.to_document()
@@ -203,8 +203,8 @@ def resample_layers(doc: Any, opened: Any, progress: Any = None) -> list[np.ndar
 def check_compatible(project: Any, opened: Any, doc: Any, resample: bool = False) -> None:
     """Refuse a project whose maps would not line up with the studio's document (another head's paint
     layout; another resolution unless ``resample``, see :func:`resample_layers`). Raises ``ProjectError``."""
-    from painting.project_document import layout_record
-    from painting.project_errors import ProjectError
+    from project.document import layout_record
+    from project.errors import ProjectError
 
     inner = _inner(doc)
     if hasattr(inner, "layout") and layout_record(inner.layout) != layout_record(opened.layout):
@@ -240,7 +240,7 @@ def load_project_into(doc: Any, library: Any, source: Path | Any, resample: bool
     """Replace the document's layers with a project's (a path, or a ``Project`` already opened); maps at
     another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`). Returns the
     project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then."""
-    from painting.project import open_project
+    from project.io import open_project
 
     project = open_project(source) if isinstance(source, str | Path) else source
     opened = project.to_document()
@@ -254,9 +254,9 @@ def load_project_into(doc: Any, library: Any, source: Path | Any, resample: bool
 
 
 def make_autosaver(snap: Any, project_path: Path | None, interval_s: float) -> Any:
-    """A ``painting.recovery.Autosaver`` (None when this build has no project support)."""
+    """A ``project.recovery.Autosaver`` (None when this build has no project support)."""
     try:
-        from painting.recovery import Autosaver
+        from project.recovery import Autosaver
     except ImportError:
         return None
     return Autosaver(snap, project_path, interval_s=interval_s)
@@ -265,7 +265,7 @@ def make_autosaver(snap: Any, project_path: Path | None, interval_s: float) -> A
 def pending_recoveries() -> list[Any]:
     """Recovery files left by sessions that did not end normally (not another running studio's)."""
     try:
-        from painting.recovery import list_recoveries
+        from project.recovery import list_recoveries
     except ImportError:
         return []
     return [r for r in list_recoveries() if not r.owner_alive and r.error is None]

@@ -22,21 +22,17 @@ REFERENCE_DIR = TESTS_DIR / "references"
 FAILURE_DIR = TESTS_DIR / "_failures"
 
 
-#: Test modules that open Qt windows with a QOpenGLWidget.
-QT_WINDOW_MODULES: tuple[str, ...] = ("test_app_", "test_kiosk_", "test_studio_")
-
-
 def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config,
                                   items: list[pytest.Item]) -> None:
-    """Run the Qt window tests before every other test.
+    """Run the Qt window tests (those marked ``qt``) before every other test.
 
     Measured on Mesa 22.3 + PySide6 6.x under Xvfb: once a standalone EGL context has been created in
     the process (even if released), a QOpenGLWidget shown afterwards never gets ``initializeGL``
     (with Qt's default xcb_glx integration), unless a QOpenGLWidget was initialised first. The studio
     itself always initialises its viewport before any EGL work (exports run later), so the suite
-    keeps that order: Qt window modules first, in their usual order, then the rest.
+    keeps that order: tests marked ``qt``, in their usual order, then the rest.
     """
-    items.sort(key=lambda item: 0 if item.path.name.startswith(QT_WINDOW_MODULES) else 1)
+    items.sort(key=lambda item: 0 if item.get_closest_marker("qt") is not None else 1)
 
 
 @pytest.fixture(autouse=True)

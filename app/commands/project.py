@@ -57,7 +57,7 @@ def run_new(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from core.errors import SheerError
-    from painting.project import new_project, save_project
+    from project.io import new_project, save_project
 
     out = Path(args.out)
     if out.exists() and not args.force:
@@ -67,7 +67,7 @@ def run_new(args: argparse.Namespace) -> int:
         from painting.document import Document
         from painting.head import load_head
         from painting.looks import apply_look, load_look
-        from painting.project import Project
+        from project.io import Project
 
         look = load_look(args.look)  # validated before the (slow) document is built
         assert project.head.mesh_path is not None
@@ -82,7 +82,7 @@ def run_new(args: argparse.Namespace) -> int:
 
 
 def _summary(project: object) -> dict:
-    from painting.project import Project
+    from project.io import Project
 
     assert isinstance(project, Project)
     return {
@@ -107,7 +107,7 @@ def _summary(project: object) -> dict:
 
 
 def run_info(args: argparse.Namespace) -> int:
-    from painting.project import open_project
+    from project.io import open_project
 
     summary = _summary(open_project(args.file, verify_head=False))
     if args.json:
@@ -130,7 +130,7 @@ def run_info(args: argparse.Namespace) -> int:
 
 def run_validate(args: argparse.Namespace) -> int:
     from core.errors import SheerError
-    from painting.project import open_project
+    from project.io import open_project
 
     try:
         project = open_project(args.file)
@@ -145,7 +145,7 @@ def run_validate(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from painting.project_export import export_project
+    from project.export import export_project
 
     manifest = export_project(args.file, args.out, ora=args.ora)
     print(f"wrote {len(manifest['layers'])} layer maps and manifest.json to {args.out}")
@@ -153,7 +153,7 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_upgrade(args: argparse.Namespace) -> int:
-    from painting.project import SCHEMA_VERSION, open_project, save_project
+    from project.io import SCHEMA_VERSION, open_project, save_project
 
     project = open_project(args.file)
     old = project.source_schema_version

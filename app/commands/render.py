@@ -104,8 +104,8 @@ def run(args: argparse.Namespace) -> int:
 
     doc = None
     if args.project:
-        from painting.project import open_project
-        from painting.project_document import document_from_project
+        from project.document import document_from_project
+        from project.io import open_project
 
         doc = document_from_project(open_project(args.project, head_path=args.head), head_path=args.head)
         head = doc.head

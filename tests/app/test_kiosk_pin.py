@@ -1,0 +1,200 @@
+"""The kiosk on a real window: the PIN guard (close, Esc, Ctrl+Q intercepted; wrong PIN stays, right PIN
+exits), looks and product swaps, snapshots, attract mode, a friendly screen on errors."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from app.qt_compat import pin_singletons
+
+pin_singletons()
+
+pytest.importorskip("pytestqt")
+pytestmark = [pytest.mark.qt, pytest.mark.gl]
+
+
+@pytest.fixture(scope="module")
+def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
+    from app.kiosk import KioskConfig, KioskWindow, hash_pin
+
+    folder = tmp_path_factory.mktemp("kiosk")
+    cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
+                      fullscreen=False)
+    win = KioskWindow(cfg, resolution=512)  # fast; the resolution is not what these tests are about
+    win.resize(800, 600)
+    win.show()
+    from pytestqt.qtbot import QtBot
+
+    QtBot(qapp).waitUntil(lambda: win.isVisible(), timeout=5000)
+    yield win
+    if win.isVisible():
+        win._allow_close = True
+        win.close()
+    win.deleteLater()
+
+
+def test_pin_is_stored_hashed() -> None:
+    from app.kiosk import check_pin, hash_pin
+
+    h = hash_pin("2468")
+    assert "2468" not in h and check_pin("2468", h) and not check_pin("1357", h)
+    assert not check_pin("2468", "garbage")
+
+
+def test_looks_products_and_snapshot(kiosk: object, qtbot: object) -> None:
+    kiosk.start_button.click()
+    assert kiosk.stack.currentWidget() is kiosk.main_page
+    qtbot.waitUntil(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready, timeout=60000)
+    kiosk.look_buttons["evening"].click()
+    assert kiosk.look == "evening"
+    before = kiosk.product_labels["lipstick"].text()
+    kiosk.swap_product("lipstick", +1)
+    assert kiosk.product_labels["lipstick"].text() != before
+    kiosk.light_buttons["evening"].click()
+    kiosk.split.setValue(50)
+    path = kiosk.snapshot()
+    assert Path(path).is_file() and Path(path).stat().st_size > 1000
+
+
+def test_the_head_scan_is_credited_on_screen(kiosk: object) -> None:
+    """CC BY 3.0: the scan's credit is shown beside the face."""
+    assert "Lee Perry-Smith" in kiosk.credit_label.text() and kiosk.credit_label.isVisibleTo(kiosk)
+
+
+def test_attract_mode_and_touch_returns_to_start(kiosk: object, qtbot: object) -> None:
+    kiosk.start_attract()
+    yaw = kiosk.viewport.camera.yaw
+    qtbot.waitUntil(lambda: kiosk.viewport.camera.yaw != yaw, timeout=3000)
+    from PySide6.QtCore import Qt
+
+    qtbot.mouseClick(kiosk.viewport, Qt.MouseButton.LeftButton)
+    assert not kiosk.attract
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+
+
+def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
+    from app.kiosk import FRIENDLY
+
+    kiosk.show_main()
+    kiosk.guard(lambda: kiosk.set_look("no-such-look"))()
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.start_message.text() == FRIENDLY
+    assert "no-such-look" in (kiosk.last_error or "")
+
+
+def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
+    from app import project_io
+    from app.kiosk import FRIENDLY
+
+    kiosk.set_look("red-lip")
+    path = project_io.save_document(kiosk.doc, kiosk.library, tmp_path / "shop.sheer", "shop")
+    kiosk.set_look("bare")
+    kiosk.guard(lambda: kiosk._load(str(path)))()
+    assert kiosk.look == "project" and len(kiosk.doc.layers) >= 1
+    bad = tmp_path / "broken.sheer"
+    bad.write_bytes(b"PK\x03\x04 definitely not a project")
+    kiosk.show_main()
+    kiosk.guard(lambda: kiosk._load(str(bad)))()
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.start_message.text() == FRIENDLY
+
+
+def test_slow_physical_frames_fall_back_to_the_lightweight_engine(kiosk: object, qtbot: object,
+                                                                  tmp_path: Path) -> None:
+    """``engine: auto``: frames of the physical renderer slower than ``max_frame_ms`` switch the kiosk to the
+    lightweight engine with the configured captured face."""
+    import dataclasses
+
+    from capture.pipeline import load_face
+    from tests.app.studio_support import write_test_face
+
+    vp = kiosk.viewport
+    saved = kiosk.config
+    kiosk.show_main()
+    kiosk.face = load_face(write_test_face(tmp_path / "face"))
+    try:
+        kiosk.config = dataclasses.replace(saved, engine="auto", max_frame_ms=1e6)  # never too slow
+        for _ in range(8):
+            vp.orbit_by(1.0)
+            vp.repaint()
+        assert kiosk.engine == "physical" and vp.renderer.drawn_by == "fast"
+        kiosk.config = dataclasses.replace(saved, engine="auto", max_frame_ms=10.0)  # always too slow here
+        kiosk._frame_samples.clear()
+
+        def spin() -> bool:
+            vp.orbit_by(1.0)
+            vp.update()
+            return kiosk.engine == "lightweight"
+
+        qtbot.waitUntil(spin, timeout=60000)
+        drawn = vp.renderer_frames
+        vp.orbit_by(1.0)
+        qtbot.waitUntil(lambda: vp.renderer_frames > drawn, timeout=20000)
+        assert vp.renderer.drawn_by == "lightweight" and vp.mode == "lightweight"
+    finally:
+        kiosk.config = saved
+        kiosk.use_engine("physical")
+        kiosk.face = None
+
+
+def test_engine_from_the_config(kiosk: object, tmp_path: Path) -> None:
+    import dataclasses
+
+    from tests.app.studio_support import write_test_face
+
+    saved = kiosk.config
+    try:
+        kiosk.config = dataclasses.replace(saved, engine="lightweight",
+                                           face_dir=str(write_test_face(tmp_path / "face")))
+        kiosk._load_face()
+        assert kiosk.engine == "lightweight" and kiosk.viewport.mode == "lightweight"
+        kiosk.use_engine("physical")
+        kiosk.face = None
+        kiosk.config = dataclasses.replace(saved, engine="lightweight", face_dir=str(tmp_path / "missing"))
+        kiosk._load_face()  # a broken face folder: logged, the physical renderer stays
+        assert kiosk.engine == "physical" and kiosk.face is None and kiosk.viewport.mode == "fast"
+    finally:
+        kiosk.config = saved
+        kiosk.use_engine("physical")
+        kiosk.face = None
+
+
+def test_project_at_another_resolution_is_resampled(kiosk: object, tmp_path: Path) -> None:
+    from app import project_io, seams
+
+    want = int(kiosk.doc.resolution)
+    other = 256 if want != 256 else 512
+    doc2 = seams.open_document(None, other, kiosk.library)
+    seams.apply_look(doc2, kiosk.library, "red-lip")
+    path = project_io.save_document(doc2, kiosk.library, tmp_path / "small.sheer", "small")
+    kiosk.last_error = None
+    kiosk.guard(lambda: kiosk._load(str(path)))()
+    assert kiosk.last_error is None
+    assert kiosk.look == "project" and [lay.name for lay in kiosk.doc.layers] == [lay.name for lay in doc2.layers]
+    assert kiosk.doc.layers[0].thickness.shape == (want, want) and kiosk.doc.layers[0].thickness.max() > 0
+
+
+def test_pin_guard(kiosk: object, qtbot: object) -> None:
+    from PySide6.QtCore import Qt
+
+    kiosk.close()  # window-manager close / Alt+F4
+    assert kiosk.isVisible() and kiosk.stack.currentWidget() is kiosk.pin_pad
+    kiosk.pin_pad.buttons["Clear"].click()
+    kiosk._pin_cancelled()
+    qtbot.keyClick(kiosk, Qt.Key.Key_Escape)
+    assert kiosk.stack.currentWidget() is kiosk.pin_pad
+    kiosk._pin_cancelled()
+    qtbot.keyClick(kiosk, Qt.Key.Key_Q, Qt.KeyboardModifier.ControlModifier)
+    assert kiosk.stack.currentWidget() is kiosk.pin_pad
+    for k in "1111":
+        kiosk.pin_pad.buttons[k].click()
+    kiosk.pin_pad.buttons["OK"].click()
+    assert kiosk.isVisible() and kiosk.pin_pad.message.text() == "Wrong PIN"
+    for k in "2468":
+        kiosk.pin_pad.buttons[k].click()
+    kiosk.pin_pad.buttons["OK"].click()
+    assert not kiosk.isVisible()
+    assert kiosk.viewport.gl_error_at_release in (None, "GL_NO_ERROR")

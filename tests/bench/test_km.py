@@ -1,0 +1,49 @@
+"""``sheer bench km``: a smoke run on a tiny texture, and its pipeline checked against nested ``over``.
+
+No assertion on timing: only that the numbers are there and the pipeline computes the right thing.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from bench import km as bench
+from km.colour import spectrum_to_rgb
+from km.optics import layer_rt, over
+from km.spectra import DEFAULT_GRID
+
+
+def test_bench_main_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench.main(["--json", "--size", "8", "--repeats", "2", "--chunk", "24"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["benchmark"] == "km"
+    assert result["texels"] == 64 and result["wavelengths"] == 81 and result["layers"] == 4
+    assert result["repeats"] == 2 and len(result["seconds_all"]) == 2
+    assert result["texels_per_s"] > 0
+    assert set(result["stages_s"]) == {"layer_rt", "stack", "over", "spectrum_to_rgb"}
+    assert result["machine"]["cpu_count"] >= 1
+    assert all(0.0 < c < 1.0 for c in result["mean_rgb"])
+
+
+def test_bench_rejects_bad_options(capsys: pytest.CaptureFixture[str]) -> None:
+    assert bench.main(["--size", "0"]) == 2
+    assert "positive integer" in capsys.readouterr().err
+
+
+def test_bench_pipeline_matches_layer_by_layer_reference() -> None:
+    size = 5
+    _, stages, rgb = bench.run(size, chunk=7)  # chunks that do not divide the texel count
+    assert all(v >= 0 for v in stages.values())
+    wl = DEFAULT_GRID.wavelengths
+    mats = bench._materials(wl)
+    thick, albedo = bench._inputs(size * size)
+    skin = bench._skin(wl)
+    for texel in (0, 7, 13, 24):
+        R = skin * albedo[texel]
+        for i in reversed(range(4)):  # nest over() from the skin up
+            R0, T = layer_rt(*mats[i], thick[i, texel])
+            R = over(R0, T, R)
+        np.testing.assert_allclose(rgb[texel], spectrum_to_rgb(R, DEFAULT_GRID), rtol=1e-12)
