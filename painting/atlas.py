@@ -40,7 +40,8 @@ MAX_OVERLAP_FRACTION = 1e-3
 MAX_DEGENERATE_AREA_FRACTION = 1e-3
 MIN_RESOLUTION = 64
 MAX_RESOLUTION = 8192
-TILE = 64
+from painting.tiles import TILE
+
 _CACHE_VERSION = 5
 #: version of the spatial index kept beside a cached bake (see :attr:`Atlas.index`)
 _INDEX_CACHE_VERSION = 1

@@ -16,7 +16,8 @@ from typing import Any
 
 import numpy as np
 
-TILE = 64
+from painting.tiles import TILE
+
 DEFAULT_BUDGET_BYTES = 256 * 1024 * 1024
 
 

@@ -30,7 +30,8 @@ import numpy as np
 from render.errors import RenderError
 
 MAX_LAYERS = 8
-TILE = 64
+from painting.tiles import TILE
+
 #: updates of at most this many tiles evaluate each in a scratch target across two rasteriser bins
 SPLIT_TILES = 4
 #: output formats of :class:`KMTextureSpace` (see its docstring)
