@@ -26,6 +26,7 @@ import numpy as np
 
 from core.errors import SheerError
 from painting.raster import barycentric, iter_candidates, rasterize
+from painting.tiles import TILE
 
 #: ``progress(stage, fraction)``: stage is "clean", "check", "unwrap" or "bake"; fraction in [0, 1].
 ProgressCallback = Callable[[str, float], None]
@@ -40,7 +41,6 @@ MAX_OVERLAP_FRACTION = 1e-3
 MAX_DEGENERATE_AREA_FRACTION = 1e-3
 MIN_RESOLUTION = 64
 MAX_RESOLUTION = 8192
-from painting.tiles import TILE
 
 _CACHE_VERSION = 5
 #: version of the spatial index kept beside a cached bake (see :attr:`Atlas.index`)

@@ -27,10 +27,10 @@ from typing import Any
 
 import numpy as np
 
+from painting.tiles import TILE
 from render.errors import RenderError
 
 MAX_LAYERS = 8
-from painting.tiles import TILE
 
 #: updates of at most this many tiles evaluate each in a scratch target across two rasteriser bins
 SPLIT_TILES = 4
