@@ -1,5 +1,6 @@
 """The viewport's camera and key light: interaction on top of ``render``'s own types (no matrix or light
-maths of its own — :class:`render.camera.OrbitCamera` and :class:`render.lights.Light` do that)."""
+maths of its own — :class:`render.camera.OrbitCamera` and :class:`render.lights.Light` do that).
+"""
 
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from render.camera import OrbitCamera as _RenderCamera
 class OrbitCamera(_RenderCamera):
     """``render.camera.OrbitCamera`` with the studio's mouse interactions (orbit, pan, zoom, frame a box).
 
-    Yaw and pitch in degrees (yaw 0 looks at the face along −Z), distance and target in mesh units."""
+    Yaw and pitch in degrees (yaw 0 looks at the face along −Z), distance and target in mesh units.
+    """
 
     def __init__(self) -> None:
         super().__init__(yaw=0.0, pitch=5.0, distance=9.0, fov_y=30.0, target=np.array([0.0, 1.5, 0.3]))
@@ -45,7 +47,8 @@ class OrbitCamera(_RenderCamera):
 @dataclass
 class Lighting:
     """The studio's key light: azimuth/elevation in degrees (azimuth 0 = from the camera side, +Z),
-    colour × intensity, the ambient colour (light presets) and the exposure."""
+    colour × intensity, the ambient colour (light presets) and the exposure.
+    """
 
     azimuth: float = 30.0
     elevation: float = 25.0
@@ -63,7 +66,8 @@ class Lighting:
 
     def direction(self) -> np.ndarray:
         """Unit vector toward the light, head space (``render.Light``'s convention), float32: a project's
-        light saved, reopened (angles recovered) and saved again then stores the same vector."""
+        light saved, reopened (angles recovered) and saved again then stores the same vector.
+        """
         from render.lights import Light
 
         return np.asarray(Light.direction_from_angles(float(self.azimuth), float(self.elevation)), np.float32)

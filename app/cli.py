@@ -17,7 +17,10 @@ import importlib
 import os
 import sys
 import traceback
-from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 #: Command modules, in the order ``sheer --help`` lists them. A module that does not exist yet is skipped.
 COMMAND_MODULES: tuple[str, ...] = (

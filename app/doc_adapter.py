@@ -1,16 +1,19 @@
 """The studio's view of ``painting.Document`` (issue 4): the small differences between it and the shape
 the UI was written against are absorbed here (``can_undo`` as a property, events with layer *indices*,
-writing a whole map as one undo step, the built-in looks from ``resources/looks``)."""
+writing a whole map as one undo step, the built-in looks from ``resources/looks``).
+"""
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+    from pathlib import Path
 
 
 @dataclass
@@ -30,7 +33,8 @@ class DocumentAdapter:
     def from_head(cls, path: str | Path | None, resolution: int, library: Any,
                   progress: Callable[[str, float], None] | None = None) -> DocumentAdapter:
         """Load the head and build the document (cleaning, UV check or xatlas unwrap, bake): ``progress``
-        gets (stage, fraction); safe to call from a worker thread."""
+        gets (stage, fraction); safe to call from a worker thread.
+        """
         from painting import Document
 
         return cls(Document.from_head(path, resolution=resolution, library=library, progress=progress))

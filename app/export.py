@@ -1,5 +1,6 @@
 """Exports (no Qt; run in a worker): layer thickness maps + manifest, the made-up face as glTF/GLB with
-the makeup baked into its albedo under neutral light, and rendered images on a standalone GL context."""
+the makeup baked into its albedo under neutral light, and rendered images on a standalone GL context.
+"""
 
 from __future__ import annotations
 
@@ -31,7 +32,8 @@ def _safe(name: str) -> str:
 def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: None,
                 cancelled: IsCancelled = lambda: False, fmt: str = "png") -> Path:
     """Each layer's thickness map and ``manifest.json``: ``fmt="png"`` 16-bit PNG (value = thickness /
-    scale_um × 65535, scale also in the PNG's text), or ``"exr"`` 32-bit float OpenEXR (µm)."""
+    scale_um × 65535, scale also in the PNG's text), or ``"exr"`` 32-bit float OpenEXR (µm).
+    """
     from PIL import Image
 
     if fmt not in ("png", "exr"):
@@ -84,7 +86,8 @@ def baked_albedo(doc: Any, library: Any) -> np.ndarray:
     The cosmetic stack is evaluated by the renderer's own texture-space KM pass (``render.KMTextureSpace``,
     spectral, on a standalone GL context) into R_top, T and R_bottom, and combined with the skin's albedo
     ρ as the renderer's "unlit" view does: R_top + ρ·T² / (1 − R_bottom·ρ). The maps are evaluated at the
-    document's resolution; the skin's own detail above that resolution is kept."""
+    document's resolution; the skin's own detail above that resolution is kept.
+    """
     import moderngl
     from PIL import Image
 
@@ -163,7 +166,8 @@ def render_image(head: Any, layers: list[Any], camera: Any, lighting: Any, size:
                  face: Any = None) -> Path:
     """Render the view with ``render.Renderer`` (or, ``mode="lightweight"``, the lightweight engine with
     the captured ``face``) on a standalone (EGL) GL context in the calling thread (a worker) and save a
-    PNG. ``layers``: ``render.LayerInput`` of every document layer (copies)."""
+    PNG. ``layers``: ``render.LayerInput`` of every document layer (copies).
+    """
     import moderngl
     from PIL import Image
 

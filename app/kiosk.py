@@ -16,10 +16,9 @@ import math
 import os
 import secrets
 import time
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from PySide6.QtCore import QEvent, QObject, Qt, QTimer, Signal
 from PySide6.QtGui import QCloseEvent, QKeyEvent, QKeySequence, QShortcut
@@ -37,6 +36,9 @@ from PySide6.QtWidgets import (
 from app import seams
 from app.actions import KIOSK_ACTIONS
 from app.settings import LIGHT_PRESETS
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -93,7 +95,8 @@ class KioskConfig:
     @classmethod
     def load(cls, path: Path | None = None) -> KioskConfig:
         """Read the config; a missing or broken file gives the defaults — with **no** PIN (the kiosk
-        refuses to start until ``sheer kiosk --set-pin`` stores one)."""
+        refuses to start until ``sheer kiosk --set-pin`` stores one).
+        """
         path = path or cls.default_path()
         cfg = cls()
         try:
@@ -330,7 +333,8 @@ class KioskWindow(QWidget):
 
     def _watch_frame_time(self, _ms: float) -> None:
         """``engine: auto``: after 5 frames of the physical renderer slower than ``max_frame_ms`` (median),
-        switch to the lightweight engine (when a captured face is configured)."""
+        switch to the lightweight engine (when a captured face is configured).
+        """
         vp = self.viewport
         if self.config.engine != "auto" or self.engine != "physical" or self.face is None:
             return

@@ -28,9 +28,10 @@ from PySide6.QtWidgets import (
 
 def material_rgb(material: Any, thickness_um: float | None = None,
                  background: tuple[float, float, float] | None = None) -> tuple[int, int, int]:
-    """sRGB 0..255 of a km material: its opaque colour (R∞) when ``thickness_um`` is None, else a layer
+    """SRGB 0..255 of a km material: its opaque colour (R∞) when ``thickness_um`` is None, else a layer
     of ``thickness_um`` over ``background`` (linear RGB; black when None). The spectra and colours are
-    ``km``'s (``Material.swatch_rgb``, ``Material.rt``, km's spectral → RGB matrix, ``km.over``)."""
+    ``km``'s (``Material.swatch_rgb``, ``Material.rt``, km's spectral → RGB matrix, ``km.over``).
+    """
     import km
     from km.cache import spectral_rgb_matrix_cached
     from km.material import encode_srgb
@@ -51,10 +52,11 @@ def material_rgb(material: Any, thickness_um: float | None = None,
 
 
 def colours_ready() -> bool:
-    """km's spectral → RGB matrix of the materials' grid is at hand without importing colour-science
+    """Km's spectral → RGB matrix of the materials' grid is at hand without importing colour-science
     (in km's disk cache, or colour-science is loaded). The first run on a machine makes it in a worker at
     start-up (app.render_adapter.preload_renderer: colour-science with matplotlib takes seconds); until
-    then the swatches are grey placeholders, so the window never waits for it."""
+    then the swatches are grey placeholders, so the window never waits for it.
+    """
     import sys
 
     from km.cache import spectral_rgb_matrix_ready

@@ -1,7 +1,8 @@
 """The material library editor: search/filter, property edits (undoable), spectral plots with
 pyqtgraph (legends, units, hover read-out), a thickness slider for R0/T, swatches over black, white and
 the current skin, measurement import with a report of rejected rows, Duncan mixing with a live swatch,
-atomic save. Emits ``material_changed(name)`` so the viewport updates live."""
+atomic save. Emits ``material_changed(name)`` so the viewport updates live.
+"""
 
 from __future__ import annotations
 
@@ -520,7 +521,8 @@ class LibraryDock(QWidget):
 
         A file that cannot be read, or that yields no material → an error dialog, library unchanged;
         rejected rows are reported. ``background``: read and invert in a worker (progress, Cancel) and
-        return at once."""
+        return at once.
+        """
         from core.errors import SheerError
         from km.measurements import import_file
 

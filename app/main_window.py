@@ -388,7 +388,7 @@ class StudioWindow(QMainWindow):
         self._set(split=0.0 if self.settings.split > 0 else 0.5)
 
     def set_render_mode(self, mode: str) -> None:
-        """fast | reference | lightweight; the lightweight mode without a captured face asks for one."""
+        """Fast | reference | lightweight; the lightweight mode without a captured face asks for one."""
         if mode not in RENDER_MODES:
             return
         if mode == "lightweight" and self.viewport.face is None:
@@ -565,7 +565,8 @@ class StudioWindow(QMainWindow):
         """Open a ``.sheer`` project (asked for when ``path`` is None). ``background``: read and check the
         file in a worker with progress (the dialog and the Recent menu do); returns at once then, else
         returns whether the project was opened. A missing or changed head offers to relink
-        (:meth:`_offer_relink`); nothing in the current document changes unless the open succeeds."""
+        (:meth:`_offer_relink`); nothing in the current document changes unless the open succeeds.
+        """
         if path is None:
             name, _ = QFileDialog.getOpenFileName(self, "Open project", "", "Sheer projects (*.sheer)")
             if not name:
@@ -610,7 +611,8 @@ class StudioWindow(QMainWindow):
 
     def _offer_relink(self, path: Path, exc: Exception) -> Path | str | None:
         """Ask what to do about a missing or changed head: the head file located (retry with
-        ``head_path=``), ``"accept"`` (retry with ``accept_head_change=True``) or None (Cancel)."""
+        ``head_path=``), ``"accept"`` (retry with ``accept_head_change=True``) or None (Cancel).
+        """
         from project.errors import HeadChecksumError
 
         choices = {"locate": "Locate head…"}
@@ -631,7 +633,8 @@ class StudioWindow(QMainWindow):
 
     def _opened(self, path: Path, project: Any, opened: Any, maps: list[np.ndarray] | None = None) -> bool:
         """Install an opened project. Maps at another resolution than the studio's are resampled if the
-        user agrees (in a worker; returns True once started), else the project is not opened."""
+        user agrees (in a worker; returns True once started), else the project is not opened.
+        """
         from app import project_io
         from core.errors import SheerError
 

@@ -50,7 +50,8 @@ def _vec(v: Any) -> list[float]:
 
 def view_state(camera: Any, lighting: Any, environment: str, look: dict[str, Any] | None) -> ViewState:
     """Lights (directional key light, ambient, optional HDR environment) and camera from the studio's
-    ``OrbitCamera`` / ``Lighting`` / environment name."""
+    ``OrbitCamera`` / ``Lighting`` / environment name.
+    """
     toward_light = np.asarray(lighting.direction(), dtype=float)
     lights: list[dict[str, Any]] = [
         {"type": "directional", "color": _vec(lighting.colour), "intensity": float(lighting.intensity),
@@ -118,7 +119,8 @@ def restore_camera(camera: Any, record: dict[str, Any] | None) -> None:
 
 def snapshot(doc: Any, library: Any, name: str, base: Any = None, view: ViewState | None = None) -> Any:
     """A ``project.io.Project`` of the document now (maps copied): ``Project.from_document`` with
-    ``base`` (the project last opened or saved) and the view state, when given."""
+    ``base`` (the project last opened or saved) and the view state, when given.
+    """
     from project.io import Project
 
     kwargs: dict[str, Any] = {"name": name, "base": base}
@@ -146,7 +148,8 @@ def save_project_file(project: Any, path: Path, self_contained: bool | None = No
 def read_document(path: Path, head_path: Path | None = None, accept_head_change: bool = False) -> tuple[Any, Any]:
     """``open_project`` + ``project.to_document()``: (project, painting.Document). Safe in a worker.
 
-    Raises ``HeadMissingError`` / ``HeadChecksumError`` (offer to relink) and other ``ProjectError``s."""
+    Raises ``HeadMissingError`` / ``HeadChecksumError`` (offer to relink) and other ``ProjectError``s.
+    """
     from project.io import open_project
 
     project = open_project(path, head_path=head_path, accept_head_change=accept_head_change)
@@ -168,7 +171,8 @@ def resample_map(values: np.ndarray, src_atlas: Any, dst_atlas: Any) -> np.ndarr
     Uses painting's bakes at both resolutions (``Document.atlas_at``): the source is averaged (down) or
     interpolated (up) only over its baked texels (covered or padding; weights renormalised, so nothing
     bleeds in from outside the charts), then the target keeps its covered texels and refills its padding
-    texels from their sources (``Atlas.pad_dst``/``pad_src``), as painting does after a dab."""
+    texels from their sources (``Atlas.pad_dst``/``pad_src``), as painting does after a dab.
+    """
     from PIL import Image
 
     src = np.asarray(values, np.float32)
@@ -202,7 +206,8 @@ def resample_layers(doc: Any, opened: Any, progress: Any = None) -> list[np.ndar
 
 def check_compatible(project: Any, opened: Any, doc: Any, resample: bool = False) -> None:
     """Refuse a project whose maps would not line up with the studio's document (another head's paint
-    layout; another resolution unless ``resample``, see :func:`resample_layers`). Raises ``ProjectError``."""
+    layout; another resolution unless ``resample``, see :func:`resample_layers`). Raises ``ProjectError``.
+    """
     from project.document import layout_record
     from project.errors import ProjectError
 
@@ -221,7 +226,8 @@ def check_compatible(project: Any, opened: Any, doc: Any, resample: bool = False
 def install_layers(doc: Any, library: Any, project: Any, opened: Any, maps: list[np.ndarray] | None = None) -> None:
     """Replace the studio document's layers with the opened document's (maps copied bit-exactly, or
     ``maps``: e.g. :func:`resample_layers`'s); the project's embedded materials the library lacks are
-    added to it. Call :func:`check_compatible` first."""
+    added to it. Call :func:`check_compatible` first.
+    """
     for name in project.materials:
         if name not in library:
             library.add(project.material(name))
@@ -239,7 +245,8 @@ def install_layers(doc: Any, library: Any, project: Any, opened: Any, maps: list
 def load_project_into(doc: Any, library: Any, source: Path | Any, resample: bool = False) -> str:
     """Replace the document's layers with a project's (a path, or a ``Project`` already opened); maps at
     another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`). Returns the
-    project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then."""
+    project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then.
+    """
     from project.io import open_project
 
     project = open_project(source) if isinstance(source, str | Path) else source

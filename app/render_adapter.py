@@ -19,12 +19,14 @@ What this adds around ``render.Renderer``:
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from app.camera import Lighting, OrbitCamera
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from app.camera import Lighting, OrbitCamera
 
 MESH_VERT = """
 #version 330
@@ -94,7 +96,8 @@ def debug_slot(active: Sequence[int], layer_index: int) -> int | None:
 
     ``settings.debug_layer`` indexes the renderer's *active* layers (``renderer.km.active``: the visible,
     non-transparent document layers, bottom first), not the document's: with a hidden layer below the
-    selected one the two differ. None when the layer is not active (hidden): it has nothing to show."""
+    selected one the two differ. None when the layer is not active (hidden): it has nothing to show.
+    """
     active = list(active)
     return active.index(layer_index) if layer_index in active else None
 
@@ -102,7 +105,8 @@ def debug_slot(active: Sequence[int], layer_index: int) -> int | None:
 def layer_inputs(doc: Any, library: Any) -> list[Any]:
     """Every document layer as a ``render.LayerInput`` (bottom first, hidden ones with ``visible=False``),
     so index *i* is document layer *i*. The material comes from the studio's ``library`` (edits there show
-    at once), else the layer's own copy (``material_object``)."""
+    at once), else the layer's own copy (``material_object``).
+    """
     from render import LayerInput
 
     out = []
@@ -226,7 +230,8 @@ class ViewportRenderer:
                split: float = 0.0, debug: int = 0, mode: str = "fast",
                brush: tuple[float, float, float, float] | None = None) -> bool:
         """Draw the view into ``fbo`` (``size`` pixels). Returns True when the renderer drew a new frame,
-        False when the kept frame was reused (only the brush ring moved)."""
+        False when the kept frame was reused (only the brush ring moved).
+        """
         import moderngl
 
         w, h = size
@@ -273,7 +278,8 @@ class ViewportRenderer:
 
     def _draw_lightweight(self, w: int, h: int, split: bool) -> None:
         """The kept frame (and the bare one for the split) by the lightweight engine, with the physical
-        renderer's camera, lights, environment and texture-space KM outputs."""
+        renderer's camera, lights, environment and texture-space KM outputs.
+        """
         lw = self._lightweight()
         lw.camera = self.r.camera
         lw.lights = list(self.r.lights)
@@ -297,7 +303,8 @@ class ViewportRenderer:
 
     def _copy_frame(self, fbo: Any) -> None:
         """The kept frame into ``fbo``: a framebuffer blit (≈ 1.5 ms at 1280×720 on llvmpipe), or a
-        textured quad where the blit is refused."""
+        textured quad where the blit is refused.
+        """
         import moderngl
 
         if self._blit_ok:
@@ -313,7 +320,8 @@ class ViewportRenderer:
     def _draw_ring(self, fbo: Any, camera: OrbitCamera, w: int, h: int,
                    brush: tuple[float, float, float, float]) -> None:
         """The brush ring on the surface, against the mesh's depth (drawn once per frame, on demand), only
-        inside the ring's box on screen."""
+        inside the ring's box on screen.
+        """
         import moderngl
 
         mvp = self._mvp(camera, w, h)
@@ -386,7 +394,8 @@ class ViewportRenderer:
 
     def pick(self, x: int, y: int, camera: OrbitCamera | None = None) -> np.ndarray | None:
         """The surface point (mesh units) under pixel (x, y) of the last frame (origin top-left), or None.
-        A lightweight frame is picked from its own depth (``camera``: the frame's camera)."""
+        A lightweight frame is picked from its own depth (``camera``: the frame's camera).
+        """
         if self.drawn_by != "lightweight" or self._frame is None or camera is None:
             p = self.r.pick(x, y)
             return None if p is None else np.asarray(p, float)
@@ -443,7 +452,8 @@ class ViewportRenderer:
 def preload_renderer(progress: Any = None, cancelled: Any = None) -> bool:
     """Import ``render.Renderer`` and load the spectral → RGB matrices it and the swatches need, off the GUI
     thread: from km's disk cache, or (the first run on a machine) made with colour-science, which takes
-    seconds to import."""
+    seconds to import.
+    """
     import importlib
 
     importlib.import_module("render.renderer")

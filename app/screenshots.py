@@ -1,5 +1,6 @@
 """``python -m app.screenshots OUT_DIR``: grab real screenshots of the running studio and kiosk (for the
-README). Run under a display (or ``xvfb-run -a -s "-screen 0 1920x1080x24"``)."""
+README). Run under a display (or ``xvfb-run -a -s "-screen 0 1920x1080x24"``).
+"""
 
 from __future__ import annotations
 

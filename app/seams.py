@@ -6,10 +6,12 @@ the About box and the bench JSON).
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 _USED: dict[str, str] = {"renderer": "render.Renderer"}
 
@@ -60,7 +62,8 @@ def materials_by_category(library: Any) -> dict[str, list[str]]:
 
 def apply_look(doc: Any, library: Any, name: str) -> None:
     """Replace the document's layers with the built-in look ``name`` (``resources/looks``; unknown →
-    ``painting.looks.LookError``, a SheerError)."""
+    ``painting.looks.LookError``, a SheerError).
+    """
     for i in reversed(range(len(doc.layers))):
         doc.remove_layer(i)
     doc.apply_look(name)

@@ -1,6 +1,7 @@
 """All UI state in one plain object (after Open3D's GUI examples); widgets set a field and call one
 ``apply`` function. Persisted with QSettings (brush, view options, recent files; window layout is
-saved by the window itself)."""
+saved by the window itself).
+"""
 
 from __future__ import annotations
 

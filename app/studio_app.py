@@ -84,7 +84,8 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
 def open_document_with_progress(head: str | None, resolution: int, library: object, look: str = "") -> object:
     """Build the painting document in a worker thread (mesh cleaning, UV check or unwrap, bake, then the
     look's strokes) with a progress dialog and Cancel; returns the document, or an error message
-    (``"cancelled"``)."""
+    (``"cancelled"``).
+    """
     from PySide6.QtCore import QEventLoop
 
     from app import seams

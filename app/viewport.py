@@ -19,8 +19,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from PySide6.QtCore import QPointF, Qt, Signal
@@ -30,12 +29,16 @@ from PySide6.QtWidgets import QLabel, QWidget
 
 from app.camera import Lighting, OrbitCamera
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
 _PRELOAD: dict[str, Any] = {"task": None, "waiting": []}
 
 
 def renderer_modules_loaded() -> bool:
     """The renderer is imported and its spectral → RGB matrix is at hand (see
-    app.render_adapter.preload_renderer)."""
+    app.render_adapter.preload_renderer).
+    """
     import sys
 
     if "render.renderer" not in sys.modules:
@@ -48,7 +51,8 @@ def renderer_modules_loaded() -> bool:
 
 def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
     """Import the renderer's modules in a worker (once; colour-science takes seconds on a loaded machine),
-    then call ``then`` on the GUI thread. Start it early (the studio does before building its document)."""
+    then call ``then`` on the GUI thread. Start it early (the studio does before building its document).
+    """
     if renderer_modules_loaded() and _PRELOAD["task"] is None:
         if then is not None:
             then()
@@ -266,7 +270,8 @@ class Viewport(QOpenGLWidget):
     def layers_changed(self, index: int | None = None, tiles: list[tuple[int, int]] | None = None) -> None:
         """Queue a texture-space update, applied in the next ``paintGL`` (our context current): layer
         ``index``'s 64² tiles ``tiles`` = [(row, column), …] (merged with those already queued), or every
-        layer when ``index`` or ``tiles`` is None."""
+        layer when ``index`` or ``tiles`` is None.
+        """
         if index is None or tiles is None:
             self._full_sync = True
         elif not self._full_sync:

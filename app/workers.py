@@ -1,5 +1,6 @@
 """Long work off the GUI thread: a QRunnable on the global QThreadPool, progress and Cancel through a
-QProgressDialog, results and errors back on the GUI thread through signals."""
+QProgressDialog, results and errors back on the GUI thread through signals.
+"""
 
 from __future__ import annotations
 

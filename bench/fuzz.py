@@ -62,7 +62,8 @@ def tiny_head(embedded: bool = True) -> HeadRef:
 
 def write_tiny_head(folder: str | Path, name: str = "head.obj") -> Path:
     """Write :func:`tiny_head`'s files (a one-triangle OBJ with UVs and its sidecar) into ``folder``;
-    returns the mesh path."""
+    returns the mesh path.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     data = tiny_head(True).data
@@ -75,7 +76,8 @@ def write_tiny_head(folder: str | Path, name: str = "head.obj") -> Path:
 def sample_project(side: int = 64, layers: int = 2, seed: int = 0, embedded: bool = True,
                    name: str = "fuzz sample") -> Project:
     """A small valid project: ``layers`` layers of ``side``² texels (EXR, then PNG), two materials,
-    a light, a camera and a look."""
+    a light, a camera and a look.
+    """
     rng = np.random.default_rng(seed)
     out = []
     for i in range(layers):

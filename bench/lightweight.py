@@ -16,8 +16,10 @@ import argparse
 import json
 import statistics
 import time
-from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 
 def _interleaved_median_ms(ctx: Any, configs: dict[str, Callable[[], None]], frames: int,

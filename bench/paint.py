@@ -103,7 +103,8 @@ def _floor_kernel() -> Any:
         def texel_floor(flat: np.ndarray, pos: np.ndarray, c: np.ndarray, r2: np.float32,
                         out: np.ndarray) -> int:
             """Read the position (``pos``: flat (H·W·3,) float32) of each texel ``flat`` (ascending) and
-            write its squared distance to ``c`` into ``out`` when inside ``r2``; returns the count."""
+            write its squared distance to ``c`` into ``out`` when inside ``r2``; returns the count.
+            """
             n = 0
             for i in range(len(flat)):
                 f = flat[i]
@@ -125,7 +126,8 @@ def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10
     """``floor_ms``: the median floor pass (module docstring) over each point's dab texels (the covered
     texels within ``radius_mm``, found outside the timing); ``fixed_ms``: the median real dab of 0.2 mm
     radius at the same points (each the first of its stroke, as in :func:`measure`). With ``evict``,
-    also ``floor_cold_ms`` and ``fixed_cold_ms``, each pass or dab after reading ``evict``."""
+    also ``floor_cold_ms`` and ``fixed_cold_ms``, each pass or dab after reading ``evict``.
+    """
     from painting import Brush
 
     out: dict[str, float] = {}
@@ -180,7 +182,8 @@ def _timed_dabs(doc: Any, layer: Any, pts: np.ndarray, brush: Any,
     """One single-dab stroke at each point: (dab wall s, dab CPU s, whole stroke s, texels newly
     painted). The new texels are counted in the dab's own 64² tiles (a count over the whole map between
     dabs would itself read 64 MB at 4096² and leave the next dab with cold caches only there). With
-    ``evict`` (a large array), it is read before each dab: the caches cold, alike at every map size."""
+    ``evict`` (a large array), it is read before each dab: the caches cold, alike at every map size.
+    """
     res = layer.resolution
     nt = res // 64
     counts = np.zeros(nt * nt, dtype=np.int64)
@@ -209,7 +212,8 @@ def _timed_dabs(doc: Any, layer: Any, pts: np.ndarray, brush: Any,
 def measure(resolution: int, library: Any, material: str, dabs: int = 40,
             evict: np.ndarray | None = None) -> dict[str, Any]:
     """The dab figures at one map size (see the module docstring); ``evict`` as :func:`_timed_dabs`, for
-    a second pass on a fresh layer with cold caches (``dab_cold_ms``)."""
+    a second pass on a fresh layer with cold caches (``dab_cold_ms``).
+    """
     from painting import Brush, Document
 
     doc = Document.from_head(None, library=library, resolution=resolution)

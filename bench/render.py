@@ -26,10 +26,12 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 
 def _median_ms(ctx: Any, fn: Callable[[], None], frames: int, warmup: int = 2) -> float:
@@ -47,7 +49,8 @@ def _median_ms(ctx: Any, fn: Callable[[], None], frames: int, warmup: int = 2) -
 
 def pass_times(ctx: Any, r: Any, fbo: Any, frames: int) -> dict[str, float]:
     """Median times (ms) of the lit pass, the SSS passes (with their masks) and the composite of ``r``'s
-    frames into ``fbo``, each pass bracketed by ``ctx.finish()`` (so their sum exceeds a frame's time)."""
+    frames into ``fbo``, each pass bracketed by ``ctx.finish()`` (so their sum exceeds a frame's time).
+    """
     got: dict[str, list[float]] = {}
 
     def timed(fn: Callable[..., Any], label: str | Callable[[], str]) -> Callable[..., Any]:
@@ -89,7 +92,8 @@ def pass_times(ctx: Any, r: Any, fbo: Any, frames: int) -> dict[str, float]:
 
 def floor_shaders(folder: Any) -> Any:
     """A shader library whose lit pass and composite write constants (same outputs, same passes):
-    written into ``folder``, searched before the shipped shaders."""
+    written into ``folder``, searched before the shipped shaders.
+    """
     from pathlib import Path
 
     from render.shaders import ShaderLibrary, default_shader_dir

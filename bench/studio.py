@@ -1,6 +1,7 @@
 """``sheer bench studio --json``: start-up to first frame, orbit frame rate at 1280×720 (fast mode) and
 dab-to-frame latency, measured on the real studio window (xcb; re-runs itself under ``xvfb-run`` when
-there is no display)."""
+there is no display).
+"""
 
 from __future__ import annotations
 
@@ -141,7 +142,8 @@ def main(argv: list[str]) -> int:
 def _timed_orbit(vp: Any, frames: int) -> tuple[list[float], list[float]]:
     """Seconds per orbit step (2° each), each a new frame drawn by the renderer, and the milliseconds of
     each step spent in the viewport's paintGL (the renderer, finished; the rest is Qt composing the
-    window); the first 3 steps untimed."""
+    window); the first 3 steps untimed.
+    """
     from core.errors import SheerError
 
     times, paint = [], []
@@ -160,7 +162,8 @@ def _timed_orbit(vp: Any, frames: int) -> tuple[list[float], list[float]]:
 
 def _wait_until(cond: Any, timeout: float) -> None:
     """Run the event loop until ``cond()`` or ``timeout`` seconds, in 20 ms slices spent inside Qt's event
-    loop (not a Python busy loop, which would hold the GIL the studio's import worker needs)."""
+    loop (not a Python busy loop, which would hold the GIL the studio's import worker needs).
+    """
     from PySide6.QtCore import QEventLoop, QTimer
 
     deadline = time.perf_counter() + timeout

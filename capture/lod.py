@@ -85,7 +85,8 @@ def simplify_head(head: Any, faces: int) -> Any:
 
 def _face_neighbours(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR (start (V+1,), faces) of the faces around each vertex *index*: a UV seam splits vertices,
-    so adjacency through shared indices never crosses a seam."""
+    so adjacency through shared indices never crosses a seam.
+    """
     vf = faces.ravel()
     owner = np.repeat(np.arange(len(faces)), 3)
     order = np.argsort(vf, kind="stable")
@@ -97,7 +98,8 @@ def _chart_uvs(fine: Any, corners: np.ndarray) -> np.ndarray:
     """UVs (T, 3, 2) for coarse triangles (T, 3, 3) taken within one UV chart each: the fine faces
     reachable from the face nearest the triangle's centroid through shared vertices (so not across a
     seam), within 1.25× the triangle's circumradius (+ 2 fine edges) of its centroid; each corner takes
-    the UV of its closest point among them (a corner beyond the seam lands on the seam's edge)."""
+    the UV of its closest point among them (a corner beyond the seam lands on the seam's edge).
+    """
     import trimesh
 
     faces = np.asarray(fine.faces)
@@ -142,10 +144,11 @@ def _chart_uvs(fine: Any, corners: np.ndarray) -> np.ndarray:
 
 
 def uv_faults(fine: Any, coarse: Any, tol: float = 0.05) -> np.ndarray:
-    """bool (T,): coarse triangles whose UVs misrepresent the fine surface under them — folded (UV
+    """Bool (T,): coarse triangles whose UVs misrepresent the fine surface under them — folded (UV
     winding against the fine's there, relative to the 3D winding) or inconsistent (at the centroid or
     an edge midpoint, the UV interpolated on the coarse triangle is more than ``tol`` from the fine
-    surface's UV at the closest point: the triangle straddles a seam)."""
+    surface's UV at the closest point: the triangle straddles a seam).
+    """
     import trimesh
 
     mesh = trimesh.Trimesh(fine.vertices, fine.faces, process=False)

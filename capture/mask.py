@@ -8,7 +8,7 @@ front-facing pixels are the candidates).
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.path import Path as MplPath
@@ -16,7 +16,10 @@ from scipy.spatial import ConvexHull
 
 from core.errors import SheerError
 
-from .camera import Camera
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from .camera import Camera
 
 
 class MaskError(SheerError, ValueError):

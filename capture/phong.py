@@ -133,7 +133,8 @@ def shade(p: PhongParams, geo: Geometry, clip: bool = True) -> np.ndarray:
 @dataclass
 class FitResult:
     """The fitted parameters, the residual (RMS per pixel of the Luv distance, and the paper's L2 norm)
-    and the number of evaluations."""
+    and the number of evaluations.
+    """
 
     params: PhongParams
     rms_luv: float
@@ -208,7 +209,8 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
 def photo_ambient_scale(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams) -> float | None:
     """The ambient scale k the photograph alone prefers: D and i_s refitted for each k, the Luv cost
     minimised over log k ∈ [ln 10⁻³, ln 10³] (dimensionless; None without ambient light). A diagnostic
-    — reported beside the k used, never used itself (see the module docstring)."""
+    — reported beside the k used, never used itself (see the module docstring).
+    """
     if not np.any(np.asarray(params.ambient_rgb) > 0):
         return None
     stride = max(1, len(photo_rgb) // 6000)

@@ -22,17 +22,15 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import ndimage
 
 from core.errors import SheerError
 
-from .camera import Camera
 from .mask import landmark_region, refine_by_skin_colour
 from .phong import (
     DetailSpecular,
@@ -46,9 +44,14 @@ from .phong import (
     shade,
     specular_from_detail,
 )
-from .probe import ProbeAnalysis
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from .camera import Camera
+    from .probe import ProbeAnalysis
 
 FACE_SCHEMA_VERSION = 1
 #: The detail texture's range is [0, 2**DETAIL_DOUBLINGS].
@@ -502,10 +505,11 @@ REPORT_DE_WHITE = 25.5
 
 
 def report_image(result: CaptureResult) -> np.ndarray:
-    """photograph | fitted Phong render (no detail) | difference (ΔE2000 as grey, white at
+    """Photograph | fitted Phong render (no detail) | difference (ΔE2000 as grey, white at
     ``REPORT_DE_WHITE`` and above, skin pixels) | the detail texture in UV space (× ½), with the texels
     the photograph did not see (filled, see :func:`bake_detail`) tinted magenta; a caption strip above
-    names each panel and its scale. uint8 (H + caption, 4W, 3)."""
+    names each panel and its scale. uint8 (H + caption, 4W, 3).
+    """
     from PIL import Image, ImageDraw, ImageFont
 
     photo = result.photo_lin
@@ -568,7 +572,8 @@ class Face:
 
 def face_albedo(face: Face) -> np.ndarray:
     """The captured skin albedo for the physical renderer: detail × fitted diffuse colour, as 8-bit sRGB
-    (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip)."""
+    (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip).
+    """
     lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
     return to_uint8(linear_to_srgb(lin))
 

@@ -98,7 +98,8 @@ def light_direction_from_highlight(dx: float, dy: float) -> tuple[np.ndarray, fl
 
 def _blob_shape(xs: np.ndarray, ys: np.ndarray) -> float:
     """Elongation of a pixel blob: √(λ_min/λ_max) of the covariance of its pixel centres (1 for a disc,
-    → 0 for a line); 1 for blobs of fewer than 3 pixels."""
+    → 0 for a line); 1 for blobs of fewer than 3 pixels.
+    """
     if len(xs) < 3:
         return 1.0
     ev = np.linalg.eigvalsh(np.cov(np.stack([xs, ys])) + np.eye(2) / 12.0)  # + a pixel's own spread
@@ -177,7 +178,8 @@ def _halo_radius(img: np.ndarray, usable: np.ndarray, dist: np.ndarray, first: f
                  background_lum: float) -> float | None:
     """The halo's outer radius (pixels): the radius where the median luminance of 1-pixel annuli
     around the core has fallen to a tenth of its first excess over ``background_lum`` (at least four
-    annuli out); None when no annulus is usable."""
+    annuli out); None when no annulus is usable.
+    """
     lum = img @ LUMINANCE
     excess0 = None
     radius = None
@@ -326,7 +328,8 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
 
 def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Radiance of an equirectangular environment (H, W, 3) in world directions (..., 3) (Y up;
-    longitude 0 at -Z, increasing towards +X; top row = +Y). Bilinear."""
+    longitude 0 at -Z, increasing towards +X; top row = +Y). Bilinear.
+    """
     d = directions / np.linalg.norm(directions, axis=-1, keepdims=True)
     lon = np.arctan2(d[..., 0], -d[..., 2])
     lat = np.arcsin(np.clip(d[..., 1], -1, 1))

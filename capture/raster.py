@@ -42,7 +42,7 @@ class GBuffer:
 
     @property
     def covered(self) -> np.ndarray:
-        """bool (H, W): pixels covered by a triangle."""
+        """Bool (H, W): pixels covered by a triangle."""
         return self.tri >= 0
 
     def interpolate(self, faces: np.ndarray, attribute: np.ndarray) -> np.ndarray:
@@ -100,7 +100,8 @@ def rasterize(xy: np.ndarray, depth: np.ndarray, faces: np.ndarray, width: int, 
 def rasterize_uv(uv: np.ndarray, faces: np.ndarray, size: tuple[int, int]) -> GBuffer:
     """Rasterise the mesh in UV space (texture-space conventions of :mod:`painting.head`: texel row ``i``
     covers ``v ∈ [i/H, (i+1)/H)``, top row first). ``size`` is (height, width) in texels. Where UV
-    islands overlap, painting's rule decides (the last triangle drawn wins)."""
+    islands overlap, painting's rule decides (the last triangle drawn wins).
+    """
     h, w = size
     xy = np.stack([uv[:, 0] * w, uv[:, 1] * h], axis=1)
     f = np.asarray(faces, dtype=np.int64)

@@ -138,7 +138,8 @@ def build_reflectance_map(normals_cam: np.ndarray, colours: np.ndarray, n: int =
 
 def eq3_exponent(alpha_rad: float) -> float:
     """The paper's Eq. 3: the Phong exponent whose ratio cos^s(2α)/cos(α) changes fastest at ``alpha``
-    (radians). For small α it tends to 1/(4α²)."""
+    (radians). For small α it tends to 1/(4α²).
+    """
     z = np.sin(alpha_rad)
     z2 = z * z
     num = 4 * z2 * z2 - 2 * z2 - 1 - np.sqrt(max(-16 * z2 ** 3 + 8 * z2 * z2 + 1, 0.0))
@@ -194,14 +195,16 @@ class ExponentEstimate:
 def saturation_model(alpha: np.ndarray, sat_d: float, ratio: float, s: float) -> np.ndarray:
     """The saturation of a diffuse colour cos(α)·D plus a white specular ratio·cos^s(2α) (relative to
     D's largest channel): sat_D / (1 + ratio·cos^s(2α)/cos α) — adding white leaves max − min unchanged
-    and raises max."""
+    and raises max.
+    """
     return sat_d / (1.0 + ratio * np.clip(np.cos(2 * alpha), 0, None) ** s / np.cos(alpha))
 
 
 def _fit_saturation_curve(alpha: np.ndarray, prof: np.ndarray, weight: np.ndarray, s0: float) -> tuple[float, float]:
     """Fit :func:`saturation_model` to the measured profile (weighted least squares,
     ``scipy.optimize.least_squares`` on (sat_D, log ratio, log s), started from Eq. 3's s); returns
-    (s, ratio)."""
+    (s, ratio).
+    """
     from scipy.optimize import least_squares
 
     wsq = np.sqrt(weight)

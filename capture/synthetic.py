@@ -58,7 +58,8 @@ def env_mean_radiance(env: np.ndarray) -> np.ndarray:
     """The mean radiance over the sphere of directions of an equirectangular environment (H, W, 3):
     rows weighted by the solid angle they cover, ∝ cos(latitude). (The plain pixel mean over-weights the
     poles: it differs from this by −18 % to +31 % on the shipped environments, and in hue — the lobby's
-    pixel mean is 20 % less blue.) Returns (3,), the environment's units."""
+    pixel mean is 20 % less blue.) Returns (3,), the environment's units.
+    """
     h = env.shape[0]
     lat = (0.5 - (np.arange(h) + 0.5) / h) * np.pi
     w = np.cos(lat)
@@ -67,7 +68,8 @@ def env_mean_radiance(env: np.ndarray) -> np.ndarray:
 
 def light_from_camera(camera: Camera, up_deg: float, right_deg: float) -> np.ndarray:
     """A world direction towards a light at the given angles above and to the right of the camera's
-    axis, as seen from the subject (unit (3,))."""
+    axis, as seen from the subject (unit (3,)).
+    """
     a, b = np.radians(up_deg), np.radians(right_deg)
     # Camera coordinates: x right, y down, z forward; "towards the camera" is -z.
     d = np.array([np.sin(b) * np.cos(a), -np.sin(a), -np.cos(a) * np.cos(b)])

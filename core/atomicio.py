@@ -12,9 +12,11 @@ import contextlib
 import os
 import shutil
 import tempfile
-from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
 
 
 @contextlib.contextmanager
@@ -73,7 +75,8 @@ def atomic_write_with(path: str | Path, writer: Callable[[IO], None], keep_backu
 def _keep_backup(target: Path) -> None:
     """Make ``<target>.bak`` the current ``target``: a hard link when the file system allows it (no
     copy of a large project on every save), else a copy; fsynced, and put in place by a rename, so
-    the previous ``.bak`` is replaced atomically too."""
+    the previous ``.bak`` is replaced atomically too.
+    """
     backup = target.with_name(target.name + ".bak")
     backup_tmp = target.with_name(f".{target.name}.bak.tmp")
     with contextlib.suppress(FileNotFoundError):

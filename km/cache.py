@@ -14,12 +14,16 @@ import functools
 import hashlib
 import importlib.metadata
 import os
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from core.cache import cache_dir, save_array
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from numpy.typing import ArrayLike
 
 #: bump when the cached matrices' definition changes
 _MATRIX_CACHE_VERSION = 1
@@ -45,7 +49,8 @@ def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
 
 def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> bool:
     """Whether :func:`spectral_rgb_matrix_cached` would answer without colour-science: the matrix is in
-    this process already or its cache file exists."""
+    this process already or its cache file exists.
+    """
     wl = np.asarray(wavelengths, dtype=np.float64)
     memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))
     return memo in _IN_MEMORY or _matrix_path(wl, illuminant, cat).is_file()
@@ -54,7 +59,8 @@ def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", c
 def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> np.ndarray:
     """:func:`km.colour.spectral_rgb_matrix` for ``wavelengths`` (nm), read from the disk cache when it is
     there (keyed by the grid, the illuminant, the adaptation transform and colour-science's version) and
-    written to it otherwise. Returns a read-only float64 (n_wavelengths, 3) array."""
+    written to it otherwise. Returns a read-only float64 (n_wavelengths, 3) array.
+    """
     wl = np.asarray(wavelengths, dtype=np.float64)
     memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))
     hit = _IN_MEMORY.get(memo)

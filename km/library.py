@@ -51,7 +51,8 @@ class LibraryError(SheerError, ValueError):
 
 def register_migration(from_version: int) -> Callable[[Migration], Migration]:
     """Decorator registering ``func(data) -> data`` that upgrades a library dict from ``from_version`` to
-    ``from_version + 1`` (it may modify and return its argument; it receives a private copy)."""
+    ``from_version + 1`` (it may modify and return its argument; it receives a private copy).
+    """
 
     def decorate(func: Migration) -> Migration:
         if from_version in MIGRATIONS:
@@ -64,7 +65,8 @@ def register_migration(from_version: int) -> Callable[[Migration], Migration]:
 
 def migrate(data: dict[str, Any], *, source: str = "library") -> dict[str, Any]:
     """Bring a parsed library dict up to :data:`SCHEMA_VERSION` (returns a new dict; the input is
-    untouched). Raises :class:`LibraryError` for a missing, invalid, unknown or newer version."""
+    untouched). Raises :class:`LibraryError` for a missing, invalid, unknown or newer version.
+    """
     if not isinstance(data, dict):
         raise LibraryError(f"{source}: the top level must be a JSON object, got {_json_type(data)}")
     version = data.get("schema_version")
@@ -153,7 +155,8 @@ class Library:
 
     def get(self, name: str) -> Material:
         """The material called ``name`` (case-insensitive). Raises :class:`LibraryError` suggesting close
-        matches when there is none."""
+        matches when there is none.
+        """
         i = self._index(name)
         if i is None:
             raise LibraryError(self._not_found(name))
@@ -178,7 +181,8 @@ class Library:
 
     def add(self, material: Material, *, replace: bool = False) -> Material:
         """Append ``material``; a material with the same name (case-insensitive) is an error unless
-        ``replace`` (then it is replaced in place)."""
+        ``replace`` (then it is replaced in place).
+        """
         if not isinstance(material, Material):
             raise TypeError(f"expected a Material, got {type(material).__name__}")
         i = self._index(material.name)
@@ -216,7 +220,8 @@ class Library:
 
     def duplicate(self, name: str, new_name: str | None = None) -> Material:
         """Copy the material ``name`` under ``new_name`` (default: ``"<name> copy"``, ``"<name> copy 2"``…),
-        inserted right after it; returns the copy."""
+        inserted right after it; returns the copy.
+        """
         i = self._index(name)
         if i is None:
             raise LibraryError(self._not_found(name))
@@ -251,7 +256,8 @@ class Library:
 
     def dumps(self) -> str:
         """The file content: indented JSON with each list of numbers on one line, shortest round-trip
-        floats (bit-identical on reload), a final newline. Deterministic."""
+        floats (bit-identical on reload), a final newline. Deterministic.
+        """
         text = json.dumps(self.to_json(), indent=1, ensure_ascii=False, allow_nan=False)
         # Only lists that the indenter spread over several lines are joined; JSON strings never hold a
         # raw newline, so text inside strings is never touched.
@@ -336,7 +342,8 @@ class Library:
 
     def save(self, path: str | Path | None = None, *, keep_backup: bool = True) -> Path:
         """Write the library atomically to ``path`` (default: where it was loaded from); the previous
-        file is kept as ``FILE.bak`` unless ``keep_backup=False``. Returns the path written."""
+        file is kept as ``FILE.bak`` unless ``keep_backup=False``. Returns the path written.
+        """
         from core.atomicio import atomic_write_text
 
         target = Path(path) if path is not None else self.path
@@ -390,7 +397,8 @@ def _cached_default() -> Library:
 
 def default_library() -> Library:
     """The default library shipped with Sheer (loaded once; each call returns an independent copy,
-    safe to mutate, whose ``path`` is None so that saving it needs an explicit path)."""
+    safe to mutate, whose ``path`` is None so that saving it needs an explicit path).
+    """
     lib = _cached_default().copy()
     lib.path = None
     return lib

@@ -132,7 +132,8 @@ MATERIAL_JSON_SCHEMA: dict[str, Any] = {
 
 class MaterialError(SheerError, ValueError):
     """An invalid material or measurement. ``field`` is the path of the offending value (e.g.
-    ``materials[3].S[12]``) and ``reason`` says what is wrong with it; ``str()`` gives both."""
+    ``materials[3].S[12]``) and ``reason`` says what is wrong with it; ``str()`` gives both.
+    """
 
     def __init__(self, field: str, reason: str) -> None:
         self.field = field
@@ -190,7 +191,8 @@ def _check_name(value: Any, where: str = "name") -> str:
 def _check_array(value: Any, where: str, lo: float | None = None, hi: float | None = None,
                  length: int | None = None, length_of: str = "wavelengths") -> np.ndarray:
     """A 1-D finite float64 read-only copy of ``value``; a list from JSON is checked element by element
-    so that the error names the index."""
+    so that the error names the index.
+    """
     if isinstance(value, np.ndarray):
         if value.ndim != 1:
             raise MaterialError(where, f"must be one-dimensional (got shape {value.shape})")
@@ -315,7 +317,8 @@ class Measurement:
 
     def invert(self, *, clip: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """(S, K) per mm from this triplet with :func:`km.invert_sk` (Eq. 6–7), Saunderson-corrected when
-        ``saunderson`` is set. Raises :class:`km.KMDomainError` on invalid data unless ``clip``."""
+        ``saunderson`` is set. Raises :class:`km.KMDomainError` on invalid data unless ``clip``.
+        """
         from km.optics import invert_sk
 
         return invert_sk(self.R_inf, self.R, self.Rg, self.D_mm, clip=clip,
@@ -421,7 +424,8 @@ class Material:
     def rt(self, thickness_um: float | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """``(R0, T)`` of a layer of ``thickness_um`` µm (default: ``self.thickness_um``) over nothing
         (Eq. 1–2); arrays on ``self.wavelengths``. An array of thicknesses broadcasts: shape
-        ``(*thickness.shape, n_wavelengths)``."""
+        ``(*thickness.shape, n_wavelengths)``.
+        """
         from km.optics import layer_rt
 
         x_um = self.thickness_um if thickness_um is None else thickness_um
@@ -440,7 +444,8 @@ class Material:
 
     def r_inf(self) -> np.ndarray:
         """Reflectance of an opaque layer, R∞ = 1 + K/S − √((K/S)² + 2K/S) (fraction, per wavelength;
-        0 where S = 0)."""
+        0 where S = 0).
+        """
         from km.optics import r_inf_from_ks
 
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -450,7 +455,8 @@ class Material:
     def reflectance_over(self, background: float | np.ndarray | str = "black",
                          thickness_um: float | None = None) -> np.ndarray:
         """Total reflectance of the layer over a background: ``"black"`` (0), ``"white"`` (1), a number
-        in [0, 1] or a reflectance spectrum on ``self.wavelengths``."""
+        in [0, 1] or a reflectance spectrum on ``self.wavelengths``.
+        """
         from km.optics import over
 
         rg = _background(background, self.wavelengths.size)
@@ -461,7 +467,8 @@ class Material:
                    illuminant: str = "D65", *, encoded: bool = True) -> np.ndarray:
         """Display colour of the layer over ``background`` (see :meth:`reflectance_over`) under
         ``illuminant``: gamma-encoded sRGB in [0, 1] (clipped), or linear sRGB (unclipped) with
-        ``encoded=False``. ``background="opaque"`` gives the colour of R∞."""
+        ``encoded=False``. ``background="opaque"`` gives the colour of R∞.
+        """
         # km.colour.spectrum_to_rgb's matrix through km's disk cache: swatches are drawn while the studio
         # starts, and importing colour-science for them cost about a second there (the same product)
         from km.cache import spectral_rgb_matrix_cached
@@ -484,7 +491,8 @@ class Material:
 
     def on_wavelengths(self, wavelengths: np.ndarray | Sequence[float]) -> Material:
         """This material with S and K linearly interpolated onto ``wavelengths`` (nm; held constant
-        beyond the ends). The measurement, if any, stays on its own grid."""
+        beyond the ends). The measurement, if any, stays on its own grid.
+        """
         from km.spectra import WavelengthGrid
 
         wl = _check_wavelengths(np.asarray(wavelengths, dtype=np.float64))
@@ -508,7 +516,8 @@ class Material:
     @classmethod
     def from_json(cls, data: Any, *, where: str = "material") -> Material:
         """Validate and build a material from its JSON dict. Any problem raises :class:`MaterialError`
-        naming ``where.<field>`` (e.g. ``materials[3].S[12]``); nothing is silently fixed."""
+        naming ``where.<field>`` (e.g. ``materials[3].S[12]``); nothing is silently fixed.
+        """
         try:
             d = _check_keys(data, _MATERIAL_KEYS, "")
             name = _check_name(d["name"])
@@ -536,7 +545,8 @@ def encode_srgb(linear_rgb: np.ndarray) -> np.ndarray:
 
     The standard's two-piece formula, written out rather than ``colour.cctf_encoding(..., "sRGB")`` so
     that drawing a swatch does not import colour-science (about a second of the studio's start-up); a
-    test checks the two agree to 1e-12."""
+    test checks the two agree to 1e-12.
+    """
     c = np.clip(np.asarray(linear_rgb, dtype=np.float64), 0.0, 1.0)
     return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
 

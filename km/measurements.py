@@ -34,15 +34,17 @@ import io
 import math
 import re
 import shlex
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from core.errors import SheerError
 from km.material import Material, MaterialError, Measurement
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 #: Largest measurement file read, in bytes.
 MAX_IMPORT_BYTES = 16 * 1024 * 1024
@@ -73,7 +75,8 @@ class MeasurementImportError(SheerError, ValueError):
 @dataclass
 class ImportResult:
     """What an import produced: the materials, and every rejected ``(where, reason)``
-    (``where`` is e.g. ``"line 12"``, ``"sample 'Rose R'"`` or ``"Rose: 455 nm"``)."""
+    (``where`` is e.g. ``"line 12"``, ``"sample 'Rose R'"`` or ``"Rose: 455 nm"``).
+    """
 
     source: str
     accepted: list[Material] = field(default_factory=list)
@@ -288,7 +291,8 @@ _META_RE = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_ ]*?)\s*[:=]\s*(.*?)\s*$")
 
 def _column_key(text: str) -> str:
     """Normalised column name: lowercase, units in brackets dropped, spaces as underscores
-    (``"Wavelength (nm)"`` → ``wavelength``, ``"R inf"`` → ``r_inf``)."""
+    (``"Wavelength (nm)"`` → ``wavelength``, ``"R inf"`` → ``r_inf``).
+    """
     key = re.sub(r"[\(\[].*?[\)\]]", "", text.strip().strip('"')).strip().lower()
     return re.sub(r"\s+", "_", key)
 
@@ -297,7 +301,8 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
              category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
     """Import one material from a CSV triplet file (see the module docstring). ``thickness_mm`` (D, mm)
     overrides the file's ``D_mm``; ``name`` and ``category`` override the file's metadata (defaults: the
-    file name and ``other``). ``grid``: target wavelengths (nm), default 380–780 nm in 5 nm steps."""
+    file name and ``other``). ``grid``: target wavelengths (nm), default 380–780 nm in 5 nm steps.
+    """
     p = Path(path)
     source = str(p)
     text = _read_text(p)
@@ -414,7 +419,8 @@ def _role(label: str) -> tuple[str, str] | None:
 def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
                category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
     """Import materials from an X-Rite / CGATS spectral file (see the module docstring). ``name`` may be
-    given only when the file holds one material."""
+    given only when the file holds one material.
+    """
     p = Path(path)
     source = str(p)
     text = _read_text(p)
@@ -587,7 +593,8 @@ def export_csv(material: Material, path: str | Path) -> Path:
     """Write a material as CSV (atomically): its measurement triplet on the material's wavelengths
     (linearly resampled) with ``# D_mm`` and the other metadata, plus ``S_per_mm`` and ``K_per_mm``
     columns. A material without a measurement gets the triplet its S and K predict (R∞, R over black
-    at D = 0.15 mm, Rg = 0). :func:`read_csv` reads the file back."""
+    at D = 0.15 mm, Rg = 0). :func:`read_csv` reads the file back.
+    """
     from core.atomicio import atomic_write_text
 
     wl = material.wavelengths

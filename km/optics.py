@@ -21,12 +21,15 @@ are accurate to a few ulps over the whole domain, including the limits S → 0, 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
 
 __all__ = [
     "KMDomainError",

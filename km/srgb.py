@@ -7,8 +7,12 @@ below 0.0031308 (linear) / 0.04045 (encoded), a 2.4 power with offset 0.055 abov
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def srgb_encode(linear: ArrayLike) -> np.ndarray:

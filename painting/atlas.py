@@ -19,14 +19,16 @@ import os
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from core.errors import SheerError
 from painting.raster import barycentric, iter_candidates, rasterize
 from painting.tiles import TILE
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 #: ``progress(stage, fraction)``: stage is "clean", "check", "unwrap" or "bake"; fraction in [0, 1].
 ProgressCallback = Callable[[str, float], None]
@@ -155,7 +157,8 @@ class UVLayout:
     def source_uv(self, head: Any) -> np.ndarray:
         """The file's own UVs per layout triangle corner, float64 (F, 3, 2) (for textures authored on
         them, e.g. the albedo, when the paint layout is an xatlas unwrap; layout triangle ``i`` is the
-        head's triangle ``face_map[i]``, with corners 1 and 2 swapped where cleaning flipped it)."""
+        head's triangle ``face_map[i]``, with corners 1 and 2 swapped where cleaning flipped it).
+        """
         corners = np.asarray(head.faces)[self.face_map]
         if self.clean.flipped is not None and self.clean.flipped.any():
             corners = corners.copy()
@@ -242,7 +245,8 @@ def uv_charts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, int]:
 
 def coverage_count(tri: np.ndarray, width: int, height: int) -> np.ndarray:
     """How many triangles strictly contain each pixel centre (int32 (H, W)); shared edges count once
-    (points within a tiny tolerance of an edge count for neither triangle)."""
+    (points within a tiny tolerance of an edge count for neither triangle).
+    """
     count = np.zeros(height * width, dtype=np.int32)
     for tri_idx, rows, cols in iter_candidates(tri, width, height):
         bc = barycentric(tri, tri_idx, cols + 0.5, rows + 0.5)
@@ -340,7 +344,8 @@ _CHECK_INTS = ("out_of_range", "degenerate", "overlapping_texels", "mirrored_fac
 
 def _prep_cache_path(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, check_resolution: int) -> Path:
     """Where :func:`clean_mesh` + :func:`check_uvs` results for this mesh are cached (beside the atlas
-    cache, keyed by the SHA-256 of the mesh arrays and the check resolution)."""
+    cache, keyed by the SHA-256 of the mesh arrays and the check resolution).
+    """
     h = hashlib.sha256()
     for arr, dtype in ((vertices, np.float64), (faces, np.int64), (uv, np.float64)):
         a = np.ascontiguousarray(arr, dtype=dtype)
@@ -488,7 +493,8 @@ class Atlas:
     @property
     def index(self) -> Any:
         """The texel spatial index (:class:`painting.spatial.TexelIndex`), built on first use and kept on
-        disk beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s)."""
+        disk beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s).
+        """
         if self._index is None:
             from painting.spatial import TexelIndex
 
@@ -506,7 +512,8 @@ class Atlas:
 
     def pads_of(self, flat: np.ndarray, has_pad: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Padding texels fed by the covered texels ``flat``: (dst, src) flat index arrays.
-        ``has_pad`` (optional, bool like ``flat``) says which of them feed any (a shortcut)."""
+        ``has_pad`` (optional, bool like ``flat``) says which of them feed any (a shortcut).
+        """
         if len(self.pad_src) == 0 or len(flat) == 0:
             empty = np.zeros(0, dtype=np.int64)
             return empty, empty
@@ -547,7 +554,8 @@ def check_resolution(resolution: Any) -> int:
 
 def cache_dir() -> Path:
     """Where baked atlases are cached: ``$SHEER_CACHE_DIR`` or ``$XDG_CACHE_HOME/sheer/atlas``
-    (default ``~/.cache/sheer/atlas``)."""
+    (default ``~/.cache/sheer/atlas``).
+    """
     from core.cache import cache_dir as km_cache_dir
 
     return km_cache_dir("atlas")
@@ -676,7 +684,8 @@ CACHE_LIMIT_BYTES = 3 * 1024**3
 def _save_cached(path: Path, atlas: Atlas) -> None:
     """Write ``atlas`` as a folder of ``.npy`` files (no zip: reading a 2048² bake from a ``.npz``
     spent half its second on decompressing nothing and checking CRCs), made atomically: a sibling
-    folder renamed into place."""
+    folder renamed into place.
+    """
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
         if path.exists():
@@ -700,7 +709,8 @@ def _folder_bytes(folder: Path) -> int:
 
 def _prune_cache(folder: Path, keep: Path) -> None:
     """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``), each with its
-    spatial index."""
+    spatial index.
+    """
     bakes = sorted((d for d in folder.glob(f"*-v{_CACHE_VERSION}") if d.is_dir()),
                    key=lambda d: d.stat().st_mtime, reverse=True)
     total = 0

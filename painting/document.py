@@ -9,10 +9,8 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +19,10 @@ from painting import kernels
 from painting.atlas import TILE, Atlas, UVLayout, bake, build_layout, check_resolution
 from painting.brush import Brush, BrushError
 from painting.history import DEFAULT_BUDGET_BYTES, History, Step, TileDelta
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+    from pathlib import Path
 
 #: A dab point must lie within this distance of the surface (mm), plus one texel.
 SURFACE_TOLERANCE_MM = 2.0
@@ -33,7 +35,8 @@ MAX_THICKNESS_UM = 10_000.0
 
 class DocumentError(SheerError, ValueError):
     """Bad input to the document (unknown layer or material, bad value, off-surface point…); the
-    document is unchanged when it is raised."""
+    document is unchanged when it is raised.
+    """
 
 
 @dataclass(frozen=True)
@@ -148,7 +151,8 @@ class Document:
     @classmethod
     def from_head(cls, path: str | Path | None = None, **kwargs: Any) -> Document:
         """Load a head (``None`` = the sample head) and make an empty document; keyword arguments as for
-        :class:`Document`."""
+        :class:`Document`.
+        """
         from painting.head import load_head
 
         return cls(load_head(path), **kwargs)
@@ -178,7 +182,8 @@ class Document:
     def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray]:
         """(mask, base) flat float32 scratch maps for strokes at ``res`` (mask is zero between strokes).
 
-        Filled explicitly so the pages are resident: a dab never pays for first-touch page faults."""
+        Filled explicitly so the pages are resident: a dab never pays for first-touch page faults.
+        """
         if res not in self._scratches:
             n = res * res
             mask = np.empty(n, np.float32)
@@ -338,7 +343,8 @@ class Document:
 
     def set_layer(self, layer: Layer | int, **changes: Any) -> None:
         """Change layer fields as one undoable step: ``name`` (str), ``visible`` (bool), ``opacity``
-        ([0, 1]), ``max_thickness`` (µm, > 0), ``material`` (library name)."""
+        ([0, 1]), ``max_thickness`` (µm, > 0), ``material`` (library name).
+        """
         self._check_idle("change a layer")
         lay = self.resolve(layer)
         allowed = {"name", "visible", "opacity", "max_thickness", "material"}
@@ -424,7 +430,8 @@ class Document:
 
     def fill(self, layer: Layer | int, thickness_um: float | None = None, chart: int | None = None) -> None:
         """Set every covered texel of ``layer`` (or of one ``chart``) to ``thickness_um`` (default: the
-        material's default thickness; clamped to the layer maximum); one undo step."""
+        material's default thickness; clamped to the layer maximum); one undo step.
+        """
         self._check_idle("fill")
         lay = self.resolve(layer)
         value = lay.default_thickness if thickness_um is None else self._thickness_value(thickness_um,
@@ -629,7 +636,8 @@ class Stroke:
                  ) -> tuple[np.ndarray, np.ndarray, tuple[tuple[int, int], ...]]:
         """Before writing covered texels ``flat`` (``sidx``: their spatial-index entries, a shortcut):
         the padding texels they feed (dst, src), and the touched tiles, whose old values are saved in
-        ``base`` if this stroke had not touched them yet."""
+        ``base`` if this stroke had not touched them yet.
+        """
         index = self.atlas.index if sidx is not None else None
         dst, src = self.atlas.pads_of(flat, None if index is None else index.has_pad[sidx])
         res = self._W
@@ -739,7 +747,8 @@ class Stroke:
         """Capsules (a, b, normal) from the last dab (point, normal) to ``p``: one sphere for the first
         dab; long gaps are split into pieces no longer than the radius with the joints snapped to the
         surface. A piece faces the mean of its end normals (so a quick stroke round the nose keeps the
-        texels facing either end)."""
+        texels facing either end).
+        """
         if last is None:
             return [(p, p, n)]
         q0, n_last = last
@@ -764,7 +773,8 @@ class Stroke:
     def _weights(self, pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], r: float,
                  index: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Texels within ``r`` of any capsule and facing its normal: (flat, weight, sorted index), the
-        weight of a texel reached by several capsules being the largest."""
+        weight of a texel reached by several capsules being the largest.
+        """
         cos_max = np.float32(math.cos(math.radians(self.brush.max_angle_deg)))
         r2 = np.float32(r * r)
         out_idx, out_w = [], []
@@ -812,7 +822,8 @@ class Stroke:
     def _weights_fast(self, pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], r: float,
                       index: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`_weights` through the compiled kernel (same texels, bit-identical weights; with
-        several capsules the indices come out ascending, as in the reference)."""
+        several capsules the indices come out ascending, as in the reference).
+        """
         a = np.array([piece[0] for piece in pieces], dtype=np.float64)
         b = np.array([piece[1] for piece in pieces], dtype=np.float64)
         n = np.array([piece[2] for piece in pieces], dtype=np.float64)
@@ -826,7 +837,8 @@ class Stroke:
     def _composite_fast(self, sidx: np.ndarray, w: np.ndarray, alpha: np.float32,
                         index: Any) -> tuple[tuple[int, int], ...]:
         """:meth:`_composite` through the compiled kernel (``w`` the falloff weights, ``alpha`` the
-        dab's flow × pressure): bit-identical map, coverage, saved tiles and returned tiles."""
+        dab's flow × pressure): bit-identical map, coverage, saved tiles and returned tiles.
+        """
         atlas = self.atlas
         ids = kernels.composite(sidx, w, alpha, index.flat, index.tile, index.has_pad, atlas.pad_src,
                                 atlas.pad_dst, self._data, self._mask, self._base, self._touched,
@@ -868,7 +880,8 @@ class Stroke:
         (up to float rounding), and with ``β = strength / max_i(s_i Σ_j K_ij s_j)`` every new value is a
         convex combination of the old ones (no overshoot, never negative). It costs O(texels · 8) through
         splatting to and gathering from the grid nodes — a few ms on the finest maps, where the pair list
-        of a uniform ball had to be capped."""
+        of a uniform ball had to be capped.
+        """
         cols = [a[sidx].astype(np.float64) for a in (index.x, index.y, index.z)]
         texel = self.atlas.texel_mm / self.doc.mm_per_unit
         lo = [float(col.min()) for col in cols]

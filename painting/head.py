@@ -222,7 +222,8 @@ def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None)
     """Where a texture path of the sidecar points: absolute paths as they are; a relative path is
     looked up beside the mesh first, then beside the sidecar file (so a read-only sample head can take
     a mask shipped in ``resources/heads/``). Returns the mesh-relative path when neither exists (the
-    reader then names it in its error)."""
+    reader then names it in its error).
+    """
     p = Path(rel)
     if p.is_absolute():
         return p
@@ -234,7 +235,8 @@ def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None)
 
 def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> HeadMetadata:
     """Read the sidecar of ``mesh_path``; without one, an uncalibrated default (scale guessed from the
-    bounding box, assuming a 230 mm tall head, no landmarks, ``calibrated=False``)."""
+    bounding box, assuming a 230 mm tall head, no landmarks, ``calibrated=False``).
+    """
     for candidate in sidecar_candidates(mesh_path):
         if candidate.is_file():
             try:
@@ -341,7 +343,8 @@ _MESH_FIELDS = ("vertices", "faces", "uv", "normals")
 
 def _mesh_cache_path(path: Path) -> Path | None:
     """Where the validated arrays of the mesh file ``path`` are cached: beside the atlas cache
-    (``<cache>/mesh``), keyed by the SHA-256 of the file's bytes (so an edited file is loaded again)."""
+    (``<cache>/mesh``), keyed by the SHA-256 of the file's bytes (so an edited file is loaded again).
+    """
     import hashlib
 
     from painting.atlas import cache_dir

@@ -10,13 +10,15 @@ oldest undo steps are dropped (a single step larger than the budget is not kept 
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from painting.tiles import TILE
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy as np
 
 DEFAULT_BUDGET_BYTES = 256 * 1024 * 1024
 
@@ -24,7 +26,8 @@ DEFAULT_BUDGET_BYTES = 256 * 1024 * 1024
 @dataclass
 class TileDelta:
     """Stored tiles of one layer: ``tiles`` int32 (n, 2) (tile row, tile column), ``data`` float32
-    (n, 64, 64) µm."""
+    (n, 64, 64) µm.
+    """
 
     layer: Any
     tiles: np.ndarray

@@ -115,14 +115,16 @@ def unproject(ndc_xy: Any, depth: float, inv_view_proj: Any) -> np.ndarray:
 
 def pixel_to_ndc(px: float, py: float, width: int, height: int) -> tuple[float, float]:
     """NDC of the centre of pixel (column ``px``, row ``py`` counted from the *top*); for a row read
-    with ``glReadPixels`` (bottom first) pass ``height − 1 − row``."""
+    with ``glReadPixels`` (bottom first) pass ``height − 1 − row``.
+    """
     return (2.0 * (px + 0.5) / width - 1.0, 1.0 - 2.0 * (py + 0.5) / height)
 
 
 def depth_hit(doc: Any, ndc_xy: Any, depth: float, inv_view_proj: Any,
               max_distance_mm: float = 2.0) -> Hit | None:
     """Pick from a depth-buffer value: unproject, then snap to the nearest surface point. None for the
-    far plane (depth 1) or when the point is farther than ``max_distance_mm`` from the surface."""
+    far plane (depth 1) or when the point is farther than ``max_distance_mm`` from the surface.
+    """
     import trimesh
 
     if float(depth) >= 1.0:
@@ -137,7 +139,8 @@ def depth_hit(doc: Any, ndc_xy: Any, depth: float, inv_view_proj: Any,
 def look_at(eye: Any, target: Any, up: Any = (0.0, 1.0, 0.0)) -> np.ndarray:
     """World → view matrix (right-handed, OpenGL convention: the camera looks along −Z).
 
-    The one implementation shared by picking here and by ``render.camera``."""
+    The one implementation shared by picking here and by ``render.camera``.
+    """
     e, t, u = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
     f = t - e
     f /= np.linalg.norm(f)

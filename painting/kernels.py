@@ -56,7 +56,8 @@ _loading = False  # the warm-up thread is compiling or loading them in this proc
 
 def enabled() -> bool:
     """Whether dabs use the compiled kernels (False: the numpy reference path). They are used once
-    :func:`ready` too."""
+    :func:`ready` too.
+    """
     return _enabled
 
 
@@ -79,7 +80,8 @@ _jitted = False
 
 def _jit_all() -> None:
     """Import numba and replace each function of :data:`_KERNELS` in this module by its compiled
-    dispatcher (cached on disk); the compiled callers then find their helpers compiled."""
+    dispatcher (cached on disk); the compiled callers then find their helpers compiled.
+    """
     global _jitted
     with _jit_lock:
         if _jitted:
@@ -98,7 +100,8 @@ def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: 
                  c: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, int]:
     """Runs [start, end) of cell-sorted texels in the grid cells meeting the sphere, in the order
     :meth:`painting.spatial.TexelIndex.query_sphere` concatenates them (grid y outer, z inner);
-    returns (starts, ends, total texels)."""
+    returns (starts, ends, total texels).
+    """
     nx, ny = dims[0], dims[1]
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
@@ -145,7 +148,8 @@ def nearest(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
     The ball searched grows from half a grid cell, doubling up to ``max_distance``, and stops as soon as
     its nearest texel lies inside it (then no texel outside it can be nearer). Equal float32 distances
     resolve to the first in query order, which is the same order in every ball (grid y, z, x, then the
-    texel's place in its cell), so the answer is the reference's."""
+    texel's place in its cell), so the answer is the reference's.
+    """
     px, py, pz = np.float32(p[0]), np.float32(p[1]), np.float32(p[2])
     rho = min(max_distance, 0.5 * cell)
     while True:
@@ -181,7 +185,8 @@ def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
     """Texels within ``r`` of any capsule (a_pts[i], b_pts[i]) and facing ``normals[i]`` (float64 (P, 3),
     mesh units; ``pn`` the index's (N, 6) texel positions and normals): (sorted indices int64, falloff weights float32, as :meth:`painting.brush.Brush.falloff`
     with ``kind``, hardness ``h`` and the curve samples ``xs``/``curve``); a texel reached by several
-    capsules keeps its largest weight (then the indices are ascending)."""
+    capsules keeps its largest weight (then the indices are ascending).
+    """
     f32 = np.float32
     one = f32(1.0)
     zero = f32(0.0)
@@ -281,7 +286,8 @@ def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
 def _touch(tid: int, touched: np.ndarray, mark: np.ndarray, tiles: np.ndarray, ntiles: int,
            data: np.ndarray, base: np.ndarray, res: int, nt: int) -> int:
     """Before writing a texel of tile ``tid``: save the tile in ``base`` if the stroke had not touched it
-    yet, and list it among this dab's tiles; returns the new tile count."""
+    yet, and list it among this dab's tiles; returns the new tile count.
+    """
     if not mark[tid]:
         mark[tid] = True
         tiles[ntiles] = tid
@@ -305,7 +311,8 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
     texel (and the padding texels it feeds) set from its stroke ``base`` value by ``mode`` (0 add up to
     ``top``, 1 erase, 2 set towards ``amount``). Tiles are saved to ``base`` when first touched
     (``touched``, the stroke's tile table; ``mark`` all False on entry and exit). Flat maps of side
-    ``res``. Returns the dab's tile ids (row · tiles per row + column), ascending."""
+    ``res``. Returns the dab's tile ids (row · tiles per row + column), ascending.
+    """
     nt = res // 64
     one = np.float32(1.0)
     tiles = np.empty(nt * nt, np.int64)
@@ -356,7 +363,8 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
 # ---------------------------------------------------------------------------------------- warm-up
 def _compile_all() -> None:
     """Compile every kernel (:func:`_jit_all`) and call it once on tiny arrays of the types the document
-    uses (compiles, or loads the on-disk cache)."""
+    uses (compiles, or loads the on-disk cache).
+    """
     _jit_all()
     f32, f64, i64 = np.float32, np.float64, np.int64
     pn = np.zeros((4, 6), f32)
@@ -378,7 +386,8 @@ def _compile_all() -> None:
 
 def _marker() -> Path | None:
     """A file saying these kernels were compiled into the on-disk cache once (source, numba and Python
-    versions in its name), or None when the cache folder cannot be written."""
+    versions in its name), or None when the cache folder cannot be written.
+    """
     src = Path(__file__)
     # numba's cache is keyed by the source's modification time and size: so is the marker.
     stamp = f"{src.stat().st_mtime} {importlib.metadata.version('numba')} {sys.version}"
@@ -406,7 +415,8 @@ def _mark_compiled() -> None:
 def _warm() -> None:
     """The warm-up thread: the first time on a machine, compile in a child process (the compiler holds
     the GIL for tens of seconds, which would stall the studio) and let it fill the disk cache; then load
-    the cached kernels here (a fraction of a second). Dabs use the numpy path until this ends."""
+    the cached kernels here (a fraction of a second). Dabs use the numpy path until this ends.
+    """
     global _ready, _loading
     marker = _marker()
     if marker is not None and not marker.exists():
@@ -430,7 +440,8 @@ def _warm() -> None:
 
 def _join_warm_up() -> None:
     """At exit, let an in-process compile or cache load finish (one torn down by the interpreter's
-    shutdown can crash it); a child process compiling the cache is left to finish on its own."""
+    shutdown can crash it); a child process compiling the cache is left to finish on its own.
+    """
     thread = _warm_thread
     if thread is not None and thread.is_alive() and _loading:
         thread.join()
@@ -452,7 +463,8 @@ def active() -> bool:
 def warm_up(background: bool = True) -> None:
     """Compile (first run on a machine: in a child process) or load the cached kernels, once per process,
     on a daemon thread; with ``background`` False, wait for it. Until it ends, dabs take the numpy path
-    (bit-identical), so no dab ever waits for the compiler."""
+    (bit-identical), so no dab ever waits for the compiler.
+    """
     global _warm_thread
     if not _enabled:  # numba missing, or the numpy path chosen: nothing to load
         return

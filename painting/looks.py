@@ -232,7 +232,8 @@ _CODE_DIGEST: str | None = None
 
 def _code_digest() -> str:
     """A digest of the painting modules whose code decides what a stroke paints: a cached look is never
-    reused after any of them changed."""
+    reused after any of them changed.
+    """
     global _CODE_DIGEST
     if _CODE_DIGEST is None:
         h = hashlib.sha256()
@@ -248,7 +249,8 @@ def _code_digest() -> str:
 def _maps_cache_path(doc: Any, look: Look, points: list[list[list[np.ndarray]]]) -> Path | None:
     """Where the painted maps of ``look`` on ``doc`` are cached: keyed by the paint layout, the layers'
     resolution, the materials' maximum and default thickness, every stroke's brush and resolved surface
-    points, the mirror plane and the painting code (a real :class:`painting.Document` only)."""
+    points, the mirror plane and the painting code (a real :class:`painting.Document` only).
+    """
     from painting.document import Document
 
     if not isinstance(doc, Document) or type(doc).add_layer is not Document.add_layer:
@@ -307,7 +309,8 @@ def apply_look(doc: Any, look: Look | str, clear: bool = True) -> list[Any]:
     was). The painted maps are cached on disk (:func:`_maps_cache_path`): applying the same look to the
     same layout again sets each layer's map in one undo step instead of replaying the strokes (the
     studio opens on a look; replaying it took 1.5–2.5 s of the start-up at 2048²). The maps are the
-    same to the bit either way (tested)."""
+    same to the bit either way (tested).
+    """
     from painting import Brush
 
     if isinstance(look, str):

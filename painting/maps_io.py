@@ -49,7 +49,8 @@ def _check_values(values: np.ndarray, path: Path, what: str) -> np.ndarray:
 def write_thickness(path: str | Path, thickness: np.ndarray, scale_um: float | None = None,
                     credit: str = "") -> float:
     """Write a thickness map (µm). PNG: ``scale_um`` defaults to the map's maximum (1 µm if empty);
-    values above it are an error. Returns the scale used (1.0 for EXR)."""
+    values above it are an error. Returns the scale used (1.0 for EXR).
+    """
     p = Path(path)
     kind = _suffix(p)
     arr = _check_values(thickness, p, "thickness")
@@ -183,7 +184,8 @@ def _write_exr(p: Path, arr: np.ndarray, header_text: dict[str, str]) -> None:
 def exr_size(p: Path, max_side: int = MAX_SIDE) -> tuple[int, int]:
     """(width, height) in pixels of the EXR at ``p`` from its header alone, so that a huge image is
     refused before it is decompressed. :class:`MapError` if the file is missing, unreadable or has a
-    side over ``max_side`` pixels."""
+    side over ``max_side`` pixels.
+    """
     import OpenEXR
 
     if not p.is_file():

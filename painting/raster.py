@@ -10,9 +10,12 @@ pixel units; for texture space ``x = u·W`` and ``y = v·H`` (rows top first, se
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 #: Candidate texels handled per numpy batch (bounds the peak memory of a bake to a few hundred MB).
 _BATCH = 1_000_000
@@ -37,7 +40,8 @@ def _edge_coeffs(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
 def iter_candidates(tri: np.ndarray, width: int, height: int, pad: float = 0.0
                     ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Yield (triangle index, row, column) arrays of every pixel whose centre lies in a triangle's
-    bounding box grown by ``pad`` pixels, clipped to the image; batched to bound memory."""
+    bounding box grown by ``pad`` pixels, clipped to the image; batched to bound memory.
+    """
     lo = np.ceil(tri.min(axis=1) - pad - 0.5).astype(np.int64)  # first centre >= min - pad
     hi = np.floor(tri.max(axis=1) + pad - 0.5).astype(np.int64)  # last centre <= max + pad
     lo = np.maximum(lo, 0)
@@ -68,7 +72,8 @@ def iter_candidates(tri: np.ndarray, width: int, height: int, pad: float = 0.0
 
 def barycentric(tri: np.ndarray, tri_idx: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Barycentric coordinates (n, 3) of points (x, y) in triangles ``tri[tri_idx]``; NaN for
-    degenerate triangles."""
+    degenerate triangles.
+    """
     t = tri[tri_idx]
     p0, p1, p2 = t[:, 0], t[:, 1], t[:, 2]
     d = (p1[:, 0] - p0[:, 0]) * (p2[:, 1] - p0[:, 1]) - (p2[:, 0] - p0[:, 0]) * (p1[:, 1] - p0[:, 1])
@@ -169,7 +174,8 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
 
 def _keep_nearest(flat: np.ndarray, key: np.ndarray, best: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Of the candidates (texel ``flat[i]``, ordering ``key[i]``), the one with the smallest key per texel,
-    kept only where it beats ``best`` (updated in place). Returns (texels, candidate indices)."""
+    kept only where it beats ``best`` (updated in place). Returns (texels, candidate indices).
+    """
     order = np.lexsort((key, flat))
     flat_s = flat[order]
     first = np.ones(len(flat_s), dtype=bool)

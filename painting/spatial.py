@@ -13,10 +13,12 @@ from __future__ import annotations
 import os
 import shutil
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 #: Grid cell edge in millimetres (brush radii are a few mm to a few cm).
 CELL_MM = 2.5
@@ -98,7 +100,8 @@ class TexelIndex:
     def save(self, folder: Path) -> None:
         """Write the index as ``.npy`` files into ``folder`` (made atomically: a sibling folder renamed
         into place; an existing folder is left as it is). Failing to write is not an error: the index is
-        a cache (it takes about 2 s to build at 2048², 0.1 s to read)."""
+        a cache (it takes about 2 s to build at 2048², 0.1 s to read).
+        """
         tmp = folder.with_name(f".{folder.name}.{os.getpid()}.tmp")
         try:
             if folder.exists():
@@ -117,7 +120,8 @@ class TexelIndex:
     @classmethod
     def load(cls, folder: Path, count: int) -> TexelIndex | None:
         """An index written by :meth:`save`, or None if ``folder`` is missing, unreadable or inconsistent
-        (``count``: the number of covered texels it must hold)."""
+        (``count``: the number of covered texels it must hold).
+        """
         try:
             meta = np.load(folder / "meta.npy", allow_pickle=False)
             arrays = {name: np.load(folder / f"{name}.npy", allow_pickle=False) for name in cls._SAVED}
@@ -162,7 +166,8 @@ class TexelIndex:
 
     def query_box(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Sorted-texel indices of every texel in the cells overlapping the box [lo, hi] (mesh units);
-        a superset of the texels inside the box."""
+        a superset of the texels inside the box.
+        """
         nx, ny, nz = self.dims
         a = np.floor((np.asarray(lo, dtype=np.float64) - self.origin) / self.cell).astype(np.int64)
         b = np.floor((np.asarray(hi, dtype=np.float64) - self.origin) / self.cell).astype(np.int64)
@@ -185,7 +190,8 @@ class TexelIndex:
     def query_sphere(self, centre: np.ndarray, radius: float) -> np.ndarray:
         """Sorted-texel indices of the texels in grid cells that intersect the sphere (a superset of the
         texels inside it): per grid row only the x-run under the sphere's chord is taken, so the
-        candidates are about the sphere's, not its bounding box's."""
+        candidates are about the sphere's, not its bounding box's.
+        """
         nx, ny, nz = self.dims
         c = np.asarray(centre, dtype=np.float64)
         lo = np.floor((c - radius - self.origin) / self.cell).astype(np.int64)
@@ -221,7 +227,8 @@ class TexelIndex:
     def nearest(self, point: np.ndarray, max_distance: float) -> tuple[int, float]:
         """Sorted index and distance of the texel nearest to ``point`` within ``max_distance`` (mesh
         units), or (-1, inf). Uses the compiled kernel when enabled (same result as
-        :meth:`nearest_reference`)."""
+        :meth:`nearest_reference`).
+        """
         from painting import kernels
 
         if kernels.active():

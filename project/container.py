@@ -24,11 +24,13 @@ from __future__ import annotations
 import io
 import stat
 import zipfile
-from collections.abc import Iterable
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 from project.errors import ProjectContainerError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
 
 #: At most this many entries in a project file.
 MAX_ENTRIES = 4096
@@ -103,7 +105,8 @@ class SafeZipReader:
 
     def _precheck(self, source: str | Path | IO[bytes]) -> None:
         """Read the end-of-central-directory record before :mod:`zipfile` parses the directory, so a
-        forged directory announcing millions of entries is refused without being parsed."""
+        forged directory announcing millions of entries is refused without being parsed.
+        """
         try:
             if isinstance(source, (str, Path)):
                 with open(source, "rb") as fh:

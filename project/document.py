@@ -15,12 +15,14 @@ depend on the document's internals.
 from __future__ import annotations
 
 import hashlib
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from project.errors import ProjectError
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def layout_digest(layout: Any) -> str:

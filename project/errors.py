@@ -12,9 +12,12 @@ to the cases it can do something about:
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 class ProjectError(SheerError, ValueError):

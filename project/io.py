@@ -26,10 +26,9 @@ import json
 import math
 import os
 import shutil
-from collections.abc import Iterable
 from dataclasses import InitVar, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,6 +52,9 @@ from project.maps import (
     png16_scale,
 )
 from project.migrations import SCHEMA_VERSION, check_version, migrate
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
 
 __all__ = [
     "SCHEMA_VERSION", "MIMETYPE", "Project", "ProjectLayer", "HeadRef", "open_project", "read_project",
@@ -645,7 +647,8 @@ def encode_maps(project: Project) -> list[bytes]:
 def project_json(project: Project, target_dir: Path | None, self_contained: bool,
                  maps: list[bytes] | None = None) -> dict[str, Any]:
     """The project.json dict for ``project`` saved into ``target_dir`` (head path made relative);
-    ``maps`` are the encoded map entries (:func:`encode_maps`, computed when not given)."""
+    ``maps`` are the encoded map entries (:func:`encode_maps`, computed when not given).
+    """
     head = project.head
     if maps is None:
         maps = encode_maps(project)

@@ -22,11 +22,14 @@ import os
 import sys
 import threading
 import warnings
-from collections.abc import Iterator
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from project.errors import ProjectError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 #: Largest side of a thickness map (texels).
 MAX_MAP_SIDE = 8192

@@ -18,12 +18,15 @@ import contextlib
 import hashlib
 import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, replace
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from project.errors import ProjectError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 #: Seconds between autosaves of a project with unsaved changes.
 DEFAULT_AUTOSAVE_INTERVAL_S = 180.0
@@ -32,7 +35,8 @@ RECOVERY_SUFFIX = ".recovery"
 
 def recovery_dir() -> Path:
     """Where recovery files of untitled projects go: ``$SHEER_RECOVERY_DIR``, else
-    ``$XDG_STATE_HOME/sheer/recovery`` (default ``~/.local/state/sheer/recovery``)."""
+    ``$XDG_STATE_HOME/sheer/recovery`` (default ``~/.local/state/sheer/recovery``).
+    """
     env = os.environ.get("SHEER_RECOVERY_DIR")
     if env:
         return Path(env).expanduser()
@@ -211,7 +215,8 @@ class Autosaver:
 
     def watch(self, doc: object) -> Callable[[], None]:
         """Mark dirty on every change event of a ``painting.Document`` (paint, layers, material);
-        returns the unsubscribe function."""
+        returns the unsubscribe function.
+        """
 
         def on_event(event: object) -> None:
             if getattr(event, "kind", "") != "history":
@@ -263,7 +268,8 @@ class Autosaver:
 
 def stale_temporaries(project_path: str | Path, min_age_s: float = 60.0) -> list[Path]:
     """Temporary files an interrupted save of ``project_path`` left beside it (``.<name>.*.tmp``)
-    that are older than ``min_age_s`` seconds (a save in progress is never that old)."""
+    that are older than ``min_age_s`` seconds (a save in progress is never that old).
+    """
     p = Path(project_path).absolute()
     now = time.time()
     found = []

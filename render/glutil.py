@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
 
 
 def set_uniform(program: Any, name: str, value: Any) -> None:
@@ -17,7 +19,8 @@ def set_uniform(program: Any, name: str, value: Any) -> None:
 def write_uniform(program: Any, name: str, data: Any) -> None:
     """Write float32 rows to a uniform array or matrix if the program has it. Rows beyond the uniform's
     array length are cut (the compiler may shorten an array that is indexed only up to N); arrays of
-    more than two dimensions are flattened to rows."""
+    more than two dimensions are flattened to rows.
+    """
     if name in program:
         u = program[name]
         arr = np.asarray(data, dtype=np.float32)
@@ -28,7 +31,8 @@ def write_uniform(program: Any, name: str, data: Any) -> None:
 def release_all(ctx: Any, objects: Iterable[Any]) -> None:
     """Release GL objects (None entries skipped). If the bound framebuffer is among them, re-bind
     whatever GL binds after the deletion: moderngl re-binds its idea of the current framebuffer after
-    creating any framebuffer, and a deleted one would raise GL_INVALID_OPERATION later."""
+    creating any framebuffer, and a deleted one would raise GL_INVALID_OPERATION later.
+    """
     objs = [o for o in objects if o is not None]
     current = getattr(ctx, "fbo", None)
     bound_released = current is not None and any(o is current for o in objs)

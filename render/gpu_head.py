@@ -60,7 +60,8 @@ class GpuHead:
         UVs address the thickness/KM maps (``in_uv_paint``) while the head's UVs address the textures.
         ``alpha_mask``: a bool (H, W) map in the head's UV space (e.g. the skin mask) stored as the albedo
         texture's alpha (resampled to the albedo's size by nearest texel), so a shader reads both with
-        one fetch; without it the alpha is 1."""
+        one fetch; without it the alpha is 1.
+        """
         self.ctx = ctx
         self.head = head
         v = np.asarray(head.vertices, dtype=np.float64)

@@ -53,7 +53,8 @@ def layer_spec_params(material: Any) -> tuple[float, float, float, float]:
     """(Beckmann roughness, Fresnel F0 from the IOR, smooths skin 1/0, coverage scale µm) of a material.
 
     Coverage of a layer of thickness X is 1 − exp(−X / scale), scale = 0.3 × the material's usual
-    thickness (clamped to 0.5–10 µm): a layer's gloss and smoothing fade in as it builds up."""
+    thickness (clamped to 0.5–10 µm): a layer's gloss and smoothing fade in as it builds up.
+    """
     rough = float(getattr(material, "roughness", 0.3))
     ior = float(getattr(material, "ior", 1.5))
     f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
@@ -74,7 +75,7 @@ class LayerInput:
 
 
 def tile_presence(a: np.ndarray, tile: int = TILE) -> np.ndarray:
-    """bool (rows, columns) of ``tile``² blocks: where the (cleaned, ≥ 0) map ``a`` is non-zero."""
+    """Bool (rows, columns) of ``tile``² blocks: where the (cleaned, ≥ 0) map ``a`` is non-zero."""
     h, w = a.shape
     ty, tx = -(-h // tile), -(-w // tile)
     nz = a > 0
@@ -101,7 +102,8 @@ def default_wavelengths() -> np.ndarray:
 def spectral_matrix(wavelengths: np.ndarray) -> np.ndarray:
     """(n, 3) matrix M with ``rgb = spectrum @ M`` (linear sRGB under km's default illuminant): km's own
     conversion (``km.colour.spectral_rgb_matrix``), so the GPU matches km exactly, through km's disk cache
-    (:func:`km.cache.spectral_rgb_matrix_cached`: start-up then never imports colour-science)."""
+    (:func:`km.cache.spectral_rgb_matrix_cached`: start-up then never imports colour-science).
+    """
     from km.cache import spectral_rgb_matrix_cached
 
     return np.array(spectral_rgb_matrix_cached(np.asarray(wavelengths, dtype=np.float64)), dtype=np.float64)
@@ -203,7 +205,8 @@ class KMTextureSpace:
 
     def _output_texture(self, size: tuple[int, int], srgb: bool, scratch: bool = False) -> Any:
         """An output map: 8-bit (sRGB-encoded colour if ``srgb``; a ``scratch`` copy source stays plain
-        RGBA8 so that copying moves the encoded bytes unchanged) or float per ``dtype``."""
+        RGBA8 so that copying moves the encoded bytes unchanged) or float per ``dtype``.
+        """
         if self.dtype != "srgb8":
             return self.ctx.texture(size, 4, dtype=self.dtype)
         if srgb and not scratch:
@@ -318,7 +321,8 @@ class KMTextureSpace:
 
     def _draw_split(self, slots: list[int], rect: tuple[int, int, int, int]) -> None:
         """Evaluate one tile in a scratch target where it straddles two of llvmpipe's 64² bins (so both
-        rasteriser threads share it: a tile aligned in the maps is one bin, one thread), then copy it."""
+        rasteriser threads share it: a tile aligned in the maps is one bin, one thread), then copy it.
+        """
         ctx = self.ctx
         x0, y0, tw, th = rect
         if self._scratch_fbo is None:
@@ -343,7 +347,8 @@ class KMTextureSpace:
                      tiles: list[tuple[int, int]], tile: int = TILE) -> None:
         """Re-upload tiles ``(tx, ty)`` (column, row of ``tile``² blocks) of layer ``layer_index``'s map
         from ``thickness`` (the full map, or None = the map given to :meth:`set_layers`) and re-evaluate
-        those tiles."""
+        those tiles.
+        """
         if not 0 <= layer_index < len(self.layers):
             raise RenderError(f"no layer {layer_index} (the renderer has {len(self.layers)})")
         layer = self.layers[layer_index]
@@ -404,7 +409,8 @@ class KMTextureSpace:
 
     def _write_rects(self, rects: list[tuple[int, int, int, int]] | None, size: tuple[int, int]) -> int:
         """Put two triangles per rectangle (pixels of a ``size`` target; None = one full-screen
-        triangle) in the vertex buffer; returns the vertex count."""
+        triangle) in the vertex buffer; returns the vertex count.
+        """
         if rects is None:
             verts = np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
         else:
@@ -422,7 +428,8 @@ class KMTextureSpace:
               offset: tuple[int, int] = (0, 0), target: tuple[int, int] | None = None) -> None:
         """Evaluate the active layers ``slots`` (bottom first; the others must be zero there) over
         ``rects`` (x, y, width, height in pixels of the bound target, of size ``target``, default the
-        maps; None = all of it); map texel = pixel + ``offset``."""
+        maps; None = all of it); map texel = pixel + ``offset``.
+        """
         n = len(slots)
         program, quad = self._program(n)
         for i, slot in enumerate(slots):

@@ -30,7 +30,8 @@ MAX_LIGHTS = 8
 @dataclass
 class Light:
     """A light. ``kind`` is ``"directional"`` (``vector`` = unit direction towards the light) or ``"point"``
-    (``vector`` = position, mesh units; ``intensity`` is then the irradiance at ``reference_distance``)."""
+    (``vector`` = position, mesh units; ``intensity`` is then the irradiance at ``reference_distance``).
+    """
 
     kind: str = "directional"
     vector: tuple[float, float, float] = (0.0, 0.0, 1.0)
@@ -158,7 +159,8 @@ SH_COSINE = np.array([math.pi, *[2 * math.pi / 3] * 3, *[math.pi / 4] * 5])
 def equirect_directions(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
     """Directions (H, W, 3) of an equirectangular image's texel centres and their solid angles (H, W).
 
-    Row 0 is straight up (+Y); column 0 is −Z (behind the head), the middle column +Z (in front)."""
+    Row 0 is straight up (+Y); column 0 is −Z (behind the head), the middle column +Z (in front).
+    """
     theta = (np.arange(h) + 0.5) / h * math.pi
     phi = (np.arange(w) + 0.5) / w * 2 * math.pi - math.pi
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
@@ -172,7 +174,8 @@ class Environment:
     """Diffuse environment lighting: 9 RGB SH coefficients of irradiance (already convolved).
 
     ``coefficients`` (9, 3): E(n) = Σ c_i Y_i(n), normalised so the mean irradiance over all normals is
-    ``intensity``."""
+    ``intensity``.
+    """
 
     name: str
     coefficients: np.ndarray = field(default_factory=lambda: np.zeros((9, 3)))
@@ -281,7 +284,8 @@ def upload_lights(program: Any, lights: list[Light], shadows: ShadowMaps, pcf_ra
     """Set lighting.glsl's uniforms for ``lights`` (at most MAX_LIGHTS, validated by the caller):
     directions (unit, w = 0) or positions (w = 1), colour × intensity with the point lights' reference
     distance, each shadowed light's PCF parameters (radius in shadow-map texels, bias and texel size in
-    mesh units) and atlas matrix, and the environment's SH irradiance (off without one)."""
+    mesh units) and atlas matrix, and the environment's SH irradiance (off without one).
+    """
     from render.glutil import set_uniform, write_uniform
 
     vec = np.zeros((MAX_LIGHTS, 4), np.float32)

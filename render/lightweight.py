@@ -131,7 +131,8 @@ class LightweightRenderer:
 
     def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool) -> Any:
         """The face program specialised for this configuration (compiled once, cached); ``shadows`` is
-        0 (off), 1 (per pixel) or 2 (per vertex)."""
+        0 (off), 1 (per pixel) or 2 (per vertex).
+        """
         key = (n_lights, int(shadows), int(env), int(makeup))
         prog = self._programs.get(key)
         if prog is None:
@@ -222,7 +223,8 @@ class LightweightRenderer:
 
     def render_image(self, size: tuple[int, int]) -> np.ndarray:
         """Render into an offscreen target (kept for the next call of the same size) and return uint8 sRGB
-        (H, W, 3), top row first."""
+        (H, W, 3), top row first.
+        """
         if self._offscreen is None or self._offscreen[0].size != tuple(size):
             self._release_offscreen()
             w, h = size

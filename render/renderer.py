@@ -44,7 +44,8 @@ def reference_taps(sigma_texels: float) -> int:
     """Taps of one reference-mode Gaussian pass (odd, 5..REFERENCE_TAPS): enough to space them at most one
     source texel apart over ±3σ, with a 25 % margin for the nearer parts of the face. Taps closer than a
     texel would re-read the same bilinear interpolation: a narrow Gaussian costs fewer taps, not less
-    accuracy (the kernel is normalised by its tap weights either way)."""
+    accuracy (the kernel is normalised by its tap weights either way).
+    """
     n = int(math.ceil(6.0 * max(sigma_texels, 0.0) * 1.25)) + 1
     n += 1 - n % 2
     return max(5, min(REFERENCE_TAPS, n))
@@ -67,7 +68,8 @@ class TextureIrradiance:
     (Euclidean, from scipy's distance transform of the first computation's coverage; the charts depend
     only on the mesh, so the index map is made once). Before, four 3×3 dilation passes cost most of a
     relight (each texel 30 fetches per pass); now the padding is one pass of four fetches per texel and
-    reaches every texel, so no sampling footprint finds background."""
+    reaches every texel, so no sampling footprint finds background.
+    """
 
     def __init__(self, ctx: Any, shaders: ShaderLibrary, size: int = 1024) -> None:
         self.ctx = ctx
@@ -96,7 +98,8 @@ class TextureIrradiance:
     def _make_index(self, uv_key: str) -> None:
         """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance; kept
         on disk per mesh footprint and size (scipy's distance transform plus the read-back take about
-        0.6 s of a start-up)."""
+        0.6 s of a start-up).
+        """
         from core.cache import cache_dir, save_array
 
         n = self.size
@@ -124,7 +127,8 @@ class TextureIrradiance:
 
     def program(self, lights: list[Light], env: bool) -> Any:
         """irradiance.frag specialised on the light count, which lights cast shadows and which are point
-        lights, and whether there is an environment (loops unroll; nothing is computed for what is off)."""
+        lights, and whether there is an environment (loops unroll; nothing is computed for what is off).
+        """
         key = (len(lights), sum(1 << i for i, lt in enumerate(lights) if lt.shadows),
                sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional"), int(env))
         if key not in self.programs:
@@ -135,7 +139,8 @@ class TextureIrradiance:
 
     def update(self, key: Any, gpu_head: GpuHead, setup: Any, lights: list[Light], env: bool) -> bool:
         """Recompute if ``key`` changed; ``setup(program)`` sets the lighting uniforms. Returns True if
-        it recomputed."""
+        it recomputed.
+        """
         if key == self._key:
             return False
         self._key = key
@@ -285,7 +290,8 @@ class Renderer:
     def __init__(self, ctx: Any, head: Any, shaders: ShaderLibrary | None = None, km_dtype: str = "srgb8",
                  layout: Any = None) -> None:
         """``head``: a :class:`painting.head.Head`; ``layout``: the painting document's UV layout when its
-        maps are not in the mesh's own UVs (see :class:`render.gpu_head.GpuHead`)."""
+        maps are not in the mesh's own UVs (see :class:`render.gpu_head.GpuHead`).
+        """
         self.ctx = ctx
         self.shaders = shaders or ShaderLibrary()
         self.settings = RenderSettings()
@@ -324,12 +330,14 @@ class Renderer:
 
     def update_tiles(self, layer_index: int, thickness: np.ndarray | None, tiles: list[tuple[int, int]]) -> None:
         """A layer's map changed in the 64² tiles ``tiles`` = [(column, row), …]: re-evaluate those.
-        (``painting.ChangeEvent.tiles`` are (row, column): :meth:`on_document_event` converts.)"""
+        (``painting.ChangeEvent.tiles`` are (row, column): :meth:`on_document_event` converts.)
+        """
         self.km.update_tiles(layer_index, thickness, tiles)
 
     def on_document_event(self, doc: Any, event: Any) -> None:
         """Apply a ``painting.ChangeEvent``: "paint" → re-evaluate the touched tiles of that layer; any
-        other change (layers, material) → :meth:`sync_document`. Then call :meth:`render`."""
+        other change (layers, material) → :meth:`sync_document`. Then call :meth:`render`.
+        """
         if getattr(event, "kind", "") == "paint" and event.layer is not None:
             for i, lay in enumerate(doc.layers):
                 if lay.id == event.layer:
@@ -341,13 +349,15 @@ class Renderer:
 
     def attach(self, doc: Any) -> Any:
         """Follow ``doc``'s change events (see :meth:`on_document_event`); returns the unsubscribe function.
-        Events are applied synchronously: call it with this renderer's GL context current."""
+        Events are applied synchronously: call it with this renderer's GL context current.
+        """
         self.sync_document(doc)
         return doc.subscribe(lambda event: self.on_document_event(doc, event))
 
     def sync_document(self, doc: Any) -> None:
         """Read every layer of a ``painting.Document`` (``doc.layers``: ``.material_object`` or
-        ``.material`` — a km Material or a library name —, ``.thickness``, ``.visible``, ``.opacity``)."""
+        ``.material`` — a km Material or a library name —, ``.thickness``, ``.visible``, ``.opacity``).
+        """
         layers = []
         lib = None
         for i, lay in enumerate(getattr(doc, "layers", [])):
@@ -422,7 +432,8 @@ class Renderer:
         """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time).
         Makeup, debug views, the head's optional maps, which lights cast shadows and which are point
         lights are compiled in or out: llvmpipe executes both sides of a branch, so a uniform switch
-        would not save their texture fetches or maths."""
+        would not save their texture fetches or maths.
+        """
         gh = self.gpu_head
         shadowed = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.shadows)
         points = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.kind != "directional")
@@ -490,7 +501,8 @@ class Renderer:
 
     def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> FrameInfo:
         """Render one frame into ``fbo`` (e.g. ``ctx.detect_framebuffer(...)``) over ``viewport``
-        (x, y, width, height in pixels; default the whole framebuffer). Leaves ``fbo`` bound."""
+        (x, y, width, height in pixels; default the whole framebuffer). Leaves ``fbo`` bound.
+        """
         s = self.settings
         s.validate()
         self._validate_lights()
@@ -698,7 +710,8 @@ class Renderer:
 
     def _half_mask(self, hrect: tuple[int, int, int, int], vertical: bool = False) -> None:
         """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into a half depth:
-        of the diffuse for the horizontal passes, of the horizontal result (``vertical``) for the others."""
+        of the diffuse for the horizontal passes, of the horizontal result (``vertical``) for the others.
+        """
         ctx, t = self.ctx, self._targets
         hw, hh = t["half_a"].size
         t["half_a" if vertical else "diffuse"].use(0)
@@ -717,7 +730,8 @@ class Renderer:
     def _sss_pass(self, prog: Any, fbo: Any, size: tuple[int, int], rect: tuple[int, int, int, int],
                   z: float) -> None:
         """One full-screen SSS pass over ``rect`` of ``fbo``, only where the mask's depth is below the
-        triangle's (``z``: NDC depth, see _Z_HEAD / _Z_SKIN)."""
+        triangle's (``z``: NDC depth, see _Z_HEAD / _Z_SKIN).
+        """
         ctx = self.ctx
         self._set(prog, "u_z", float(z))
         fbo.use()
@@ -776,7 +790,8 @@ class Renderer:
 
     def _cull(self, on: bool) -> None:
         """Back-face culling for closed heads (``settings.cull_back_faces``; the mesh winds counter-clockwise
-        like its normals): about halves the fragments shaded. Open meshes seen from behind need it off."""
+        like its normals): about halves the fragments shaded. Open meshes seen from behind need it off.
+        """
         if on and self.settings.cull_back_faces:
             self.ctx.front_face = "ccw"
             self.ctx.cull_face = "back"
@@ -790,7 +805,8 @@ class Renderer:
     # -- baseline (benchmark) ---------------------------------------------------------------------
     def render_baseline(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
         """The benchmark baseline: same mesh and albedo, one Lambert light, no post-processing
-        (``fbo`` needs a depth attachment)."""
+        (``fbo`` needs a depth attachment).
+        """
         if self._baseline is None:
             self._baseline = self.shaders.program(self.ctx, "mesh.vert", "baseline.frag")
         vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
@@ -841,7 +857,8 @@ class Renderer:
     # -- convenience ------------------------------------------------------------------------------
     def render_image(self, size: tuple[int, int], linear: bool = False) -> np.ndarray:
         """Render to an offscreen target and return the image, top row first: uint8 (H, W, 3), or
-        float32 (H, W, 3) linear values if ``linear`` (sets ``tonemap='raw'`` for this frame)."""
+        float32 (H, W, 3) linear values if ``linear`` (sets ``tonemap='raw'`` for this frame).
+        """
         w, h = size
         dtype = "f4" if linear else "f1"
         colour = self.ctx.texture((w, h), 4, dtype=dtype)
@@ -862,7 +879,7 @@ class Renderer:
         return np.ascontiguousarray(a[::-1])
 
     def skin_pixel_mask(self) -> np.ndarray:
-        """bool (H, W), top row first: the last frame's skin pixels (before SSS; for tests and ΔE)."""
+        """Bool (H, W), top row first: the last frame's skin pixels (before SSS; for tests and ΔE)."""
         tex = self._targets["diffuse"]
         w, h = tex.size
         a = np.frombuffer(tex.read(), np.float16).reshape(h, w, 4)[..., 3]

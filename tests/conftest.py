@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import os
 import random
-from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
 
 TESTS_DIR = Path(__file__).resolve().parent
 REFERENCE_DIR = TESTS_DIR / "references"

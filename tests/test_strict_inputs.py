@@ -15,14 +15,16 @@ from __future__ import annotations
 import importlib
 import struct
 import zlib
-from collections.abc import Callable
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
 
 
 def _noise(n: int) -> bytes:

@@ -159,7 +159,8 @@ def run_plot(args: argparse.Namespace) -> int:
 
 def plot_material(m: Any, out: Path) -> None:
     """Plot R∞, R, Rg (the measurement when there is one), S, K, and R0, T at the default thickness
-    against wavelength, with the swatches, into ``out`` (PNG, written atomically)."""
+    against wavelength, with the swatches, into ``out`` (PNG, written atomically).
+    """
     import matplotlib
 
     matplotlib.use("Agg")

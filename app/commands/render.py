@@ -195,7 +195,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _render_lightweight(ctx: Any, head: Any, face: Any, renderer: Any, doc: Any, args: argparse.Namespace) -> Any:
     """The lightweight engine (render/lightweight.py) with the same camera, lights, environment and the
-    physical renderer's texture-space KM outputs as the makeup (issue 7)."""
+    physical renderer's texture-space KM outputs as the makeup (issue 7).
+    """
     from render.lightweight import LightweightRenderer
 
     lw = LightweightRenderer(ctx, head, face)

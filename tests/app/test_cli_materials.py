@@ -5,10 +5,12 @@ from __future__ import annotations
 import json
 import struct
 from pathlib import Path
-
-import pytest
+from typing import TYPE_CHECKING
 
 from app.cli import main
+
+if TYPE_CHECKING:
+    import pytest
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "materials"
 

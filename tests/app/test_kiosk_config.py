@@ -4,13 +4,16 @@ until an administrator PIN is configured; ``--set-pin`` stores it hashed and the
 from __future__ import annotations
 
 import json
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from app.cli import main
 from app.kiosk import KioskConfig, check_pin, require_pin
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def test_a_missing_config_has_no_pin(tmp_path: Path) -> None:

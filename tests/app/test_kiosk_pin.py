@@ -3,12 +3,15 @@ exits), looks and product swaps, snapshots, attract mode, a friendly screen on e
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from app.qt_compat import pin_singletons
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 pin_singletons()
 

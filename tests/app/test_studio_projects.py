@@ -5,15 +5,17 @@ head, and saves self-contained projects. The relink dialog is driven by replacin
 from __future__ import annotations
 
 import shutil
-from collections.abc import Iterator
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
 
 from app.qt_compat import pin_singletons
 from tests.app.studio_support import open_studio_window
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+    from pathlib import Path
 
 pin_singletons()
 

@@ -4,8 +4,7 @@ measurement import, exports, tear-down. One window for the module keeps the suit
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -13,6 +12,10 @@ from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
 from tests.app.studio_support import open_studio_window
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+    from pathlib import Path
 
 pin_singletons()
 

@@ -6,14 +6,17 @@ No assertion on timing: only that the numbers are there and the pipeline compute
 from __future__ import annotations
 
 import json
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pytest
 
 from bench import km as bench
 from km.colour import spectrum_to_rgb
 from km.optics import layer_rt, over
 from km.spectra import DEFAULT_GRID
+
+if TYPE_CHECKING:
+    import pytest
 
 
 def test_bench_main_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:

@@ -8,9 +8,8 @@ import importlib.util
 import json
 import os
 import sys
-from collections.abc import Callable
 from pathlib import Path
-from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -22,6 +21,10 @@ from core.assets import resource_path
 from core.errors import SheerError
 from km.library import Library, LibraryError
 from km.material import Material, Measurement
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from types import ModuleType
 
 ROOT = Path(__file__).resolve().parents[2]
 WL = np.arange(380.0, 781.0, 5.0)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -12,6 +12,9 @@ import pytest
 import km
 from core.errors import SheerError
 from km.material import Material, MaterialError, Measurement
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 WL = np.arange(380.0, 781.0, 5.0)
 

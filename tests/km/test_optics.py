@@ -11,9 +11,8 @@ import cmath
 import itertools
 import math
 import warnings
-from collections.abc import Callable
 from decimal import Decimal, localcontext
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
@@ -33,6 +32,9 @@ from km.optics import (
     saunderson,
     stack,
 )
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 RTOL = 1e-13  # forward formulas against 60-digit references
 RTOL_ROUND_TRIP = 1e-9  # the bound for inversions on well-conditioned data

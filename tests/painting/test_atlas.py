@@ -3,16 +3,20 @@ canonical face."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pytest
 import trimesh
 
 from core.assets import find_asset
 from painting import Brush, Document
 from painting.atlas import bake, build_layout, check_uvs
 from tests.painting.helpers import StandInLibrary, sample_atlas, sample_layout
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    import pytest
 
 
 def _grid(n: int = 12, offset: float = 0.0) -> tuple[np.ndarray, np.ndarray]:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -11,6 +11,9 @@ import pytest
 from core.errors import SheerError
 from painting import Brush, ChangeEvent, Document, DocumentError
 from tests.painting.helpers import make_doc
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def _pts(doc, n: int, seed: int = 0) -> np.ndarray:

@@ -5,8 +5,7 @@ sample head and the canonical face, across UV seams, with mirror symmetry and ba
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
@@ -14,6 +13,9 @@ import pytest
 from core.assets import find_asset
 from painting import Brush, Document, kernels
 from tests.painting.helpers import StandInLibrary, make_doc, texel_positions
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
 
 pytestmark = pytest.mark.skipif(not kernels.HAVE_NUMBA, reason="numba is not installed")
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -10,6 +10,9 @@ from PIL import Image
 
 from painting.maps_io import MapError, read_mask, read_thickness, write_mask, write_thickness
 from tests.painting.helpers import make_doc
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def _map(shape=(64, 128)) -> np.ndarray:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 import zipfile
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -24,6 +24,9 @@ from project.io import (
     schema,
     validate_json,
 )
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def _on_disk_project(tmp_path: Path, side: int = 64):

@@ -7,9 +7,7 @@ import json
 import os
 import stat
 import zipfile
-from collections.abc import Callable
-from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
@@ -19,6 +17,10 @@ from bench.fuzz import sample_project
 from project.errors import ProjectContainerError, ProjectVersionError
 from project.io import ProjectError, open_project, project_bytes, read_project
 from project.maps import encode_exr
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
 
 BASE = project_bytes(sample_project(64, 2, seed=0), self_contained=True)
 

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
@@ -13,6 +12,9 @@ from bench.render import mean_de2000
 from render.km_pass import LayerInput
 from render.lights import Light
 from render.renderer import DEBUG_VIEWS, Renderer
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
 
 pytestmark = pytest.mark.gl
 SIZE = (320, 240)

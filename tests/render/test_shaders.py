@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
@@ -13,6 +13,9 @@ from render.gpu_head import vertex_tangents
 from render.lights import Environment, Light, equirect_directions
 from render.renderer import SKIN_GAUSSIANS, fast_kernel
 from render.shaders import ShaderLibrary
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 
 def test_include_resolved_once_with_defines(tmp_path: Path) -> None:
