@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-import pytest
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pytest
 
 
 def test_cli_help_and_errors_without_traceback(capsys: pytest.CaptureFixture[str]) -> None:

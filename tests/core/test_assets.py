@@ -11,12 +11,12 @@ if TYPE_CHECKING:
 
 
 def test_resources_search_path_order(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
-    import core.assets as resources
+    from core import assets
 
     monkeypatch.setenv("SHEER_ASSETS", str(tmp_path))
     (tmp_path / "x.txt").write_text("here")
-    assert resources.assets_search_path()[0] == tmp_path
-    assert resources.find_asset("x.txt") == tmp_path / "x.txt"
-    with pytest.raises(resources.AssetNotFoundError) as info:
-        resources.find_asset("no/such/file.bin")
+    assert assets.assets_search_path()[0] == tmp_path
+    assert assets.find_asset("x.txt") == tmp_path / "x.txt"
+    with pytest.raises(assets.AssetNotFoundError) as info:
+        assets.find_asset("no/such/file.bin")
     assert str(tmp_path) in str(info.value) and "no/such/file.bin" in str(info.value)
