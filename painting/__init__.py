@@ -15,11 +15,20 @@ Quick start::
 Units: thickness µm; positions mesh units (exactly as trimesh loads the file); brush radius mm.
 Texture space: row 0 is the top row and covers v ∈ [0, 1/H) (see :mod:`painting.head`).
 
-Modules: :mod:`painting.head` (loading, metadata), :mod:`painting.atlas` (cleaning, UV check, xatlas,
-bake, cache), :mod:`painting.spatial` (texel grid), :mod:`painting.kernels` (compiled dab kernels, numba,
-bit-identical to the numpy path), :mod:`painting.brush` (Brush, modes),
-:mod:`painting.document` (Document, Layer, Stroke, ChangeEvent), :mod:`painting.history` (undo),
-:mod:`painting.hit` (ray and depth picking), :mod:`painting.maps_io` (PNG16/EXR).
+Modules (each imports only the ones listed before it, plus ``core`` and ``km``):
+
+- :mod:`painting.tiles` (the 64² tile), :mod:`painting.raster` (triangle rasterisation),
+  :mod:`painting.head` (loading, metadata), :mod:`painting.maps_io` (PNG16/EXR thickness maps);
+- :mod:`painting.layout` (mesh cleaning, UV check, xatlas unwrap: the paint UVs),
+  :mod:`painting.kernels` (compiled dab kernels, numba, bit-identical to the numpy path),
+  :mod:`painting.spatial` (texel grid), :mod:`painting.atlas` (the per-texel bake and its cache);
+- :mod:`painting.brush` (Brush, modes), :mod:`painting.layer` (Layer, ChangeEvent, DocumentError),
+  :mod:`painting.history` (undo), :mod:`painting.hit` (ray and depth picking), :mod:`painting.stroke`
+  (the stroke engine: Stroke), :mod:`painting.document` (Document), :mod:`painting.looks` (named looks).
+
+What painting may import: :mod:`core` and :mod:`km` (and numpy, scipy, trimesh, xatlas, numba, Pillow,
+OpenEXR); never :mod:`project`, :mod:`render`, :mod:`capture`, :mod:`app`, Qt or GL (the import-linter
+contracts in ``pyproject.toml`` check it).
 
 Observing the document
 ----------------------
@@ -63,7 +72,7 @@ mirror and back-face rejection.
 
 Atlas
 -----
-``doc.layout`` (:class:`painting.atlas.UVLayout`: the paint UVs — the file's own when valid, else an
+``doc.layout`` (:class:`painting.layout.UVLayout`: the paint UVs — the file's own when valid, else an
 xatlas unwrap — with ``vertex_map`` to the file's vertices, ``face_map``, charts, ``clean`` report and
 ``check`` verdict). ``doc.atlas`` / ``doc.atlas_at(res)`` (:class:`painting.atlas.Atlas`): ``position``,
 ``normal``, ``face`` (layout triangle), ``chart``, ``coverage`` (conservative), ``padded`` (texels
@@ -84,19 +93,19 @@ from core.lazy import install_lazy
 #: public name -> module that defines it
 _EXPORTS: dict[str, str] = {
     "Document": "painting.document",
-    "Layer": "painting.document",
-    "Stroke": "painting.document",
-    "ChangeEvent": "painting.document",
-    "DocumentError": "painting.document",
+    "Layer": "painting.layer",
+    "Stroke": "painting.stroke",
+    "ChangeEvent": "painting.layer",
+    "DocumentError": "painting.layer",
     "Brush": "painting.brush",
     "BrushError": "painting.brush",
     "MODES": "painting.brush",
     "Hit": "painting.hit",
     "PickError": "painting.hit",
     "Atlas": "painting.atlas",
-    "AtlasError": "painting.atlas",
-    "UVLayout": "painting.atlas",
-    "CleanReport": "painting.atlas",
+    "AtlasError": "painting.layout",
+    "UVLayout": "painting.layout",
+    "CleanReport": "painting.layout",
     "Head": "painting.head",
     "HeadError": "painting.head",
     "HeadMetadata": "painting.head",

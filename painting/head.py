@@ -347,13 +347,13 @@ def _mesh_cache_path(path: Path) -> Path | None:
     """
     import hashlib
 
-    from painting.atlas import cache_dir
+    from core.cache import cache_dir
 
     try:
         digest = hashlib.sha256(path.read_bytes()).hexdigest()[:32]
     except OSError:
         return None
-    return cache_dir().parent / "mesh" / f"{digest}-v{_MESH_CACHE_VERSION}.npz"
+    return cache_dir("mesh") / f"{digest}-v{_MESH_CACHE_VERSION}.npz"
 
 
 def _load_mesh_cache(cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:

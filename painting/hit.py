@@ -12,11 +12,17 @@ default ``glDepthRange(0, 1)``).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    import trimesh
+    from numpy.typing import ArrayLike
+
+    from painting.layout import UVLayout
 
 
 class PickError(SheerError, ValueError):
@@ -43,13 +49,27 @@ class Hit:
     distance: float
 
 
-def _mesh(doc: Any) -> Any:
+class PickTarget(Protocol):
+    """What picking needs from a document (:class:`painting.document.Document` is the one)."""
+
+    #: the paint layout picked on
+    layout: UVLayout
+    #: the layout as a mesh (built on the first pick and kept: its ray structures are reused)
+    _mesh: trimesh.Trimesh | None
+
+    @property
+    def mm_per_unit(self) -> float:
+        """Millimetres per mesh unit of the head."""
+        ...
+
+
+def _mesh(doc: PickTarget) -> trimesh.Trimesh:
     if doc._mesh is None:
         doc._mesh = doc.layout.trimesh()
     return doc._mesh
 
 
-def _vec(value: Any, what: str) -> np.ndarray:
+def _vec(value: ArrayLike, what: str) -> np.ndarray:
     try:
         v = np.asarray(value, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
@@ -59,7 +79,7 @@ def _vec(value: Any, what: str) -> np.ndarray:
     return v
 
 
-def make_hit(doc: Any, face: int, point: np.ndarray, distance: float) -> Hit:
+def make_hit(doc: PickTarget, face: int, point: np.ndarray, distance: float) -> Hit:
     """A :class:`Hit` for ``point`` on layout triangle ``face``."""
     import trimesh
 
@@ -76,7 +96,7 @@ def make_hit(doc: Any, face: int, point: np.ndarray, distance: float) -> Hit:
                point=np.asarray(point, dtype=np.float64), uv=uv, normal=n, distance=float(distance))
 
 
-def ray_hit(doc: Any, origin: Any, direction: Any) -> Hit | None:
+def ray_hit(doc: PickTarget, origin: ArrayLike, direction: ArrayLike) -> Hit | None:
     """The first surface hit of the ray ``origin + t·direction`` (t ≥ 0, mesh units), or None."""
     o = _vec(origin, "ray origin")
     d = _vec(direction, "ray direction")
@@ -96,7 +116,7 @@ def ray_hit(doc: Any, origin: Any, direction: Any) -> Hit | None:
     return make_hit(doc, int(tri[k]), locations[k], float(t[k]))
 
 
-def unproject(ndc_xy: Any, depth: float, inv_view_proj: Any) -> np.ndarray:
+def unproject(ndc_xy: ArrayLike, depth: float, inv_view_proj: ArrayLike) -> np.ndarray:
     """World point (mesh units) of NDC (x, y) in [-1, 1]² and depth-buffer value ``depth`` in [0, 1]."""
     xy = np.asarray(ndc_xy, dtype=np.float64).reshape(-1)
     m = np.asarray(inv_view_proj, dtype=np.float64)
@@ -120,7 +140,7 @@ def pixel_to_ndc(px: float, py: float, width: int, height: int) -> tuple[float, 
     return (2.0 * (px + 0.5) / width - 1.0, 1.0 - 2.0 * (py + 0.5) / height)
 
 
-def depth_hit(doc: Any, ndc_xy: Any, depth: float, inv_view_proj: Any,
+def depth_hit(doc: PickTarget, ndc_xy: ArrayLike, depth: float, inv_view_proj: ArrayLike,
               max_distance_mm: float = 2.0) -> Hit | None:
     """Pick from a depth-buffer value: unproject, then snap to the nearest surface point. None for the
     far plane (depth 1) or when the point is farther than ``max_distance_mm`` from the surface.
@@ -136,7 +156,7 @@ def depth_hit(doc: Any, ndc_xy: Any, depth: float, inv_view_proj: Any,
     return make_hit(doc, int(tri[0]), closest[0], float(dist[0]))
 
 
-def look_at(eye: Any, target: Any, up: Any = (0.0, 1.0, 0.0)) -> np.ndarray:
+def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 1.0, 0.0)) -> np.ndarray:
     """World → view matrix (right-handed, OpenGL convention: the camera looks along −Z).
 
     The one implementation shared by picking here and by ``render.camera``.

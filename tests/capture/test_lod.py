@@ -33,7 +33,7 @@ def test_simplify_redoes_faulty_uvs_within_one_chart(heads: tuple) -> None:
     # within one chart. Measured at 512²: texels claimed by two coarse triangles 1,346 → 714, UV folds
     # 46 → 39 (the rest straddle a seam for real: reported, not fixed).
     from capture.lod import uv_faults
-    from painting.atlas import coverage_count
+    from painting.layout import coverage_count
 
     fine, coarse = heads
     count = coverage_count(coarse.uv[coarse.faces] * 512, 512, 512)

@@ -44,7 +44,7 @@ def sample_head() -> Any:
 
 @functools.cache
 def sample_layout() -> Any:
-    from painting.atlas import build_layout
+    from painting.layout import build_layout
 
     return build_layout(sample_head())
 

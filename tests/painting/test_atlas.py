@@ -10,7 +10,8 @@ import trimesh
 
 from core.assets import find_asset
 from painting import Brush, Document
-from painting.atlas import bake, build_layout, check_uvs
+from painting.atlas import bake
+from painting.layout import build_layout, check_uvs
 from tests.painting.helpers import StandInLibrary, sample_atlas, sample_layout
 
 if TYPE_CHECKING:
@@ -202,7 +203,7 @@ def test_canonical_face_loads_with_the_right_uvs_and_paints() -> None:
 
 
 def test_cleaning_drops_degenerate_and_fixes_winding() -> None:
-    from painting.atlas import clean_mesh
+    from painting.layout import clean_mesh
 
     v, f = _grid(6)
     f = f.copy()
