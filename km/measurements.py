@@ -372,12 +372,12 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
                 break
             values[key] = x
         else:
-            wl = values.pop("wavelength")
-            if not math.isfinite(wl) or not 200.0 <= wl <= 3000.0:
-                result.rejected.append((where, f"wavelength {wl:g} nm is outside 200–3000 nm"))
+            nm = values.pop("wavelength")
+            if not math.isfinite(nm) or not 200.0 <= nm <= 3000.0:
+                result.rejected.append((where, f"wavelength {nm:g} nm is outside 200–3000 nm"))
                 continue
             if _check_reflectance(values, where, result.rejected):
-                rows.append((where, wl, values["R_inf"], values["R"], values["Rg"]))
+                rows.append((where, nm, values["R_inf"], values["R"], values["Rg"]))
 
     wl, r_inf, r, rg = _collect_triplet(rows, result.rejected)
     mat_name = name or meta.get("name") or p.stem

@@ -182,21 +182,21 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     weights = [bflat[cov_flat, k] for k in range(3)]
     del bary, bflat
     corner = [layout.faces[fidx, k] for k in range(3)]
-    position = np.zeros((res * res, 3), dtype=np.float32)
-    normal = np.zeros((res * res, 3), dtype=np.float32)
+    position = np.zeros((res, res, 3), dtype=np.float32)
+    normal = np.zeros((res, res, 3), dtype=np.float32)
+    position_rows = position.reshape(-1, 3)  # views, one row per texel
+    normal_rows = normal.reshape(-1, 3)
     ncomp = []
     for axis in range(3):
         vcol = np.ascontiguousarray(layout.vertices[:, axis])
         ncol = np.ascontiguousarray(layout.normals[:, axis])
-        position[cov_flat, axis] = sum(weights[k] * vcol[corner[k]] for k in range(3))
+        position_rows[cov_flat, axis] = sum(weights[k] * vcol[corner[k]] for k in range(3))
         ncomp.append(sum(weights[k] * ncol[corner[k]] for k in range(3)))
     length = np.sqrt(ncomp[0] ** 2 + ncomp[1] ** 2 + ncomp[2] ** 2)
     np.maximum(length, 1e-12, out=length)
     for axis in range(3):
-        normal[cov_flat, axis] = ncomp[axis] / length
+        normal_rows[cov_flat, axis] = ncomp[axis] / length
     del ncomp, weights, corner
-    position = position.reshape(res, res, 3)
-    normal = normal.reshape(res, res, 3)
     chart = np.full((res, res), -1, dtype=np.int32)
     chart.reshape(-1)[cov_flat] = layout.chart_of_face[fidx]
     report("bake", 0.8)

@@ -198,10 +198,9 @@ class Document:
         except (KeyError, LookupError):
             raise DocumentError(f"unknown material {name!r}") from None
         default = getattr(mat, "default_thickness_um", None)
-        if default is None:
-            default = getattr(mat, "thickness_um", 20.0)
+        thickness = float(getattr(mat, "thickness_um", 20.0) if default is None else default)
         maximum = float(getattr(mat, "max_thickness_um", 100.0))
-        return str(getattr(mat, "name", name)), mat, float(default), maximum
+        return str(getattr(mat, "name", name)), mat, thickness, maximum
 
     # ------------------------------------------------------------------------------------ layer edits
     def _check_idle(self, what: str) -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from painting.tiles import TILE
 
@@ -19,6 +19,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     import numpy as np
+
+    from painting.layer import Layer
 
 DEFAULT_BUDGET_BYTES = 256 * 1024 * 1024
 
@@ -29,7 +31,7 @@ class TileDelta:
     (n, 64, 64) µm.
     """
 
-    layer: Any
+    layer: Layer
     tiles: np.ndarray
     data: np.ndarray
 

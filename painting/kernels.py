@@ -106,7 +106,7 @@ def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: 
     lo = np.empty(3, np.int64)
     hi = np.empty(3, np.int64)
     for a in range(3):
-        lo[a] = max(np.int64(np.floor((c[a] - radius - origin[a]) / cell)), 0)
+        lo[a] = max(np.int64(np.floor((c[a] - radius - origin[a]) / cell)), np.int64(0))
         hi[a] = min(np.int64(np.floor((c[a] + radius - origin[a]) / cell)), dims[a] - 1)
     ny_run = hi[1] - lo[1] + 1
     nz_run = hi[2] - lo[2] + 1

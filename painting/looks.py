@@ -22,11 +22,15 @@ import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from painting.document import Document
+    from painting.layer import Layer
 
 LOOK_SCHEMA_VERSION = 1
 BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip")
@@ -139,11 +143,11 @@ def load_look(name_or_path: str | Path) -> Look:
     return Look.from_json(data, str(p))
 
 
-def _front_z(doc: Any) -> float:
+def _front_z(doc: Document) -> float:
     return float(np.asarray(doc.head.vertices)[:, 2].max()) + 1.0
 
 
-def resolve_point(doc: Any, point: Any, where: str) -> np.ndarray:
+def resolve_point(doc: Document, point: object, where: str) -> np.ndarray:
     """A look point → a surface point (mesh units)."""
     head = doc.head
     offset = np.zeros(3)
@@ -184,7 +188,7 @@ _RAY_CACHE_VERSION = 1
 _RAY_CACHES: dict[str, tuple[Path, dict[bytes, np.ndarray]]] = {}
 
 
-def _ray_cache(doc: Any) -> tuple[Path, dict[bytes, np.ndarray]] | None:
+def _ray_cache(doc: Document) -> tuple[Path, dict[bytes, np.ndarray]] | None:
     """The look-point cache of ``doc``'s paint layout (a real :class:`painting.Document` only)."""
     from painting.document import Document
 
@@ -246,7 +250,7 @@ def _code_digest() -> str:
     return _CODE_DIGEST
 
 
-def _maps_cache_path(doc: Any, look: Look, points: list[list[list[np.ndarray]]]) -> Path | None:
+def _maps_cache_path(doc: Document, look: Look, points: list[list[list[np.ndarray]]]) -> Path | None:
     """Where the painted maps of ``look`` on ``doc`` are cached: keyed by the paint layout, the layers'
     resolution, the materials' maximum and default thickness, every stroke's brush and resolved surface
     points, the mirror plane and the painting code (a real :class:`painting.Document` only).
@@ -295,13 +299,14 @@ def _save_maps(path: Path, maps: list[np.ndarray]) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         buf = io.BytesIO()
-        np.savez_compressed(buf, **{f"layer{i}": m for i, m in enumerate(maps)})
+        arrays: dict[str, Any] = {f"layer{i}": m for i, m in enumerate(maps)}  # (not "allow_pickle")
+        np.savez_compressed(buf, **arrays)
         atomic_write_bytes(path, buf.getvalue())
     except OSError:
         pass  # the cache is an optimisation only
 
 
-def apply_look(doc: Any, look: Look | str, clear: bool = True) -> list[Any]:
+def apply_look(doc: Document, look: Look | str, clear: bool = True) -> list[Layer]:
     """Paint ``look`` on a :class:`painting.Document` through its brush API (one undo step per stroke
     and per added layer); ``clear`` removes the document's layers first. Returns the added layers.
 

@@ -1,7 +1,9 @@
-"""ruff is clean over the repository and the import-linter contracts in pyproject.toml are kept."""
+"""ruff is clean over the repository, the import-linter contracts in pyproject.toml are kept, and mypy passes
+on the model packages (core, km, painting: the ``[tool.mypy]`` section of pyproject.toml)."""
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -31,3 +33,9 @@ def test_ruff_clean() -> None:
 def test_import_contracts_kept() -> None:
     proc = subprocess.run([_tool("lint-imports"), "--no-cache"], cwd=ROOT, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-2000:]
+
+
+def test_mypy_passes_on_the_model_packages() -> None:
+    proc = subprocess.run([_tool("mypy"), "--cache-dir", os.devnull], cwd=ROOT, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stdout[-5000:] + proc.stderr[-2000:]
+    assert "Success" in proc.stdout
