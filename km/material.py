@@ -50,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from core.errors import SheerError
+from km.srgb import srgb_encode
 
 #: Categories the studio knows (others are allowed if they are short lowercase words).
 CATEGORIES: tuple[str, ...] = (
@@ -480,7 +481,7 @@ class Material:
         m = spectral_rgb_matrix_cached(np.asarray(self.wavelengths, dtype=np.float64), illuminant)
         with np.errstate(all="ignore"):
             rgb = np.asarray(np.asarray(refl, dtype=np.float64) @ m, dtype=np.float64)
-        return encode_srgb(rgb) if encoded else rgb
+        return srgb_encode(np.clip(rgb, 0.0, 1.0)) if encoded else rgb
 
     def swatch_hex(self, background: float | np.ndarray | str = "opaque", thickness_um: float | None = None,
                    illuminant: str = "D65") -> str:
@@ -538,17 +539,6 @@ class Material:
 
 
 # --------------------------------------------------------------------------------------------------
-
-
-def encode_srgb(linear_rgb: np.ndarray) -> np.ndarray:
-    """Linear sRGB → gamma-encoded sRGB (IEC 61966-2-1) in [0, 1] (clipped first).
-
-    The standard's two-piece formula, written out rather than ``colour.cctf_encoding(..., "sRGB")`` so
-    that drawing a swatch does not import colour-science (about a second of the studio's start-up); a
-    test checks the two agree to 1e-12.
-    """
-    c = np.clip(np.asarray(linear_rgb, dtype=np.float64), 0.0, 1.0)
-    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.power(c, 1.0 / 2.4) - 0.055)
 
 
 def _background(background: float | np.ndarray | str, n: int) -> np.ndarray:
