@@ -24,9 +24,9 @@ class ActionSpec:
 
 STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("file.new", "&New Project", "File", "Ctrl+N"),
-    ActionSpec("file.open", "&Open Project…", "File", "Ctrl+O", "has_project_io"),
-    ActionSpec("file.save", "&Save Project", "File", "Ctrl+S", "has_project_io"),
-    ActionSpec("file.save_as", "Save Project &As…", "File", "Ctrl+Shift+S", "has_project_io"),
+    ActionSpec("file.open", "&Open Project…", "File", "Ctrl+O"),
+    ActionSpec("file.save", "&Save Project", "File", "Ctrl+S"),
+    ActionSpec("file.save_as", "Save Project &As…", "File", "Ctrl+Shift+S"),
     ActionSpec("file.open_face", "Open Captured &Face…", "File", "",
                tip="a face folder written by 'sheer capture', drawn by the lightweight render mode"),
     ActionSpec("file.export_maps", "Export Layer &Maps (16-bit PNG)…", "File", "Ctrl+E", "has_layers"),

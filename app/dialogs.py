@@ -1,50 +1,64 @@
-"""Every message the studio shows goes through here, so it is logged and tests can dismiss it.
+"""Every message and question the studio shows, as modal message boxes (each one also logged), and its two
+information dialogs (About, Keyboard Shortcuts).
 
-Set :data:`AUTO_DISMISS_MS` (tests do) to close each message box automatically after that delay;
-:data:`HISTORY` keeps (kind, title, text) of every message shown.
+Tests answer these boxes as a user would: a timer finds the visible box and clicks a button
+(``tests/app/studio_support.py``).
 """
 
 from __future__ import annotations
 
 import logging
 
-from PySide6.QtCore import QTimer
-from PySide6.QtWidgets import QMessageBox, QWidget
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (
+    QDialog,
+    QDialogButtonBox,
+    QLabel,
+    QMessageBox,
+    QTableWidget,
+    QTableWidgetItem,
+    QVBoxLayout,
+    QWidget,
+)
 
 log = logging.getLogger("sheer.app")
-AUTO_DISMISS_MS: int | None = None
-#: In auto-dismiss mode, the answer :func:`ask` returns (else its default).
-AUTO_ANSWER: str | None = None
-HISTORY: list[tuple[str, str, str]] = []
 
 
 def _show(parent: QWidget | None, kind: str, title: str, text: str, detail: str = "") -> None:
-    HISTORY.append((kind, title, text))
     (log.warning if kind == "error" else log.info)("%s: %s", title, text)
     icon = {"error": QMessageBox.Icon.Critical, "warning": QMessageBox.Icon.Warning}.get(
         kind, QMessageBox.Icon.Information)
     box = QMessageBox(icon, title, text, QMessageBox.StandardButton.Ok, parent)
     if detail:
         box.setDetailedText(detail)
-    if AUTO_DISMISS_MS is not None:
-        QTimer.singleShot(AUTO_DISMISS_MS, box.accept)
     box.exec()
     box.deleteLater()
 
 
 def error(parent: QWidget | None, title: str, text: str, detail: str = "") -> None:
+    """Show an error (a critical message box with OK) and log it as a warning; returns once dismissed."""
     _show(parent, "error", title, text, detail)
 
 
 def info(parent: QWidget | None, title: str, text: str, detail: str = "") -> None:
+    """Show a piece of information (a message box with OK) and log it; returns once dismissed."""
     _show(parent, "info", title, text, detail)
 
 
 def ask(parent: QWidget | None, title: str, text: str, choices: dict[str, str], default: str) -> str:
-    """A question with buttons ``choices`` (key -> label); returns the key chosen (``default`` on Esc)."""
-    HISTORY.append(("question", title, text))
-    if AUTO_DISMISS_MS is not None:
-        return AUTO_ANSWER if AUTO_ANSWER in choices else default
+    """Ask a question with one button per choice.
+
+    Args:
+        parent: the window the box is modal to.
+        title: the box's title.
+        text: the question.
+        choices: key → button label, in button order.
+        default: the key of the default button (Enter), also the answer to Esc.
+
+    Returns:
+        The key of the button clicked.
+    """
+    log.info("%s: %s", title, text)
     box = QMessageBox(QMessageBox.Icon.Question, title, text, QMessageBox.StandardButton.NoButton, parent)
     buttons = {key: box.addButton(label, QMessageBox.ButtonRole.ActionRole) for key, label in choices.items()}
     box.setDefaultButton(buttons[default])
@@ -53,3 +67,52 @@ def ask(parent: QWidget | None, title: str, text: str, choices: dict[str, str], 
     clicked = box.clickedButton()
     box.deleteLater()
     return next((k for k, b in buttons.items() if b is clicked), default)
+
+
+def _run(box: QDialog, content: QWidget) -> None:
+    """Show ``content`` above an OK button in the modal dialog ``box``; returns once it is closed."""
+    lay = QVBoxLayout(box)
+    lay.addWidget(content)
+    buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
+    buttons.accepted.connect(box.accept)
+    lay.addWidget(buttons)
+    box.exec()
+    box.deleteLater()
+
+
+def about(parent: QWidget | None, head_credit: str, asset_credits: list[str], components: dict[str, str]) -> None:
+    """Help → About: what Sheer is, the head scan's credit, the sample assets' credits, the components.
+
+    Args:
+        parent: the window the dialog is modal to.
+        head_credit: the credit line of the head shown ("" when it has none).
+        asset_credits: one credit line per sample asset.
+        components: what implements each part (e.g. ``{"renderer": "render.Renderer"}``).
+    """
+    credits = "".join(f"<li>{c}</li>" for c in asset_credits)
+    used = ", ".join(f"{k}: {v}" for k, v in components.items())
+    text = (f"<h3>Sheer Studio</h3><p>A physically based makeup design studio: Kubelka–Munk cosmetic "
+            f"layers over subsurface-scattering skin (after Huang et al. 2013).</p>"
+            f"<p><b>Head scan:</b> {head_credit or 'none'}</p>"
+            f"<p><b>Sample assets</b><ul>{credits}</ul></p>"
+            f"<p><small>Components in use: {used}</small></p>")
+    box = QDialog(parent)
+    box.setWindowTitle("About Sheer")
+    label = QLabel(text)
+    label.setWordWrap(True)
+    label.setTextFormat(Qt.TextFormat.RichText)
+    _run(box, label)
+
+
+def shortcuts(parent: QWidget | None, rows: list[tuple[str, str, str]]) -> None:
+    """Help → Keyboard Shortcuts: a table of (where, action, shortcut) rows."""
+    box = QDialog(parent)
+    box.setWindowTitle("Keyboard Shortcuts")
+    table = QTableWidget(len(rows), 3)
+    table.setHorizontalHeaderLabels(["Where", "Action", "Shortcut"])
+    for r, row in enumerate(rows):
+        for c, text in enumerate(row):
+            table.setItem(r, c, QTableWidgetItem(text))
+    table.resizeColumnsToContents()
+    box.resize(560, 520)
+    _run(box, table)

@@ -8,20 +8,14 @@ a friendly message and is logged; a traceback is never shown.
 
 from __future__ import annotations
 
-import hashlib
-import hmac
-import json
 import logging
-import math
 import os
-import secrets
 import time
-from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from PySide6.QtCore import QEvent, QObject, Qt, QTimer, Signal
-from PySide6.QtGui import QCloseEvent, QKeyEvent, QKeySequence, QShortcut
+from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QGridLayout,
     QHBoxLayout,
@@ -33,8 +27,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import seams
 from app.actions import KIOSK_ACTIONS
+from app.kiosk_config import KioskConfig, check_pin, require_pin
+from app.session import Session
 from app.settings import LIGHT_PRESETS
 
 if TYPE_CHECKING:
@@ -44,93 +39,7 @@ log = logging.getLogger("sheer.kiosk")
 
 CATEGORIES: tuple[str, ...] = ("foundation", "lipstick", "blush", "eyeshadow")
 KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
-ENGINES: tuple[str, ...] = ("auto", "physical", "lightweight")
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
-_PBKDF2_ROUNDS = 200_000
-
-
-def hash_pin(pin: str, salt: bytes | None = None) -> str:
-    """``pbkdf2_sha256$rounds$salt_hex$hash_hex`` of a PIN."""
-    salt = salt or secrets.token_bytes(16)
-    digest = hashlib.pbkdf2_hmac("sha256", pin.encode("utf-8"), salt, _PBKDF2_ROUNDS)
-    return f"pbkdf2_sha256${_PBKDF2_ROUNDS}${salt.hex()}${digest.hex()}"
-
-
-def check_pin(pin: str, stored: str) -> bool:
-    try:
-        algo, rounds, salt_hex, hash_hex = stored.split("$")
-        if algo != "pbkdf2_sha256":
-            return False
-        digest = hashlib.pbkdf2_hmac("sha256", pin.encode("utf-8"), bytes.fromhex(salt_hex), int(rounds))
-    except (ValueError, TypeError):
-        return False
-    return hmac.compare_digest(digest.hex(), hash_hex)
-
-
-@dataclass
-class KioskConfig:
-    """The kiosk's configuration file (JSON). ``pin_hash`` is never the PIN itself."""
-
-    pin_hash: str = ""
-    snapshot_dir: str = ""
-    idle_seconds: float = 90.0
-    look_seconds: float = 8.0
-    fullscreen: bool = True
-    #: "physical" (render.Renderer), "lightweight" (the captured face ``face_dir`` by the lightweight
-    #: engine) or "auto": physical, falling back to lightweight when its frames take over ``max_frame_ms``
-    engine: str = "auto"
-    face_dir: str = ""
-    max_frame_ms: float = 250.0
-
-    @staticmethod
-    def default_path() -> Path:
-        base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
-        return Path(base) / "sheer" / "kiosk.json"
-
-    @property
-    def has_pin(self) -> bool:
-        """An administrator PIN is configured (there is no default PIN: see :func:`require_pin`)."""
-        return bool(self.pin_hash)
-
-    @classmethod
-    def load(cls, path: Path | None = None) -> KioskConfig:
-        """Read the config; a missing or broken file gives the defaults — with **no** PIN (the kiosk
-        refuses to start until ``sheer kiosk --set-pin`` stores one).
-        """
-        path = path or cls.default_path()
-        cfg = cls()
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            if isinstance(data, dict):
-                for k in asdict(cfg):
-                    value = data.get(k)
-                    if isinstance(value, float) and not math.isfinite(value):
-                        continue  # NaN/inf would defeat the clamping below
-                    if k in data and isinstance(value, type(getattr(cfg, k))):
-                        setattr(cfg, k, value)
-        except (OSError, ValueError, RecursionError) as exc:
-            if path.exists():
-                log.warning("kiosk config %s unreadable (%s); using defaults", path, exc)
-        if cfg.pin_hash and cfg.pin_hash.count("$") != 3:
-            log.warning("kiosk config %s: the stored PIN is not a PIN hash; ignoring it", path)
-            cfg.pin_hash = ""
-        if not cfg.snapshot_dir:
-            cfg.snapshot_dir = str(Path.home() / "Pictures" / "sheer-kiosk")
-        cfg.idle_seconds = min(max(float(cfg.idle_seconds), 5.0), 3600.0)
-        cfg.look_seconds = min(max(float(cfg.look_seconds), 2.0), 120.0)
-        cfg.max_frame_ms = min(max(float(cfg.max_frame_ms), 10.0), 10_000.0)
-        if cfg.engine not in ENGINES:
-            log.warning("kiosk config: engine must be one of %s, got %r; using auto", ", ".join(ENGINES), cfg.engine)
-            cfg.engine = "auto"
-        return cfg
-
-    def save(self, path: Path | None = None) -> Path:
-        from core.atomicio import atomic_write_text
-
-        path = path or self.default_path()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(path, json.dumps(asdict(self), indent=2))
-        return path
 
 
 def big_button(text: str, height: int = 72) -> QPushButton:
@@ -219,23 +128,17 @@ class _TouchPage(QWidget):
         self.on_touch()
 
 
-NO_PIN_MESSAGE = ("the kiosk has no administrator PIN yet; set one with `sheer kiosk --set-pin` "
-                  "(add --config FILE if you use another configuration file)")
-
-
-def require_pin(config: KioskConfig) -> None:
-    """Refuse to run a kiosk nobody can leave, or that a shopper leaves with a PIN shipped by default."""
-    if not config.has_pin:
-        from core.errors import SheerError
-
-        raise SheerError(NO_PIN_MESSAGE)
-
-
 class KioskWindow(QWidget):
-    """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle."""
+    """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle.
 
-    def __init__(self, config: KioskConfig, project: str | None = None, head: str | None = None,
-                 resolution: int | None = None) -> None:
+    Args:
+        config: the kiosk's configuration; it must hold an administrator PIN (else ``SheerError``).
+        project: a ``.sheer`` project to show instead of the built-in looks.
+        session: the library and document to show; None opens the sample head's at
+            ``config.resolution``.
+    """
+
+    def __init__(self, config: KioskConfig, project: str | None = None, session: Session | None = None) -> None:
         require_pin(config)
         super().__init__()
         self.config = config
@@ -244,10 +147,9 @@ class KioskWindow(QWidget):
         self.attract = False
         self.last_error: str | None = None
         self.snapshots: list[Path] = []
-        self.library = seams.load_library()
-        from app.studio_app import DEFAULT_RESOLUTION
-
-        self.doc = seams.open_document(head, resolution or DEFAULT_RESOLUTION, self.library)
+        self.session = session if session is not None else Session.open(resolution=config.resolution)
+        self.library = self.session.library
+        self.doc = self.session.document
         self.look = "natural"
         self._look_cache: dict[str, list[tuple[str, str, float, Any]]] = {}
         self.viewport = self._make_viewport()
@@ -474,7 +376,7 @@ class KioskWindow(QWidget):
 
         cached = self._look_cache.get(name)
         if cached is None:
-            seams.apply_look(self.doc, self.library, name)
+            self.session.apply_look(name)
             self._look_cache[name] = [(lay.material, lay.name, float(lay.max_thickness), np.array(lay.thickness))
                                       for lay in self.doc.layers]
         else:
@@ -482,7 +384,7 @@ class KioskWindow(QWidget):
                 self.doc.remove_layer(i)
             for material, lname, max_t, thick in cached:
                 lay = self.doc.add_layer(material, name=lname, max_thickness=max_t)
-                seams.set_thickness(self.doc, lay, thick)
+                self.doc.set_thickness(lay, thick)
         self.doc.clear_history()
         self.look = name
         for n, b in self.look_buttons.items():
@@ -540,6 +442,17 @@ class KioskWindow(QWidget):
         return path
 
     # ------------------------------------------------------------------ screens
+    def show_full_screen(self) -> None:
+        """Show the kiosk over the whole of its screen.
+
+        On an X server without a window manager (a kiosk started from ``xinit``) a new window opens at
+        its own size in the top-left corner and ``showFullScreen`` alone does not fill the screen, so
+        the window is first sized to the screen's geometry.
+        """
+        screen = self.screen() or QGuiApplication.primaryScreen()
+        self.setGeometry(screen.geometry())
+        self.showFullScreen()
+
     def show_start(self) -> None:
         self.stack.setCurrentWidget(self.start_page)
 
@@ -640,7 +553,7 @@ def run_kiosk(project: str | None = None, config_path: str | None = None, window
     sys.excepthook = hook
     win = KioskWindow(config, project=project)
     if config.fullscreen and not windowed:
-        win.showFullScreen()
+        win.show_full_screen()
     else:
         win.resize(1280, 800)
         win.show()

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from PySide6.QtCore import QByteArray, QSettings, Qt, QTimer
@@ -17,28 +17,24 @@ from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
-    QDialog,
-    QDialogButtonBox,
     QDockWidget,
     QDoubleSpinBox,
     QFileDialog,
-    QInputDialog,
     QLabel,
     QMainWindow,
     QSlider,
-    QTableWidget,
-    QTableWidgetItem,
     QToolBar,
-    QVBoxLayout,
     QWidget,
 )
 
-from app import dialogs, seams
+from app import dialogs
 from app.actions import MENU_ORDER, STUDIO_ACTIONS, is_enabled, shortcut_sheet
-from app.export import export_gltf, export_maps, render_image
+from app.export_actions import ExportActions
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
+from app.project_files import ProjectFiles
 from app.render_adapter import RENDER_MODES, debug_views, layer_inputs
+from app.session import BACKENDS
 from app.settings import (
     APPLICATION,
     ENVIRONMENTS,
@@ -50,36 +46,42 @@ from app.settings import (
 )
 from app.viewport import Viewport
 from app.workers import run_task
+from painting import Brush
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from app.session import Session
+    from capture.pipeline import Face
+    from painting import ChangeEvent, Stroke
 
 log = logging.getLogger("sheer.app")
 
 
 class StudioWindow(QMainWindow):
-    def __init__(self, head_path: str | Path | None = None, look: str = "natural", resolution: int | None = None,
-                 qsettings: QSettings | None = None, document: Any = None, library: Any = None) -> None:
+    """The studio's main window on a session's document and library.
+
+    Args:
+        session: the library and the document to paint (opened by :meth:`app.session.Session.open`).
+        qsettings: where the settings and the window layout persist (default: the user's).
+
+    Attributes:
+        files: New, Open, Save, autosave and crash recovery (:class:`app.project_files.ProjectFiles`).
+        exports: exports and layer-map transfers (:class:`app.export_actions.ExportActions`).
+    """
+
+    def __init__(self, session: Session, qsettings: QSettings | None = None) -> None:
         super().__init__()
         from app.viewport import preload_renderer_modules
 
         preload_renderer_modules()  # colour-science & co. import in a worker while the document is built
         self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)
         self.settings: StudioSettings = load_settings(self.qsettings)
-        self.library = library if library is not None else seams.load_library()
-        if document is None:
-            from app.studio_app import DEFAULT_RESOLUTION
-
-            document = seams.open_document(head_path, resolution or DEFAULT_RESOLUTION, self.library)
-        self.doc = document
-        self.project_path: Path | None = None
-        self.project_name = "Untitled"
-        self.project: Any = None  # the project.io.Project last opened or saved (the base of the next save)
-        self.look_record: dict[str, Any] | None = {"name": look, "tags": []} if look else None
-        self._stroke: Any = None
+        self.library = session.library
+        self.doc = session.document
+        self._stroke: Stroke | None = None
         self.face_path: Path | None = None  # the captured face shown by the lightweight mode
-        self._stroke_cm: Any = None
         self.selected_layer = 0
-        if look:
-            seams.apply_look(self.doc, self.library, look)
-            self.doc.clear_history()
         self.doc.subscribe(self._on_doc_event)
 
         self.viewport = Viewport(self.doc.head, getattr(self.doc, "layout", None))
@@ -93,6 +95,12 @@ class StudioWindow(QMainWindow):
         self.viewport.renderer_ready.connect(self._refresh_swatches)
         self.viewport.frame_drawn.connect(self._after_first_frame)
         self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
+
+        self.files = ProjectFiles(self, session, self.viewport, self.settings)
+        self.files.replaced.connect(self._project_replaced)
+        self.files.changed.connect(self._update_actions)
+        self.exports = ExportActions(self, session, self.viewport, self.settings)
+        self.exports.map_imported.connect(self.refresh_layers)
 
         self.layers_panel = LayersPanel()
         self.layers_panel.set_materials(self.library)
@@ -136,16 +144,7 @@ class StudioWindow(QMainWindow):
         self.refresh_layers()
         self.apply()
         self.setWindowModified(False)
-        self._update_title()
-        from app import project_io
-
-        self.autosaver = project_io.make_autosaver(self._snapshot, None, self.settings.autosave_minutes * 60.0)
-        self.autosave_timer = QTimer(self)
-        self.autosave_timer.setInterval(10_000)
-        self.autosave_timer.timeout.connect(self._autosave_tick)
-        if self.autosaver is not None:
-            self.autosave_timer.start()
-        QTimer.singleShot(0, self.offer_recovery)
+        QTimer.singleShot(0, self.files.offer_recovery)
 
     # ------------------------------------------------------------------ construction
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
@@ -156,16 +155,17 @@ class StudioWindow(QMainWindow):
         return dock
 
     def context(self) -> dict[str, bool]:
-        return {"has_layers": bool(self.doc.layers), "can_undo": bool(self.doc.can_undo),
-                "can_redo": bool(self.doc.can_redo), "has_project_io": seams_has_project_io()}
+        """The predicates actions are enabled by (``ActionSpec.enabled_when``), as they are now."""
+        return {"has_layers": bool(self.doc.layers), "can_undo": self.doc.can_undo, "can_redo": self.doc.can_redo}
 
     def _build_actions(self) -> None:
         menus = {name: self.menuBar().addMenu(f"&{name}") for name in MENU_ORDER}
         handlers = {
-            "file.new": self.new_project, "file.open": self.open_project, "file.save": self.save_project,
-            "file.save_as": lambda: self.save_project(ask=True), "file.export_maps": self.ask_export_maps,
-            "file.export_maps_exr": lambda: self.ask_export_maps("exr"),
-            "file.export_image": self.ask_export_image, "file.export_gltf": self.ask_export_gltf,
+            "file.new": self.files.new_project, "file.open": self.files.open_project,
+            "file.save": self.files.save_project, "file.save_as": lambda: self.files.save_project(ask=True),
+            "file.export_maps": self.exports.ask_export_maps,
+            "file.export_maps_exr": lambda: self.exports.ask_export_maps("exr"),
+            "file.export_image": self.exports.ask_export_image, "file.export_gltf": self.exports.ask_export_gltf,
             "file.quit": self.close, "file.open_face": self.ask_open_face,
             "view.mode_fast": lambda: self.set_render_mode("fast"),
             "view.mode_reference": lambda: self.set_render_mode("reference"),
@@ -194,7 +194,7 @@ class StudioWindow(QMainWindow):
         act = QAction("Save Self-&Contained…", self)
         act.setObjectName("file.save_self_contained")
         act.setStatusTip("Save a copy of the project with the head embedded (opens without the head file)")
-        act.triggered.connect(lambda _checked=False: self.save_self_contained())
+        act.triggered.connect(lambda _checked=False: self.files.save_self_contained())
         self.actions_by_id["file.save_self_contained"] = act
         file_actions = menus["File"].actions()
         after = file_actions.index(self.actions_by_id["file.save_as"]) + 1
@@ -209,8 +209,6 @@ class StudioWindow(QMainWindow):
         ctx = self.context()
         for spec in STUDIO_ACTIONS:
             self.actions_by_id[spec.id].setEnabled(is_enabled(spec, ctx))
-        if "file.save_self_contained" in self.actions_by_id:
-            self.actions_by_id["file.save_self_contained"].setEnabled(ctx["has_project_io"])
         s = self.settings
         for aid, on in (("brush.eraser", s.brush_mode == "erase"), ("brush.smooth", s.brush_mode == "smooth"),
                         ("brush.mirror", s.brush_mirror), ("view.split", s.split > 0),
@@ -222,7 +220,7 @@ class StudioWindow(QMainWindow):
         self.recent_menu.clear()
         for p in self.settings.recent_files:
             act = self.recent_menu.addAction(p)
-            act.triggered.connect(lambda _c=False, path=p: self.open_project(Path(path), background=True))
+            act.triggered.connect(lambda _c=False, path=p: self.files.open_project(Path(path), background=True))
 
     def _build_toolbars(self) -> None:
         tb = QToolBar("Brush")
@@ -292,7 +290,7 @@ class StudioWindow(QMainWindow):
             self.frame_label.setText(text)
 
     # ------------------------------------------------------------------ settings → everything
-    def _set(self, **changes: Any) -> None:
+    def _set(self, **changes: object) -> None:
         for k, v in changes.items():
             setattr(self.settings, k, v)
         self.apply()
@@ -343,7 +341,7 @@ class StudioWindow(QMainWindow):
         self.credit_label.setText(f"Head: {credit}" if credit else "")
         self.status.setText(f"brush {s.brush_radius_mm:.1f} mm · strength {s.brush_strength:.2f} · "
                             f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''} · renderer: "
-                            f"{seams.backends().get('renderer', '…')}")
+                            f"{BACKENDS['renderer']}")
         vp.update()
 
     _env_cache: dict[str, tuple[float, float, float]] = {}
@@ -403,11 +401,11 @@ class StudioWindow(QMainWindow):
         if folder:
             self.open_face(Path(folder))
 
-    def open_face(self, folder: Path, on_done: Any = None) -> None:
+    def open_face(self, folder: Path, on_done: Callable[[Face], None] | None = None) -> None:
         """Read a captured face in a worker, then show it in the lightweight mode."""
         from capture.pipeline import load_face
 
-        def done(face: Any) -> None:
+        def done(face: Face) -> None:
             self.viewport.face = face
             self.face_path = Path(folder)
             self._set(render_mode="lightweight")
@@ -430,20 +428,20 @@ class StudioWindow(QMainWindow):
         if a is None:
             return (0.6, 0.45, 0.38)
         h, w = a.shape[:2]
-        from render.km_pass import srgb_decode
+        from km.srgb import srgb_decode
 
         c = srgb_decode(a[h // 3:2 * h // 3, w // 3:2 * w // 3, :3].reshape(-1, 3).astype(np.float32) / 255.0)
         m = np.median(c, axis=0)
         return (float(m[0]), float(m[1]), float(m[2]))
 
-    def _on_doc_event(self, event: Any) -> None:
-        self.setWindowModified(True)
-        if getattr(self, "autosaver", None) is not None:
-            self.autosaver.mark_dirty()
+    def _on_doc_event(self, event: ChangeEvent) -> None:
+        if event.kind == "history":
+            return  # the undo state: updated at a stroke's end, by undo/redo and by whoever cleared it
         if event.kind == "paint":
             # every dab: only queue its tiles (menus and undo state change at the stroke's end, which
             # updates them; undo/redo update them themselves)
-            self.viewport.layers_changed(event.layer, list(event.tiles))
+            index = self.doc.index_of(self.doc.layer_by_id(event.layer))
+            self.viewport.layers_changed(index, list(event.tiles))
             if self._stroke is None:
                 self._update_actions()
         else:
@@ -469,8 +467,8 @@ class StudioWindow(QMainWindow):
             lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, max_thickness=v)))
         p.material_requested.connect(lambda i, m: self._layer_cmd(lambda: self.doc.set_layer(i, material=m)))
         p.selection_changed.connect(self._select_layer)
-        p.import_requested.connect(self.ask_import_map)
-        p.export_requested.connect(self.ask_export_map)
+        p.import_requested.connect(self.exports.ask_import_map)
+        p.export_requested.connect(self.exports.ask_export_map)
 
     def _select_layer(self, index: int) -> None:
         if index >= 0:
@@ -478,7 +476,7 @@ class StudioWindow(QMainWindow):
             self.viewport.debug_layer_index = index  # the thickness view shows the selected layer
             self.viewport.update()
 
-    def _layer_cmd(self, fn: Any) -> None:
+    def _layer_cmd(self, fn: Callable[[], object]) -> None:
         from core.errors import SheerError
 
         try:
@@ -517,10 +515,9 @@ class StudioWindow(QMainWindow):
             self.statusBar().showMessage(f"Layer '{lay.name}' is hidden.", 4000)
             return
         s = self.settings
-        brush = seams.make_brush(s.brush_radius_mm, s.brush_hardness, s.brush_strength, s.brush_mode,
-                                 s.brush_mirror)
-        self._stroke_cm = self.doc.stroke(lay, brush)
-        self._stroke = self._stroke_cm.__enter__()
+        brush = Brush(radius_mm=float(s.brush_radius_mm), hardness=float(s.brush_hardness),
+                      strength=float(s.brush_strength), mode=s.brush_mode, mirror=bool(s.brush_mirror))
+        self._stroke = self.doc.stroke(lay, brush).__enter__()
         self._stroke_move(point, pressure)
 
     def _stroke_move(self, point: np.ndarray, pressure: float) -> None:
@@ -528,9 +525,9 @@ class StudioWindow(QMainWindow):
             self._stroke.dab(point, pressure)
 
     def _stroke_end(self) -> None:
-        if self._stroke_cm is not None:
-            cm, self._stroke_cm, self._stroke = self._stroke_cm, None, None
-            cm.__exit__(None, None, None)
+        if self._stroke is not None:
+            stroke, self._stroke = self._stroke, None
+            stroke.__exit__(None, None, None)
             self._update_actions()
 
     # ------------------------------------------------------------------ materials
@@ -539,439 +536,32 @@ class StudioWindow(QMainWindow):
         self.refresh_layers()
         self.apply()
 
-    # ------------------------------------------------------------------ project files (seam)
-    def _update_title(self) -> None:
-        self.setWindowTitle(f"{self.project_name}[*] — Sheer Studio")
-
-    def new_project(self) -> None:
-        from core.errors import SheerError
-
-        try:
-            seams.apply_look(self.doc, self.library, "bare")
-        except SheerError as exc:
-            dialogs.error(self, "New project", str(exc))
-            return
-        self.doc.clear_history()
-        if self.autosaver is not None:
-            self.autosaver.close()
-            self.autosaver.project_path = None
-        self.project_path, self.project_name = None, "Untitled"
-        self.project, self.look_record = None, {"name": "bare", "tags": []}
-        self.setWindowModified(False)
-        self._update_title()
-        self._update_actions()
-
-    def open_project(self, path: Path | None = None, background: bool = False) -> bool:
-        """Open a ``.sheer`` project (asked for when ``path`` is None). ``background``: read and check the
-        file in a worker with progress (the dialog and the Recent menu do); returns at once then, else
-        returns whether the project was opened. A missing or changed head offers to relink
-        (:meth:`_offer_relink`); nothing in the current document changes unless the open succeeds.
-        """
-        if path is None:
-            name, _ = QFileDialog.getOpenFileName(self, "Open project", "", "Sheer projects (*.sheer)")
-            if not name:
-                return False
-            path, background = Path(name), True
-        return self._open_attempt(Path(path), background, None, False)
-
-    def _open_attempt(self, path: Path, background: bool, head_path: Path | None, accept: bool) -> bool:
-        from app import project_io
-        from project.errors import HeadChecksumError, HeadMissingError
-
-        def job(_p: Any = None, _c: Any = None) -> Any:
-            try:
-                return project_io.read_document(path, head_path=head_path, accept_head_change=accept)
-            except (HeadMissingError, HeadChecksumError) as exc:
-                return exc
-
-        def done(result: Any) -> bool:
-            if isinstance(result, HeadMissingError | HeadChecksumError):
-                answer = self._offer_relink(path, result)
-                if answer is None:
-                    return False
-                if answer == "accept":  # keep a head located before: it is the one that changed
-                    return self._open_attempt(path, background, head_path, True)
-                return self._open_attempt(path, background, answer, False)
-            return self._opened(path, *result)
-
-        def failed(message: str) -> None:
-            dialogs.error(self, "Open project", f"The project could not be opened: {message}")
-
-        if background:
-            run_task(self, "Opening the project", job, done, failed)
-            return True
-        from core.errors import SheerError
-
-        try:
-            result = job()
-        except (SheerError, OSError, ValueError) as exc:
-            failed(str(exc))
-            return False
-        return done(result)
-
-    def _offer_relink(self, path: Path, exc: Exception) -> Path | str | None:
-        """Ask what to do about a missing or changed head: the head file located (retry with
-        ``head_path=``), ``"accept"`` (retry with ``accept_head_change=True``) or None (Cancel).
-        """
-        from project.errors import HeadChecksumError
-
-        choices = {"locate": "Locate head…"}
-        if isinstance(exc, HeadChecksumError):
-            what = f"The head of {path.name} changed since the project was saved ({exc.file} differs)."
-            choices["accept"] = "Use it anyway"
-        else:
-            what = f"The head of {path.name} was not found."
-        choices["cancel"] = "Cancel"
-        answer = dialogs.ask(self, "Relink head", f"{what}\n\n{exc}", choices, "cancel")
-        if answer == "accept":
-            return "accept"
-        if answer != "locate":
-            return None
-        name, _ = QFileDialog.getOpenFileName(self, "Locate head", str(getattr(exc, "head_path", "") or ""),
-                                              "Meshes (*.glb *.gltf *.obj *.ply);;All files (*)")
-        return Path(name) if name else None
-
-    def _opened(self, path: Path, project: Any, opened: Any, maps: list[np.ndarray] | None = None) -> bool:
-        """Install an opened project. Maps at another resolution than the studio's are resampled if the
-        user agrees (in a worker; returns True once started), else the project is not opened.
-        """
-        from app import project_io
-        from core.errors import SheerError
-
-        other = project_io.other_resolution(opened, self.doc) if maps is None else None
-        if other is not None:
-            want = int(self.doc.resolution)
-            answer = dialogs.ask(
-                self, "Open project",
-                f"The project '{project.name}' was painted at {other}×{other} texels and this studio paints at "
-                f"{want}×{want}. Resample its maps to {want}×{want}? (The file is unchanged until you save; "
-                f"to keep its maps as they are, start Sheer with --resolution {other}.)",
-                {"resample": "Resample", "cancel": "Cancel"}, "cancel")
-            if answer != "resample":
-                return False
-            try:
-                project_io.check_compatible(project, opened, self.doc, resample=True)
-            except (SheerError, OSError, ValueError) as exc:
-                dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
-                return False
-            run_task(self, "Resampling the project's maps",
-                     lambda p, c: project_io.resample_layers(self.doc, opened, p),
-                     lambda result: self._opened(path, project, opened, result),
-                     lambda m: dialogs.error(self, "Open project", f"The maps could not be resampled: {m}"))
-            return True
-        try:
-            project_io.check_compatible(project, opened, self.doc, resample=maps is not None)
-            project_io.install_layers(self.doc, self.library, project, opened, maps)
-        except (SheerError, OSError, ValueError) as exc:
-            dialogs.error(self, "Open project", f"The project could not be opened: {exc}")
-            return False
-        self.project, self.project_name, self.project_path = project, str(project.name), path
-        self.look_record = project.look
-        self._restore_view(project)
-        if self.autosaver is not None:
-            self.autosaver.project_path = self.project_path.absolute()
-            self.autosaver.dirty = False
-        self.settings.add_recent(str(path))
+    # ------------------------------------------------------------------ projects
+    def _project_replaced(self) -> None:
+        """A project was opened or recovered: its layers, materials and view settings are now shown."""
         self.layers_panel.set_materials(self.library)
         self.library_dock.refresh_list()
         self.refresh_layers()
-        self.setWindowModified(False)
-        self._update_title()
-        self._update_actions()
-        return True
-
-    def view_state(self) -> Any:
-        """The lights, camera and look to save (``project_io.ViewState``)."""
-        from app import project_io
-
-        return project_io.view_state(self.viewport.camera, self.viewport.lighting, self.settings.environment,
-                                     self.look_record)
-
-    def _restore_view(self, project: Any) -> None:
-        """Key light, environment and camera from an opened project into the settings and the viewport."""
-        from app import project_io
-
-        if project.lights:
-            changes: dict[str, Any] = {"environment": project_io.environment_name(project.lights)}
-            preset = project_io.closest_preset(project.lights, LIGHT_PRESETS)
-            if preset is not None:
-                changes["light_preset"] = preset
-            angles = project_io.key_light_angles(project.lights)
-            if angles is not None:
-                changes["light_azimuth"], changes["light_elevation"] = angles
-            if changes["environment"] not in ENVIRONMENTS:
-                changes["environment"] = "none"
-            for key, value in changes.items():
-                setattr(self.settings, key, value)
-        project_io.restore_camera(self.viewport.camera, project.camera)
         self.apply()
-
-    def save_project(self, ask: bool = False, path: Path | None = None, self_contained: bool | None = None) -> bool:
-        """Save (``ask``: Save As); ``self_contained=True`` embeds the head in the file."""
-        from app import project_io
-        from core.errors import SheerError
-
-        target = path or (None if ask else self.project_path)
-        if target is None:
-            name, _ = QFileDialog.getSaveFileName(self, "Save project", f"{self.project_name}.sheer",
-                                                  "Sheer projects (*.sheer)")
-            if not name:
-                return False
-            target = Path(name) if name.endswith(".sheer") else Path(name + ".sheer")
-        target = Path(target)
-        try:
-            project = project_io.snapshot(self.doc, self.library, target.stem, self.project, self.view_state())
-            saved = project_io.save_project_file(project, target, self_contained)
-        except (SheerError, OSError, ValueError) as exc:
-            dialogs.error(self, "Save project", f"The project could not be saved: {exc}")
-            return False
-        self.project, self.project_path, self.project_name = project, saved, saved.stem
-        if self.autosaver is not None:
-            self.autosaver.saved(saved)
-        self.settings.add_recent(str(saved))
-        self.setWindowModified(False)
-        self._update_title()
-        self._update_actions()
-        return True
-
-    def save_self_contained(self, path: Path | None = None) -> bool:
-        """Save the project with the head embedded (asks where when ``path`` is None)."""
-        return self.save_project(ask=path is None, path=path, self_contained=True)
-
-    # ------------------------------------------------------------------ autosave and recovery
-    def _snapshot(self) -> Any:
-        from app import project_io
-
-        return project_io.snapshot(self.doc, self.library, self.project_name, self.project, self.view_state())
-
-    def _autosave_tick(self) -> None:
-        """Every few seconds: when unsaved changes are due, snapshot here and write in a worker."""
-        a = self.autosaver
-        if a is None or not a.due() or getattr(self, "_autosaving", False):
-            return
-        try:
-            project = self._snapshot()
-        except Exception as exc:  # never interrupt the user for an autosave
-            log.warning("autosave snapshot failed: %s", exc)
-            return
-        self._autosaving = True
-
-        def done(path: Any) -> None:
-            self._autosaving = False
-            self.statusBar().showMessage(f"Autosaved to {path}", 3000)
-
-        def failed(msg: str) -> None:
-            self._autosaving = False
-            log.warning("autosave failed: %s", msg)
-
-        run_task(self, "Autosave", lambda p, c: a.autosave_now(project), done, failed, show_progress=False)
-
-    def offer_recovery(self) -> None:
-        """After a crash: offer the newest recovery file left by a session that did not end normally."""
-        from app import project_io
-        from core.errors import SheerError
-
-        pending = project_io.pending_recoveries()
-        if not pending:
-            return
-        info = pending[0]
-        what = info.original.name if info.original else "untitled work"
-        answer = dialogs.ask(self, "Recover unsaved work",
-                             f"Sheer did not close normally. Recover {what} autosaved at {info.saved_at}?",
-                             {"recover": "Recover", "discard": "Discard", "later": "Later"}, "later")
-        if answer == "discard":
-            info.path.unlink(missing_ok=True)
-            return
-        if answer != "recover":
-            return
-        try:
-            from project.recovery import recover
-
-            project = recover(info)
-            self.project_name = project_io.load_project_into(self.doc, self.library, project)
-        except (SheerError, OSError, ValueError) as exc:
-            dialogs.error(self, "Recover unsaved work", f"The recovery file could not be opened: {exc}")
-            return
-        self.project_path = info.original
-        self.project, self.look_record = project, project.look
-        self._restore_view(project)
-        self.layers_panel.set_materials(self.library)
-        self.library_dock.refresh_list()
-        self.refresh_layers()
-        self.setWindowModified(True)
-        self._update_title()
-        info.path.unlink(missing_ok=True)
-
-    # ------------------------------------------------------------------ exports
-    def _ask_folder(self, title: str) -> str:
-        return QFileDialog.getExistingDirectory(self, title)
-
-    def ask_export_maps(self, fmt: str = "png") -> None:
-        folder = self._ask_folder("Export layer maps to folder")
-        if folder:
-            self.export_maps(Path(folder), fmt=fmt)
-
-    def export_maps(self, folder: Path, on_done: Any = None, fmt: str = "png") -> None:
-        run_task(self, "Exporting layer maps", lambda p, c: export_maps(self.doc, folder, p, c, fmt),
-                 on_done or (lambda r: self.statusBar().showMessage(f"Maps exported: {r}", 6000)),
-                 lambda m: dialogs.error(self, "Export maps", m))
-
-    def ask_export_gltf(self) -> None:
-        path, _ = QFileDialog.getSaveFileName(self, "Export glTF", "face.glb", "glTF binary (*.glb);;glTF (*.gltf)")
-        if path:
-            self.export_gltf(Path(path))
-
-    def export_gltf(self, path: Path, on_done: Any = None) -> None:
-        run_task(self, "Exporting glTF", lambda p, c: export_gltf(self.doc, self.library, path, p, c),
-                 on_done or (lambda r: self.statusBar().showMessage(f"glTF exported: {r}", 6000)),
-                 lambda m: dialogs.error(self, "Export glTF", m))
-
-    def ask_export_image(self) -> None:
-        sizes = ["1280x720", "1920x1080", "2048x2048", "3840x2160"]
-        size, ok = QInputDialog.getItem(self, "Rendered image", "Size", sizes, 0, True)
-        if not ok:
-            return
-        path, _ = QFileDialog.getSaveFileName(self, "Export rendered image", "render.png", "PNG (*.png)")
-        if path:
-            try:
-                w, h = (int(x) for x in size.lower().split("x"))
-            except ValueError:
-                dialogs.error(self, "Export image", f"'{size}' is not a size like 1920x1080.")
-                return
-            self.export_image(Path(path), (w, h))
-
-    def export_image(self, path: Path, size: tuple[int, int], on_done: Any = None) -> None:
-        import copy
-        import dataclasses
-
-        cam, light = copy.deepcopy(self.viewport.camera), copy.deepcopy(self.viewport.lighting)
-        layers = [dataclasses.replace(inp, thickness=np.array(inp.thickness))
-                  for inp in layer_inputs(self.doc, self.library)]
-        mode, env, face = self.settings.render_mode, self.settings.environment, self.viewport.face
-        layout = getattr(self.doc, "layout", None)
-        run_task(self, "Rendering image",
-                 lambda p, c: render_image(self.doc.head, layers, cam, light, size, path, mode, env, layout, p, c,
-                                           face),
-                 on_done or (lambda r: self.statusBar().showMessage(f"Image saved: {r}", 6000)),
-                 lambda m: dialogs.error(self, "Export image", m))
-
-    def ask_import_map(self, index: int) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Import thickness map", "",
-                                              "Thickness maps (*.png *.exr)")
-        if path:
-            self.import_map(index, Path(path))
-
-    def import_map(self, index: int, path: Path) -> bool:
-        from PIL import Image, UnidentifiedImageError
-
-        from core.errors import SheerError
-
-        lay = self.doc.layers[index]
-        if hasattr(self.doc, "import_layer"):
-            try:
-                self.doc.import_layer(index, path)
-            except (SheerError, OSError, ValueError) as exc:
-                dialogs.error(self, "Import map", f"The map could not be imported: {exc}")
-                return False
-            self.refresh_layers()
-            return True
-        try:
-            with Image.open(path) as im:
-                arr = np.asarray(im)
-        except (OSError, UnidentifiedImageError) as exc:
-            dialogs.error(self, "Import map", f"{path}: not a readable image ({exc}).")
-            return False
-        if arr.ndim != 2 or arr.shape != lay.thickness.shape:
-            dialogs.error(self, "Import map", f"{path}: the map must be a greyscale image of "
-                          f"{lay.thickness.shape[1]}×{lay.thickness.shape[0]} texels, got {arr.shape}.")
-            return False
-        scale = 65535.0 if arr.dtype == np.uint16 else 255.0
-        new = (arr.astype(np.float32) / scale * float(lay.max_thickness)).astype(np.float32)
-        seams.set_thickness(self.doc, lay, new)
-        self.refresh_layers()
-        return True
-
-    def ask_export_map(self, index: int) -> None:
-        if hasattr(self.doc, "export_layer"):
-            name, _ = QFileDialog.getSaveFileName(self, "Export thickness map",
-                                                  f"{self.doc.layers[index].name}.png",
-                                                  "16-bit PNG (*.png);;OpenEXR (*.exr)")
-            if name:
-                run_task(self, "Exporting map", lambda p, c: self.doc.export_layer(index, Path(name)),
-                         lambda r: self.statusBar().showMessage(f"Map exported: {name}", 6000),
-                         lambda m: dialogs.error(self, "Export map", m))
-            return
-        folder = self._ask_folder("Export this layer's map to folder")
-        if folder:
-            lay = self.doc.layers[index]
-
-            class _One:
-                head = self.doc.head
-                layers = [lay]
-
-            run_task(self, "Exporting map", lambda p, c: export_maps(_One, Path(folder), p, c),
-                     lambda r: self.statusBar().showMessage(f"Map exported: {r}", 6000),
-                     lambda m: dialogs.error(self, "Export map", m))
 
     # ------------------------------------------------------------------ help
     def show_about(self) -> None:
+        """Help → About: the head scan's and the sample assets' credits, the components in use."""
         from core.assets import ASSET_CREDITS
 
-        credits = "".join(f"<li>{v}</li>" for v in ASSET_CREDITS.values())
-        used = ", ".join(f"{k}: {v}" for k, v in seams.backends().items())
-        text = (f"<h3>Sheer Studio</h3><p>A physically based makeup design studio: Kubelka–Munk cosmetic "
-                f"layers over subsurface-scattering skin (after Huang et al. 2013).</p>"
-                f"<p><b>Head scan:</b> {self.doc.head.credit or 'none'}</p>"
-                f"<p><b>Sample assets</b><ul>{credits}</ul></p>"
-                f"<p><small>Components in use: {used}</small></p>")
-        box = QDialog(self)
-        box.setWindowTitle("About Sheer")
-        lay = QVBoxLayout(box)
-        label = QLabel(text)
-        label.setWordWrap(True)
-        label.setTextFormat(Qt.TextFormat.RichText)
-        lay.addWidget(label)
-        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
-        buttons.accepted.connect(box.accept)
-        lay.addWidget(buttons)
-        self._exec_dialog(box)
+        dialogs.about(self, self.doc.head.credit or "", list(ASSET_CREDITS.values()), BACKENDS)
 
     def show_shortcuts(self) -> None:
-        rows = shortcut_sheet()
-        box = QDialog(self)
-        box.setWindowTitle("Keyboard Shortcuts")
-        table = QTableWidget(len(rows), 3)
-        table.setHorizontalHeaderLabels(["Where", "Action", "Shortcut"])
-        for r, row in enumerate(rows):
-            for c, text in enumerate(row):
-                table.setItem(r, c, QTableWidgetItem(text))
-        table.resizeColumnsToContents()
-        lay = QVBoxLayout(box)
-        lay.addWidget(table)
-        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
-        buttons.accepted.connect(box.accept)
-        lay.addWidget(buttons)
-        box.resize(560, 520)
-        self._exec_dialog(box)
-
-    def _exec_dialog(self, box: QDialog) -> None:
-        if dialogs.AUTO_DISMISS_MS is not None:
-            QTimer.singleShot(dialogs.AUTO_DISMISS_MS, box.accept)
-        box.exec()
-        box.deleteLater()
+        """Help → Keyboard Shortcuts."""
+        dialogs.shortcuts(self, shortcut_sheet())
 
     # ------------------------------------------------------------------ close
     def closeEvent(self, event: QCloseEvent) -> None:
         self._stroke_end()
-        if self.isWindowModified() and self.doc.layers:
-            answer = dialogs.ask(self, "Unsaved changes", f"Save the changes to {self.project_name}?",
-                                 {"save": "Save", "discard": "Discard", "cancel": "Cancel"}, "save")
-            if answer == "cancel" or (answer == "save" and not self.save_project()):
-                event.ignore()
-                return
-        self.autosave_timer.stop()
-        if self.autosaver is not None:
-            self.autosaver.close()
+        if not self.files.confirm_close():
+            event.ignore()
+            return
+        self.files.close()
         save_settings(self.qsettings, self.settings)
         self.qsettings.setValue("window/geometry", self.saveGeometry())
         self.qsettings.setValue("window/state", self.saveState())
@@ -981,9 +571,3 @@ class StudioWindow(QMainWindow):
         wait_all(20000)
         self.viewport.release_gl()
         event.accept()
-
-
-def seams_has_project_io() -> bool:
-    from app import project_io
-
-    return project_io.available()

@@ -1,5 +1,5 @@
-"""Adapter between the studio and ``project.io`` (the ``.sheer`` format of issue 6, docs/FORMAT.md):
-open, save, autosave snapshots and crash recovery.
+"""The studio's and the kiosk's use of ``project.io`` (the ``.sheer`` format, docs/FORMAT.md) — open, save,
+autosave snapshots and crash recovery — with no Qt (the dialogs are :mod:`app.project_files`).
 
 - Saving: :func:`snapshot` is ``Project.from_document(doc, base=…)`` (the project last opened or saved, so
   its head reference and metadata are kept) plus the studio's view state (key light, ambient,
@@ -14,22 +14,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
-def available() -> bool:
-    try:
-        from project.io import open_project, save_project  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def _inner(doc: Any) -> Any:
-    """The ``painting.Document`` behind the studio's :class:`app.doc_adapter.DocumentAdapter`."""
-    return getattr(doc, "doc", doc)
+    from app.camera import Lighting, OrbitCamera
+    from km.library import Library
+    from painting import Document
+    from painting.atlas import Atlas
+    from project.io import Project
+    from project.recovery import Autosaver, RecoveryInfo
 
 
 # ---------------------------------------------------------------------------------------------- view state
@@ -48,7 +45,7 @@ def _vec(v: Any) -> list[float]:
     return [float(x) for x in np.asarray(v, dtype=float).reshape(3)]
 
 
-def view_state(camera: Any, lighting: Any, environment: str, look: dict[str, Any] | None) -> ViewState:
+def view_state(camera: OrbitCamera, lighting: Lighting, environment: str, look: dict[str, Any] | None) -> ViewState:
     """Lights (directional key light, ambient, optional HDR environment) and camera from the studio's
     ``OrbitCamera`` / ``Lighting`` / environment name.
     """
@@ -98,7 +95,7 @@ def closest_preset(lights: list[dict[str, Any]], presets: dict[str, dict[str, An
         np.asarray(presets[n]["colour"], dtype=float) * float(presets[n]["intensity"]) - want)))
 
 
-def restore_camera(camera: Any, record: dict[str, Any] | None) -> None:
+def restore_camera(camera: OrbitCamera, record: dict[str, Any] | None) -> None:
     """Set the studio's ``OrbitCamera`` from the project's camera (its ``up`` is always +Y here)."""
     if not record:
         return
@@ -117,7 +114,7 @@ def restore_camera(camera: Any, record: dict[str, Any] | None) -> None:
 # ---------------------------------------------------------------------------------------------- save
 
 
-def snapshot(doc: Any, library: Any, name: str, base: Any = None, view: ViewState | None = None) -> Any:
+def snapshot(doc: Document, name: str, base: Project | None = None, view: ViewState | None = None) -> Project:
     """A ``project.io.Project`` of the document now (maps copied): ``Project.from_document`` with
     ``base`` (the project last opened or saved) and the view state, when given.
     """
@@ -126,16 +123,16 @@ def snapshot(doc: Any, library: Any, name: str, base: Any = None, view: ViewStat
     kwargs: dict[str, Any] = {"name": name, "base": base}
     if view is not None:
         kwargs.update(lights=view.lights, camera=view.camera, look=view.look)
-    return Project.from_document(_inner(doc), **kwargs)
+    return Project.from_document(doc, **kwargs)
 
 
-def save_document(doc: Any, library: Any, path: Path, name: str, base: Any = None,
+def save_document(doc: Document, path: Path, name: str, base: Project | None = None,
                   view: ViewState | None = None, self_contained: bool | None = None) -> Path:
     """Save the document as a ``.sheer`` project (atomic, with ``.bak``; removes its recovery file)."""
-    return save_project_file(snapshot(doc, library, name, base, view), path, self_contained)
+    return save_project_file(snapshot(doc, name, base, view), path, self_contained)
 
 
-def save_project_file(project: Any, path: Path, self_contained: bool | None = None) -> Path:
+def save_project_file(project: Project, path: Path, self_contained: bool | None = None) -> Path:
     """``save_project``; ``self_contained=True`` embeds the head, None keeps it as the project had it."""
     from project.io import save_project
 
@@ -145,7 +142,8 @@ def save_project_file(project: Any, path: Path, self_contained: bool | None = No
 # ---------------------------------------------------------------------------------------------- open
 
 
-def read_document(path: Path, head_path: Path | None = None, accept_head_change: bool = False) -> tuple[Any, Any]:
+def read_document(path: Path, head_path: Path | None = None,
+                  accept_head_change: bool = False) -> tuple[Project, Document]:
     """``open_project`` + ``project.to_document()``: (project, painting.Document). Safe in a worker.
 
     Raises ``HeadMissingError`` / ``HeadChecksumError`` (offer to relink) and other ``ProjectError``s.
@@ -156,7 +154,7 @@ def read_document(path: Path, head_path: Path | None = None, accept_head_change:
     return project, project.to_document()
 
 
-def other_resolution(opened: Any, doc: Any) -> int | None:
+def other_resolution(opened: Document, doc: Document) -> int | None:
     """The resolution of the opened project's maps when it differs from the studio document's, else None."""
     want = int(doc.resolution)
     for lay in opened.layers:
@@ -165,7 +163,7 @@ def other_resolution(opened: Any, doc: Any) -> int | None:
     return None
 
 
-def resample_map(values: np.ndarray, src_atlas: Any, dst_atlas: Any) -> np.ndarray:
+def resample_map(values: np.ndarray, src_atlas: Atlas, dst_atlas: Atlas) -> np.ndarray:
     """A thickness map (µm) from one paint resolution to another of the same UV layout.
 
     Uses painting's bakes at both resolutions (``Document.atlas_at``): the source is averaged (down) or
@@ -191,28 +189,30 @@ def resample_map(values: np.ndarray, src_atlas: Any, dst_atlas: Any) -> np.ndarr
     return np.clip(out, 0.0, None)
 
 
-def resample_layers(doc: Any, opened: Any, progress: Any = None) -> list[np.ndarray]:
-    """Every opened layer's map at the studio document's resolution (see :func:`resample_map`)."""
-    inner = _inner(doc)
-    dst = inner.atlas_at(int(doc.resolution))
+def resample_layers(doc: Document, opened: Document,
+                    progress: Callable[[float, str], None] | None = None) -> list[np.ndarray]:
+    """Every opened layer's map at the studio document's resolution (see :func:`resample_map`).
+
+    ``progress`` gets (fraction in [0, 1], the layer being resampled).
+    """
+    dst = doc.atlas_at(int(doc.resolution))
     out = []
     for i, lay in enumerate(opened.layers):
         if progress is not None:
             progress(i / max(len(opened.layers), 1), f"resampling {lay.name}")
         src = np.asarray(lay.thickness, np.float32)
-        out.append(src.copy() if src.shape == dst.shape else resample_map(src, inner.atlas_at(src.shape[0]), dst))
+        out.append(src.copy() if src.shape == dst.shape else resample_map(src, doc.atlas_at(src.shape[0]), dst))
     return out
 
 
-def check_compatible(project: Any, opened: Any, doc: Any, resample: bool = False) -> None:
+def check_compatible(project: Project, opened: Document, doc: Document, resample: bool = False) -> None:
     """Refuse a project whose maps would not line up with the studio's document (another head's paint
     layout; another resolution unless ``resample``, see :func:`resample_layers`). Raises ``ProjectError``.
     """
     from project.document import layout_record
     from project.errors import ProjectError
 
-    inner = _inner(doc)
-    if hasattr(inner, "layout") and layout_record(inner.layout) != layout_record(opened.layout):
+    if layout_record(doc.layout) != layout_record(opened.layout):
         raise ProjectError(f"the project '{project.name}' was painted on another head ({project.head.name}); "
                            f"start Sheer with that head (sheer --head MESH --project FILE) to open it")
     want = int(doc.resolution)
@@ -223,7 +223,8 @@ def check_compatible(project: Any, opened: Any, doc: Any, resample: bool = False
                                f"{lay.thickness.shape[0]} to open it")
 
 
-def install_layers(doc: Any, library: Any, project: Any, opened: Any, maps: list[np.ndarray] | None = None) -> None:
+def install_layers(doc: Document, library: Library, project: Project, opened: Document,
+                   maps: list[np.ndarray] | None = None) -> None:
     """Replace the studio document's layers with the opened document's (maps copied bit-exactly, or
     ``maps``: e.g. :func:`resample_layers`'s); the project's embedded materials the library lacks are
     added to it. Call :func:`check_compatible` first.
@@ -242,7 +243,7 @@ def install_layers(doc: Any, library: Any, project: Any, opened: Any, maps: list
     doc.clear_history()
 
 
-def load_project_into(doc: Any, library: Any, source: Path | Any, resample: bool = False) -> str:
+def load_project_into(doc: Document, library: Library, source: Path | Project, resample: bool = False) -> str:
     """Replace the document's layers with a project's (a path, or a ``Project`` already opened); maps at
     another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`). Returns the
     project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then.
@@ -260,19 +261,15 @@ def load_project_into(doc: Any, library: Any, source: Path | Any, resample: bool
 # ---------------------------------------------------------------------------------------------- autosave
 
 
-def make_autosaver(snap: Any, project_path: Path | None, interval_s: float) -> Any:
-    """A ``project.recovery.Autosaver`` (None when this build has no project support)."""
-    try:
-        from project.recovery import Autosaver
-    except ImportError:
-        return None
+def make_autosaver(snap: Callable[[], Project], project_path: Path | None, interval_s: float) -> Autosaver:
+    """A ``project.recovery.Autosaver`` of the projects ``snap()`` returns, every ``interval_s`` seconds."""
+    from project.recovery import Autosaver
+
     return Autosaver(snap, project_path, interval_s=interval_s)
 
 
-def pending_recoveries() -> list[Any]:
+def pending_recoveries() -> list[RecoveryInfo]:
     """Recovery files left by sessions that did not end normally (not another running studio's)."""
-    try:
-        from project.recovery import list_recoveries
-    except ImportError:
-        return []
+    from project.recovery import list_recoveries
+
     return [r for r in list_recoveries() if not r.owner_alive and r.error is None]

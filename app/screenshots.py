@@ -4,6 +4,7 @@ README). Run under a display (or ``xvfb-run -a -s "-screen 0 1920x1080x24"``).
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -29,14 +30,14 @@ def main(argv: list[str]) -> int:
     from app.studio_app import make_application
 
     make_application()
-    from app import dialogs
-
-    dialogs.AUTO_DISMISS_MS, dialogs.AUTO_ANSWER = 0, "discard"
-    from app.kiosk import KioskConfig, KioskWindow, hash_pin
+    from app.kiosk import KioskWindow
+    from app.kiosk_config import KioskConfig, hash_pin
     from app.main_window import StudioWindow
+    from app.session import Session
 
     tmp = Path(tempfile.mkdtemp(prefix="sheer-shots-"))
-    win = StudioWindow(qsettings=QSettings(str(tmp / "s.ini"), QSettings.Format.IniFormat))
+    os.environ["SHEER_RECOVERY_DIR"] = str(tmp / "recovery")  # no recovery offer in the pictures
+    win = StudioWindow(Session.open(look="natural"), qsettings=QSettings(str(tmp / "s.ini"), QSettings.Format.IniFormat))
     win.resize(1600, 1000)
     win.show()
     vp = win.viewport

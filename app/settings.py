@@ -11,6 +11,18 @@ from typing import Any
 SETTINGS_SCHEMA_VERSION = 1
 ORGANISATION, APPLICATION = "Sheer", "Sheer Studio"
 
+#: The thickness maps' resolution (texels per side) for a new document in the studio and the kiosk.
+#:
+#: 2048², the issue's own example. What the resolution costs a dab is its share of dab-to-frame: the
+#: painting and the texture-space KM of the tiles it touches (``sheer bench studio`` reports it as
+#: ``dab_update_ms``). Measured on the shared 2-core machine under load (load average 4–5, renderer at
+#: 2d088a1, 8 mm brush): 10 ms at 1024², 20–50 ms at 2048² (27 ms median over runs), against a frame of
+#: the renderer of 200–400 ms on that machine then. The frame, not the resolution, is what keeps
+#: dab-to-frame above 100 ms today; with the renderer's target frame (≤ ~40 ms) 2048² leaves
+#: dab-to-frame within 100 ms, so no smaller default is needed. Re-measure with
+#: ``sheer bench studio --json --resolution N`` (``--resolution`` on ``sheer studio`` overrides this).
+DEFAULT_RESOLUTION = 2048
+
 LIGHT_PRESETS: dict[str, dict[str, Any]] = {
     "daylight": {"azimuth": 25.0, "elevation": 35.0, "colour": (1.0, 0.98, 0.95), "intensity": 2.4,
                  "ambient": (0.38, 0.40, 0.45)},

@@ -5,20 +5,17 @@ from __future__ import annotations
 import logging
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+from app.settings import DEFAULT_RESOLUTION
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from app.session import Session
+    from km.library import Library
 
 log = logging.getLogger("sheer.app")
-
-#: The thickness maps' resolution (texels per side) for a new document in the studio and the kiosk.
-#:
-#: 2048², the issue's own example. What the resolution costs a dab is its share of dab-to-frame: the
-#: painting and the texture-space KM of the tiles it touches (``sheer bench studio`` reports it as
-#: ``dab_update_ms``). Measured on the shared 2-core machine under load (load average 4–5, renderer at
-#: 2d088a1, 8 mm brush): 10 ms at 1024², 20–50 ms at 2048² (27 ms median over runs), against a frame of
-#: the renderer of 200–400 ms on that machine then. The frame, not the resolution, is what keeps
-#: dab-to-frame above 100 ms today; with the renderer's target frame (≤ ~40 ms) 2048² leaves
-#: dab-to-frame within 100 ms, so no smaller default is needed. Re-measure with
-#: ``sheer bench studio --json --resolution N`` (``--resolution`` on ``sheer studio`` overrides this).
-DEFAULT_RESOLUTION = 2048
 
 
 def make_application(argv: list[str] | None = None) -> object:
@@ -52,26 +49,38 @@ def make_application(argv: list[str] | None = None) -> object:
 
 def run_studio(head: str | None = None, look: str = "natural", project: str | None = None,
                resolution: int = DEFAULT_RESOLUTION) -> int:
+    """Start the studio and run its event loop; returns the process exit status.
+
+    The head's document is built in a worker with a progress dialog (Cancel ends with status 0); an
+    unreadable library, head or look is a message box and status 2, never a traceback.
+
+    Args:
+        head: the head mesh; None for the sample head.
+        look: the built-in look to start with ("" for none).
+        project: a ``.sheer`` project to open once the window is up.
+        resolution: texels per side of the thickness maps.
+    """
     from core.errors import SheerError
 
     app = make_application()
-    from app import dialogs, seams
+    from app import dialogs
     from app.main_window import StudioWindow
+    from app.session import load_library
     from app.viewport import preload_renderer_modules
 
     preload_renderer_modules()  # in a worker, while the head and document are prepared
     try:
-        library = seams.load_library()
+        library = load_library()
     except SheerError as exc:
         dialogs.error(None, "Sheer Studio", f"The material library could not be read: {exc}")
         return 2
-    outcome = open_document_with_progress(head, resolution, library, look)
+    outcome = open_session_with_progress(head, resolution, library, look)
     if isinstance(outcome, str):
         if outcome != "cancelled":
             dialogs.error(None, "Sheer Studio", f"The studio could not start: {outcome}")
         return 2 if outcome != "cancelled" else 0
     try:
-        win = StudioWindow(look="", resolution=resolution, document=outcome, library=library)
+        win = StudioWindow(outcome)
     except SheerError as exc:
         dialogs.error(None, "Sheer Studio", f"The studio could not start: {exc}")
         return 2
@@ -81,44 +90,35 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     return int(app.exec())  # type: ignore[attr-defined]
 
 
-def open_document_with_progress(head: str | None, resolution: int, library: object, look: str = "") -> object:
-    """Build the painting document in a worker thread (mesh cleaning, UV check or unwrap, bake, then the
-    look's strokes) with a progress dialog and Cancel; returns the document, or an error message
-    (``"cancelled"``).
+def open_session_with_progress(head: str | None, resolution: int, library: Library, look: str = "") -> Session | str:
+    """Open a :class:`app.session.Session` in a worker thread with a progress dialog and Cancel.
+
+    The dialog follows the stages of :meth:`app.session.Session.open` (mesh cleaning, UV check or unwrap,
+    bake, then the look's strokes) while the event loop keeps running.
+
+    Returns:
+        The session, or a one-line error message (``"cancelled"`` when the user cancelled).
     """
     from PySide6.QtCore import QEventLoop
 
-    from app import seams
+    from app.session import Session
     from app.workers import Cancelled, run_task
 
-    outcome: dict[str, object] = {}
+    outcome: dict[str, Session | str] = {}
     loop = QEventLoop()
 
-    active = [True]
-
-    def job(progress: object, cancelled: object) -> object:
+    def job(progress: Callable[[float, str], None], cancelled: Callable[[], bool]) -> Session:
         def report(stage: str, fraction: float) -> None:
-            # the document keeps this callback for later (lazy) bakes: only report while opening
-            if not active[0]:
-                return
-            if cancelled():  # type: ignore[operator]
+            if cancelled():
                 raise Cancelled()
-            progress(float(fraction), str(stage))  # type: ignore[operator]
+            progress(float(fraction), str(stage))
 
-        try:
-            doc = seams.open_document(Path(head) if head else None, resolution, library, progress=report)
-        finally:
-            active[0] = False
-        if look:
-            progress(1.0, f"painting the look '{look}'")  # type: ignore[operator]
-            seams.apply_look(doc, library, look)
-            doc.clear_history()
-        return doc
+        return Session.open(Path(head) if head else None, resolution, look, library=library, progress=report)
 
-    def finish(key: str, value: object) -> None:
+    def finish(key: str, value: Session | str) -> None:
         outcome[key] = value
         loop.quit()
 
-    run_task(None, "Opening the head", job, lambda d: finish("doc", d), lambda m: finish("error", m))
+    run_task(None, "Opening the head", job, lambda s: finish("session", s), lambda m: finish("error", m))
     loop.exec()
-    return outcome.get("doc", outcome.get("error", "cancelled"))
+    return outcome.get("session", outcome.get("error", "cancelled"))

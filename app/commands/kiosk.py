@@ -26,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     if args.set_pin or args.snapshot_dir:
         import getpass
 
-        from app.kiosk import KioskConfig, hash_pin
+        from app.kiosk_config import KioskConfig, hash_pin
 
         path = Path(args.config) if args.config else None
         cfg = KioskConfig.load(path)

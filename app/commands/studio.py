@@ -14,12 +14,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--look", default="natural", help="look to start with (default: natural)")
     p.add_argument("--project", help="project file to open")
     p.add_argument("--resolution", type=int, default=None,
-                   help="thickness map resolution (texels; default: app.studio_app.DEFAULT_RESOLUTION)")
+                   help="thickness map resolution (texels; default: app.settings.DEFAULT_RESOLUTION)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from app.studio_app import DEFAULT_RESOLUTION, run_studio
+    from app.settings import DEFAULT_RESOLUTION
+    from app.studio_app import run_studio
 
     return run_studio(head=args.head, look=args.look, project=args.project,
                       resolution=args.resolution or DEFAULT_RESOLUTION)

@@ -1,9 +1,11 @@
-"""Shared set-up of a studio window for the Qt tests (a real window under Xvfb with Mesa GL)."""
+"""Shared set-up of the Qt tests: a studio window (a real window under Xvfb with Mesa GL) and a driver that
+answers the real dialogs as a user would."""
 
 from __future__ import annotations
 
 import contextlib
 import os
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
@@ -12,27 +14,98 @@ if TYPE_CHECKING:
     import pytest
 
 
+@dataclass
+class Shown:
+    """A dialog the driver answered: its kind ("error", "warning", "info", "question" or "dialog"), title,
+    text, button labels and the label it clicked."""
+
+    kind: str
+    title: str
+    text: str
+    buttons: list[str]
+    clicked: str
+
+
+class DialogDriver:
+    """Answers the application's modal dialogs: every 20 ms a QTimer looks for a visible ``QMessageBox``
+    (or a plain ``QDialog`` such as About) and clicks one of its buttons — for a question the next
+    prepared answer (a button label, see :meth:`answer`) or, with none prepared, the button Esc would
+    press; for a message its OK button. Each dialog answered is recorded in :attr:`shown`."""
+
+    def __init__(self) -> None:
+        from PySide6.QtCore import QTimer
+
+        self.answers: list[str] = []
+        self.shown: list[Shown] = []
+        self.timer = QTimer()
+        self.timer.setInterval(20)
+        self.timer.timeout.connect(self._poll)
+        self.timer.start()
+
+    def answer(self, *labels: str) -> DialogDriver:
+        """Prepare the answers (button labels) of the next questions, in order."""
+        self.answers.extend(labels)
+        return self
+
+    def questions(self) -> list[Shown]:
+        """The questions answered so far."""
+        return [s for s in self.shown if s.kind == "question"]
+
+    def stop(self) -> None:
+        self.timer.stop()
+
+    def _poll(self) -> None:
+        from PySide6.QtWidgets import QApplication, QDialog, QDialogButtonBox, QMessageBox
+
+        for w in QApplication.topLevelWidgets():
+            if not w.isVisible():
+                continue
+            if isinstance(w, QMessageBox):
+                self._answer_box(w)
+            elif type(w) is QDialog and w.findChild(QDialogButtonBox) is not None:
+                ok = w.findChild(QDialogButtonBox).button(QDialogButtonBox.StandardButton.Ok)
+                self.shown.append(Shown("dialog", w.windowTitle(), "", ["OK"], "OK"))
+                ok.click()
+
+    def _answer_box(self, box: Any) -> None:
+        from PySide6.QtWidgets import QMessageBox
+
+        kinds = {QMessageBox.Icon.Critical: "error", QMessageBox.Icon.Warning: "warning",
+                 QMessageBox.Icon.Question: "question"}
+        kind = kinds.get(box.icon(), "info")
+        buttons = {b.text().replace("&", ""): b for b in box.buttons()}
+        if kind == "question":
+            label = self.answers.pop(0) if self.answers else box.escapeButton().text().replace("&", "")
+        else:
+            label = "OK"
+        self.shown.append(Shown(kind, box.windowTitle(), box.text(), list(buttons), label))
+        buttons[label].click()
+
+
 @contextlib.contextmanager
 def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *,
-                       wait_full_quality: bool = True, check_gl_release: bool = True) -> Iterator[Any]:
-    """An 800×600 studio window with its own settings file and recovery folder, shown and drawn once.
+                       wait_full_quality: bool = True,
+                       check_gl_release: bool = True) -> Iterator[tuple[Any, DialogDriver]]:
+    """An 800×600 studio window with its own settings file and recovery folder, shown and drawn once, and
+    the driver that answers its dialogs.
 
-    Dialogs dismiss themselves; on exit unsaved work is discarded, the environment restored and, with
-    ``check_gl_release``, the viewport must have released its GL objects without a GL error.
+    On exit unsaved work is discarded (the real question, answered "Discard"), the environment restored
+    and, with ``check_gl_release``, the viewport must have released its GL objects without a GL error.
     """
     from PySide6.QtCore import QSettings
     from pytestqt.qtbot import QtBot
 
-    from app import dialogs
     from app.main_window import StudioWindow
+    from app.session import Session
 
-    dialogs.AUTO_DISMISS_MS = 30
     old_recovery = os.environ.get("SHEER_RECOVERY_DIR")
     os.environ["SHEER_RECOVERY_DIR"] = str(tmp_path_factory.mktemp("recovery"))
     ini = tmp_path_factory.mktemp("settings") / "studio.ini"
+    driver = DialogDriver()
     # 512² maps: the behaviour under test does not depend on the resolution, and the default (2048²)
     # triples the module's run time; `sheer bench studio` measures the default
-    win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat), resolution=512)
+    win = StudioWindow(Session.open(resolution=512, look="natural"),
+                       qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
     win.resize(800, 600)
     win.show()
     if wait_full_quality:
@@ -40,15 +113,16 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     else:
         QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0, timeout=60000)
     try:
-        yield win
+        yield win, driver
     finally:
-        dialogs.AUTO_ANSWER = "discard"
+        driver.answers[:] = ["Discard"]
         win.close()
-        dialogs.AUTO_ANSWER = None
+        driver.stop()
         if old_recovery is None:
             os.environ.pop("SHEER_RECOVERY_DIR", None)
         else:
             os.environ["SHEER_RECOVERY_DIR"] = old_recovery
+    assert not win.isVisible(), "the studio window did not close"
     if check_gl_release:
         assert win.viewport.gl_error_at_release == "GL_NO_ERROR"
     win.deleteLater()

@@ -1,5 +1,6 @@
-"""A whole studio session (start, first full-quality frame, a stroke, close) in a child process ends
-cleanly: exit status 0, no GL error at release, no crash or traceback while Python and Qt tear down."""
+"""A whole studio session (start, first full-quality frame, a stroke, close — answering the real "Save
+the changes?" question with Discard) in a child process ends cleanly: exit status 0, no GL error at release,
+no crash or traceback while Python and Qt tear down."""
 
 from __future__ import annotations
 
@@ -17,13 +18,21 @@ SESSION = textwrap.dedent("""
     from pathlib import Path
     from app.studio_app import make_application
     app = make_application()
-    from app import dialogs
-    dialogs.AUTO_DISMISS_MS, dialogs.AUTO_ANSWER = 0, "discard"
     from PySide6.QtCore import QPoint, QSettings, Qt, QTimer
     from PySide6.QtTest import QTest
+    from PySide6.QtWidgets import QApplication, QMessageBox
     from app.main_window import StudioWindow
+    from app.session import Session
+    def discard():  # the user answers the unsaved-changes question
+        for box in QApplication.topLevelWidgets():
+            if isinstance(box, QMessageBox) and box.isVisible():
+                print("asked:", box.text(), flush=True)
+                next(b for b in box.buttons() if b.text() == "Discard").click()
+    answering = QTimer()
+    answering.timeout.connect(discard)
+    answering.start(20)
     ini = Path(tempfile.mkdtemp()) / "s.ini"
-    win = StudioWindow(qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
+    win = StudioWindow(Session.open(look="natural"), qsettings=QSettings(str(ini), QSettings.Format.IniFormat))
     win.resize(640, 480)
     win.show()
     def step():
@@ -50,5 +59,6 @@ def test_studio_session_exits_cleanly(tmp_path: object) -> None:
     proc = subprocess.run([sys.executable, "-c", SESSION], capture_output=True, text=True, timeout=180, env=env)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "GL at release: GL_NO_ERROR" in proc.stdout
+    assert "asked: Save the changes to Untitled?" in proc.stdout, "the stroke left no unsaved changes to ask about"
     for bad in ("Fatal Python error", "Segmentation fault", "Traceback"):
         assert bad not in proc.stderr, proc.stderr[-2000:]

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import pytest
 
 from app.cli import main
-from app.kiosk import KioskConfig, check_pin, require_pin
+from app.kiosk_config import KioskConfig, check_pin, require_pin
 from core.errors import SheerError
 
 if TYPE_CHECKING:

@@ -21,12 +21,14 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 @pytest.fixture(scope="module")
 def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
-    from app.kiosk import KioskConfig, KioskWindow, hash_pin
+    from app.kiosk import KioskWindow
+    from app.kiosk_config import KioskConfig, hash_pin
 
     folder = tmp_path_factory.mktemp("kiosk")
+    # 512²: fast; the resolution is not what these tests are about
     cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
-                      fullscreen=False)
-    win = KioskWindow(cfg, resolution=512)  # fast; the resolution is not what these tests are about
+                      fullscreen=False, resolution=512)
+    win = KioskWindow(cfg)
     win.resize(800, 600)
     win.show()
     from pytestqt.qtbot import QtBot
@@ -40,7 +42,7 @@ def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[ob
 
 
 def test_pin_is_stored_hashed() -> None:
-    from app.kiosk import check_pin, hash_pin
+    from app.kiosk_config import check_pin, hash_pin
 
     h = hash_pin("2468")
     assert "2468" not in h and check_pin("2468", h) and not check_pin("1357", h)
@@ -93,7 +95,7 @@ def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
     from app.kiosk import FRIENDLY
 
     kiosk.set_look("red-lip")
-    path = project_io.save_document(kiosk.doc, kiosk.library, tmp_path / "shop.sheer", "shop")
+    path = project_io.save_document(kiosk.doc, tmp_path / "shop.sheer", "shop")
     kiosk.set_look("bare")
     kiosk.guard(lambda: kiosk._load(str(path)))()
     assert kiosk.look == "project" and len(kiosk.doc.layers) >= 1
@@ -166,13 +168,13 @@ def test_engine_from_the_config(kiosk: object, tmp_path: Path) -> None:
 
 
 def test_project_at_another_resolution_is_resampled(kiosk: object, tmp_path: Path) -> None:
-    from app import project_io, seams
+    from app import project_io
+    from app.session import Session
 
     want = int(kiosk.doc.resolution)
     other = 256 if want != 256 else 512
-    doc2 = seams.open_document(None, other, kiosk.library)
-    seams.apply_look(doc2, kiosk.library, "red-lip")
-    path = project_io.save_document(doc2, kiosk.library, tmp_path / "small.sheer", "small")
+    doc2 = Session.open(resolution=other, look="red-lip", library=kiosk.library).document
+    path = project_io.save_document(doc2, tmp_path / "small.sheer", "small")
     kiosk.last_error = None
     kiosk.guard(lambda: kiosk._load(str(path)))()
     assert kiosk.last_error is None

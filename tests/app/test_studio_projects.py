@@ -1,21 +1,27 @@
 """Studio Open/Save on the real project API (issue 6): a real window (xcb under Xvfb, Mesa GL) saves and
 opens ``.sheer`` projects bit-exactly with their lights and camera, offers to relink a missing or changed
-head, and saves self-contained projects. The relink dialog is driven by replacing ``dialogs.ask``."""
+head, saves self-contained projects, and offers to recover the autosave of a session that was killed. The
+questions are the real message boxes, answered by clicking their buttons (``DialogDriver``)."""
 
 from __future__ import annotations
 
+import os
 import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import open_studio_window
+from tests.app.studio_support import DialogDriver, open_studio_window
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
-    from pathlib import Path
 
 pin_singletons()
 
@@ -24,29 +30,36 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
 @pytest.fixture(scope="module")
-def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Any]:
-    with open_studio_window(qapp, tmp_path_factory, wait_full_quality=False, check_gl_release=False) as win:
-        yield win
+def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, DialogDriver]]:
+    with open_studio_window(qapp, tmp_path_factory, wait_full_quality=False, check_gl_release=False) as pair:
+        yield pair
 
 
-class Answers:
-    """Stands in for ``dialogs.ask``: records each question and gives the next prepared answer."""
+@pytest.fixture
+def window(studio: tuple[Any, DialogDriver]) -> Any:
+    return studio[0]
 
-    def __init__(self, *answers: str) -> None:
-        self.answers = list(answers)
-        self.asked: list[tuple[str, dict[str, str]]] = []
 
-    def __call__(self, parent: object, title: str, text: str, choices: dict[str, str], default: str) -> str:
-        self.asked.append((title, dict(choices)))
-        return self.answers.pop(0)
+@pytest.fixture
+def driver(studio: tuple[Any, DialogDriver]) -> Iterator[DialogDriver]:
+    """The window's dialog driver, with nothing answered yet; every prepared answer must be used."""
+    d = studio[1]
+    d.shown.clear()
+    d.answers.clear()
+    yield d
+    assert not d.answers, f"prepared answers never asked for: {d.answers}"
+
+
+RELINK_MISSING = {"Locate head…", "Cancel"}
+RELINK_CHANGED = {"Locate head…", "Use it anyway", "Cancel"}
 
 
 def _paint(window: Any, seed: int) -> list[np.ndarray]:
     """Two layers of random (not quantisable) maps; returns copies of every layer's map."""
     rng = np.random.default_rng(seed)
-    from app import seams
+    from painting.looks import apply_look
 
-    seams.apply_look(window.doc, window.library, "bare")
+    apply_look(window.doc, "bare")
     for material in ("Blush Peach", "Foundation Light"):
         if material not in window.library:
             material = next(iter(window.library.names()))
@@ -82,8 +95,8 @@ def _project_on(window: Any, mesh: Path, path: Path) -> Path:
     """Save the window's document as a project referencing the head at ``mesh``."""
     from project.io import Project, make_head_ref, save_project
 
-    project = Project.from_document(window.doc.doc, name=path.stem, head=make_head_ref(mesh),
-                                    **vars(window.view_state()))
+    project = Project.from_document(window.doc, name=path.stem, head=make_head_ref(mesh),
+                                    **vars(window.files.view_state()))
     return save_project(project, path)
 
 
@@ -97,8 +110,8 @@ def test_save_open_round_trip_restores_layers_lights_and_camera(window: Any, tmp
     cam.target = np.array([0.1, 1.4, 0.2])
     window._set(light_preset="evening", light_azimuth=-42.0, light_elevation=18.0, environment="studio")
     path = tmp_path / "evening.sheer"
-    assert window.save_project(path=path)
-    assert not window.isWindowModified() and window.project_name == "evening"
+    assert window.files.save_project(path=path)
+    assert not window.isWindowModified() and window.files.name == "evening"
 
     saved = open_project(path)
     assert saved.look is not None and saved.camera is not None
@@ -112,7 +125,7 @@ def test_save_open_round_trip_restores_layers_lights_and_camera(window: Any, tmp
     cam.yaw, cam.pitch, cam.distance = -60.0, 0.0, 12.0
     cam.target = np.array([0.0, 0.0, 0.0])
     window._set(light_preset="office", light_azimuth=0.0, light_elevation=60.0, environment="none")
-    assert window.open_project(path)
+    assert window.files.open_project(path)
     got_layers, got_maps = _state(window)
     assert got_layers == layers
     for got, want in zip(got_maps, maps, strict=True):
@@ -123,10 +136,10 @@ def test_save_open_round_trip_restores_layers_lights_and_camera(window: Any, tmp
     assert (s.light_preset, s.environment) == ("evening", "studio")
     assert (s.light_azimuth, s.light_elevation) == pytest.approx((-42.0, 18.0), abs=1e-5)
     assert window.viewport.lighting.azimuth == pytest.approx(-42.0, abs=1e-5)
-    assert not window.isWindowModified() and window.project_path == path
+    assert not window.isWindowModified() and window.files.path == path
 
     # saving again uses the opened project as the base: same head reference, maps, lights and camera
-    assert window.save_project()
+    assert window.files.save_project()
     again = open_project(path)
     assert again.head == saved.head and again.look == saved.look and again.lights == saved.lights
     assert all(a.same_as(b) for a, b in zip(again.layers, saved.layers, strict=True))
@@ -147,38 +160,35 @@ def _project_on_retouched_head(window: Any, tmp_path: Path, seed: int) -> tuple[
     return maps, mesh, path
 
 
-def test_changed_head_offers_relink_and_opens_with_use_it_anyway(window: Any, tmp_path: Path,
-                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import dialogs
+def test_changed_head_offers_relink_and_opens_with_use_it_anyway(window: Any, driver: DialogDriver,
+                                                                  tmp_path: Path) -> None:
     from project.io import sha256_file
 
     maps, mesh, path = _project_on_retouched_head(window, tmp_path, 2)
-    answers = Answers("accept")
-    monkeypatch.setattr(dialogs, "ask", answers)
-    assert window.open_project(path)
-    assert [t for t, _ in answers.asked] == ["Relink head"]
-    assert set(answers.asked[0][1]) == {"locate", "accept", "cancel"}
+    driver.answer("Use it anyway")
+    assert window.files.open_project(path)
+    asked = driver.questions()
+    assert [q.title for q in asked] == ["Relink head"]
+    assert set(asked[0].buttons) == RELINK_CHANGED and "changed since the project was saved" in asked[0].text
     for got, want in zip(_state(window)[1], maps, strict=True):
         assert np.array_equal(got, want)
-    assert window.project.head.files["albedo.jpg"] == sha256_file(mesh.parent / "albedo.jpg")
+    assert window.files.project.head.files["albedo.jpg"] == sha256_file(mesh.parent / "albedo.jpg")
 
 
-def test_changed_head_relink_in_the_background(window: Any, qtbot: Any, tmp_path: Path,
-                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import dialogs
-
+def test_changed_head_relink_in_the_background(window: Any, qtbot: Any, driver: DialogDriver,
+                                               tmp_path: Path) -> None:
     maps, mesh, path = _project_on_retouched_head(window, tmp_path, 4)
-    answers = Answers("accept")
-    monkeypatch.setattr(dialogs, "ask", answers)
-    window.open_project(path, background=True)
-    qtbot.waitUntil(lambda: window.project_path == path, timeout=60000)
-    assert len(answers.asked) == 1
+    driver.answer("Use it anyway")
+    window.files.open_project(path, background=True)
+    qtbot.waitUntil(lambda: window.files.path == path, timeout=60000)
+    assert len(driver.questions()) == 1
     for got, want in zip(_state(window)[1], maps, strict=True):
         assert np.array_equal(got, want)
 
 
-def test_missing_head_locate_head(window: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import dialogs, main_window
+def test_missing_head_locate_head(window: Any, driver: DialogDriver, tmp_path: Path,
+                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    from app import project_files
 
     maps = _paint(window, 6)
     mesh = _head_copy(tmp_path / "head")
@@ -186,30 +196,31 @@ def test_missing_head_locate_head(window: Any, tmp_path: Path, monkeypatch: pyte
     shutil.move(str(mesh.parent), str(tmp_path / "elsewhere"))
     moved = tmp_path / "elsewhere" / mesh.name
     _paint(window, 7)
-    answers = Answers("locate")
-    monkeypatch.setattr(dialogs, "ask", answers)
+    driver.answer("Locate head…")
     located: list[str] = []
 
     def pick(*args: Any, **kwargs: Any) -> tuple[str, str]:
         located.append(args[1] if len(args) > 1 else "")
         return str(moved), ""
 
-    monkeypatch.setattr(main_window.QFileDialog, "getOpenFileName", pick)
-    assert window.open_project(path)
-    assert set(answers.asked[0][1]) == {"locate", "cancel"} and len(located) == 1
+    monkeypatch.setattr(project_files.QFileDialog, "getOpenFileName", pick)
+    assert window.files.open_project(path)
+    asked = driver.questions()
+    assert len(asked) == 1 and set(asked[0].buttons) == RELINK_MISSING and len(located) == 1
+    assert "was not found" in asked[0].text
     for got, want in zip(_state(window)[1], maps, strict=True):
         assert np.array_equal(got, want)
-    assert window.project.head.mesh_path == moved.absolute()
+    assert window.files.project.head.mesh_path == moved.absolute()
     # the relinked head is what the next save records
-    assert window.save_project(path=tmp_path / "relinked.sheer")
+    assert window.files.save_project(path=tmp_path / "relinked.sheer")
     from project.io import open_project
 
     assert open_project(tmp_path / "relinked.sheer").head.mesh_path == moved.absolute()
 
 
-def test_located_head_that_changed_then_use_it_anyway(window: Any, tmp_path: Path,
+def test_located_head_that_changed_then_use_it_anyway(window: Any, driver: DialogDriver, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import dialogs, main_window
+    from app import project_files
 
     maps = _paint(window, 12)
     mesh = _head_copy(tmp_path / "head")
@@ -219,18 +230,18 @@ def test_located_head_that_changed_then_use_it_anyway(window: Any, tmp_path: Pat
     with (moved.parent / "albedo.jpg").open("ab") as fh:
         fh.write(b"retouched")
     _paint(window, 13)
-    answers = Answers("locate", "accept")
-    monkeypatch.setattr(dialogs, "ask", answers)
-    monkeypatch.setattr(main_window.QFileDialog, "getOpenFileName", lambda *a, **k: (str(moved), ""))
-    assert window.open_project(path)
-    assert [set(c) for _, c in answers.asked] == [{"locate", "cancel"}, {"locate", "accept", "cancel"}]
+    driver.answer("Locate head…", "Use it anyway")
+    monkeypatch.setattr(project_files.QFileDialog, "getOpenFileName", lambda *a, **k: (str(moved), ""))
+    assert window.files.open_project(path)
+    assert [set(q.buttons) for q in driver.questions()] == [RELINK_MISSING, RELINK_CHANGED]
     for got, want in zip(_state(window)[1], maps, strict=True):
         assert np.array_equal(got, want)
-    assert window.project.head.mesh_path == moved.absolute()
+    assert window.files.project.head.mesh_path == moved.absolute()
 
 
-def test_cancel_leaves_the_document_untouched(window: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import dialogs, main_window
+def test_cancel_leaves_the_document_untouched(window: Any, driver: DialogDriver, tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    from app import project_files
 
     _paint(window, 8)
     mesh = _head_copy(tmp_path / "head")
@@ -239,18 +250,19 @@ def test_cancel_leaves_the_document_untouched(window: Any, tmp_path: Path, monke
     _paint(window, 9)
     window.setWindowModified(True)
     before_layers, before_maps = _state(window)
-    before = (window.project, window.project_path, window.project_name)
-    monkeypatch.setattr(dialogs, "ask", Answers("cancel"))
-    assert not window.open_project(path)
+    before = (window.files.project, window.files.path, window.files.name)
+    driver.answer("Cancel")
+    assert not window.files.open_project(path)
     # "Locate head…" then closing the file dialog is a cancel too
-    monkeypatch.setattr(dialogs, "ask", Answers("locate"))
-    monkeypatch.setattr(main_window.QFileDialog, "getOpenFileName", lambda *a, **k: ("", ""))
-    assert not window.open_project(path)
+    driver.answer("Locate head…")
+    monkeypatch.setattr(project_files.QFileDialog, "getOpenFileName", lambda *a, **k: ("", ""))
+    assert not window.files.open_project(path)
+    assert [q.clicked for q in driver.questions()] == ["Cancel", "Locate head…"]
     layers, maps = _state(window)
     assert layers == before_layers
     for got, want in zip(maps, before_maps, strict=True):
         assert np.array_equal(got, want)
-    assert (window.project, window.project_path, window.project_name) == before
+    assert (window.files.project, window.files.path, window.files.name) == before
     assert window.isWindowModified()
 
 
@@ -260,42 +272,43 @@ def test_save_self_contained_opens_without_the_head(window: Any, tmp_path: Path)
     maps = _paint(window, 10)
     mesh = _head_copy(tmp_path / "head")
     path = _project_on(window, mesh, tmp_path / "on-copy.sheer")
-    assert window.open_project(path)
-    assert window.save_self_contained(tmp_path / "packed.sheer")
+    assert window.files.open_project(path)
+    assert window.files.save_self_contained(tmp_path / "packed.sheer")
     shutil.rmtree(mesh.parent)
     packed = open_project(tmp_path / "packed.sheer")
     assert packed.head.embedded
     _paint(window, 11)
-    assert window.open_project(tmp_path / "packed.sheer")
+    assert window.files.open_project(tmp_path / "packed.sheer")
     for got, want in zip(_state(window)[1], maps, strict=True):
         assert np.array_equal(got, want)
     assert window.actions_by_id["file.save_self_contained"].isEnabled()
 
 
-def test_project_at_another_resolution_is_resampled_on_request(window: Any, qtbot: Any, tmp_path: Path,
-                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+def test_project_at_another_resolution_is_resampled_on_request(window: Any, qtbot: Any, driver: DialogDriver,
+                                                                tmp_path: Path) -> None:
     """A project painted at another resolution: Cancel leaves the document as it was; Resample installs
     its maps at the studio's resolution (same paint where it was, none outside the charts)."""
-    from app import dialogs, project_io, seams
+    from app import project_io
+    from app.session import Session
 
     want = int(window.doc.resolution)
     other = 256 if want != 256 else 512
-    doc2 = seams.open_document(None, other, window.library)
-    seams.apply_look(doc2, window.library, "red-lip")
-    path = project_io.save_document(doc2, window.library, tmp_path / "other.sheer", "other")
+    doc2 = Session.open(resolution=other, look="red-lip", library=window.library).document
+    path = project_io.save_document(doc2, tmp_path / "other.sheer", "other")
     src = np.array(doc2.layers[0].thickness)
     before = _state(window)
 
-    monkeypatch.setattr(dialogs, "ask", Answers("cancel"))
-    assert not window.open_project(path)
+    driver.answer("Cancel")
+    assert not window.files.open_project(path)
     assert _state(window)[0] == before[0]
     assert all(np.array_equal(a, b) for a, b in zip(_state(window)[1], before[1], strict=True))
 
-    answers = Answers("resample")
-    monkeypatch.setattr(dialogs, "ask", answers)
-    assert window.open_project(path)
-    qtbot.waitUntil(lambda: window.project_path == path, timeout=60000)
-    assert answers.asked and "resample" in answers.asked[0][1]
+    driver.answer("Resample")
+    assert window.files.open_project(path)
+    qtbot.waitUntil(lambda: window.files.path == path, timeout=60000)
+    asked = driver.questions()
+    assert [q.clicked for q in asked] == ["Cancel", "Resample"] and set(asked[1].buttons) == {"Resample", "Cancel"}
+    assert f"{other}×{other}" in asked[1].text
     assert [lay.name for lay in window.doc.layers] == [lay.name for lay in doc2.layers]
     got = np.array(window.doc.layers[0].thickness)
     assert got.shape == (want, want) and got.dtype == np.float32
@@ -307,3 +320,54 @@ def test_project_at_another_resolution_is_resampled_on_request(window: Any, qtbo
     assert amount_got == pytest.approx(amount_src, rel=0.10)
     assert got.max() == pytest.approx(float(src.max()), rel=0.25)
     assert not np.any(got[~(atlas.coverage | atlas.padded)])
+
+
+CRASHED_SESSION = textwrap.dedent("""
+    import os, signal, sys
+    import numpy as np
+    from app import project_io
+    from app.session import Session
+
+    doc = Session.open(resolution=512, look="red-lip").document
+    lay = doc.layers[0]
+    rng = np.random.default_rng(5)
+    doc.set_thickness(lay, (rng.random(lay.thickness.shape) * 0.5 * lay.max_thickness).astype(np.float32))
+    saver = project_io.make_autosaver(lambda: project_io.snapshot(doc, "crashed"), None, 0.01)
+    path = saver.autosave_now()
+    np.save(sys.argv[1], np.stack([np.asarray(layer.thickness) for layer in doc.layers]))
+    print(path, flush=True)
+    os.kill(os.getpid(), signal.SIGKILL)
+""")
+
+
+def test_recovery_offer_restores_the_autosave_of_a_killed_session(window: Any, driver: DialogDriver,
+                                                                 tmp_path: Path) -> None:
+    """A session killed after an autosave leaves its recovery file. The studio's offer (``offer_recovery``,
+    also run at start-up) answered Later keeps it; answered Recover it brings the session's layers and
+    maps back bit-exactly, as unsaved work (the window shows it modified), and removes the file."""
+    proc = subprocess.run([sys.executable, "-c", CRASHED_SESSION, str(tmp_path / "maps.npy")],
+                          capture_output=True, text=True, timeout=300, env=dict(os.environ))
+    assert proc.returncode == -signal.SIGKILL, proc.stderr[-2000:]
+    recovery = Path(proc.stdout.strip())
+    assert recovery.is_file() and recovery.parent == Path(os.environ["SHEER_RECOVERY_DIR"])
+    want = np.load(tmp_path / "maps.npy")
+    _paint(window, 20)
+    window.files.save_project(path=tmp_path / "mine.sheer")
+    before = _state(window)
+
+    driver.answer("Later")
+    window.files.offer_recovery()
+    asked = driver.questions()
+    assert [q.title for q in asked] == ["Recover unsaved work"]
+    assert set(asked[0].buttons) == {"Recover", "Discard", "Later"} and "untitled work" in asked[0].text
+    assert recovery.is_file() and _state(window)[0] == before[0] and not window.isWindowModified()
+
+    driver.answer("Recover")
+    window.files.offer_recovery()
+    got = np.stack([np.asarray(layer.thickness) for layer in window.doc.layers])
+    assert got.shape == want.shape and np.array_equal(got, want)
+    assert window.files.name == "crashed" and window.files.path is None
+    assert window.isWindowModified() and "crashed" in window.windowTitle()
+    assert not recovery.exists()
+    window.files.offer_recovery()  # nothing left to offer
+    assert len(driver.questions()) == 2

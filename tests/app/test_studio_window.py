@@ -11,7 +11,7 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import open_studio_window
+from tests.app.studio_support import DialogDriver, open_studio_window
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -24,9 +24,21 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
 @pytest.fixture(scope="module")
-def window(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
-    with open_studio_window(qapp, tmp_path_factory) as win:
-        yield win
+def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, DialogDriver]]:
+    with open_studio_window(qapp, tmp_path_factory) as pair:
+        yield pair
+
+
+@pytest.fixture
+def window(studio: tuple[object, DialogDriver]) -> object:
+    return studio[0]
+
+
+@pytest.fixture
+def driver(studio: tuple[object, DialogDriver]) -> DialogDriver:
+    """The module window's dialog driver, with what it answered so far forgotten."""
+    studio[1].shown.clear()
+    return studio[1]
 
 
 def draw(vp: object, qtbot: object) -> None:
@@ -43,19 +55,20 @@ def grab(win: object) -> np.ndarray:
     return qimage_to_rgb(win.viewport.grabFramebuffer())
 
 
-def stroke_across(win: object, y_frac: float) -> None:
-    """A 30-pixel stroke rightwards from the viewport's centre column at ``y_frac`` of its height,
-    picked on the face (a miss repeats the first hit)."""
-    from PySide6.QtCore import QPointF
+def stroke_across(win: object, qtbot: object, y_frac: float) -> None:
+    """A 30-pixel drag of the left mouse button rightwards from the viewport's centre column at ``y_frac``
+    of its height (on the face: a stroke, one undo step)."""
+    from PySide6.QtCore import QPoint, QPointF
 
     vp = win.viewport
-    hit = vp.pick(QPointF(vp.width() / 2, vp.height() * y_frac))
-    assert hit is not None
-    win._stroke_begin(hit, 1.0)
-    for dx in range(0, 30, 3):
-        p = vp.pick(QPointF(vp.width() / 2 + dx, vp.height() * y_frac))
-        win._stroke_move(p if p is not None else hit, 1.0)
-    win._stroke_end()
+    start = QPoint(vp.width() // 2, int(vp.height() * y_frac))
+    assert vp.pick(QPointF(start)) is not None, "the stroke must start on the face"
+    steps = len(win.doc.history)
+    qtbot.mousePress(vp, Qt.MouseButton.LeftButton, pos=start)
+    for dx in range(3, 30, 3):
+        qtbot.mouseMove(vp, QPoint(start.x() + dx, start.y()))
+    qtbot.mouseRelease(vp, Qt.MouseButton.LeftButton, pos=QPoint(start.x() + 27, start.y()))
+    assert len(win.doc.history) == steps + 1, "the drag was not one stroke"
 
 
 def test_viewport_shows_the_head(window: object) -> None:
@@ -134,7 +147,7 @@ def test_painting_changes_the_rendered_face(window: object, qtbot: object) -> No
     vp._ring = None
     qtbot.waitUntil(lambda: not vp.pending_changes, timeout=5000)
     before = grab(window).astype(int)
-    stroke_across(window, 0.55)
+    stroke_across(window, qtbot, 0.55)
     assert vp.pending_changes
     vp._ring = None
     after = grab(window).astype(int)
@@ -212,9 +225,9 @@ def test_lightweight_mode_with_a_captured_face(window: object, qtbot: object, tm
         from PIL import Image
 
         done: list[object] = []
-        window.export_image(tmp_path / "lw.png", (200, 150), on_done=done.append)
+        window.exports.export_image(tmp_path / "lw.png", (200, 150), on_done=done.append)
         window.set_render_mode("fast")
-        window.export_image(tmp_path / "fast.png", (200, 150), on_done=done.append)
+        window.exports.export_image(tmp_path / "fast.png", (200, 150), on_done=done.append)
         window.set_render_mode("lightweight")
         qtbot.waitUntil(lambda: len(done) == 2, timeout=120000)
         lw_img = np.asarray(Image.open(tmp_path / "lw.png")).astype(int)
@@ -240,7 +253,7 @@ def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_pa
         window.add_layer("Lipstick Classic Red")
         draw(vp, qtbot)
         before = grab(window).astype(int)
-        stroke_across(window, 0.5)
+        stroke_across(window, qtbot, 0.5)
         after = grab(window).astype(int)
         window.undo()
         assert (np.abs(after - before).max(axis=-1) > 10).sum() > 100, "the stroke did not show"
@@ -248,21 +261,19 @@ def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_pa
         window.set_render_mode("fast")
 
 
-def test_a_failing_frame_is_a_message_not_a_traceback(window: object, qtbot: object,
+def test_a_failing_frame_is_a_message_not_a_traceback(window: object, qtbot: object, driver: DialogDriver,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import dialogs
-
     vp = window.viewport
     real = vp.renderer.render
 
     def broken(*args: object, **kwargs: object) -> bool:
         raise RuntimeError("simulated GL failure")
 
-    dialogs.HISTORY.clear()
     monkeypatch.setattr(vp.renderer, "render", broken)
     vp.orbit_by(1.0)
     qtbot.waitUntil(lambda: vp.renderer_error is not None, timeout=20000)
-    qtbot.waitUntil(lambda: any("simulated GL failure" in h[2] for h in dialogs.HISTORY), timeout=5000)
+    qtbot.waitUntil(lambda: any("simulated GL failure" in d.text for d in driver.shown), timeout=5000)
+    assert driver.shown[-1].kind == "error" and driver.shown[-1].title == "Viewport"
     monkeypatch.setattr(vp.renderer, "render", real)
     vp.renderer_error = None
     vp.orbit_by(-1.0)
@@ -319,46 +330,41 @@ def test_edit_material_updates_the_viewport(window: object, qtbot: object) -> No
 
 
 
-def test_malformed_measurement_import_leaves_the_library_unchanged(window: object, tmp_path: Path) -> None:
-    from app import dialogs
-
+def test_malformed_measurement_import_leaves_the_library_unchanged(window: object, driver: DialogDriver,
+                                                                   tmp_path: Path) -> None:
     bad = tmp_path / "bad.csv"
     bad.write_text("wavelength,R_inf,R,Rg\n400,abc,0.2\n410,2.5,-1,0.1\nnot,a,number,row\n", encoding="utf-8")
     names = list(window.library.names())
-    dialogs.HISTORY.clear()
     assert window.library_dock.import_measurement(bad) is False
-    assert dialogs.HISTORY and dialogs.HISTORY[-1][0] == "error"
+    assert driver.shown and driver.shown[-1].kind == "error"
     assert list(window.library.names()) == names
 
 
-def test_export_maps_and_gltf(window: object, qtbot: object, tmp_path: Path) -> None:
+def test_export_maps_and_gltf(window: object, qtbot: object, driver: DialogDriver, tmp_path: Path) -> None:
     import trimesh
     from PIL import Image
 
     results: list[object] = []
-    window.export_maps(tmp_path / "maps", on_done=results.append)
+    window.exports.export_maps(tmp_path / "maps", on_done=results.append)
     qtbot.waitUntil(lambda: len(results) == 1, timeout=20000)
     manifest = json.loads((tmp_path / "maps" / "manifest.json").read_text())
     assert len(manifest["layers"]) == len(window.doc.layers)
     first = Image.open(tmp_path / "maps" / manifest["layers"][0]["file"])
     assert first.mode.startswith("I;16") or first.mode == "I"
-    window.export_maps(tmp_path / "exr", on_done=results.append, fmt="exr")
+    window.exports.export_maps(tmp_path / "exr", on_done=results.append, fmt="exr")
     qtbot.waitUntil(lambda: len(results) == 2, timeout=20000)
     assert len(list((tmp_path / "exr").glob("*.exr"))) == len(window.doc.layers)
     results.clear()
     # a layer's map back in: identical within the 16-bit quantisation; a bad file: an error, no change
-    from app import dialogs
-
     lay0 = np.array(window.doc.layers[0].thickness)
-    assert window.import_map(0, tmp_path / "maps" / manifest["layers"][0]["file"])
+    assert window.exports.import_map(0, tmp_path / "maps" / manifest["layers"][0]["file"])
     assert np.allclose(window.doc.layers[0].thickness, lay0, atol=manifest["layers"][0]["scale_um"] / 30000)
     bad = tmp_path / "bad.png"
     bad.write_text("not an image")
-    dialogs.HISTORY.clear()
-    assert not window.import_map(0, bad)
-    assert dialogs.HISTORY[-1][0] == "error"
+    assert not window.exports.import_map(0, bad)
+    assert driver.shown[-1].kind == "error" and driver.shown[-1].title == "Import map"
     window.undo()
-    window.export_gltf(tmp_path / "face.glb", on_done=results.append)
+    window.exports.export_gltf(tmp_path / "face.glb", on_done=results.append)
     qtbot.waitUntil(lambda: len(results) == 1, timeout=60000)
     scene = trimesh.load(tmp_path / "face.glb")
     geom = list(scene.geometry.values())[0]
@@ -380,11 +386,12 @@ def test_export_maps_and_gltf(window: object, qtbot: object, tmp_path: Path) -> 
     assert np.abs(baked[bare] - skin[bare]).max(axis=-1).mean() < 3
 
 
-def test_about_and_shortcut_sheet(window: object) -> None:
+def test_about_and_shortcut_sheet(window: object, driver: DialogDriver) -> None:
     from app.actions import shortcut_sheet
 
     window.show_about()
     window.show_shortcuts()
+    assert [(d.kind, d.title) for d in driver.shown] == [("dialog", "About Sheer"), ("dialog", "Keyboard Shortcuts")]
     keys = {row[2] for row in shortcut_sheet()}
     assert {"[", "]", "Shift+[", "Shift+]", "E", "S", "X", "Ctrl+Z", "Ctrl+Shift+Z", "F"} <= keys
     window.apply()
@@ -418,31 +425,29 @@ def test_brush_shortcuts(window: object, qtbot: object) -> None:
     assert not window.settings.brush_mirror
 
 
-def test_project_save_open_and_autosave(window: object, qtbot: object, tmp_path: Path) -> None:
+def test_project_save_open_and_autosave(window: object, qtbot: object, driver: DialogDriver,
+                                        tmp_path: Path) -> None:
     from app import project_io
 
     path = tmp_path / "look.sheer"
     names = [lay.name for lay in window.doc.layers]
     maps = [np.array(lay.thickness) for lay in window.doc.layers]
-    assert window.save_project(path=path)
+    assert window.files.save_project(path=path)
     assert path.is_file() and not window.isWindowModified()
     assert "look" in window.windowTitle()
     window.add_layer("Blush Peach")
-    assert window.open_project(path)
+    assert window.files.open_project(path)
     assert [lay.name for lay in window.doc.layers] == names
     for lay, m in zip(window.doc.layers, maps):
         assert np.allclose(lay.thickness, m, atol=1e-3)
     window.add_layer("Blush Peach")
-    window.open_project(path, background=True)
+    window.files.open_project(path, background=True)
     qtbot.waitUntil(lambda: [lay.name for lay in window.doc.layers] == names, timeout=20000)
     broken = tmp_path / "broken.sheer"
     broken.write_bytes(b"not a zip")
-    from app import dialogs
-
-    dialogs.HISTORY.clear()
-    assert not window.open_project(broken)
-    assert dialogs.HISTORY[-1][0] == "error" and [lay.name for lay in window.doc.layers] == names
-    saver = project_io.make_autosaver(window._snapshot, path, 0.01)
+    assert not window.files.open_project(broken)
+    assert driver.shown[-1].kind == "error" and [lay.name for lay in window.doc.layers] == names
+    saver = project_io.make_autosaver(window.files.snapshot, path, 0.01)
     written = saver.autosave_now()
     assert written.is_file()
     saver.close()
@@ -453,7 +458,7 @@ def test_export_rendered_image(window: object, qtbot: object, tmp_path: Path) ->
     from PIL import Image
 
     results: list[object] = []
-    window.export_image(tmp_path / "render.png", (320, 240), on_done=results.append)
+    window.exports.export_image(tmp_path / "render.png", (320, 240), on_done=results.append)
     qtbot.waitUntil(lambda: len(results) == 1, timeout=120000)
     img = np.asarray(Image.open(tmp_path / "render.png"))
     assert img.shape == (240, 320, 3) and img.std() > 5
@@ -498,9 +503,7 @@ def test_brush_ring_follows_the_surface(window: object, qtbot: object) -> None:
 
 
 def test_measurement_import_in_background_reports_rejected_rows(window: object, qtbot: object,
-                                                                 tmp_path: Path) -> None:
-    from app import dialogs
-
+                                                                 driver: DialogDriver, tmp_path: Path) -> None:
     rows = ["# name: Test Rouge", "# category: lipstick", "# D_mm: 0.02", "wavelength,R_inf,R,Rg"]
     for wl in range(400, 701, 10):
         r_inf = 0.1 + 0.6 * (wl - 400) / 300
@@ -509,10 +512,10 @@ def test_measurement_import_in_background_reports_rejected_rows(window: object, 
     good = tmp_path / "rouge.csv"
     good.write_text("\n".join(rows) + "\n", encoding="utf-8")
     n = len(window.library.names())
-    dialogs.HISTORY.clear()
     window.library_dock.import_measurement(good, background=True)
     qtbot.waitUntil(lambda: len(window.library.names()) == n + 1, timeout=20000)
     assert any("Test Rouge" in name for name in window.library.names())
-    assert dialogs.HISTORY and "rejected" in dialogs.HISTORY[-1][2]
+    qtbot.waitUntil(lambda: bool(driver.shown), timeout=5000)
+    assert "rejected" in driver.shown[-1].text
     window.library_dock.undo_stack.undo()
     assert len(window.library.names()) == n
