@@ -25,7 +25,7 @@ from km.spectra import DEFAULT_GRID, WavelengthGrid
 CMFS = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
 ILLUMINANTS = ["D65", "D55", "D50", "A", "F2", "FL11", "C", "E"]
 CHECKER = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
-TOL_CHECKER = 1e-3  # the bound
+TOL_CHECKER = 1.4e-4  # the README's figure (measured 1.39e-4 under D65, D50 and A)
 
 # colour-science's own reference conversions note how they align the tables; that is not our output
 pytestmark = pytest.mark.filterwarnings("ignore::colour.utilities.ColourRuntimeWarning")
