@@ -17,8 +17,6 @@ from tests.painting.helpers import StandInLibrary, make_doc, texel_positions
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
 
-pytestmark = pytest.mark.skipif(not kernels.HAVE_NUMBA, reason="numba is not installed")
-
 
 @pytest.fixture(autouse=True)
 def _restore_kernel_setting() -> Iterator[None]:
