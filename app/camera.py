@@ -1,15 +1,21 @@
-"""The viewport's camera and key light: interaction on top of ``render``'s own types (no matrix or light
-maths of its own — :class:`render.camera.OrbitCamera` and :class:`render.lights.Light` do that).
+"""The viewport's camera and key light: interaction on top of ``render``'s own types.
+
+No matrix or light maths of its own: :class:`render.camera.OrbitCamera` and :class:`render.lights.Light`
+do that.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from render.camera import OrbitCamera as _RenderCamera
+
+if TYPE_CHECKING:
+    from render.lights import Light
 
 
 class OrbitCamera(_RenderCamera):
@@ -46,8 +52,9 @@ class OrbitCamera(_RenderCamera):
 
 @dataclass
 class Lighting:
-    """The studio's key light: azimuth/elevation in degrees (azimuth 0 = from the camera side, +Z),
-    colour × intensity, the ambient colour (light presets) and the exposure.
+    """The studio's key light, the ambient colour (light presets) and the exposure.
+
+    Azimuth/elevation in degrees (azimuth 0 = from the camera side, +Z), linear RGB colour × intensity.
     """
 
     azimuth: float = 30.0
@@ -57,7 +64,7 @@ class Lighting:
     ambient: tuple[float, float, float] = (0.35, 0.35, 0.38)
     exposure: float = 1.4
 
-    def key_light(self, scale: float = 0.7) -> object:
+    def key_light(self, scale: float = 0.7) -> Light:
         """The key light as a ``render.Light`` (intensity × ``scale``)."""
         from render.lights import Light
 
@@ -65,8 +72,10 @@ class Lighting:
                                  tuple(float(x) for x in self.colour))
 
     def direction(self) -> np.ndarray:
-        """Unit vector toward the light, head space (``render.Light``'s convention), float32: a project's
-        light saved, reopened (angles recovered) and saved again then stores the same vector.
+        """Unit vector toward the light, head space (``render.Light``'s convention), float32.
+
+        float32 so that a project's light saved, reopened (angles recovered) and saved again stores the
+        same vector.
         """
         from render.lights import Light
 

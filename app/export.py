@@ -1,5 +1,7 @@
-"""Exports (no Qt; run in a worker): layer thickness maps + manifest, the made-up face as glTF/GLB with
-the makeup baked into its albedo under neutral light, and rendered images on a standalone GL context.
+"""Exports, run in a worker (no Qt): thickness maps, the made-up face as glTF/GLB, rendered images.
+
+Layer thickness maps with a manifest, the head as glTF/GLB with the makeup baked into its albedo under
+neutral light, and rendered images on a standalone GL context.
 """
 
 from __future__ import annotations
@@ -8,11 +10,20 @@ import json
 import re
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from app.camera import Lighting
+    from km.library import Library
+    from painting import Document
+    from painting.head import Head
+    from painting.layout import UVLayout
+    from render.camera import OrbitCamera
+    from render.km_pass import LayerInput
 
 Progress = Callable[[float, str], None]
 IsCancelled = Callable[[], bool]
@@ -29,10 +40,12 @@ def _safe(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", name).strip("_") or "layer"
 
 
-def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: None,
+def export_maps(doc: Document, folder: str | Path, progress: Progress = lambda f, m: None,
                 cancelled: IsCancelled = lambda: False, fmt: str = "png") -> Path:
-    """Each layer's thickness map and ``manifest.json``: ``fmt="png"`` 16-bit PNG (value = thickness /
-    scale_um × 65535, scale also in the PNG's text), or ``"exr"`` 32-bit float OpenEXR (µm).
+    """Write each layer's thickness map and ``manifest.json`` into ``folder``; returns the manifest's path.
+
+    ``fmt="png"``: 16-bit PNG (value = thickness / scale_um × 65535, the scale also in the PNG's text);
+    ``"exr"``: 32-bit float OpenEXR (µm).
     """
     from PIL import Image
 
@@ -80,7 +93,7 @@ def export_maps(doc: Any, folder: str | Path, progress: Progress = lambda f, m: 
     return folder / "manifest.json"
 
 
-def baked_albedo(doc: Any, library: Any) -> np.ndarray:
+def baked_albedo(doc: Document, library: Library) -> np.ndarray:
     """The made-up albedo at the head texture's resolution, uint8 sRGB, under neutral (white) light.
 
     The cosmetic stack is evaluated by the renderer's own texture-space KM pass (``render.KMTextureSpace``,
@@ -91,10 +104,9 @@ def baked_albedo(doc: Any, library: Any) -> np.ndarray:
     import moderngl
     from PIL import Image
 
-    from app.render_adapter import layer_inputs
-    from km.material import encode_srgb
+    from km.srgb import srgb_decode, srgb_encode
     from render import KMTextureSpace, ShaderLibrary
-    from render.km_pass import srgb_decode
+    from render.binding import layer_inputs
 
     head = doc.head
     albedo = head.albedo if head.albedo is not None else np.full((512, 512, 3), 200, np.uint8)
@@ -125,10 +137,10 @@ def baked_albedo(doc: Any, library: Any) -> np.ndarray:
                                     .resize(size, Image.BILINEAR)) for k in range(3)], axis=-1)
 
     out = np.clip(up(r_top) + hi * up(gain), 0.0, 1.0)
-    return np.round(encode_srgb(out) * 255.0).astype(np.uint8)
+    return np.round(srgb_encode(out.astype(np.float64)) * 255.0).astype(np.uint8)  # float64, as km encodes
 
 
-def export_gltf(doc: Any, library: Any, path: str | Path, progress: Progress = lambda f, m: None,
+def export_gltf(doc: Document, library: Library, path: str | Path, progress: Progress = lambda f, m: None,
                 cancelled: IsCancelled = lambda: False) -> Path:
     """The head as glTF (.gltf) or binary glTF (.glb) with the baked made-up albedo."""
     import trimesh
@@ -160,18 +172,21 @@ def export_gltf(doc: Any, library: Any, path: str | Path, progress: Progress = l
     return path
 
 
-def render_image(head: Any, layers: list[Any], camera: Any, lighting: Any, size: tuple[int, int],
-                 path: str | Path, mode: str = "fast", environment: str = "none", layout: Any = None,
-                 progress: Progress = lambda f, m: None, cancelled: IsCancelled = lambda: False,
-                 face: Any = None) -> Path:
-    """Render the view with ``render.Renderer`` (or, ``mode="lightweight"``, the lightweight engine with
-    the captured ``face``) on a standalone (EGL) GL context in the calling thread (a worker) and save a
-    PNG. ``layers``: ``render.LayerInput`` of every document layer (copies).
+def render_image(head: Head, layers: list[LayerInput], camera: OrbitCamera, lighting: Lighting,
+                 size: tuple[int, int], path: str | Path, mode: str = "fast", environment: str = "none",
+                 layout: UVLayout | None = None, progress: Progress = lambda f, m: None,
+                 cancelled: IsCancelled = lambda: False, face: object = None) -> Path:
+    """Render the view to a PNG at ``path`` (``size``: width, height in pixels, 16..8192 each).
+
+    ``render.Renderer`` (or, ``mode="lightweight"``, the lightweight engine with the captured ``face``)
+    on a standalone (EGL) GL context in the calling thread (a worker), through the same
+    :class:`render.view.ViewRenderer` as the viewport. ``layers``: ``render.LayerInput`` of every document
+    layer (copies: the document may change meanwhile).
     """
     import moderngl
     from PIL import Image
 
-    from app.render_adapter import ViewportRenderer
+    from render.view import ViewRenderer
 
     w, h = size
     if not (16 <= w <= 8192 and 16 <= h <= 8192):
@@ -180,15 +195,15 @@ def render_image(head: Any, layers: list[Any], camera: Any, lighting: Any, size:
     progress(0.05, "starting OpenGL")
     ctx = moderngl.create_context(standalone=True, backend="egl")
     try:
-        renderer = ViewportRenderer(ctx, head, layout)
+        renderer = ViewRenderer(ctx, head, layout)
         try:
             progress(0.3, "evaluating the layers")
-            renderer.set_layers(layers)
+            renderer.r.set_layers(layers)
             renderer.environment = environment
             renderer.set_face(face)
             _check_cancel(cancelled)
             progress(0.6, "rendering")
-            img = renderer.render_image((w, h), camera, lighting, mode)
+            img = renderer.render_image((w, h), camera, lighting.key_light(), mode)
         finally:
             renderer.release()
     finally:

@@ -18,8 +18,8 @@ from PySide6.QtWidgets import QFileDialog, QInputDialog, QMainWindow
 
 from app import dialogs
 from app.export import export_gltf, export_maps, render_image
-from app.render_adapter import layer_inputs
 from app.workers import run_task
+from render.binding import layer_inputs
 
 if TYPE_CHECKING:
     from collections.abc import Callable

@@ -33,7 +33,6 @@ from app.export_actions import ExportActions
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
 from app.project_files import ProjectFiles
-from app.render_adapter import RENDER_MODES, debug_views, layer_inputs
 from app.session import BACKENDS
 from app.settings import (
     APPLICATION,
@@ -47,6 +46,7 @@ from app.settings import (
 from app.viewport import Viewport
 from app.workers import run_task
 from painting import Brush
+from render.view import RENDER_MODES, debug_views
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -85,7 +85,7 @@ class StudioWindow(QMainWindow):
         self.doc.subscribe(self._on_doc_event)
 
         self.viewport = Viewport(self.doc.head, getattr(self.doc, "layout", None))
-        self.viewport.layers_source = lambda: layer_inputs(self.doc, self.library)
+        self.viewport.set_document(self.doc, self.library)  # its binding queues the document's changes
         self.setCentralWidget(self.viewport)
         self.viewport.stroke_begin.connect(self._stroke_begin)
         self.viewport.stroke_move.connect(self._stroke_move)
@@ -438,10 +438,8 @@ class StudioWindow(QMainWindow):
         if event.kind == "history":
             return  # the undo state: updated at a stroke's end, by undo/redo and by whoever cleared it
         if event.kind == "paint":
-            # every dab: only queue its tiles (menus and undo state change at the stroke's end, which
-            # updates them; undo/redo update them themselves)
-            index = self.doc.index_of(self.doc.layer_by_id(event.layer))
-            self.viewport.layers_changed(index, list(event.tiles))
+            # every dab: the viewport's binding queues its tiles itself (menus and undo state change at
+            # the stroke's end, which updates them; undo/redo update them themselves)
             if self._stroke is None:
                 self._update_actions()
         else:
@@ -453,7 +451,7 @@ class StudioWindow(QMainWindow):
         self.selected_layer = min(max(self.selected_layer, 0), max(n - 1, 0))
         self.layers_panel.refresh(self.doc.layers, self.library, self.selected_layer)
         self.viewport.debug_layer_index = self.selected_layer
-        self.viewport.layers_changed()
+        self.viewport.reload_layers()  # e.g. a library material was edited: no document event says so
 
     def _wire_layers_panel(self) -> None:
         p = self.layers_panel

@@ -1,13 +1,16 @@
-"""The 3D viewport: a QOpenGLWidget running the real renderer (``render.Renderer``, through
-:class:`app.render_adapter.ViewportRenderer`) through moderngl, at the widget's full resolution.
+"""The 3D viewport: a QOpenGLWidget running the real renderer through moderngl, at full resolution.
+
+The renderer is ``render.Renderer`` inside :class:`render.view.ViewRenderer` (kept frame, brush ring,
+before/after split, lightweight mode).
 
 - The moderngl context is created in ``initializeGL``; every ``paintGL`` draws into
   ``ctx.detect_framebuffer(self.defaultFramebufferObject())``; GL objects are released while the context
   is current, on ``aboutToBeDestroyed``.
 - Frames are drawn on demand: every change calls ``update()``, which Qt coalesces into one ``paintGL`` per
   pass of the event loop, so a burst of mouse moves or dabs costs one frame, never a backlog. Document
-  changes are queued (dirty 64² tiles merged per layer, or one full re-evaluation) and applied in the
-  next ``paintGL``. There is no timer and no busy loop.
+  changes are queued by the document's :class:`render.binding.DocumentBinding` (dirty 64² tiles merged
+  per layer, or one full re-evaluation) and flushed at the start of the next ``paintGL``, so a dab's
+  tiles are in the very next frame. There is no timer and no busy loop.
 - Mouse: left drag on the head paints (signals to the window, which owns the document), left drag off
   the head or right drag orbits, middle (or Shift+right) drag pans, the wheel zooms, Ctrl+left drag moves
   the key light. Hovering shows the brush ring on the surface (a ring-only redraw reuses the last frame).
@@ -32,13 +35,21 @@ from app.camera import Lighting, OrbitCamera
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    import moderngl
+    from PySide6.QtCore import QEvent
+
+    from km.library import Library
+    from painting import Document
+    from painting.head import Head
+    from painting.layout import UVLayout
+    from render.binding import DocumentBinding
+    from render.view import ViewRenderer
+
 _PRELOAD: dict[str, Any] = {"task": None, "waiting": []}
 
 
 def renderer_modules_loaded() -> bool:
-    """The renderer is imported and its spectral → RGB matrix is at hand (see
-    app.render_adapter.preload_renderer).
-    """
+    """The renderer is imported and its spectral → RGB matrix is at hand (see render.view.preload_renderer)."""
     import sys
 
     if "render.renderer" not in sys.modules:
@@ -50,8 +61,10 @@ def renderer_modules_loaded() -> bool:
 
 
 def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
-    """Import the renderer's modules in a worker (once; colour-science takes seconds on a loaded machine),
-    then call ``then`` on the GUI thread. Start it early (the studio does before building its document).
+    """Import the renderer's modules in a worker, then call ``then`` on the GUI thread.
+
+    Done once (colour-science takes seconds on a loaded machine); start it early (the studio does before
+    building its document).
     """
     if renderer_modules_loaded() and _PRELOAD["task"] is None:
         if then is not None:
@@ -61,8 +74,8 @@ def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
         _PRELOAD["waiting"].append(then)
     if _PRELOAD["task"] is not None:
         return
-    from app.render_adapter import preload_renderer
     from app.workers import run_task
+    from render.view import preload_renderer
 
     def done(_result: Any = None) -> None:
         _PRELOAD["task"] = None
@@ -94,7 +107,7 @@ class Viewport(QOpenGLWidget):
     gl_failed = Signal(str)
     renderer_ready = Signal()
 
-    def __init__(self, head: Any, layout: Any = None, parent: QWidget | None = None) -> None:
+    def __init__(self, head: Head, layout: UVLayout | None = None, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.setFormat(default_surface_format())
         self.setMouseTracking(True)
@@ -107,19 +120,19 @@ class Viewport(QOpenGLWidget):
         self.lighting = Lighting()
         self.split = 0.0
         self.debug = 0
-        self.mode = "fast"  # fast | reference | lightweight (app.render_adapter.RENDER_MODES)
+        self.mode = "fast"  # fast | reference | lightweight (render.view.RENDER_MODES)
         self.face: Any = None  # a captured face for the lightweight mode (capture.pipeline.Face)
         self.debug_layer_index = 0  # the document layer the thickness view shows
         self.brush_radius_units = 0.2
         self.paint_enabled = True
         self.environment = "none"
-        #: the document's layers as ``render.LayerInput`` (set by the window; see render_adapter.layer_inputs)
-        self.layers_source: Callable[[], list[Any]] = list
-        self.ctx: Any = None
-        self.renderer: Any = None
+        #: the document shown (see :meth:`set_document`) and the library its materials come from
+        self.document: Document | None = None
+        self.library: Library | None = None
+        self.binding: DocumentBinding | None = None  # the document → GPU path, while the renderer is up
+        self.ctx: moderngl.Context | None = None
+        self.renderer: ViewRenderer | None = None
         self.renderer_error: str | None = None  # the renderer failed in a frame (reported; the view stays empty)
-        self._full_sync = True
-        self._dirty: dict[int, set[tuple[int, int]]] = {}
         self._ring: np.ndarray | None = None
         self._drag: str | None = None
         self._last = QPointF()
@@ -142,6 +155,7 @@ class Viewport(QOpenGLWidget):
 
     # ------------------------------------------------------------------ GL life cycle
     def initializeGL(self) -> None:
+        """Create the moderngl context on the widget's; the renderer follows once its modules are loaded."""
         import moderngl
 
         try:
@@ -155,20 +169,20 @@ class Viewport(QOpenGLWidget):
 
     def _attach_renderer(self) -> None:
         """Create the renderer (GUI thread, our context current)."""
-        from app.render_adapter import ViewportRenderer
+        from render.view import ViewRenderer
 
         if self.ctx is None or self.renderer is not None:
             return
         self.makeCurrent()
         try:
-            self.renderer = ViewportRenderer(self.ctx, self.head, self.layout_uv)
+            self.renderer = ViewRenderer(self.ctx, self.head, self.layout_uv)
         except Exception as exc:
             self.renderer = None
             self.gl_failed.emit(f"The renderer could not start: {exc}")
             return
         finally:
             self.doneCurrent()
-        self._full_sync = True
+        self._bind()
         self.full_quality_ready = True
         self.renderer_ready.emit()
         self.update()
@@ -181,6 +195,9 @@ class Viewport(QOpenGLWidget):
         try:
             if self.ctx is not None:
                 self.gl_error_at_release = str(self.ctx.error)
+            if self.binding is not None:
+                self.binding.close()
+                self.binding = None
             if self.renderer is not None:
                 self.renderer.release()
         finally:
@@ -195,18 +212,50 @@ class Viewport(QOpenGLWidget):
         r = self.devicePixelRatioF()
         return max(int(self.width() * r), 1), max(int(self.height() * r), 1)
 
-    def _apply_layer_changes(self) -> None:
-        if self._full_sync:
-            self._full_sync, self._dirty = False, {}
-            self.renderer.set_layers(self.layers_source())
-        elif self._dirty:
-            dirty, self._dirty = self._dirty, {}
-            inputs = self.layers_source()
-            for index, tiles in dirty.items():
-                if index < len(inputs):
-                    self.renderer.update_tiles(index, inputs[index].thickness, sorted(tiles))
+    # ------------------------------------------------------------------ the document
+    def set_document(self, doc: Document, library: Library | None = None) -> None:
+        """Show ``doc``'s layers (materials looked up in ``library`` first, see render.binding.layer_inputs).
+
+        Its changes reach the renderer through one :class:`render.binding.DocumentBinding`, flushed at the
+        start of every ``paintGL``.
+        """
+        self.document, self.library = doc, library
+        self._bind()
+
+    def _bind(self) -> None:
+        """(Re)create the binding of the document to the renderer, when both are there."""
+        from render.binding import DocumentBinding
+
+        if self.binding is not None:
+            self.binding.close()
+            self.binding = None
+        if self.document is not None and self.renderer is not None:
+            self.binding = DocumentBinding(self.document, self.renderer.r, self.library, on_change=self.update)
+        self.update()
+
+    def apply_layer_changes(self) -> bool:
+        """Push the document's queued changes to the renderer (call with our context current).
+
+        Returns:
+            True if anything was pushed.
+        """
+        return self.binding is not None and self.binding.flush()
+
+    def reload_layers(self) -> None:
+        """Read every layer again in the next frame: a library material changed (the document says nothing)."""
+        if self.binding is not None:
+            self.binding.invalidate()
+        self.update()
+
+    @property
+    def pending_changes(self) -> bool:
+        """Document changes are waiting for the next frame (or for the renderer to start)."""
+        if self.document is None:
+            return False
+        return self.binding is None or self.binding.pending
 
     def paintGL(self) -> None:
+        """Draw the view: the document's queued changes first, then a new frame or the kept one."""
         if self.ctx is None:
             return
         fbo = self.ctx.detect_framebuffer(self.defaultFramebufferObject())
@@ -214,19 +263,22 @@ class Viewport(QOpenGLWidget):
         if self.renderer is None or self.renderer_error is not None:
             fbo.clear(0.11, 0.11, 0.12, 1.0)
             return
+        from render.ring import BrushRing
+
         t0 = time.perf_counter()
-        self._apply_layer_changes()
+        self.apply_layer_changes()
         self.renderer.environment = self.environment
         self.renderer.layer_index = self.debug_layer_index
         ring = None
         if self._ring is not None and self.paint_enabled:
-            ring = (*self._ring.tolist(), self.brush_radius_units)
+            ring = BrushRing((float(self._ring[0]), float(self._ring[1]), float(self._ring[2])),
+                             float(self.brush_radius_units))
         if self.renderer.face is not self.face:
             self.renderer.set_face(self.face)
         mode = self.mode if (self.mode != "lightweight" or self.face is not None) else "fast"
         try:
-            drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting, split=self.split,
-                                        debug=self.debug, mode=mode, brush=ring)
+            drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting.key_light(),
+                                        split=self.split, debug=self.debug, mode=mode, ring=ring)
         except Exception as exc:  # never a traceback: say so once; another mode falls back to fast
             import logging
 
@@ -267,22 +319,6 @@ class Viewport(QOpenGLWidget):
             self.notice.setVisible(hidden)
 
     # ------------------------------------------------------------------ inputs from the window
-    def layers_changed(self, index: int | None = None, tiles: list[tuple[int, int]] | None = None) -> None:
-        """Queue a texture-space update, applied in the next ``paintGL`` (our context current): layer
-        ``index``'s 64² tiles ``tiles`` = [(row, column), …] (merged with those already queued), or every
-        layer when ``index`` or ``tiles`` is None.
-        """
-        if index is None or tiles is None:
-            self._full_sync = True
-        elif not self._full_sync:
-            self._dirty.setdefault(int(index), set()).update((int(r), int(c)) for r, c in tiles)
-        self.update()
-
-    @property
-    def pending_changes(self) -> bool:
-        """Layer changes are queued for the next frame."""
-        return self._full_sync or bool(self._dirty)
-
     def refresh(self) -> None:
         """Draw a new frame even if the view did not change (e.g. a material was edited)."""
         if self.renderer is not None:
@@ -319,6 +355,7 @@ class Viewport(QOpenGLWidget):
 
     # ------------------------------------------------------------------ events
     def tabletEvent(self, event: QTabletEvent) -> None:
+        """Keep the pen's pressure (0..1) for the mouse events Qt synthesises from it."""
         self._pressure = float(event.pressure()) if event.pressure() > 0 else 1.0
         self._tablet = event.type() != QTabletEvent.Type.TabletRelease
         event.ignore()  # Qt then synthesises the mouse events, which carry our pressure
@@ -327,6 +364,7 @@ class Viewport(QOpenGLWidget):
         return self._pressure if self._tablet else 1.0
 
     def mousePressEvent(self, event: QMouseEvent) -> None:
+        """Start a drag: paint on the head, orbit, pan or move the light (see the module docstring)."""
         pos = event.position()
         self._last = pos
         mods = event.modifiers()
@@ -351,6 +389,7 @@ class Viewport(QOpenGLWidget):
         event.accept()
 
     def mouseMoveEvent(self, event: QMouseEvent) -> None:
+        """Continue the drag, or move the brush ring while hovering."""
         pos = event.position()
         dx, dy = pos.x() - self._last.x(), pos.y() - self._last.y()
         self._last = pos
@@ -381,16 +420,19 @@ class Viewport(QOpenGLWidget):
         self.update()
 
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:
+        """End the drag (a stroke ends here)."""
         if self._drag == "paint":
             self.stroke_end.emit()
         self._drag = None
         self.update()
 
-    def leaveEvent(self, event: Any) -> None:
+    def leaveEvent(self, event: QEvent) -> None:
+        """Hide the brush ring when the pointer leaves."""
         self._ring = None
         self.update()
 
     def wheelEvent(self, event: QWheelEvent) -> None:
+        """Zoom: each notch scales the camera distance by 0.9 (in) or 1/0.9 (out)."""
         steps = event.angleDelta().y() / 120.0
         self.camera.zoom(math.pow(0.9, steps))
         self.update()

@@ -10,7 +10,7 @@ foundation over the face, blush, eyeshadow, lipstick) and for one 64² dirty til
 (one tile of those dense maps: all four layers in it), per-tap fast timings,
 ``size``, ``frames`` and the GL renderer string. Lights stay fixed, so shadow maps are cached after the
 first frame (as when orbiting in the studio), and so is the texture-space irradiance (see
-:class:`render.renderer.TextureIrradiance`); ``fast_relight_ms`` is a fast frame that recomputes both
+:class:`render.irradiance.TextureIrradiance`); ``fast_relight_ms`` is a fast frame that recomputes both
 (a light being dragged). Every mode uses the same single key light as the baseline (no environment).
 
 Where a fast frame's time goes: ``fast_lit_pass_ms`` (the lit G-buffer pass), ``fast_sss_ms`` (the SSS
@@ -18,6 +18,9 @@ passes and their masks) and ``fast_composite_ms`` (the composite and display pas
 ``ctx.finish()`` on both sides in separate frames. ``fast_floor_ms`` is the same frame with the lit pass
 and the composite reduced to constant writes (the pass structure, rasterisation, targets and SSS left):
 what no shading work can go below on this machine; ``fast_floor_over_baseline`` its ratio.
+
+Every time reported as a median (``…_ms``) has its 90th percentile (``…_p90_ms``) and maximum
+(``…_max_ms``) beside it, over the same frames: a median alone hides hitches.
 """
 
 from __future__ import annotations
@@ -30,11 +33,35 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from painting.tiles import TILE
+
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
+    from pathlib import Path
+
+    import moderngl
+
+    from render.renderer import Renderer
+    from render.shaders import ShaderLibrary
 
 
-def _median_ms(ctx: Any, fn: Callable[[], None], frames: int, warmup: int = 2) -> float:
+def spread(key: str, times_ms: Sequence[float]) -> dict[str, float]:
+    """The median of ``times_ms`` under ``key``, with the 90th percentile and the maximum beside it.
+
+    Args:
+        key: the median's name, ending in ``_ms``; the others are ``…_p90_ms`` and ``…_max_ms``.
+        times_ms: at least one time, milliseconds.
+
+    Returns:
+        The three figures (ms) by name.
+    """
+    stem = key.removesuffix("_ms")
+    return {key: float(np.median(times_ms)), f"{stem}_p90_ms": float(np.percentile(times_ms, 90)),
+            f"{stem}_max_ms": float(np.max(times_ms))}
+
+
+def _times_ms(ctx: moderngl.Context, fn: Callable[[], object], frames: int, warmup: int = 2) -> list[float]:
+    """Milliseconds of ``frames`` calls of ``fn``, each finished on the GPU, after ``warmup`` calls."""
     for _ in range(warmup):
         fn()
     ctx.finish()
@@ -44,12 +71,14 @@ def _median_ms(ctx: Any, fn: Callable[[], None], frames: int, warmup: int = 2) -
         fn()
         ctx.finish()
         times.append((time.perf_counter() - t) * 1000.0)
-    return float(np.median(times))
+    return times
 
 
-def pass_times(ctx: Any, r: Any, fbo: Any, frames: int) -> dict[str, float]:
-    """Median times (ms) of the lit pass, the SSS passes (with their masks) and the composite of ``r``'s
-    frames into ``fbo``, each pass bracketed by ``ctx.finish()`` (so their sum exceeds a frame's time).
+def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, frames: int) -> dict[str, float]:
+    """Times (ms: median, p90, max) of the passes of ``r``'s frames into ``fbo``.
+
+    The lit pass, the SSS passes (with their masks) and the composite, each bracketed by ``ctx.finish()``
+    (so their sum exceeds a frame's time).
     """
     got: dict[str, list[float]] = {}
 
@@ -70,10 +99,10 @@ def pass_times(ctx: Any, r: Any, fbo: Any, frames: int) -> dict[str, float]:
         draws[0] += 1
         return "lit" if draws[0] % 2 == 1 else "composite"
 
-    saved = r.gpu_head.draw, r._sss_pass, r._half_mask
-    r.gpu_head.draw = timed(saved[0], draw_label)
-    r._sss_pass = timed(saved[1], "sss")
-    r._half_mask = timed(saved[2], "sss")
+    saved = r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask
+    r.gpu_head.draw = timed(saved[0], draw_label)  # type: ignore[method-assign]
+    r.sss.draw_pass = timed(saved[1], "sss")  # type: ignore[method-assign]
+    r.sss.draw_mask = timed(saved[2], "sss")  # type: ignore[method-assign]
     try:
         r.render(fbo)
         got.clear()
@@ -86,13 +115,17 @@ def pass_times(ctx: Any, r: Any, fbo: Any, frames: int) -> dict[str, float]:
             for key in per_frame:
                 per_frame[key].append(sum(got.get(key, [0.0])))
     finally:
-        r.gpu_head.draw, r._sss_pass, r._half_mask = saved
-    return {f"fast_{k}{'_pass' if k == 'lit' else ''}_ms": float(np.median(v)) for k, v in per_frame.items()}
+        r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask = saved  # type: ignore[method-assign]
+    out: dict[str, float] = {}
+    for k, v in per_frame.items():
+        out.update(spread(f"fast_{k}{'_pass' if k == 'lit' else ''}_ms", v))
+    return out
 
 
-def floor_shaders(folder: Any) -> Any:
-    """A shader library whose lit pass and composite write constants (same outputs, same passes):
-    written into ``folder``, searched before the shipped shaders.
+def floor_shaders(folder: str | Path) -> ShaderLibrary:
+    """A shader library whose lit pass and composite write constants (same outputs, same passes).
+
+    The two shaders are written into ``folder``, which is searched before the shipped shaders.
     """
     from pathlib import Path
 
@@ -109,17 +142,13 @@ def floor_shaders(folder: Any) -> Any:
     return ShaderLibrary([folder, default_shader_dir()])
 
 
-def _srgb_to_linear(img: np.ndarray) -> np.ndarray:
-    c = img.astype(np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
 def mean_de2000(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
     """Mean ΔE2000 between two uint8 sRGB images over ``mask`` (km's colour maths)."""
     from km.colour import delta_e2000, linear_rgb_to_lab
+    from km.srgb import srgb_decode
 
-    la = linear_rgb_to_lab(_srgb_to_linear(a[mask]))
-    lb = linear_rgb_to_lab(_srgb_to_linear(b[mask]))
+    la = linear_rgb_to_lab(srgb_decode(a[mask].astype(np.float64) / 255.0))
+    lb = linear_rgb_to_lab(srgb_decode(b[mask].astype(np.float64) / 255.0))
     return float(np.mean(delta_e2000(la, lb)))
 
 
@@ -134,6 +163,7 @@ def _size(text: str) -> tuple[int, int]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``sheer bench render`` with the options ``argv`` and print its JSON object; returns 0."""
     p = argparse.ArgumentParser(prog="sheer bench render", description=__doc__)
     p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH")
     p.add_argument("--frames", type=int, default=15, help="timed frames per mode (median)")
@@ -169,16 +199,17 @@ def main(argv: list[str] | None = None) -> int:
         layers = [LayerInput(lay.material_object, np.array(lay.thickness), lay.opacity, lay.visible, lay.name)
                   for lay in doc.layers]
         out["km_layers"] = len(layers)
-        out["km_full_2048_ms"] = _median_ms(ctx, lambda: r.set_layers(layers), max(5, args.frames // 2), 1)
+        out.update(spread("km_full_2048_ms", _times_ms(ctx, lambda: r.set_layers(layers), max(5, args.frames // 2), 1)))
         ys, xs = np.nonzero(layers[0].thickness > 0)
-        tile = (int(xs[len(xs) // 2]) // 64, int(ys[len(ys) // 2]) // 64)
-        out["km_tile_64_ms"] = _median_ms(ctx, lambda: r.update_tiles(0, None, [tile]), args.frames, 2)
+        tile = (int(ys[len(ys) // 2]) // TILE, int(xs[len(xs) // 2]) // TILE)  # (row, col)
+        out.update(spread("km_tile_64_ms", _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2)))
         rng = np.random.default_rng(0)
         dense = [LayerInput(lay.material, (1.0 + rng.random(lay.thickness.shape, np.float32) * 20.0))
                  for lay in layers]
-        out["km_full_2048_dense_ms"] = _median_ms(ctx, lambda: r.set_layers(dense), 2, 1)
+        out.update(spread("km_full_2048_dense_ms", _times_ms(ctx, lambda: r.set_layers(dense), 2, 1)))
         # worst-case tile: all four layers non-zero in it
-        out["km_tile_64_dense_ms"] = _median_ms(ctx, lambda: r.update_tiles(0, None, [tile]), args.frames, 2)
+        out.update(spread("km_tile_64_dense_ms",
+                          _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2)))
         r.set_layers(layers)
 
         # frames: modes interleaved round-robin, so a CPU shared with other work weighs on all alike
@@ -211,8 +242,8 @@ def main(argv: list[str] | None = None) -> int:
                 ctx.finish()
                 times[key].append((time.perf_counter() - t0) * 1000.0)
         for key, ts in times.items():
-            out[key] = float(np.median(ts))
-        out["fast_relight_ms"] = _median_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1)
+            out.update(spread(key, ts))
+        out.update(spread("fast_relight_ms", _times_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1)))
         r.settings.mode, r.settings.taps = "fast", 17
         out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2)))
         import tempfile
@@ -222,13 +253,14 @@ def main(argv: list[str] | None = None) -> int:
             try:
                 floor.lights = list(r.lights)
                 floor.set_layers(layers)
-                fl, base = [], []
+                fl: list[float] = []
+                base: list[float] = []
                 for _ in range(2):
                     floor.render(fbo)
                 for _ in range(args.frames):  # interleaved with the baseline, like the modes above
-                    fl.append(_median_ms(ctx, lambda: floor.render(fbo), 1, 0))
-                    base.append(_median_ms(ctx, lambda: r.render_baseline(fbo), 1, 0))
-                out["fast_floor_ms"] = float(np.median(fl))
+                    fl += _times_ms(ctx, lambda: floor.render(fbo), 1, 0)
+                    base += _times_ms(ctx, lambda: r.render_baseline(fbo), 1, 0)
+                out.update(spread("fast_floor_ms", fl))
                 out["fast_floor_over_baseline"] = float(np.median(fl)) / float(np.median(base))
             finally:
                 floor.release()

@@ -121,7 +121,7 @@ def main(argv: list[str]) -> int:
             win._stroke_move(p if p is not None else np.asarray(hit), 1.0)
             # the dab's share: painting + the texture-space KM of its tiles (what the resolution changes)
             vp.makeCurrent()
-            vp._apply_layer_changes()
+            vp.apply_layer_changes()
             vp.ctx.finish()
             vp.doneCurrent()
             upd.append(time.perf_counter() - t0)

@@ -8,13 +8,20 @@ own reflection R_top·E, per-layer Kelemen/Szirmay-Kalos specular, tone mapping 
 Units: mesh units as loaded (see :mod:`painting.head`), the head's ``mm_per_unit`` for SSS widths,
 thickness maps in µm, S and K per mm, wavelengths in nm, angles in degrees at the API.
 
-Studio API (the renderer takes a ``moderngl.Context`` and renders into a framebuffer it is given)::
+What render may import: ``core``, ``km``, ``painting`` and ``project`` (the layers below it), numpy,
+scipy and moderngl; never Qt (PySide6) nor ``app``, ``capture`` or ``bench`` (import-linter checks this;
+see ``pyproject.toml``). It takes a ``moderngl.Context`` and renders into framebuffers it is given.
 
-    from render import Renderer, Light
+Studio API::
 
-    r = Renderer.for_document(ctx, doc)       # doc: painting.Document (head, UV layout, layers)
-    unsubscribe = r.attach(doc)               # follow doc's ChangeEvents: "paint" → only the touched
-                                              # 64² tiles are re-evaluated; other kinds → full sync
+    from render import Renderer, Light, DocumentBinding
+
+    r = Renderer(ctx, doc.head, layout=doc.layout)   # doc: painting.Document (head, UV layout, layers)
+    binding = DocumentBinding(doc, r)         # the one document → GPU path: queues doc's ChangeEvents
+                                              # ("paint": the touched 64² tiles, (row, col) per layer id;
+                                              # other kinds: every layer read again)
+    binding.flush()                           # once per frame, before r.render: pushes exactly what changed
+    binding.close()                           # stop following doc
     # or without a document: r = Renderer(ctx, head); r.set_layers([LayerInput(material, thickness_um)])
     r.settings.mode = "fast"                  # "reference" | "off"; .taps 11/17/25; .exposure; .makeup
                                               # (False = before/after); .debug_view (render.DEBUG_VIEWS:
@@ -31,6 +38,11 @@ Studio API (the renderer takes a ``moderngl.Context`` and renders into a framebu
     m = r.inverse_view_projection()           # 4×4 float64 of the last frame (column vectors);
                                               # r.unproject(x, y, z) does the maths
     r.release()                               # frees every GPU object (call with the context current)
+
+An interactive view (the studio's viewport, the kiosk, the studio's image export) wraps the renderer in
+:class:`render.view.ViewRenderer`: the frame kept and redrawn only when something it shows changed, the
+brush ring (:mod:`render.ring`), the before/after split, the thickness view of a document layer and the
+lightweight engine for a captured face.
 
 Costs to know: lights are fixed to the head, so shadow maps and the texture-space irradiance are cached
 and recomputed only when a light, the environment or the normal strength changes (a few hundred ms on
@@ -49,10 +61,14 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
   maps for up to 8 lights), ``Environment`` (equirectangular EXR → 9 SH coefficients of irradiance).
 - :mod:`render.km_pass` — ``KMTextureSpace``: the spectral texture-space KM evaluation (41 wavelengths,
   380–780 nm every 10 nm; outputs as 8-bit sRGB maps for display, or half/full floats).
-- :mod:`render.renderer` — ``TextureIrradiance`` (UV-space irradiance cache, padded across seams),
-  ``fast_kernel`` (pre-integrated separable SSS kernel), ``SKIN_GAUSSIANS`` (d'Eon 2007 profile).
+- :mod:`render.irradiance` — ``TextureIrradiance`` (UV-space irradiance cache, padded across seams).
+- :mod:`render.sss` — ``fast_kernel`` (pre-integrated separable SSS kernel), ``SKIN_GAUSSIANS`` (d'Eon
+  2007 profile), ``reference_taps``; :mod:`render.sss_passes` — the SSS passes of a frame.
+- :mod:`render.settings` — ``RenderSettings``, ``DEBUG_VIEWS``; :mod:`render.targets` — the frame's
+  offscreen targets.
 - :mod:`render.glutil` — ``release_all`` (release GL objects without leaving a deleted framebuffer bound),
-  ``set_uniform`` / ``write_uniform``; :func:`render.lights.upload_lights` sets lighting.glsl's uniforms.
+  ``set_uniform`` / ``write_uniform``, ``read_depth``; :func:`render.lights.upload_lights` sets
+  lighting.glsl's uniforms.
 - shader includes: ``common.glsl`` (sRGB, tone map, constants), ``lighting.glsl`` (lights, PCF
   shadows from the atlas, SH irradiance), ``specular.glsl`` (Beckmann / Schlick / Kelemen),
   ``km.glsl`` (KM layer and stacking); vertex shaders ``mesh.vert`` (world space), ``uvspace.vert``
@@ -75,8 +91,11 @@ _EXPORTS: dict[str, str] = {
     "KMTextureSpace": "render.km_pass",
     "LayerInput": "render.km_pass",
     "Renderer": "render.renderer",
-    "RenderSettings": "render.renderer",
-    "DEBUG_VIEWS": "render.renderer",
+    "RenderSettings": "render.settings",
+    "DEBUG_VIEWS": "render.settings",
+    "DocumentBinding": "render.binding",
+    "ViewRenderer": "render.view",
+    "BrushRing": "render.ring",
 }
 
 __getattr__, __dir__, __all__ = install_lazy(__name__, _EXPORTS)

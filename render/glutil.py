@@ -1,4 +1,4 @@
-"""Small moderngl helpers."""
+"""Small moderngl helpers: uniforms that may have been compiled out, depth read-back, releasing objects."""
 
 from __future__ import annotations
 
@@ -9,17 +9,20 @@ import numpy as np
 if TYPE_CHECKING:
     from collections.abc import Iterable
 
+    import moderngl
 
-def set_uniform(program: Any, name: str, value: Any) -> None:
+
+def set_uniform(program: moderngl.Program, name: str, value: Any) -> None:
     """Set a uniform if the program has it (the compiler drops unused ones)."""
     if name in program:
         program[name].value = value
 
 
-def write_uniform(program: Any, name: str, data: Any) -> None:
-    """Write float32 rows to a uniform array or matrix if the program has it. Rows beyond the uniform's
-    array length are cut (the compiler may shorten an array that is indexed only up to N); arrays of
-    more than two dimensions are flattened to rows.
+def write_uniform(program: moderngl.Program, name: str, data: Any) -> None:
+    """Write float32 rows to a uniform array or matrix if the program has it.
+
+    Rows beyond the uniform's array length are cut (the compiler may shorten an array that is indexed
+    only up to N); arrays of more than two dimensions are flattened to rows.
     """
     if name in program:
         u = program[name]
@@ -28,10 +31,25 @@ def write_uniform(program: Any, name: str, data: Any) -> None:
         u.write(np.ascontiguousarray(arr[:max(u.array_length, 1)]).tobytes())
 
 
-def release_all(ctx: Any, objects: Iterable[Any]) -> None:
-    """Release GL objects (None entries skipped). If the bound framebuffer is among them, re-bind
-    whatever GL binds after the deletion: moderngl re-binds its idea of the current framebuffer after
-    creating any framebuffer, and a deleted one would raise GL_INVALID_OPERATION later.
+def read_depth(fbo: moderngl.Framebuffer, x: int, y: int) -> float | None:
+    """The window depth in [0, 1) at pixel (x, y) of ``fbo``'s depth attachment (origin top-left).
+
+    None for the far plane (depth 1: background) or a pixel outside ``fbo``.
+    """
+    w, h = fbo.size
+    if not (0 <= x < w and 0 <= y < h):
+        return None
+    raw = fbo.read(viewport=(int(x), int(h - 1 - y), 1, 1), attachment=-1, dtype="f4")
+    z = float(np.frombuffer(raw, np.float32)[0])
+    return None if z >= 1.0 else z
+
+
+def release_all(ctx: moderngl.Context, objects: Iterable[Any]) -> None:
+    """Release GL objects (None entries skipped).
+
+    If the bound framebuffer is among them, re-bind whatever GL binds after the deletion: moderngl
+    re-binds its idea of the current framebuffer after creating any framebuffer, and a deleted one would
+    raise GL_INVALID_OPERATION later.
     """
     objs = [o for o in objects if o is not None]
     current = getattr(ctx, "fbo", None)

@@ -23,12 +23,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from km.srgb import srgb_decode
 from painting.tiles import TILE
 from render.errors import RenderError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable
+
+    import moderngl
+
+    from km.library import Material
+    from render.shaders import ShaderLibrary
 
 MAX_LAYERS = 8
 
@@ -38,18 +47,13 @@ SPLIT_TILES = 4
 KM_DTYPES = ("srgb8", "f2", "f4")
 GL_SRGB8_ALPHA8 = 0x8C43
 
-
-def srgb_decode(v: np.ndarray) -> np.ndarray:
-    """The sRGB transfer function's inverse (IEC 61966-2-1), as the GL sampler applies it: [0, 1] → [0, 1]."""
-    v = np.asarray(v, dtype=np.float32)
-    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4).astype(np.float32)
 #: material categories whose coverage smooths the skin (their roughness replaces the skin's)
 SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
 #: luminance weights of linear sRGB
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
-def layer_spec_params(material: Any) -> tuple[float, float, float, float]:
+def layer_spec_params(material: Material) -> tuple[float, float, float, float]:
     """(Beckmann roughness, Fresnel F0 from the IOR, smooths skin 1/0, coverage scale µm) of a material.
 
     Coverage of a layer of thickness X is 1 − exp(−X / scale), scale = 0.3 × the material's usual
@@ -65,9 +69,17 @@ def layer_spec_params(material: Any) -> tuple[float, float, float, float]:
 
 @dataclass
 class LayerInput:
-    """One cosmetic layer for the renderer: a ``km.Material`` and its thickness map (float32 (H, W), µm)."""
+    """One cosmetic layer for the renderer: a ``km.Material`` and its thickness map.
 
-    material: Any
+    Attributes:
+        material: the layer's material (S and K per mm over its wavelengths, roughness, IOR, category).
+        thickness: float (H, W) µm, row 0 = v 0; NaN and negative values count as 0.
+        opacity: [0, 1], scales the thickness.
+        visible: hidden layers keep their place (index) but are not evaluated.
+        name: for messages.
+    """
+
+    material: Material
     thickness: np.ndarray
     opacity: float = 1.0
     visible: bool = True
@@ -100,43 +112,23 @@ def default_wavelengths() -> np.ndarray:
 
 
 def spectral_matrix(wavelengths: np.ndarray) -> np.ndarray:
-    """(n, 3) matrix M with ``rgb = spectrum @ M`` (linear sRGB under km's default illuminant): km's own
-    conversion (``km.colour.spectral_rgb_matrix``), so the GPU matches km exactly, through km's disk cache
-    (:func:`km.cache.spectral_rgb_matrix_cached`: start-up then never imports colour-science).
+    """The (n, 3) matrix M with ``rgb = spectrum @ M`` (linear sRGB under km's default illuminant).
+
+    km's own conversion (``km.colour.spectral_rgb_matrix``) of ``wavelengths`` (nm), so the GPU matches km
+    exactly, through km's disk cache (:func:`km.cache.spectral_rgb_matrix_cached`: start-up then never
+    imports colour-science).
     """
     from km.cache import spectral_rgb_matrix_cached
 
     return np.array(spectral_rgb_matrix_cached(np.asarray(wavelengths, dtype=np.float64)), dtype=np.float64)
 
 
-def material_sk(material: Any, wavelengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def material_sk(material: Material, wavelengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """S and K (per mm) of ``material`` on ``wavelengths`` (linear interpolation, clamped at the ends)."""
     mwl = np.asarray(material.wavelengths, dtype=np.float64)
     s = np.interp(wavelengths, mwl, np.asarray(material.S, dtype=np.float64))
     k = np.interp(wavelengths, mwl, np.asarray(material.K, dtype=np.float64))
     return s, k
-
-
-def layer_rt_np(s: np.ndarray, k: np.ndarray, x_mm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """R0, T of one KM layer (numpy twin of ``km.glsl``; S, K per mm, X mm; broadcasts)."""
-    beta = np.sqrt(k * k + 2.0 * k * s)
-    x = beta * x_mm
-    f = np.exp(-x)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        h = np.where(x < 1e-3, 2.0 - 2.0 * x + (4.0 / 3.0) * x * x, (1.0 - f * f) / np.where(x == 0, 1, x))
-    den = (s + k) * x_mm * h + 1.0 + f * f
-    return s * x_mm * h / den, 2.0 * f / den
-
-
-def stack_np(rs: list[np.ndarray], ts: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(R_top, R_bottom, T) of layers given bottom first (numpy twin of the shader's stacking)."""
-    r = np.zeros_like(rs[0])
-    rb = np.zeros_like(rs[0])
-    t = np.ones_like(rs[0])
-    for r0, t0 in zip(rs, ts):
-        d = 1.0 / (1.0 - r0 * r)
-        r, rb, t = r0 + t0 * t0 * r * d, rb + t * t * r0 * d, t0 * t * d
-    return r, rb, t
 
 
 class KMTextureSpace:
@@ -146,11 +138,12 @@ class KMTextureSpace:
     ``GL_SRGB8_ALPHA8``, which the sampler decodes to linear, so steps are ~0.4 % of the value down to
     1e-3 instead of 1/255 absolute; the alphas and the specular weights as linear 8-bit. llvmpipe samples
     8-bit textures about 1.5× faster than half floats, and the lit pass takes five of these fetches per
-    pixel), ``"f2"`` (half float) or ``"f4"`` (exact comparisons). ``set_layers`` uploads every map and evaluates everything; ``update_tiles`` re-uploads
-    and re-evaluates only the listed tiles. With no visible layer the outputs are 1×1 (R 0, T 1).
+    pixel), ``"f2"`` (half float) or ``"f4"`` (exact comparisons). ``set_layers`` uploads every map and
+    evaluates everything; ``update_tiles`` re-uploads and re-evaluates only the listed (row, col) tiles.
+    With no visible layer the outputs are 1×1 (R 0, T 1).
     """
 
-    def __init__(self, ctx: Any, shaders: Any, dtype: str = "srgb8") -> None:
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderLibrary, dtype: str = "srgb8") -> None:
         if dtype not in KM_DTYPES:
             raise RenderError(f"KM output dtype must be one of {', '.join(KM_DTYPES)}, got {dtype!r}")
         self.ctx = ctx
@@ -159,12 +152,13 @@ class KMTextureSpace:
         self.matrix = spectral_matrix(self.wavelengths)
         nw = len(self.wavelengths)
         self.shaders = shaders
-        self._programs: dict[int, tuple[Any, Any]] = {}
+        self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self.ubo = ctx.buffer(reserve=(MAX_LAYERS * nw + nw) * 16)
         self.size: tuple[int, int] = (0, 0)
         self.layers: list[LayerInput] = []
         self.active: list[int] = []  # indices of visible layers, bottom first
-        self.thickness_textures: list[Any] = []
+        self.thickness_textures: list[moderngl.Texture] = []
+        # the outputs and their framebuffer (made by _alloc below)
         self.r_top: Any = None
         self.transmittance: Any = None
         self.r_bottom: Any = None
@@ -177,10 +171,10 @@ class KMTextureSpace:
         self.present = np.zeros((0, 0, 0), bool)
         self._max_tiles = 16384
         self._cleaned: list[np.ndarray] = []
-        self._scratch: list[Any] = []
-        self._scratch_fbo: Any = None
-        self._copy: Any = None
-        self._copy_vao: Any = None
+        self._scratch: list[moderngl.Texture] = []
+        self._scratch_fbo: moderngl.Framebuffer | None = None
+        self._copy: moderngl.Program | None = None
+        self._copy_vao: moderngl.VertexArray | None = None
         self.vbo = ctx.buffer(reserve=self._max_tiles * 6 * 8)
         self._alloc((1, 1))
         self._clear_outputs()
@@ -203,9 +197,11 @@ class KMTextureSpace:
                 obj.release()
         self.size = size
 
-    def _output_texture(self, size: tuple[int, int], srgb: bool, scratch: bool = False) -> Any:
-        """An output map: 8-bit (sRGB-encoded colour if ``srgb``; a ``scratch`` copy source stays plain
-        RGBA8 so that copying moves the encoded bytes unchanged) or float per ``dtype``.
+    def _output_texture(self, size: tuple[int, int], srgb: bool, scratch: bool = False) -> moderngl.Texture:
+        """An output map of ``size`` texels: 8-bit, or float per ``dtype``.
+
+        8-bit colour is sRGB-encoded if ``srgb``; a ``scratch`` copy source stays plain RGBA8 so that
+        copying moves the encoded bytes unchanged.
         """
         if self.dtype != "srgb8":
             return self.ctx.texture(size, 4, dtype=self.dtype)
@@ -232,7 +228,7 @@ class KMTextureSpace:
         while len(self.thickness_textures) < n:
             self.thickness_textures.append(self._new_thickness(size))
 
-    def _new_thickness(self, size: tuple[int, int]) -> Any:
+    def _new_thickness(self, size: tuple[int, int]) -> moderngl.Texture:
         t = self.ctx.texture(size, 1, dtype="f4")
         t.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
         t.repeat_x = t.repeat_y = False
@@ -300,17 +296,17 @@ class KMTextureSpace:
         self.fbo.use()
         self.fbo.viewport = (0, 0, *size)
         self.fbo.scissor = None
-        ty, tx = self.present.shape[1:]
-        self._draw_tiles([(c, r) for r in range(ty) for c in range(tx)])
+        rows, cols = self.present.shape[1:]
+        self._draw_tiles([(r, c) for r in range(rows) for c in range(cols)])
 
-    def _draw_tiles(self, tiles: list[tuple[int, int]], tile: int = TILE) -> None:
-        """Evaluate tiles (column, row), grouped by the set of layers non-zero in them."""
+    def _draw_tiles(self, tiles: list[tuple[int, int]]) -> None:
+        """Evaluate tiles (row, col), grouped by the set of layers non-zero in them."""
         w, h = self.size
         groups: dict[tuple[int, ...], list[tuple[int, int, int, int]]] = {}
-        for tx, ty in tiles:
-            x0, y0 = tx * tile, ty * tile
-            key = tuple(int(s) for s in np.flatnonzero(self.present[:, ty, tx]))
-            groups.setdefault(key, []).append((x0, y0, min(x0 + tile, w) - x0, min(y0 + tile, h) - y0))
+        for row, col in tiles:
+            x0, y0 = col * TILE, row * TILE
+            key = tuple(int(s) for s in np.flatnonzero(self.present[:, row, col]))
+            groups.setdefault(key, []).append((x0, y0, min(x0 + TILE, w) - x0, min(y0 + TILE, h) - y0))
         for slots, rects in groups.items():
             if slots and len(tiles) <= SPLIT_TILES:
                 for rect in rects:
@@ -320,8 +316,10 @@ class KMTextureSpace:
                 self._draw(list(slots), rects[k:k + self._max_tiles])
 
     def _draw_split(self, slots: list[int], rect: tuple[int, int, int, int]) -> None:
-        """Evaluate one tile in a scratch target where it straddles two of llvmpipe's 64² bins (so both
-        rasteriser threads share it: a tile aligned in the maps is one bin, one thread), then copy it.
+        """Evaluate one tile in a scratch target, then copy it into the maps.
+
+        In the scratch target the tile straddles two of llvmpipe's 64² bins, so both rasteriser threads
+        share it (a tile aligned in the maps is one bin, one thread).
         """
         ctx = self.ctx
         x0, y0, tw, th = rect
@@ -343,11 +341,19 @@ class KMTextureSpace:
         self._write_rects([rect], self.size)
         self._copy_vao.render(mode=ctx.TRIANGLES, vertices=6)
 
-    def update_tiles(self, layer_index: int, thickness: np.ndarray | None,
-                     tiles: list[tuple[int, int]], tile: int = TILE) -> None:
-        """Re-upload tiles ``(tx, ty)`` (column, row of ``tile``² blocks) of layer ``layer_index``'s map
-        from ``thickness`` (the full map, or None = the map given to :meth:`set_layers`) and re-evaluate
-        those tiles.
+    def update_tiles(self, layer_index: int, thickness: np.ndarray | None, tiles: Iterable[tuple[int, int]]) -> None:
+        """Re-upload and re-evaluate some tiles of one layer.
+
+        Args:
+            layer_index: the layer's index in :attr:`layers` (bottom first); a hidden layer only keeps
+                the new map.
+            thickness: the layer's full map (float µm, the shape given to :meth:`set_layers`), or None
+                for the map given to :meth:`set_layers` (e.g. changed in place).
+            tiles: (row, col) of :data:`painting.tiles.TILE`² blocks (row 0 = the map's first row);
+                tiles outside the map and repeats are skipped.
+
+        Raises:
+            RenderError: no such layer, or a map of another shape.
         """
         if not 0 <= layer_index < len(self.layers):
             raise RenderError(f"no layer {layer_index} (the renderer has {len(self.layers)})")
@@ -364,41 +370,27 @@ class KMTextureSpace:
         tex = self.thickness_textures[slot]
         self.fbo.use()
         self.fbo.viewport = (0, 0, w, h)
-        done = []
-        for tx, ty in tiles:
-            x0, y0 = int(tx) * tile, int(ty) * tile
-            if x0 >= w or y0 >= h or x0 < 0 or y0 < 0 or (int(tx), int(ty)) in done:
+        done: list[tuple[int, int]] = []
+        for row, col in tiles:
+            rc = (int(row), int(col))
+            x0, y0 = rc[1] * TILE, rc[0] * TILE
+            if x0 >= w or y0 >= h or x0 < 0 or y0 < 0 or rc in done:
                 continue
-            x1, y1 = min(x0 + tile, w), min(y0 + tile, h)
+            x1, y1 = min(x0 + TILE, w), min(y0 + TILE, h)
             block = np.ascontiguousarray(np.clip(np.nan_to_num(a[y0:y1, x0:x1], nan=0.0), 0, None),
                                          dtype=np.float32)
             tex.write(block.tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
-            done.append((int(tx), int(ty)))
-            if tile == TILE:
-                self.present[slot, ty, tx] = bool((block > 0).any())
-            else:  # other tile sizes: refresh the 64² tiles they touch from the whole map
-                self._refresh_presence(slot, a, x0, y0, x1, y1)
-        if tile == TILE:
-            self._draw_tiles(done)
-        else:
-            self._draw_tiles(sorted({(c, r) for tx, ty in done
-                                     for c in range(tx * tile // TILE, -(-min((tx + 1) * tile, w) // TILE))
-                                     for r in range(ty * tile // TILE, -(-min((ty + 1) * tile, h) // TILE))}))
+            done.append(rc)
+            self.present[slot, rc[0], rc[1]] = bool((block > 0).any())
+        self._draw_tiles(done)
         self.fbo.viewport = (0, 0, w, h)
         self.version += 1
-
-    def _refresh_presence(self, slot: int, a: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> None:
-        h, w = a.shape
-        for r in range(y0 // TILE, -(-y1 // TILE)):
-            for c in range(x0 // TILE, -(-x1 // TILE)):
-                blk = np.nan_to_num(a[r * TILE:min((r + 1) * TILE, h), c * TILE:min((c + 1) * TILE, w)], nan=0.0)
-                self.present[slot, r, c] = bool((blk > 0).any())
 
     def refresh_materials(self) -> None:
         """Re-read the layers' materials (e.g. edited in the library) and re-evaluate everything."""
         self.set_layers(self.layers)
 
-    def _program(self, n: int) -> tuple[Any, Any]:
+    def _program(self, n: int) -> tuple[moderngl.Program, moderngl.VertexArray]:
         """The KM program specialised for ``n`` layers (loops over layers unrolled) and its quad."""
         if n not in self._programs:
             prog = self.shaders.program(self.ctx, "km_tiles.vert", "km.frag",
@@ -408,8 +400,9 @@ class KMTextureSpace:
         return self._programs[n]
 
     def _write_rects(self, rects: list[tuple[int, int, int, int]] | None, size: tuple[int, int]) -> int:
-        """Put two triangles per rectangle (pixels of a ``size`` target; None = one full-screen
-        triangle) in the vertex buffer; returns the vertex count.
+        """Put two triangles per rectangle in the vertex buffer; returns the vertex count.
+
+        ``rects`` are (x, y, width, height) in pixels of a ``size`` target; None = one full-screen triangle.
         """
         if rects is None:
             verts = np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
@@ -426,9 +419,11 @@ class KMTextureSpace:
 
     def _draw(self, slots: list[int], rects: list[tuple[int, int, int, int]] | None = None,
               offset: tuple[int, int] = (0, 0), target: tuple[int, int] | None = None) -> None:
-        """Evaluate the active layers ``slots`` (bottom first; the others must be zero there) over
-        ``rects`` (x, y, width, height in pixels of the bound target, of size ``target``, default the
-        maps; None = all of it); map texel = pixel + ``offset``.
+        """Evaluate the active layers ``slots`` over ``rects`` of the bound target.
+
+        ``slots`` are bottom first; the other layers must be zero there. ``rects``: (x, y, width, height)
+        in pixels of the bound target, of size ``target`` (default the maps); None = all of it. Map texel
+        = pixel + ``offset``.
         """
         n = len(slots)
         program, quad = self._program(n)
@@ -486,6 +481,7 @@ class KMTextureSpace:
         return out[0], out[1], out[2]
 
     def release(self) -> None:
+        """Free every GPU object (call with the context current)."""
         from render.glutil import release_all
 
         progs = [o for pair in self._programs.values() for o in pair[::-1]]

@@ -148,6 +148,20 @@ class LightweightRenderer:
             lt.validate(f"light {i + 1}")
         upload_lights(prog, self.lights, self.shadows, self.pcf_radius, self.environment, self.shadows_on)
 
+    def shadows_in_use(self) -> str:
+        """How a frame with the current lights compares shadows: ``"off"``, ``"pixel"`` or ``"vertex"``.
+
+        ``shadow_mode`` resolved: ``"auto"`` is per pixel for at most 2 shadowed lights, per vertex above.
+
+        Raises:
+            RenderError: an unknown ``shadow_mode``.
+        """
+        n_shadowed = sum(1 for lt in self.lights if lt.shadows) if self.shadows_on else 0
+        mode = self.shadow_mode if self.shadow_mode != "auto" else ("pixel" if n_shadowed <= 2 else "vertex")
+        if mode not in ("pixel", "vertex"):
+            raise RenderError(f"shadow_mode must be 'auto', 'pixel' or 'vertex', got {self.shadow_mode!r}")
+        return "off" if n_shadowed == 0 else mode
+
     def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
         """Draw a frame into ``fbo`` (which needs a depth attachment)."""
         ctx = self.ctx
@@ -164,11 +178,8 @@ class LightweightRenderer:
             ctx.enable(ctx.CULL_FACE)
         if len(self.lights) > MAX_LIGHTS:
             raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
+        shadows = ("off", "pixel", "vertex").index(self.shadows_in_use())  # 0 off, 1 per pixel, 2 per vertex
         n_shadowed = sum(1 for lt in self.lights if lt.shadows) if self.shadows_on else 0
-        mode = self.shadow_mode if self.shadow_mode != "auto" else ("pixel" if n_shadowed <= 2 else "vertex")
-        if mode not in ("pixel", "vertex"):
-            raise RenderError(f"shadow_mode must be 'auto', 'pixel' or 'vertex', got {self.shadow_mode!r}")
-        shadows = 0 if n_shadowed == 0 else (1 if mode == "pixel" else 2)
         prog = self.program_for(len(self.lights), shadows, self.environment is not None, self.makeup is not None)
         vp = self.camera.view_projection(w / h)
         eye = tuple(float(x) for x in self.camera.eye())

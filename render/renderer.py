@@ -8,270 +8,32 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from km.srgb import srgb_encode_scalar
 from render.camera import OrbitCamera
 from render.errors import RenderError
-from render.glutil import set_uniform, write_uniform
+from render.glutil import read_depth, set_uniform, write_uniform
 from render.gpu_head import GpuHead
-from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput
+from render.irradiance import TextureIrradiance
+from render.km_pass import MAX_LAYERS, KMTextureSpace
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights, upload_lights
+from render.settings import DEBUG_VIEWS, RenderSettings
 from render.shaders import ShaderLibrary
+from render.sss_passes import SSSPasses
+from render.targets import frame_targets
 
-#: Debug views (``RenderSettings.debug_view``) → shader code.
-DEBUG_VIEWS: dict[str, int] = {
-    "none": 0, "albedo": 1, "thickness": 2, "r_top": 3, "transmittance": 4, "irradiance": 5, "unlit": 6,
-}
-MODES = ("fast", "reference", "off")
-FAST_TAPS = (11, 17, 25)
+if TYPE_CHECKING:
+    import moderngl
 
-#: d'Eon et al. 2007 (GPU Gems 3 ch. 14): the skin diffusion profile as a sum of Gaussians,
-#: (variance mm², R, G, B weights). Each column sums to 1.
-SKIN_GAUSSIANS: tuple[tuple[float, float, float, float], ...] = (
-    (0.0064, 0.233, 0.455, 0.649),
-    (0.0484, 0.100, 0.336, 0.344),
-    (0.187, 0.118, 0.198, 0.0),
-    (0.567, 0.113, 0.007, 0.007),
-    (1.99, 0.358, 0.004, 0.0),
-    (7.41, 0.078, 0.0, 0.0),
-)
-REFERENCE_TAPS = 13
-
-
-def reference_taps(sigma_texels: float) -> int:
-    """Taps of one reference-mode Gaussian pass (odd, 5..REFERENCE_TAPS): enough to space them at most one
-    source texel apart over ±3σ, with a 25 % margin for the nearer parts of the face. Taps closer than a
-    texel would re-read the same bilinear interpolation: a narrow Gaussian costs fewer taps, not less
-    accuracy (the kernel is normalised by its tap weights either way).
-    """
-    n = int(math.ceil(6.0 * max(sigma_texels, 0.0) * 1.25)) + 1
-    n += 1 - n % 2
-    return max(5, min(REFERENCE_TAPS, n))
+    from painting.head import Head
+    from painting.layout import UVLayout
+    from render.km_pass import LayerInput
 
 # texture units of the lit pass
 _U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 24, 25
-#: NDC depth of an SSS pass's triangle against sss_mask.frag's classes (skin 0.25, head 0.5, background 1
-#: as window depth): _Z_HEAD (window 0.75) passes on the head, _Z_SKIN (0.375) on skin only
-_Z_HEAD, _Z_SKIN = 0.5, -0.25
-
-
-class TextureIrradiance:
-    """Diffuse irradiance (lights with PCF shadows + SH environment, normal-mapped) in the head's texture
-    space, plus each light's shadow visibility for the specular term. Lights are fixed to the head, so
-    this is recomputed only when the lights, the environment or the normal strength change (orbiting the
-    camera or painting reuses it); each frame then fetches E instead of shading lights and shadows per
-    pixel. ``version`` counts recomputations.
-
-    Texels outside the UV charts are padded in one gather pass: each copies its nearest covered texel
-    (Euclidean, from scipy's distance transform of the first computation's coverage; the charts depend
-    only on the mesh, so the index map is made once). Before, four 3×3 dilation passes cost most of a
-    relight (each texel 30 fetches per pass); now the padding is one pass of four fetches per texel and
-    reaches every texel, so no sampling footprint finds background.
-    """
-
-    def __init__(self, ctx: Any, shaders: ShaderLibrary, size: int = 1024) -> None:
-        self.ctx = ctx
-        self.size = size
-        self.shaders = shaders
-        self.programs: dict[tuple[int, ...], Any] = {}
-        self.gather = shaders.program(ctx, "fullscreen.vert", "pad_gather.frag")
-        self.gather_quad = ctx.vertex_array(self.gather, [])
-        self.index: Any = None  # RG32I texture: source texel of every texel (see the class docstring)
-        self.sets = []
-        for _ in range(2):
-            texs = [ctx.texture((size, size), 4, dtype="f2"), ctx.texture((size, size), 4),
-                    ctx.texture((size, size), 4)]
-            for t in texs:
-                t.repeat_x = t.repeat_y = False
-                t.filter = (ctx.LINEAR, ctx.LINEAR)
-            self.sets.append((texs, ctx.framebuffer(texs)))
-        self.current = 0
-        self._key: Any = None
-        self.version = 0
-
-    @property
-    def textures(self) -> list[Any]:
-        return self.sets[self.current][0]
-
-    def _make_index(self, uv_key: str) -> None:
-        """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance; kept
-        on disk per mesh footprint and size (scipy's distance transform plus the read-back take about
-        0.6 s of a start-up).
-        """
-        from core.cache import cache_dir, save_array
-
-        n = self.size
-        path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.npy"
-        idx = None
-        try:
-            idx = np.load(path, allow_pickle=False)
-            if idx.shape != (n, n, 2) or idx.dtype != np.int32 or idx.min() < 0 or idx.max() >= n:
-                idx = None
-        except (OSError, ValueError, EOFError):
-            idx = None
-        if idx is None:
-            from scipy.ndimage import distance_transform_edt
-
-            alpha = np.frombuffer(self.sets[0][0][2].read(), np.uint8).reshape(n, n, 4)[..., 3]  # irradiance.frag
-            covered = alpha > 0
-            if covered.any():
-                iy, ix = distance_transform_edt(~covered, return_distances=False, return_indices=True)
-            else:
-                iy, ix = np.mgrid[0:n, 0:n]
-            idx = np.ascontiguousarray(np.stack([ix, iy], axis=-1).astype(np.int32))
-            save_array(path, idx)
-        self.index = self.ctx.texture((n, n), 2, idx.tobytes(), dtype="i4")
-        self.index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-
-    def program(self, lights: list[Light], env: bool) -> Any:
-        """irradiance.frag specialised on the light count, which lights cast shadows and which are point
-        lights, and whether there is an environment (loops unroll; nothing is computed for what is off).
-        """
-        key = (len(lights), sum(1 << i for i, lt in enumerate(lights) if lt.shadows),
-               sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional"), int(env))
-        if key not in self.programs:
-            self.programs[key] = self.shaders.program(
-                self.ctx, "uvspace.vert", "irradiance.frag",
-                {"NLIGHTS": key[0], "SHADOWED": key[1], "POINT_LIGHTS": key[2], "ENV": key[3]})
-        return self.programs[key]
-
-    def update(self, key: Any, gpu_head: GpuHead, setup: Any, lights: list[Light], env: bool) -> bool:
-        """Recompute if ``key`` changed; ``setup(program)`` sets the lighting uniforms. Returns True if
-        it recomputed.
-        """
-        if key == self._key:
-            return False
-        self._key = key
-        ctx = self.ctx
-        texs, fbo = self.sets[0]
-        fbo.use()
-        fbo.viewport = (0, 0, self.size, self.size)
-        ctx.scissor = None
-        fbo.clear(0.0, 0.0, 0.0, 0.0)
-        ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        prog = self.program(lights, env)
-        setup(prog)
-        gpu_head.normal.use(1)
-        prog["u_normal_map"].value = 1
-        gpu_head.draw(prog)
-        if self.index is None:
-            self._make_index(gpu_head.uv_key)
-        self.index.use(3)
-        for i, t in enumerate(texs):
-            t.use(i)
-        for i in range(3):
-            self.gather[f"u_src{i}"].value = i
-        self.gather["u_index"].value = 3
-        self.sets[1][1].use()
-        self.sets[1][1].viewport = (0, 0, self.size, self.size)
-        self.gather_quad.render(vertices=3)
-        self.current = 1
-        self.version += 1
-        return True
-
-    def invalidate(self) -> None:
-        self._key = None
-
-    def release(self) -> None:
-        from render.glutil import release_all
-
-        release_all(self.ctx, [o for texs, fbo in self.sets for o in (fbo, *texs)]
-                    + [self.gather_quad, self.gather, *self.programs.values(), self.index])
-        self.programs = {}
-
-
-@dataclass
-class RenderSettings:
-    """Everything that changes how a frame looks (one plain object; set fields, then render).
-
-    Attributes:
-        mode: ``"fast"`` (Jimenez 2015 separable SSS), ``"reference"`` (Jimenez 2009 sum of Gaussians)
-            or ``"off"`` (no subsurface scattering).
-        taps: fast-mode kernel taps, 11, 17 or 25.
-        exposure: multiplier before tone mapping. tonemap: ``"aces"``, ``"none"`` (clamp) or ``"raw"``
-            (linear values, for float targets and tests).
-        debug_view: a key of :data:`DEBUG_VIEWS`; debug_layer: layer index for ``"thickness"``.
-        makeup: render the cosmetic layers (False = bare skin, for before/after).
-        sss_width: scale of the skin profile (1 = d'Eon's measured skin). follow_surface: strength of
-            the depth test that stops the blur at silhouettes.
-        skin_roughness (Beckmann m), skin_f0 (Fresnel at normal incidence), spec_intensity (rho_s).
-        normal_strength: tangent-space normal map strength. background: linear RGB.
-        shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
-        irradiance_size: side of the texture-space irradiance cache (texels).
-        cull_back_faces: skip triangles facing away (the head and the baseline alike).
-        reference_full_resolution: run every Gaussian of the reference mode at full resolution (default:
-            Gaussians wider than 3 pixels run on the half-resolution grid, like the fast mode's wide lobes).
-    """
-
-    mode: str = "fast"
-    taps: int = 17
-    exposure: float = 1.0
-    tonemap: str = "aces"
-    debug_view: str = "none"
-    debug_layer: int = 0
-    makeup: bool = True
-    sss_width: float = 1.0
-    follow_surface: float = 1.0
-    skin_roughness: float = 0.35
-    skin_f0: float = 0.028
-    spec_intensity: float = 0.18
-    normal_strength: float = 1.0
-    background: tuple[float, float, float] = (0.045, 0.047, 0.052)
-    shadow_size: int = 1024
-    pcf_radius: float = 2.5
-    irradiance_size: int = 1024
-    reference_full_resolution: bool = False
-    cull_back_faces: bool = True
-
-    def validate(self) -> None:
-        if self.mode not in MODES:
-            raise RenderError(f"render mode must be one of {', '.join(MODES)}, got {self.mode!r}")
-        if self.taps not in FAST_TAPS:
-            raise RenderError(f"fast SSS taps must be one of {FAST_TAPS}, got {self.taps!r}")
-        if self.debug_view not in DEBUG_VIEWS:
-            raise RenderError(f"unknown debug view {self.debug_view!r} (known: {', '.join(DEBUG_VIEWS)})")
-        if self.tonemap not in ("aces", "none", "raw"):
-            raise RenderError(f"tonemap must be 'aces', 'none' or 'raw', got {self.tonemap!r}")
-        for name in ("exposure", "sss_width", "follow_surface", "skin_roughness", "spec_intensity"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise RenderError(f"render setting {name} must be a finite number ≥ 0, got {v!r}")
-
-
-def fast_kernel(taps: int, width: float = 1.0, exponent: float = 2.0, core_mm: float = 0.0) -> np.ndarray:
-    """The pre-integrated separable kernel (Jimenez et al. 2015) of the d'Eon skin profile.
-
-    Returns (taps, 4): RGB weights (each channel sums to 1) and the offset in mm; tap 0 is the centre.
-    Offsets are spaced as ``range·t|t|`` (denser near the centre); each weight integrates the 1D profile
-    over the tap's interval (midpoints to the neighbours). Taps closer than ``core_mm`` to the centre
-    (below a pixel on screen) are merged into it, so the core can be applied at full resolution.
-    """
-    if taps % 2 == 0 or taps < 3:
-        raise RenderError(f"kernel taps must be odd and ≥ 3, got {taps}")
-    sig = np.sqrt(np.array([g[0] for g in SKIN_GAUSSIANS])) * width
-    w = np.array([g[1:] for g in SKIN_GAUSSIANS])  # (6, 3)
-    rng = 3.0 * sig.max()
-    t = np.linspace(-1.0, 1.0, taps)
-    off = rng * np.sign(t) * np.abs(t) ** exponent
-    edges = np.concatenate([[-np.inf], (off[1:] + off[:-1]) / 2.0, [np.inf]])
-    # math.erf on a few dozen values: scipy.special's import alone cost half a second of the studio's start-up
-    erf = np.vectorize(math.erf, otypes=[np.float64])
-
-    def cdf(x: np.ndarray) -> np.ndarray:  # (n,) → (n, 3): the 1D profile's cumulative distribution
-        z = x[:, None] / (np.sqrt(2.0) * sig[None, :])
-        return (0.5 * (1.0 + erf(z))) @ w
-
-    weights = cdf(edges[1:]) - cdf(edges[:-1])
-    weights /= weights.sum(axis=0, keepdims=True)
-    k = np.concatenate([weights, off[:, None]], axis=1)
-    c = taps // 2
-    core = np.abs(off) <= core_mm
-    core[c] = True
-    k[c, :3] = weights[core].sum(axis=0)
-    k[core & (np.arange(taps) != c), :3] = 0.0
-    return np.concatenate([k[c:c + 1], k[:c], k[c + 1:]], axis=0).astype(np.float32)
 
 
 @dataclass
@@ -285,12 +47,25 @@ class FrameInfo:
 
 
 class Renderer:
-    """The cosmetic renderer for one head on one ``moderngl.Context`` (see :mod:`render`)."""
+    """The cosmetic renderer for one head on one ``moderngl.Context`` (see :mod:`render`).
 
-    def __init__(self, ctx: Any, head: Any, shaders: ShaderLibrary | None = None, km_dtype: str = "srgb8",
-                 layout: Any = None) -> None:
-        """``head``: a :class:`painting.head.Head`; ``layout``: the painting document's UV layout when its
-        maps are not in the mesh's own UVs (see :class:`render.gpu_head.GpuHead`).
+    Its cosmetic layers come from :meth:`set_layers`, or from a :class:`render.binding.DocumentBinding`
+    that follows a ``painting.Document`` (the one document → GPU path). ``km`` is the texture-space KM
+    pass (its ``layers`` are the renderer's, index *i* = the document's layer *i*; ``active`` lists the
+    visible ones).
+    """
+
+    def __init__(self, ctx: moderngl.Context, head: Head, shaders: ShaderLibrary | None = None,
+                 km_dtype: str = "srgb8", layout: UVLayout | None = None) -> None:
+        """Upload ``head`` and build the passes.
+
+        Args:
+            ctx: the GL context every GPU object is created on (GL 4.5 core).
+            head: the head (mesh, albedo, normal map, skin mask, landmarks).
+            shaders: where the GLSL files come from (default: ``resources/shaders``).
+            km_dtype: the texture-space KM outputs, ``"srgb8"`` (shipped), ``"f2"`` or ``"f4"``.
+            layout: the painting document's UV layout when its maps are not in the mesh's own UVs (see
+                :class:`render.gpu_head.GpuHead`).
         """
         self.ctx = ctx
         self.shaders = shaders or ShaderLibrary()
@@ -303,74 +78,20 @@ class Renderer:
         self.km = KMTextureSpace(ctx, self.shaders, dtype=km_dtype)
         self.shadows = ShadowMaps(ctx, self.shaders, self.settings.shadow_size)
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
-        self._frame_programs: dict[tuple[int, int], Any] = {}
-        self._fast_programs: dict[int, Any] = {}
-        self._gauss_programs: dict[int, Any] = {}
-        self._sss_mask = self.shaders.program(ctx, "fullscreen_z.vert", "sss_mask.frag")
-        self._composites: dict[tuple[int, int], Any] = {}
-        self._baseline: Any = None
-        self._quads: dict[int, Any] = {}
+        self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
+        self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
+        self._composites: dict[tuple[int, int], moderngl.Program] = {}
+        self._baseline: moderngl.Program | None = None
         self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
-        self._targets: dict[str, Any] = {}
+        self._targets: dict[str, Any] = {}  # textures and framebuffers by name (see _ensure_targets)
         self._size: tuple[int, int] = (0, 0)
         self.last = FrameInfo()
 
     # -- layers -----------------------------------------------------------------------------------
     def set_layers(self, layers: list[LayerInput]) -> None:
-        """Replace the cosmetic layers (bottom first) and evaluate them in texture space."""
+        """Replace the cosmetic layers (bottom first, at most 8) and evaluate them in texture space."""
         self.km.set_layers(layers)
         self._update_layer_tables()
-
-    @classmethod
-    def for_document(cls, ctx: Any, doc: Any, **kwargs: Any) -> Renderer:
-        """A renderer of a ``painting.Document``'s head and layers (kept in sync by :meth:`attach`)."""
-        r = cls(ctx, doc.head, layout=getattr(doc, "layout", None), **kwargs)
-        r.sync_document(doc)
-        return r
-
-    def update_tiles(self, layer_index: int, thickness: np.ndarray | None, tiles: list[tuple[int, int]]) -> None:
-        """A layer's map changed in the 64² tiles ``tiles`` = [(column, row), …]: re-evaluate those.
-        (``painting.ChangeEvent.tiles`` are (row, column): :meth:`on_document_event` converts.)
-        """
-        self.km.update_tiles(layer_index, thickness, tiles)
-
-    def on_document_event(self, doc: Any, event: Any) -> None:
-        """Apply a ``painting.ChangeEvent``: "paint" → re-evaluate the touched tiles of that layer; any
-        other change (layers, material) → :meth:`sync_document`. Then call :meth:`render`.
-        """
-        if getattr(event, "kind", "") == "paint" and event.layer is not None:
-            for i, lay in enumerate(doc.layers):
-                if lay.id == event.layer:
-                    if i < len(self.km.layers) and self.km.layers[i].thickness.shape == lay.thickness.shape:
-                        self.update_tiles(i, lay.thickness, [(c, r) for r, c in event.tiles])
-                        return
-                    break
-        self.sync_document(doc)
-
-    def attach(self, doc: Any) -> Any:
-        """Follow ``doc``'s change events (see :meth:`on_document_event`); returns the unsubscribe function.
-        Events are applied synchronously: call it with this renderer's GL context current.
-        """
-        self.sync_document(doc)
-        return doc.subscribe(lambda event: self.on_document_event(doc, event))
-
-    def sync_document(self, doc: Any) -> None:
-        """Read every layer of a ``painting.Document`` (``doc.layers``: ``.material_object`` or
-        ``.material`` — a km Material or a library name —, ``.thickness``, ``.visible``, ``.opacity``).
-        """
-        layers = []
-        lib = None
-        for i, lay in enumerate(getattr(doc, "layers", [])):
-            mat = getattr(lay, "material_object", None) or lay.material
-            if isinstance(mat, str):
-                if lib is None:
-                    import km
-
-                    lib = getattr(doc, "library", None) or km.default_library()
-                mat = lib.get(mat)
-            layers.append(LayerInput(mat, lay.thickness, float(getattr(lay, "opacity", 1.0)),
-                                     bool(getattr(lay, "visible", True)), str(getattr(lay, "name", f"layer {i}"))))
-        self.set_layers(layers)
 
     def _update_layer_tables(self) -> None:
         self._lut_max[:] = 1.0
@@ -385,51 +106,19 @@ class Renderer:
 
     # -- targets ----------------------------------------------------------------------------------
     def _ensure_targets(self, size: tuple[int, int]) -> None:
+        """The frame's targets at ``size`` (made again only when the size changes)."""
         if size == self._size:
             return
-        w, h = size
-        if w < 1 or h < 1 or w > 16384 or h > 16384:
-            raise RenderError(f"viewport size {w}×{h} is out of range (1..16384)")
         old = list(self._targets.values())
-        t: dict[str, Any] = {}
-        for name in ("diffuse", "outer", "factor", "tmp", "accum"):  # RGBA16F, linear HDR
-            tex = self.ctx.texture(size, 4, dtype="f2")
-            tex.repeat_x = tex.repeat_y = False
-            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
-            t[name] = tex
-        t["depth"] = self.ctx.depth_texture(size)
-        t["gbuffer_clear"] = self.ctx.framebuffer([t["diffuse"]], t["depth"])
-        t["gbuffer"] = self.ctx.framebuffer([t["diffuse"], t["outer"], t["factor"]], t["depth"])
-        t["tmp_fbo"] = self.ctx.framebuffer([t["tmp"]])
-        t["accum_fbo"] = self.ctx.framebuffer([t["accum"]])
-        half = ((w + 1) // 2, (h + 1) // 2)
-        # SSS pass targets with a depth mask (never written): the G-buffer's depth at full resolution,
-        # sss_mask.frag's classes at half resolution; a depth test skips the pixels a pass leaves alone
-        # two half-resolution masks: the horizontal passes' centres (the diffuse, nearest) and the vertical
-        # passes' (the horizontal result, bilinear: its alpha is what the vertical pass tests)
-        for name in ("half_depth", "half_depth_v"):
-            t[name] = self.ctx.depth_texture(half)
-            t[name.replace("depth", "mask") + "_fbo"] = self.ctx.framebuffer(depth_attachment=t[name])
-        for name in ("tmp", "accum"):
-            t[name + "_zfbo"] = self.ctx.framebuffer([t[name]], t["depth"])
-        for name in ("half_a", "half_b"):
-            tex = self.ctx.texture(half, 4, dtype="f2")
-            tex.repeat_x = tex.repeat_y = False
-            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
-            t[name] = tex
-            t[name + "_fbo"] = self.ctx.framebuffer([tex])
-            t[name + "_zfbo"] = self.ctx.framebuffer([tex], t["half_depth" if name == "half_a" else "half_depth_v"])
-        for name in ("tmp_zfbo", "accum_zfbo", "half_a_zfbo", "half_b_zfbo"):
-            t[name].depth_mask = False
-        t["gbuffer"].use()
-        for obj in old:  # not bound: the new G-buffer is
+        self._targets = frame_targets(self.ctx, size)  # binds the new G-buffer: the old ones are free to go
+        for obj in old:
             obj.release()
-        self._targets = t
         self._size = size
 
     # -- programs ---------------------------------------------------------------------------------
-    def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True) -> Any:
+    def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True) -> moderngl.Program:
         """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time).
+
         Makeup, debug views, the head's optional maps, which lights cast shadows and which are point
         lights are compiled in or out: llvmpipe executes both sides of a branch, so a uniform switch
         would not save their texture fetches or maths.
@@ -447,31 +136,13 @@ class Renderer:
                  "HAS_SKIN_MASK": int(self.head.skin_mask is not None)})
         return self._frame_programs[key]
 
-    def _fast_program(self, taps: int) -> Any:
-        if taps not in self._fast_programs:
-            self._fast_programs[taps] = self.shaders.program(self.ctx, "fullscreen_z.vert", "sss_fast.frag",
-                                                             {"NTAPS": taps})
-        return self._fast_programs[taps]
-
-    def _gauss_program(self, taps: int) -> Any:
-        if taps not in self._gauss_programs:
-            self._gauss_programs[taps] = self.shaders.program(self.ctx, "fullscreen_z.vert", "sss_gauss.frag",
-                                                              {"NTAPS": taps})
-        return self._gauss_programs[taps]
-
-    def _composite_program(self, mode: int, debug: bool) -> Any:
+    def _composite_program(self, mode: int, debug: bool) -> moderngl.Program:
         """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
         key = (mode, int(debug))
         if key not in self._composites:
             self._composites[key] = self.shaders.program(self.ctx, "mesh.vert", "composite.frag",
                                                          {"MODE": mode, "DEBUG": int(debug)})
         return self._composites[key]
-
-    def _quad(self, program: Any) -> Any:
-        q = self._quads.get(program.glo)
-        if q is None:
-            q = self._quads[program.glo] = self.ctx.vertex_array(program, [])
-        return q
 
     _set = staticmethod(set_uniform)
     _write = staticmethod(write_uniform)
@@ -499,9 +170,16 @@ class Renderer:
         for i, lt in enumerate(self.lights):
             lt.validate(f"light {i}")
 
-    def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> FrameInfo:
-        """Render one frame into ``fbo`` (e.g. ``ctx.detect_framebuffer(...)``) over ``viewport``
-        (x, y, width, height in pixels; default the whole framebuffer). Leaves ``fbo`` bound.
+    def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> FrameInfo:
+        """Render one frame into ``fbo`` (e.g. ``ctx.detect_framebuffer(...)``); leaves ``fbo`` bound.
+
+        Args:
+            fbo: the target; only its colour is written (sRGB-encoded unless ``settings.tonemap`` is
+                ``"raw"``).
+            viewport: (x, y, width, height) in pixels of ``fbo``, sides 1..16384; default all of it.
+
+        Returns:
+            What the frame used (size, matrices, the head's screen rectangle), also in :attr:`last`.
         """
         s = self.settings
         s.validate()
@@ -531,7 +209,7 @@ class Renderer:
                    None if env is None else env.coefficients.tobytes(), s.normal_strength, s.pcf_radius,
                    s.shadow_size)
 
-        def setup_irradiance(p: Any) -> None:
+        def setup_irradiance(p: moderngl.Program) -> None:
             self.shadows.texture.use(_U_SHADOW)
             self._set(p, "u_shadow", _U_SHADOW)
             self._set(p, "u_normal_strength", float(s.normal_strength))
@@ -606,93 +284,20 @@ class Renderer:
         debug = DEBUG_VIEWS[s.debug_view]
         mode = 0
         w0: tuple[float, ...] = (1.0, 1.0, 1.0)
+        accum = t["accum"]
+        mm_per_px = (self.camera.distance * 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / h
+                     * self.gpu_head.mm_per_unit)
         if debug == 0 and s.mode == "fast":
             # wide lobes on the half-resolution grid, the kernel's centre (c²·E) at full resolution
             mode = 2
-            # the kernel's core: taps within 1.5 full-resolution pixels at the head's distance
-            mm_per_px = (self.camera.distance * 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / h
-                         * self.gpu_head.mm_per_unit)
-            k = fast_kernel(s.taps, s.sss_width, core_mm=1.5 * mm_per_px)
-            w0 = tuple(float(c * c) for c in k[0, :3])
-            hw, hh = t["half_a"].size
-            hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
-            hp = self._fast_program(s.taps)
-            t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
-            self._half_mask(hrect)
-            for name in ("half_a_fbo", "half_b_fbo"):  # what the skipped pixels output (background: 0)
-                t[name].use()
-                t[name].viewport = (0, 0, hw, hh)
-                ctx.scissor = None
-                t[name].clear(0.0, 0.0, 0.0, 0.0)
-            self._blur_common(hp, px_per_mm, t["diffuse"], (1.0, 0.0))
-            self._write(hp, "u_kernel", k)
-            self._set(hp, "u_final", 0)
-            self._sss_pass(hp, t["half_a_zfbo"], (hw, hh), hrect, _Z_HEAD)
-            self._half_mask(hrect, vertical=True)
-            self._blur_common(hp, px_per_mm * 0.5, t["half_a"], (0.0, 1.0))
-            t["diffuse"].use(1)
-            self._set(hp, "u_centre", 1)
-            self._set(hp, "u_final", 1)
-            self._sss_pass(hp, t["half_b_zfbo"], (hw, hh), hrect, _Z_SKIN)
-            self._end_sss()
-            accum = t["half_b"]
+            accum, w0 = self.sss.fast(t, s, rect, px_per_mm, mm_per_px)
         elif debug == 0 and s.mode == "reference":
             mode = 1
-            w0 = tuple(float(x) for x in SKIN_GAUSSIANS[0][1:])
-            hw, hh = t["half_a"].size
-            hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
-            mm_per_px = (self.camera.distance * 2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0) / h
-                         * self.gpu_head.mm_per_unit)
-            gaussians = [(math.sqrt(var) * s.sss_width, wt) for var, *wt in SKIN_GAUSSIANS[1:]]
-            half = [g for g in gaussians if not s.reference_full_resolution and g[0] / mm_per_px >= 3.0]
-            full = [g for g in gaussians if g not in half]
-            whalf = np.sum([g[1] for g in half], axis=0) if half else np.zeros(3)
-            # the passes skip the pixels whose output nothing reads (depth-tested against a mask); their
-            # targets are cleared to what those pixels would hold (background: 0)
-            for fbo_name, size in (("accum_fbo", (w, h)), ("half_b_fbo", (hw, hh)), ("tmp_fbo", (w, h)),
-                                   ("half_a_fbo", (hw, hh))):
-                t[fbo_name].use()
-                t[fbo_name].viewport = (0, 0, *size)
-                ctx.scissor = None
-                t[fbo_name].clear(0.0, 0.0, 0.0, 0.0)
-            if half:
-                t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
-                self._half_mask(hrect)
-            # full resolution: the G-buffer's depth marks the head (fragment depth 1 passes where < 1)
-            for group, tmp_fbo, acc, size, rect_, scale, z_h, z_v in (
-                    (full, t["tmp_zfbo"], t["accum_zfbo"], (w, h), (rx, ry, rw, rh), 1.0, 1.0, 1.0),
-                    (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, _Z_HEAD, _Z_SKIN)):
-                t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
-                for sigma, wt in group:
-                    # the horizontal pass reads the full-resolution diffuse, the vertical one its result
-                    gp = self._gauss_program(reference_taps(sigma / mm_per_px))
-                    self._blur_common(gp, px_per_mm, t["diffuse"], (1.0, 0.0))
-                    self._set(gp, "u_sigma_mm", sigma)
-                    self._set(gp, "u_weight", (1.0, 1.0, 1.0))
-                    self._set(gp, "u_premultiplied", 0)
-                    ctx.disable(ctx.BLEND)
-                    self._sss_pass(gp, tmp_fbo, size, rect_, z_h)
-                    if scale != 1.0 and (sigma, wt) == group[0]:  # the same alpha after every Gaussian
-                        self._half_mask(hrect, vertical=True)
-                    src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
-                    gp = self._gauss_program(reference_taps(sigma / mm_per_px * scale))
-                    self._blur_common(gp, px_per_mm * scale, src_tex, (0.0, 1.0))
-                    self._set(gp, "u_sigma_mm", sigma)
-                    self._set(gp, "u_weight", tuple(float(x) for x in wt))
-                    self._set(gp, "u_premultiplied", 0 if scale == 1.0 else 1)
-                    self._set(gp, "u_cov", 1.0 / max(len(group), 1))
-                    ctx.enable(ctx.BLEND)
-                    ctx.blend_func = ctx.ONE, ctx.ONE
-                    self._sss_pass(gp, acc, size, rect_, z_v)
-            ctx.disable(ctx.BLEND)
-            self._end_sss()
+            accum, w0, whalf = self.sss.reference(t, s, rect, px_per_mm, mm_per_px)
             t["half_b"].use(4)
             cp = self._composite_program(mode, debug != 0)
             self._set(cp, "u_accum_half", 4)
             self._set(cp, "u_whalf", tuple(float(x) for x in whalf))
-            accum = t["accum"]
-        else:
-            accum = t["accum"]
         cp = self._composite_program(mode, debug != 0)
         t["diffuse"].use(0)
         accum.use(1)
@@ -708,55 +313,7 @@ class Renderer:
         fbo.scissor = None
         return self.last
 
-    def _half_mask(self, hrect: tuple[int, int, int, int], vertical: bool = False) -> None:
-        """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into a half depth:
-        of the diffuse for the horizontal passes, of the horizontal result (``vertical``) for the others.
-        """
-        ctx, t = self.ctx, self._targets
-        hw, hh = t["half_a"].size
-        t["half_a" if vertical else "diffuse"].use(0)
-        self._set(self._sss_mask, "u_src", 0)
-        self._set(self._sss_mask, "u_z", 0.0)
-        fbo = t["half_mask_v_fbo" if vertical else "half_mask_fbo"]
-        fbo.depth_mask = True
-        fbo.use()
-        fbo.viewport = (0, 0, hw, hh)
-        ctx.scissor = hrect
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.depth_func = "1"  # always: the mask writes every pixel of the rectangle
-        ctx.disable(ctx.BLEND)
-        self._quad(self._sss_mask).render(vertices=3)
-
-    def _sss_pass(self, prog: Any, fbo: Any, size: tuple[int, int], rect: tuple[int, int, int, int],
-                  z: float) -> None:
-        """One full-screen SSS pass over ``rect`` of ``fbo``, only where the mask's depth is below the
-        triangle's (``z``: NDC depth, see _Z_HEAD / _Z_SKIN).
-        """
-        ctx = self.ctx
-        self._set(prog, "u_z", float(z))
-        fbo.use()
-        fbo.viewport = (0, 0, *size)
-        ctx.scissor = rect
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.depth_func = ">"
-        self._quad(prog).render(vertices=3)
-
-    def _end_sss(self) -> None:
-        self.ctx.depth_func = "<"
-        self.ctx.disable(self.ctx.DEPTH_TEST)
-
-    def _blur_common(self, prog: Any, px_per_mm: float, src: Any, direction: tuple[float, float]) -> None:
-        src.use(0)
-        self._targets["factor"].use(1)
-        self._set(prog, "u_src", 0)
-        self._set(prog, "u_factor", 1)
-        self._set(prog, "u_dir", direction)
-        self._set(prog, "u_px_per_mm_at_1", float(px_per_mm))
-        self._set(prog, "u_mm_per_unit", float(self.gpu_head.mm_per_unit))
-        self._set(prog, "u_follow", float(self.settings.follow_surface))
-        self._set(prog, "u_width", float(self.settings.sss_width))
-
-    def _display_common(self, prog: Any, tonemap: int, debug: int) -> None:
+    def _display_common(self, prog: moderngl.Program, tonemap: int, debug: int) -> None:
         self._targets["outer"].use(2)
         self._set(prog, "u_outer", 2)
         self._set(prog, "u_background", tuple(float(x) for x in self.settings.background))
@@ -764,17 +321,18 @@ class Renderer:
         self._set(prog, "u_tonemap", tonemap)
         self._set(prog, "u_debug", debug)
 
-    def _to_target(self, fbo: Any, viewport: tuple[int, int, int, int], rect: tuple[int, int, int, int],
-                   prog: Any) -> None:
+    def _to_target(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int],
+                   rect: tuple[int, int, int, int], prog: moderngl.Program) -> None:
         """Clear ``fbo``'s viewport to the background, then run ``prog`` over the head's screen rectangle."""
         ctx = self.ctx
         vx, vy, w, h = viewport
         fbo.use()
         fbo.viewport = viewport
         bg = self.settings.background
-        enc = [float(c * 12.92 if c <= 0.0031308 else 1.055 * c ** (1 / 2.4) - 0.055) for c in bg]
         if self.settings.tonemap == "raw":
             enc = [float(c) for c in bg]
+        else:
+            enc = [srgb_encode_scalar(float(c)) for c in bg]
         ctx.scissor = viewport
         fbo.clear(enc[0], enc[1], enc[2], 1.0, viewport=viewport)
         rx, ry, rw, rh = rect
@@ -789,8 +347,9 @@ class Renderer:
         ctx.scissor = None
 
     def _cull(self, on: bool) -> None:
-        """Back-face culling for closed heads (``settings.cull_back_faces``; the mesh winds counter-clockwise
-        like its normals): about halves the fragments shaded. Open meshes seen from behind need it off.
+        """Back-face culling for closed heads, if ``on`` and ``settings.cull_back_faces``.
+
+        The mesh winds counter-clockwise like its normals: about halves the fragments shaded. Open meshes seen from behind need it off.
         """
         if on and self.settings.cull_back_faces:
             self.ctx.front_face = "ccw"
@@ -799,13 +358,16 @@ class Renderer:
         else:
             self.ctx.disable(self.ctx.CULL_FACE)
 
-    def _upload_lights(self, prog: Any) -> None:
+    def _upload_lights(self, prog: moderngl.Program) -> None:
         upload_lights(prog, self.lights, self.shadows, self.settings.pcf_radius, self.environment)
 
     # -- baseline (benchmark) ---------------------------------------------------------------------
-    def render_baseline(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
-        """The benchmark baseline: same mesh and albedo, one Lambert light, no post-processing
-        (``fbo`` needs a depth attachment).
+    def render_baseline(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
+        """The benchmark baseline: same mesh and albedo, one Lambert light, no post-processing.
+
+        Args:
+            fbo: the target, with a depth attachment.
+            viewport: (x, y, width, height) in pixels; default all of ``fbo``.
         """
         if self._baseline is None:
             self._baseline = self.shaders.program(self.ctx, "mesh.vert", "baseline.frag")
@@ -831,12 +393,9 @@ class Renderer:
     # -- picking ----------------------------------------------------------------------------------
     def depth_at(self, x: int, y: int) -> float | None:
         """Window depth in [0, 1] of the last frame at pixel (x, y), origin top-left; None = background."""
-        w, h = self.last.size
-        if not (0 <= x < w and 0 <= y < h) or "gbuffer" not in self._targets:
+        if "gbuffer" not in self._targets:
             return None
-        raw = self._targets["gbuffer"].read(viewport=(int(x), int(h - 1 - y), 1, 1), attachment=-1, dtype="f4")
-        z = float(np.frombuffer(raw, np.float32)[0])
-        return None if z >= 1.0 else z
+        return read_depth(self._targets["gbuffer"], x, y)
 
     def inverse_view_projection(self) -> np.ndarray:
         """Inverse of the last frame's view-projection matrix (4×4 float64, column vectors)."""
@@ -844,10 +403,10 @@ class Renderer:
 
     def unproject(self, x: float, y: float, depth: float) -> np.ndarray:
         """World point (mesh units) of pixel (x, y) (origin top-left, pixel centres at +0.5) at window depth."""
+        from painting.hit import pixel_to_ndc, unproject
+
         w, h = self.last.size
-        ndc = np.array([2.0 * (x + 0.5) / w - 1.0, 1.0 - 2.0 * (y + 0.5) / h, 2.0 * depth - 1.0, 1.0])
-        p = self.inverse_view_projection() @ ndc
-        return p[:3] / p[3]
+        return unproject(pixel_to_ndc(x, y, w, h), depth, self.inverse_view_projection())
 
     def pick(self, x: int, y: int) -> np.ndarray | None:
         """The surface point (mesh units) under pixel (x, y) of the last frame, or None."""
@@ -856,8 +415,11 @@ class Renderer:
 
     # -- convenience ------------------------------------------------------------------------------
     def render_image(self, size: tuple[int, int], linear: bool = False) -> np.ndarray:
-        """Render to an offscreen target and return the image, top row first: uint8 (H, W, 3), or
-        float32 (H, W, 3) linear values if ``linear`` (sets ``tonemap='raw'`` for this frame).
+        """Render to an offscreen target of ``size`` (width, height in pixels) and return the image.
+
+        Returns:
+            Top row first: uint8 (H, W, 3) sRGB, or float32 (H, W, 3) linear values if ``linear`` (sets
+            ``tonemap='raw'`` for this frame).
         """
         w, h = size
         dtype = "f4" if linear else "f1"
@@ -887,16 +449,14 @@ class Renderer:
 
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
-        objs: list[Any] = [*self._quads.values(), *self._frame_programs.values(), *self._fast_programs.values(),
-                           *self._gauss_programs.values(), self._sss_mask, *self._composites.values(),
-                           *self._targets.values()]
+        objs: list[Any] = [*self._frame_programs.values(), *self._composites.values(), *self._targets.values()]
         if self._baseline is not None:
             objs.append(self._baseline)
         from render.glutil import release_all
 
         release_all(self.ctx, objs)
-        self._quads, self._frame_programs, self._fast_programs, self._targets = {}, {}, {}, {}
-        self._gauss_programs = {}
+        self._frame_programs, self._targets = {}, {}
+        self.sss.release()
         self._composites = {}
         self.km.release()
         self.irradiance.release()

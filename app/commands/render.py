@@ -8,7 +8,18 @@ subject's left; elevation positive from above), repeatable, up to 8; default a t
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    import moderngl
+    import numpy as np
+
+    from km.library import Library
+    from painting import Document
+    from painting.head import Head
+    from render import Renderer
 
 MAX_SIZE = 8192
 
@@ -38,6 +49,7 @@ def _light(text: str) -> tuple[float, float, float]:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add the ``render`` command to ``sheer``'s sub-commands."""
     p = sub.add_parser("render", help="render a made-up face to a PNG (no display needed)", description=__doc__)
     p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head")
     src = p.add_mutually_exclusive_group()
@@ -63,7 +75,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _check_output(path: str) -> Any:
+def _check_output(path: str) -> Path:
     import os
     from pathlib import Path
 
@@ -81,6 +93,11 @@ def _check_output(path: str) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Render the image ``args`` describe and write it (see the module docstring).
+
+    Returns:
+        0 (bad input raises a ``core.errors.SheerError``, which the CLI prints with exit code 2).
+    """
     import math
     import sys
 
@@ -142,21 +159,22 @@ def run(args: argparse.Namespace) -> int:
     import moderngl
     from PIL import Image
 
-    from render import Light, Renderer
+    from render import DocumentBinding, Light, Renderer
 
     try:
         ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     except Exception as exc:
         raise SheerError(f"cannot create an OpenGL 4.5 context (EGL): {exc}") from None
     try:
-        renderer = Renderer(ctx, head, layout=getattr(doc, "layout", None))
+        renderer = Renderer(ctx, head, layout=None if doc is None else doc.layout)
+        binding = None if doc is None else DocumentBinding(doc, renderer)
         try:
-            if doc is not None:
-                renderer.sync_document(doc)
+            if binding is not None:
+                binding.flush()
             s = renderer.settings
             s.exposure, s.debug_view = args.exposure, args.debug_view
             if args.debug_view == "thickness":  # --debug-layer is a document layer; the renderer's is a slot
-                from app.render_adapter import debug_slot
+                from render.view import debug_slot
 
                 n = len(renderer.km.layers)
                 if not 0 <= args.debug_layer < max(n, 1):
@@ -179,6 +197,8 @@ def run(args: argparse.Namespace) -> int:
             else:
                 image = _render_lightweight(ctx, head, face, renderer, doc, args)
         finally:
+            if binding is not None:
+                binding.close()
             renderer.release()
     finally:
         ctx.release()
@@ -193,9 +213,12 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _render_lightweight(ctx: Any, head: Any, face: Any, renderer: Any, doc: Any, args: argparse.Namespace) -> Any:
-    """The lightweight engine (render/lightweight.py) with the same camera, lights, environment and the
-    physical renderer's texture-space KM outputs as the makeup (issue 7).
+def _render_lightweight(ctx: moderngl.Context, head: Head, face: object, renderer: Renderer,
+                        doc: Document | None, args: argparse.Namespace) -> np.ndarray:
+    """The captured ``face`` drawn by the lightweight engine (render/lightweight.py), uint8 (H, W, 3).
+
+    Same camera, lights and environment as ``renderer``, and its texture-space KM outputs as the makeup
+    (issue 7).
     """
     from render.lightweight import LightweightRenderer
 
@@ -211,13 +234,13 @@ def _render_lightweight(ctx: Any, head: Any, face: Any, renderer: Any, doc: Any,
         lw.release()
 
 
-def _library() -> Any:
+def _library() -> Library:
     import km
 
     return km.default_library()
 
 
-def _check_head(head: Any) -> None:
+def _check_head(head: Head) -> None:
     """Refuse heads the renderer cannot show sensibly: missing albedo, non-manifold meshes."""
     from core.errors import SheerError
 

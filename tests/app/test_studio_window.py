@@ -159,7 +159,7 @@ def test_painting_changes_the_rendered_face(window: object, qtbot: object) -> No
 def test_thickness_view_shows_the_selected_layer_with_a_hidden_layer_below(window: object, qtbot: object) -> None:
     """``settings.debug_layer`` indexes the renderer's active layers: hide layer 0 and select layer 2,
     the renderer must show its active slot 1, not slot 2 (which would be clamped to another layer)."""
-    from app.render_adapter import debug_slot
+    from render.view import debug_slot
 
     assert debug_slot([1, 2], 2) == 1 and debug_slot([0, 2], 1) is None and debug_slot([0, 1, 2], 2) == 2
     vp = window.viewport

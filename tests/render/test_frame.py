@@ -9,9 +9,11 @@ import pytest
 
 import km
 from bench.render import mean_de2000
+from painting.tiles import TILE
 from render.km_pass import LayerInput
 from render.lights import Light
-from render.renderer import DEBUG_VIEWS, Renderer
+from render.renderer import Renderer
+from render.settings import DEBUG_VIEWS
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
@@ -52,7 +54,7 @@ def renderer(_gl_session_ctx: Any, doc: Any) -> Iterator[Renderer]:
 @pytest.fixture
 def r(renderer: Renderer, gl_ctx: Any) -> Renderer:
     """The module's renderer reset to defaults, bare."""
-    from render.renderer import RenderSettings
+    from render.settings import RenderSettings
 
     renderer.settings = RenderSettings()
     renderer.lights = [Light.directional(35.0, 25.0, 1.5), Light.directional(-45.0, 5.0, 0.35, shadows=False)]
@@ -235,23 +237,52 @@ def test_renders_into_a_viewport_of_a_given_framebuffer(r: Renderer, gl_ctx: Any
         release_all(gl_ctx, [fbo, colour])
 
 
-def test_follows_document_paint_events_tile_by_tile(r: Renderer, doc: Any) -> None:
+def test_binding_pushes_a_dabs_tiles_in_the_next_flush(r: Renderer, doc: Any) -> None:
+    """The document → GPU binding: a dab queues its tiles (row, col) under the layer's id; the next flush
+    re-evaluates exactly those, and the result equals a full evaluation of the document."""
     from painting import Brush
+    from render.binding import DocumentBinding, layer_inputs
 
-    unsubscribe = r.attach(doc)
+    calls: list[int] = []
+    binding = DocumentBinding(doc, r, on_change=lambda: calls.append(1))
     try:
+        assert binding.pending and binding.flush() and not binding.pending
+        assert not binding.flush()  # nothing queued: nothing pushed
         layer = doc.layers[-1]
+        before = [a.copy() for a in r.km.read()]
         versions = r.km.version
         with doc.stroke(layer, Brush(radius_mm=4.0, hardness=0.5, strength=1.0, mode="add", amount_um=15.0)) as s:
             s.dab(doc.head.landmark("chin"))
-        assert r.km.version > versions  # tiles re-evaluated through the event
-        incremental = r.km.read()
-        r.sync_document(doc)  # a full evaluation gives the same maps
+        assert calls and set(binding.dirty) == {layer.id} and not binding.full
+        tiles = sorted(binding.dirty[layer.id])
+        assert r.km.version == versions  # nothing reaches the GPU before the flush
+        assert binding.flush()
+        assert r.km.version == versions + 1  # one tile update, not a full evaluation
+        incremental = [a.copy() for a in r.km.read()]
+        changed = np.zeros(incremental[0].shape[:2], bool)
+        for a, b in zip(incremental, before):
+            changed |= np.abs(a - b).max(axis=-1) > 0
+        rows, cols = np.nonzero(changed)
+        assert len(rows) and {(int(y) // TILE, int(x) // TILE) for y, x in zip(rows, cols)} <= set(tiles)
+        r.set_layers(layer_inputs(doc))  # a full evaluation gives the same maps
         for a, b in zip(incremental, r.km.read()):
             np.testing.assert_allclose(a, b, atol=2e-3)
         doc.undo()
+        assert binding.pending
+        binding.flush()
+        for a, b in zip(r.km.read(), before):
+            np.testing.assert_allclose(a, b, atol=2e-3)
+        doc.set_layer(layer, visible=False)  # any other change: every layer read again
+        assert binding.full
+        binding.flush()
+        assert doc.index_of(layer) not in r.km.active
+        doc.undo()
+        binding.flush()
     finally:
-        unsubscribe()
+        binding.close()
+    doc.set_layer(layer, opacity=0.5)
+    doc.undo()
+    assert not binding.pending  # closed: no longer following
 
 
 def test_light_order_does_not_change_the_frame(r: Renderer, looks: dict[str, list[LayerInput]]) -> None:

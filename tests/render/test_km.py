@@ -72,7 +72,7 @@ def test_display_encoding_is_within_8_bit_srgb_steps(gl_ctx: object, split: bool
         if split:  # set up with zeros, then paint one tile: the few-tiles path goes through the scratch
             disp.set_layers([LayerInput(m, np.zeros_like(x)) for m, x in zip(mats, maps)])
             for i, x in enumerate(maps):
-                disp.update_tiles(i, x, [(1, 0)])
+                disp.update_tiles(i, x, [(0, 1)])  # row 0, column 1
         else:
             disp.set_layers(layers)
         region = (slice(0, 64), slice(64, 128)) if split else (slice(None), slice(None))
@@ -91,15 +91,18 @@ def test_tiles_update_only_their_texels_and_match_a_full_update(km_pass: KMTextu
     km_pass.set_layers([LayerInput(m, x) for m, x in zip(mats, maps)])
     before = km_pass.read()
     new = maps[1].copy()
-    new[64:128, 64:128] = 25.0  # tile (column 1, row 1)
+    new[64:128, 64:128] = 25.0  # tile (row 1, column 1)
+    new[0:64, 128:192] = 25.0   # tile (row 0, column 2): (column, row) would be off the map
     new[0:10, 0:10] = 25.0      # tile (0, 0), not reported: must stay as it was
-    km_pass.update_tiles(1, new, [(1, 1)])
+    km_pass.update_tiles(1, new, [(1, 1), (0, 2)])
     after = km_pass.read()
-    ref = km_reference(mats, [maps[0], np.where(np.arange(128)[:, None] >= 64, new, 0) * (np.arange(192) >= 64)])
+    reported = np.zeros((128, 192), bool)
+    reported[64:128, 64:128] = reported[0:64, 128:192] = True
+    ref = km_reference(mats, [maps[0], np.where(reported, new, 0.0)])
     for a, b, r in zip(after, before, ref):
-        np.testing.assert_allclose(a[64:128, 64:128], r[64:128, 64:128], atol=1e-4)
-        np.testing.assert_array_equal(a[:64], b[:64])
-        np.testing.assert_array_equal(a[:, :64], b[:, :64])
+        np.testing.assert_allclose(a[reported], r[reported], atol=1e-4)
+        assert (np.abs(a[reported] - b[reported]) > 1e-3).any()  # the reported tiles did change
+        np.testing.assert_array_equal(a[~reported], b[~reported])
 
 
 def test_no_layers_is_the_identity(km_pass: KMTextureSpace) -> None:

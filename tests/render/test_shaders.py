@@ -11,7 +11,7 @@ from render.camera import OrbitCamera
 from render.errors import RenderError
 from render.gpu_head import vertex_tangents
 from render.lights import Environment, Light, equirect_directions
-from render.renderer import SKIN_GAUSSIANS, fast_kernel
+from render.sss import SKIN_GAUSSIANS, fast_kernel
 from render.shaders import ShaderLibrary
 
 if TYPE_CHECKING:
@@ -117,7 +117,7 @@ def test_light_validation() -> None:
 
 
 def test_reference_taps_space_at_most_a_texel() -> None:
-    from render.renderer import REFERENCE_TAPS, reference_taps
+    from render.sss import REFERENCE_TAPS, reference_taps
 
     for sigma in (0.0, 0.3, 0.7, 1.0, 1.4, 1.9, 2.5, 4.0, 40.0):
         n = reference_taps(sigma)

@@ -1,0 +1,217 @@
+"""The screen-space subsurface-scattering passes of a frame, between the lit pass and the composite.
+
+- fast (Jimenez 2015): one horizontal and one vertical pass of :func:`render.sss.fast_kernel` on the
+  half-resolution grid; the kernel's core (taps within 1.5 pixels) is applied at full resolution by the
+  composite (``w0``).
+- reference (Jimenez 2009): one separable blur per Gaussian of :data:`render.sss.SKIN_GAUSSIANS` after the
+  first (which the composite applies as ``w0``), summed with their weights; Gaussians at least 3 pixels
+  wide run on the half-resolution grid unless ``settings.reference_full_resolution``.
+
+Each pass is a full-screen triangle depth-tested against a mask it never writes (the G-buffer's depth at
+full resolution, ``sss_mask.frag``'s pixel classes at half resolution), so the pixels whose output nothing
+reads are skipped. Units: ``px_per_mm`` pixels per mm at distance 1 (mesh units), ``mm_per_px`` mm per
+pixel at the camera's target distance.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from render.glutil import set_uniform, write_uniform
+from render.sss import SKIN_GAUSSIANS, fast_kernel, reference_taps
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from render.settings import RenderSettings
+    from render.shaders import ShaderLibrary
+
+#: NDC depth of an SSS pass's triangle against sss_mask.frag's classes (skin 0.25, head 0.5, background 1
+#: as window depth): Z_HEAD (window 0.75) passes on the head, Z_SKIN (0.375) on skin only
+Z_HEAD, Z_SKIN = 0.5, -0.25
+
+Rect = tuple[int, int, int, int]
+
+
+class SSSPasses:
+    """The SSS programs of one renderer and the passes that use them (targets: :func:`render.targets.frame_targets`)."""
+
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderLibrary, mm_per_unit: float) -> None:
+        """Build the mask program; the blur programs are compiled per tap count on first use.
+
+        Args:
+            ctx: the renderer's GL context.
+            shaders: where the GLSL files come from.
+            mm_per_unit: millimetres per mesh unit of the head (> 0).
+        """
+        self.ctx = ctx
+        self.shaders = shaders
+        self.mm_per_unit = float(mm_per_unit)
+        self._fast: dict[int, moderngl.Program] = {}
+        self._gauss: dict[int, moderngl.Program] = {}
+        self._mask = shaders.program(ctx, "fullscreen_z.vert", "sss_mask.frag")
+        self._quads: dict[int, moderngl.VertexArray] = {}
+
+    def _program(self, cache: dict[int, moderngl.Program], frag: str, taps: int) -> moderngl.Program:
+        if taps not in cache:
+            cache[taps] = self.shaders.program(self.ctx, "fullscreen_z.vert", frag, {"NTAPS": taps})
+        return cache[taps]
+
+    def _quad(self, program: moderngl.Program) -> moderngl.VertexArray:
+        q = self._quads.get(program.glo)
+        if q is None:
+            q = self._quads[program.glo] = self.ctx.vertex_array(program, [])
+        return q
+
+    def _clear(self, t: dict[str, Any], targets: tuple[tuple[str, tuple[int, int]], ...]) -> None:
+        """Clear framebuffers (name, size) to 0: what the pixels a pass skips output (background)."""
+        for name, size in targets:
+            t[name].use()
+            t[name].viewport = (0, 0, *size)
+            self.ctx.scissor = None
+            t[name].clear(0.0, 0.0, 0.0, 0.0)
+
+    def fast(self, t: dict[str, Any], s: RenderSettings, rect: Rect, px_per_mm: float,
+             mm_per_px: float) -> tuple[moderngl.Texture, tuple[float, ...]]:
+        """The fast mode's two half-resolution passes over the head's screen rectangle ``rect``.
+
+        Returns:
+            The blurred (half-resolution) texture and the kernel centre's RGB weight ``w0`` (c², in [0, 1]).
+        """
+        ctx = self.ctx
+        rx, ry, rw, rh = rect
+        # the kernel's core: taps within 1.5 full-resolution pixels at the head's distance
+        k = fast_kernel(s.taps, s.sss_width, core_mm=1.5 * mm_per_px)
+        w0 = tuple(float(c * c) for c in k[0, :3])
+        hw, hh = t["half_a"].size
+        hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
+        hp = self._program(self._fast, "sss_fast.frag", s.taps)
+        t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
+        self.draw_mask(t, hrect)
+        self._clear(t, (("half_a_fbo", (hw, hh)), ("half_b_fbo", (hw, hh))))
+        self._blur_common(t, s, hp, px_per_mm, t["diffuse"], (1.0, 0.0))
+        write_uniform(hp, "u_kernel", k)
+        set_uniform(hp, "u_final", 0)
+        self.draw_pass(hp, t["half_a_zfbo"], (hw, hh), hrect, Z_HEAD)
+        self.draw_mask(t, hrect, vertical=True)
+        self._blur_common(t, s, hp, px_per_mm * 0.5, t["half_a"], (0.0, 1.0))
+        t["diffuse"].use(1)
+        set_uniform(hp, "u_centre", 1)
+        set_uniform(hp, "u_final", 1)
+        self.draw_pass(hp, t["half_b_zfbo"], (hw, hh), hrect, Z_SKIN)
+        self._end()
+        return t["half_b"], w0
+
+    def reference(self, t: dict[str, Any], s: RenderSettings, rect: Rect, px_per_mm: float,
+                  mm_per_px: float) -> tuple[moderngl.Texture, tuple[float, ...], np.ndarray]:
+        """The reference mode's Gaussians over the head's screen rectangle ``rect``.
+
+        Returns:
+            The full-resolution sum, the first Gaussian's RGB weight ``w0`` and the summed RGB weight of the
+            half-resolution Gaussians (their sum is ``t["half_b"]``; zeros when all ran at full resolution).
+        """
+        ctx = self.ctx
+        rx, ry, rw, rh = rect
+        w, h = t["accum"].size
+        hw, hh = t["half_a"].size
+        w0 = tuple(float(x) for x in SKIN_GAUSSIANS[0][1:])
+        hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
+        gaussians = [(math.sqrt(var) * s.sss_width, wt) for var, *wt in SKIN_GAUSSIANS[1:]]
+        half = [g for g in gaussians if not s.reference_full_resolution and g[0] / mm_per_px >= 3.0]
+        full = [g for g in gaussians if g not in half]
+        whalf = np.sum([g[1] for g in half], axis=0) if half else np.zeros(3)
+        self._clear(t, (("accum_fbo", (w, h)), ("half_b_fbo", (hw, hh)), ("tmp_fbo", (w, h)),
+                        ("half_a_fbo", (hw, hh))))
+        if half:
+            t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
+            self.draw_mask(t, hrect)
+        # full resolution: the G-buffer's depth marks the head (fragment depth 1 passes where < 1)
+        for group, tmp_fbo, acc, size, rect_, scale, z_h, z_v in (
+                (full, t["tmp_zfbo"], t["accum_zfbo"], (w, h), (rx, ry, rw, rh), 1.0, 1.0, 1.0),
+                (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, Z_HEAD, Z_SKIN)):
+            t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
+            for sigma, wt in group:
+                # the horizontal pass reads the full-resolution diffuse, the vertical one its result
+                gp = self._program(self._gauss, "sss_gauss.frag", reference_taps(sigma / mm_per_px))
+                self._blur_common(t, s, gp, px_per_mm, t["diffuse"], (1.0, 0.0))
+                set_uniform(gp, "u_sigma_mm", sigma)
+                set_uniform(gp, "u_weight", (1.0, 1.0, 1.0))
+                set_uniform(gp, "u_premultiplied", 0)
+                ctx.disable(ctx.BLEND)
+                self.draw_pass(gp, tmp_fbo, size, rect_, z_h)
+                if scale != 1.0 and (sigma, wt) == group[0]:  # the same alpha after every Gaussian
+                    self.draw_mask(t, hrect, vertical=True)
+                src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
+                gp = self._program(self._gauss, "sss_gauss.frag", reference_taps(sigma / mm_per_px * scale))
+                self._blur_common(t, s, gp, px_per_mm * scale, src_tex, (0.0, 1.0))
+                set_uniform(gp, "u_sigma_mm", sigma)
+                set_uniform(gp, "u_weight", tuple(float(x) for x in wt))
+                set_uniform(gp, "u_premultiplied", 0 if scale == 1.0 else 1)
+                set_uniform(gp, "u_cov", 1.0 / max(len(group), 1))
+                ctx.enable(ctx.BLEND)
+                ctx.blend_func = ctx.ONE, ctx.ONE
+                self.draw_pass(gp, acc, size, rect_, z_v)
+        ctx.disable(ctx.BLEND)
+        self._end()
+        return t["accum"], w0, whalf
+
+    def draw_mask(self, t: dict[str, Any], hrect: Rect, vertical: bool = False) -> None:
+        """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into a half depth.
+
+        Of the diffuse for the horizontal passes, of the horizontal result (``vertical``) for the others.
+        """
+        ctx = self.ctx
+        hw, hh = t["half_a"].size
+        t["half_a" if vertical else "diffuse"].use(0)
+        set_uniform(self._mask, "u_src", 0)
+        set_uniform(self._mask, "u_z", 0.0)
+        fbo = t["half_mask_v_fbo" if vertical else "half_mask_fbo"]
+        fbo.depth_mask = True
+        fbo.use()
+        fbo.viewport = (0, 0, hw, hh)
+        ctx.scissor = hrect
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = "1"  # always: the mask writes every pixel of the rectangle
+        ctx.disable(ctx.BLEND)
+        self._quad(self._mask).render(vertices=3)
+
+    def draw_pass(self, prog: moderngl.Program, fbo: moderngl.Framebuffer, size: tuple[int, int],
+                  rect: Rect, z: float) -> None:
+        """One full-screen SSS pass over ``rect`` of ``fbo`` (``size`` pixels).
+
+        Only where the mask's depth is below the triangle's (``z``: NDC depth, see Z_HEAD / Z_SKIN).
+        """
+        ctx = self.ctx
+        set_uniform(prog, "u_z", float(z))
+        fbo.use()
+        fbo.viewport = (0, 0, *size)
+        ctx.scissor = rect
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.depth_func = ">"
+        self._quad(prog).render(vertices=3)
+
+    def _end(self) -> None:
+        self.ctx.depth_func = "<"
+        self.ctx.disable(self.ctx.DEPTH_TEST)
+
+    def _blur_common(self, t: dict[str, Any], s: RenderSettings, prog: moderngl.Program, px_per_mm: float,
+                     src: moderngl.Texture, direction: tuple[float, float]) -> None:
+        src.use(0)
+        t["factor"].use(1)
+        set_uniform(prog, "u_src", 0)
+        set_uniform(prog, "u_factor", 1)
+        set_uniform(prog, "u_dir", direction)
+        set_uniform(prog, "u_px_per_mm_at_1", float(px_per_mm))
+        set_uniform(prog, "u_mm_per_unit", self.mm_per_unit)
+        set_uniform(prog, "u_follow", float(s.follow_surface))
+        set_uniform(prog, "u_width", float(s.sss_width))
+
+    def release(self) -> None:
+        """Free every GPU object (call with the context current)."""
+        from render.glutil import release_all
+
+        release_all(self.ctx, [*self._quads.values(), *self._fast.values(), *self._gauss.values(), self._mask])
+        self._quads, self._fast, self._gauss = {}, {}, {}
