@@ -1,7 +1,7 @@
 """The studio's project files: New, Open, Save, Save As, Save Self-Contained, autosave and crash recovery.
 
 :class:`ProjectFiles` owns which project the studio window shows — its file, its name, the
-``project.io.Project`` last opened or saved (the base of the next save, so the head reference and
+``project.model.Project`` last opened or saved (the base of the next save, so the head reference and
 metadata are kept) and the look it started from — and the autosaver that writes a recovery file of
 unsaved work every few minutes. Reading and writing are :mod:`app.project_io` (no Qt), run in worker
 threads where they may take seconds; every question (relink a head, resample maps, save changes,
@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from app.settings import StudioSettings
     from app.viewport import Viewport
     from painting import ChangeEvent, Document
-    from project.io import Project
+    from project.model import Project
 
 log = logging.getLogger("sheer.app")
 

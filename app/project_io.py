@@ -1,10 +1,10 @@
-"""The studio's and the kiosk's use of ``project.io`` (the ``.sheer`` format, docs/FORMAT.md) — open, save,
+"""The studio's and the kiosk's use of :mod:`project` (the ``.sheer`` format, docs/FORMAT.md) — open, save,
 autosave snapshots and crash recovery — with no Qt (the dialogs are :mod:`app.project_files`).
 
-- Saving: :func:`snapshot` is ``Project.from_document(doc, base=…)`` (the project last opened or saved, so
+- Saving: :func:`snapshot` is ``project_from_document(doc, base=…)`` (the project last opened or saved, so
   its head reference and metadata are kept) plus the studio's view state (key light, ambient,
   environment, camera, look) as the project's plain JSON ``lights`` / ``camera`` / ``look`` fields.
-- Opening: :func:`read_document` is ``open_project(…)`` + ``project.to_document()`` (maps bit-exact, the
+- Opening: :func:`read_document` is ``open_project(…)`` + ``document_from_project(…)`` (maps bit-exact, the
   head's paint layout checked); :func:`install_layers` then moves the layers into the studio's document
   (which must be on the same head and at the same resolution: nothing is resampled).
 """
@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     from km.library import Library
     from painting import Document
     from painting.atlas import Atlas
-    from project.io import Project
+    from project.model import Project
     from project.recovery import Autosaver, RecoveryInfo
 
 
@@ -115,15 +115,17 @@ def restore_camera(camera: OrbitCamera, record: dict[str, Any] | None) -> None:
 
 
 def snapshot(doc: Document, name: str, base: Project | None = None, view: ViewState | None = None) -> Project:
-    """A ``project.io.Project`` of the document now (maps copied): ``Project.from_document`` with
-    ``base`` (the project last opened or saved) and the view state, when given.
+    """A ``project.model.Project`` of the document now (maps copied).
+
+    :func:`project.document.project_from_document` with ``base`` (the project last opened or saved)
+    and the view state, when given.
     """
-    from project.io import Project
+    from project.document import project_from_document
 
     kwargs: dict[str, Any] = {"name": name, "base": base}
     if view is not None:
         kwargs.update(lights=view.lights, camera=view.camera, look=view.look)
-    return Project.from_document(doc, **kwargs)
+    return project_from_document(doc, **kwargs)
 
 
 def save_document(doc: Document, path: Path, name: str, base: Project | None = None,
@@ -144,14 +146,15 @@ def save_project_file(project: Project, path: Path, self_contained: bool | None 
 
 def read_document(path: Path, head_path: Path | None = None,
                   accept_head_change: bool = False) -> tuple[Project, Document]:
-    """``open_project`` + ``project.to_document()``: (project, painting.Document). Safe in a worker.
+    """``open_project`` + ``document_from_project``: (project, painting.Document). Safe in a worker.
 
     Raises ``HeadMissingError`` / ``HeadChecksumError`` (offer to relink) and other ``ProjectError``s.
     """
+    from project.document import document_from_project
     from project.io import open_project
 
     project = open_project(path, head_path=head_path, accept_head_change=accept_head_change)
-    return project, project.to_document()
+    return project, document_from_project(project)
 
 
 def other_resolution(opened: Document, doc: Document) -> int | None:
@@ -248,10 +251,11 @@ def load_project_into(doc: Document, library: Library, source: Path | Project, r
     another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`). Returns the
     project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then.
     """
+    from project.document import document_from_project
     from project.io import open_project
 
     project = open_project(source) if isinstance(source, str | Path) else source
-    opened = project.to_document()
+    opened = document_from_project(project)
     check_compatible(project, opened, doc, resample=resample)
     maps = resample_layers(doc, opened) if resample and other_resolution(opened, doc) is not None else None
     install_layers(doc, library, project, opened, maps)

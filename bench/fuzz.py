@@ -36,7 +36,8 @@ import numpy as np
 
 from core.errors import SheerError
 from project.errors import ProjectError
-from project.io import HeadRef, Project, ProjectLayer, open_project, project_bytes, read_project
+from project.io import open_project, project_bytes, read_project
+from project.model import HeadRef, Project, ProjectLayer
 
 #: wavelengths (nm) of the fuzzing material: a coarse grid keeps the cases small
 _WL = [400.0, 500.0, 600.0, 700.0]

@@ -13,23 +13,38 @@ Conventions shared by every package (painting, render, capture):
 - **Metadata sidecar** (JSON): ``<mesh file>.sheer-head.json`` beside the mesh, or for the sample
   heads (which are read-only and never copied) ``resources/heads/<folder name>.json``. See
   :class:`HeadMetadata` for the fields.
+
+A head loads from files (:func:`load_head`) or from its files' bytes (:func:`load_head_from_bytes`, for
+a head embedded in a project): one code path, the same checks and caps, only where the bytes come
+from differs.
 """
 
 from __future__ import annotations
 
+import io
 import json
+import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from core.errors import SheerError
 
+if TYPE_CHECKING:
+    from collections.abc import Callable, Mapping
+
 #: Refuse meshes larger than this many triangles (a 3D scan for real-time painting is far smaller).
 MAX_FACES = 2_000_000
 #: Refuse textures larger than this on a side (texels).
 MAX_TEXTURE_SIDE = 16384
+#: Refuse a head file (mesh, sidecar, texture) larger than this (bytes), before reading it.
+MAX_HEAD_FILE_BYTES = 256 * 1024**2
+#: The mesh formats a head may be in: file suffix -> trimesh file type.
+MESH_TYPES = {".glb": "glb", ".gltf": "gltf", ".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off"}
+#: The folder :func:`load_head_from_bytes` gives as the head's (no file exists there).
+EMBEDDED_FOLDER = Path("<embedded>")
 SIDECAR_SUFFIX = ".sheer-head.json"
 HEAD_SCHEMA_VERSION = 1
 SAMPLE_HEAD = "heads/lee-perry-smith/head.glb"
@@ -179,10 +194,12 @@ class Head:
 
     @property
     def name(self) -> str:
+        """Display name (from the metadata)."""
         return self.metadata.name
 
     @property
     def credit(self) -> str:
+        """Credit line to show wherever the head is shown or exported (from the metadata)."""
         return self.metadata.credit
 
     def landmark(self, name: str) -> np.ndarray:
@@ -219,10 +236,12 @@ def find_sidecar(mesh_path: Path) -> Path | None:
 
 
 def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None) -> Path:
-    """Where a texture path of the sidecar points: absolute paths as they are; a relative path is
-    looked up beside the mesh first, then beside the sidecar file (so a read-only sample head can take
-    a mask shipped in ``resources/heads/``). Returns the mesh-relative path when neither exists (the
-    reader then names it in its error).
+    """Where a texture path of the sidecar points.
+
+    Absolute paths are kept as they are; a relative path is looked up beside the mesh first, then
+    beside the sidecar file (so a read-only sample head can take a mask shipped in
+    ``resources/heads/``). Returns the mesh-relative path when neither exists (the reader then names
+    it in its error).
     """
     p = Path(rel)
     if p.is_absolute():
@@ -233,49 +252,96 @@ def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None)
     return beside_mesh
 
 
-def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> HeadMetadata:
-    """Read the sidecar of ``mesh_path``; without one, an uncalibrated default (scale guessed from the
-    bounding box, assuming a 230 mm tall head, no landmarks, ``calibrated=False``).
+def read_head_file(path: Path, what: str) -> bytes:
+    """The bytes of one head file (mesh, sidecar or texture) of at most :data:`MAX_HEAD_FILE_BYTES`.
+
+    ``what`` names the file's role in messages ("head mesh", "texture file" …).
+
+    Raises:
+        HeadError: the file is missing, unreadable or too large.
     """
-    for candidate in sidecar_candidates(mesh_path):
-        if candidate.is_file():
-            try:
-                data = json.loads(candidate.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-                raise HeadError(f"{candidate}: cannot read head metadata: {exc}") from None
-            return HeadMetadata.from_json(data, str(candidate))
+    try:
+        size = path.stat().st_size
+        if size > MAX_HEAD_FILE_BYTES:
+            raise HeadError(f"{path}: {what} of {size:,} bytes, over the limit of {MAX_HEAD_FILE_BYTES:,}")
+        with open(path, "rb") as fh:
+            return fh.read(MAX_HEAD_FILE_BYTES + 1)[:MAX_HEAD_FILE_BYTES]
+    except FileNotFoundError:
+        raise HeadError(f"{path}: {what} not found") from None
+    except OSError as exc:
+        raise HeadError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
+
+
+def parse_metadata(blob: bytes, where: str) -> HeadMetadata:
+    """The :class:`HeadMetadata` of a sidecar's bytes (UTF-8 JSON); ``where`` names it in messages."""
+    try:
+        data = json.loads(blob.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise HeadError(f"{where}: cannot read head metadata: {exc}") from None
+    return HeadMetadata.from_json(data, where)
+
+
+def default_metadata(name: str, mesh_vertices: np.ndarray | None = None) -> HeadMetadata:
+    """The metadata of a head without a sidecar, named ``name``.
+
+    Uncalibrated: the scale is guessed from the bounding box (the largest extent of ``mesh_vertices``,
+    mesh units, taken as a head 230 mm tall; 1 unit when no vertices are given); no landmarks.
+    """
     height = 1.0
     if mesh_vertices is not None and len(mesh_vertices):
-        extent = np.ptp(mesh_vertices, axis=0)
-        height = float(extent.max()) or 1.0
+        height = float(np.ptp(mesh_vertices, axis=0).max()) or 1.0
     return HeadMetadata(
-        name=mesh_path.stem,
+        name=name,
         mm_per_unit=230.0 / height,
         scale_note="uncalibrated: guessed from the bounding box, assuming a head 230 mm tall",
         calibrated=False,
     )
 
 
-def _read_image(path: Path, mode: str) -> np.ndarray:
-    from PIL import Image, UnidentifiedImageError
+def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> HeadMetadata:
+    """The metadata of the head at ``mesh_path``.
+
+    Read from its sidecar (the first of :func:`sidecar_candidates` that exists); without one,
+    :func:`default_metadata` named after the mesh file, scaled from ``mesh_vertices`` (mesh units).
+    """
+    sidecar = find_sidecar(mesh_path)
+    if sidecar is None:
+        return default_metadata(mesh_path.stem, mesh_vertices)
+    return parse_metadata(read_head_file(sidecar, "head metadata"), str(sidecar))
+
+
+def decode_texture(blob: bytes, where: str, mode: str) -> np.ndarray:
+    """Decode a texture image's bytes to a uint8 array in Pillow ``mode`` ("RGB": (H, W, 3), "L": (H, W)).
+
+    Refused before decoding: a side over :data:`MAX_TEXTURE_SIDE` texels, or more pixels than Pillow's
+    decompression-bomb threshold (``Image.MAX_IMAGE_PIXELS``).
+    """
+    from PIL import Image
 
     try:
-        with Image.open(path) as im:
-            if max(im.size) > MAX_TEXTURE_SIDE:
-                raise HeadError(f"{path}: texture is {im.size[0]}×{im.size[1]}, over the {MAX_TEXTURE_SIDE} limit")
-            return np.asarray(im.convert(mode))
-    except FileNotFoundError:
-        raise HeadError(f"{path}: texture file not found") from None
-    except Image.DecompressionBombError as exc:
-        raise HeadError(f"{path}: image too large to decode safely: {exc}") from None
-    except (UnidentifiedImageError, OSError) as exc:
-        raise HeadError(f"{path}: cannot decode texture: {exc}") from None
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(io.BytesIO(blob)) as im:
+                if max(im.size) > MAX_TEXTURE_SIDE:
+                    raise HeadError(f"{where}: texture is {im.size[0]}×{im.size[1]}, over the "
+                                    f"{MAX_TEXTURE_SIDE} limit")
+                return np.asarray(im.convert(mode))
+    except HeadError:
+        raise
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+        raise HeadError(f"{where}: image too large to decode safely: {exc}") from None
+    except Exception as exc:  # Pillow raises UnidentifiedImageError, OSError, SyntaxError... for bad files
+        raise HeadError(f"{where}: cannot decode texture: {exc}") from None
 
 
-def mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _read_image(path: Path, mode: str) -> np.ndarray:
+    """A texture file decoded by :func:`decode_texture`."""
+    return decode_texture(read_head_file(path, "texture file"), str(path), mode)
+
+
+def _mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Validate what ``trimesh.load`` returned and give (vertices, faces, uv, vertex normals).
 
-    Shared by :func:`load_mesh_arrays` (files) and the in-memory loader of embedded project heads;
     ``where`` names the source in error messages. Scenes are flattened with their transforms.
     """
     import trimesh
@@ -288,7 +354,7 @@ def mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.nda
             uv_ok = all(getattr(m.visual, "uv", None) is not None for m in meshes)
             if not uv_ok:
                 raise HeadError(f"{where}: a mesh in the file has no UV coordinates")
-            mesh = trimesh.util.concatenate(meshes)
+            mesh = cast("trimesh.Trimesh", trimesh.util.concatenate(meshes))
         else:
             mesh = meshes[0]
     elif isinstance(loaded, trimesh.Trimesh):
@@ -311,48 +377,71 @@ def mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.nda
     return vertices, faces, uv, normals
 
 
-def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Load (vertices, faces, uv, vertex normals) from a glTF/GLB, OBJ or PLY file with trimesh.
+def parse_mesh(blob: bytes, name: str, where: str, folder: Path | None = None,
+               cache: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices, faces, uv, vertex normals) of a mesh file's bytes, parsed by trimesh.
 
-    Scenes are flattened with their transforms; polygons are triangulated. Raises :class:`HeadError`
-    for an unreadable file, no triangles, no UVs or a mesh over :data:`MAX_FACES` triangles.
+    Args:
+        blob: the mesh file's bytes.
+        name: its file name; the suffix picks the format (:data:`MESH_TYPES`).
+        where: names the mesh in messages.
+        folder: where files the mesh refers to are looked up (a glTF's buffers, an OBJ's materials),
+            or None (an embedded head: nothing is read from disk).
+        cache: look up and store the validated arrays in the mesh cache, keyed by the bytes' SHA-256.
+
+    Raises:
+        HeadError: an unsupported format, an unreadable file, no triangles, no UVs, NaN or infinite
+            positions or UVs, or more than :data:`MAX_FACES` triangles.
     """
-    if not path.is_file():
-        raise HeadError(f"{path}: head mesh not found")
-    cache = _mesh_cache_path(path)
-    if cache is not None:
-        cached = _load_mesh_cache(cache)
+    suffix = PurePosixPath(name).suffix.lower()
+    file_type = MESH_TYPES.get(suffix)
+    if file_type is None:
+        raise HeadError(f"{where}: unsupported mesh type {suffix!r} (use {', '.join(MESH_TYPES)})")
+    cached_at = _mesh_cache_path(blob) if cache else None
+    if cached_at is not None:
+        cached = _load_mesh_cache(cached_at)
         if cached is not None:
             return cached
     import trimesh  # ~1.8 s to import on a slow machine: only when the mesh is not in the cache
 
+    resolver = trimesh.resolvers.FilePathResolver(str(folder)) if folder is not None else None
     try:
-        loaded = trimesh.load(str(path), process=False, maintain_order=True)
+        loaded = trimesh.load(io.BytesIO(blob), file_type=file_type, resolver=resolver, process=False,
+                              maintain_order=True)
     except Exception as exc:  # trimesh raises many types for malformed files
-        raise HeadError(f"{path}: cannot read mesh: {exc}") from None
-    arrays = mesh_arrays_from_loaded(loaded, str(path))
-    if cache is not None:
-        _save_mesh_cache(cache, arrays)
+        raise HeadError(f"{where}: cannot read mesh: {exc}") from None
+    arrays = _mesh_arrays_from_loaded(loaded, where)
+    if cached_at is not None:
+        _save_mesh_cache(cached_at, arrays)
     return arrays
 
 
-#: Bump when what :func:`mesh_arrays_from_loaded` returns for the same file changes.
+def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Load (vertices, faces, uv, vertex normals) from a mesh file (see :func:`parse_mesh`), cached.
+
+    Scenes are flattened with their transforms; polygons are triangulated.
+    """
+    if not path.is_file():
+        raise HeadError(f"{path}: head mesh not found")
+    return parse_mesh(read_head_file(path, "head mesh"), path.name, str(path), folder=path.parent, cache=True)
+
+
+#: Bump when what :func:`parse_mesh` returns for the same bytes changes.
 _MESH_CACHE_VERSION = 1
 _MESH_FIELDS = ("vertices", "faces", "uv", "normals")
 
 
-def _mesh_cache_path(path: Path) -> Path | None:
-    """Where the validated arrays of the mesh file ``path`` are cached: beside the atlas cache
-    (``<cache>/mesh``), keyed by the SHA-256 of the file's bytes (so an edited file is loaded again).
+def _mesh_cache_path(blob: bytes) -> Path:
+    """Where the validated arrays of the mesh file holding ``blob`` are cached.
+
+    In the cache's ``mesh`` folder (:func:`core.cache.cache_dir`), keyed by the SHA-256 of the bytes
+    (so an edited file is loaded again).
     """
     import hashlib
 
     from core.cache import cache_dir
 
-    try:
-        digest = hashlib.sha256(path.read_bytes()).hexdigest()[:32]
-    except OSError:
-        return None
+    digest = hashlib.sha256(blob).hexdigest()[:32]
     return cache_dir("mesh") / f"{digest}-v{_MESH_CACHE_VERSION}.npz"
 
 
@@ -371,51 +460,95 @@ def _load_mesh_cache(cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
     return (v, f, uv, n) if ok else None
 
 
-def _save_mesh_cache(cache: Path, arrays: tuple[np.ndarray, ...]) -> None:
-    import io
-
+def _save_mesh_cache(cache: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
+    """Store (vertices, faces, uv, normals) at ``cache``, atomically; a failure to write is ignored."""
     from core.atomicio import atomic_write_bytes
 
+    vertices, faces, uv, normals = arrays
     try:
         cache.parent.mkdir(parents=True, exist_ok=True)
         buf = io.BytesIO()
-        np.savez(buf, **dict(zip(_MESH_FIELDS, arrays)))
+        np.savez(buf, vertices=vertices, faces=faces, uv=uv, normals=normals)
         atomic_write_bytes(cache, buf.getvalue())
     except OSError:
         pass  # the cache is an optimisation only
 
 
-def load_head(path: str | Path | None = None) -> Head:
-    """Load a head: mesh (glTF/GLB, OBJ, PLY), sidecar metadata and textures.
+def _assemble(path: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], meta: HeadMetadata,
+              texture: Callable[[str, str], np.ndarray]) -> Head:
+    """A :class:`Head` from its mesh arrays and metadata, wherever its files are.
 
-    ``path=None`` loads the sample head from the assets (:data:`SAMPLE_HEAD`).
+    ``texture(rel, mode)`` gives the texture the metadata names ``rel``, decoded to Pillow ``mode``.
+    """
+
+    def optional(rel: str | None, mode: str) -> np.ndarray | None:
+        return None if rel is None else texture(rel, mode)
+
+    vertices, faces, uv, normals = arrays
+    mask = optional(meta.skin_mask, "L")
+    return Head(
+        path=path,
+        vertices=vertices,
+        faces=faces,
+        uv=uv,
+        normals=normals,
+        metadata=meta,
+        albedo=optional(meta.albedo, "RGB"),
+        normal_map=optional(meta.normal_map, "RGB"),
+        specular_map=optional(meta.specular_map, "L"),
+        roughness_map=optional(meta.roughness_map, "L"),
+        skin_mask=None if mask is None else mask >= 128,
+    )
+
+
+def load_head(path: str | Path | None = None) -> Head:
+    """Load a head from files: mesh (see :data:`MESH_TYPES`), sidecar metadata and textures.
+
+    ``path=None`` loads the sample head from the assets (:data:`SAMPLE_HEAD`). Textures are found with
+    :func:`resolve_texture_path`.
     """
     if path is None:
         from core.assets import find_asset
 
         path = find_asset(SAMPLE_HEAD)
     mesh_path = Path(path)
-    vertices, faces, uv, normals = load_mesh_arrays(mesh_path)
-    meta = load_metadata(mesh_path, vertices)
-
+    arrays = load_mesh_arrays(mesh_path)
+    meta = load_metadata(mesh_path, arrays[0])
     sidecar = find_sidecar(mesh_path)
+    return _assemble(mesh_path, arrays, meta,
+                     lambda rel, mode: _read_image(resolve_texture_path(rel, mesh_path, sidecar), mode))
 
-    def texture(rel: str | None, mode: str) -> np.ndarray | None:
-        if rel is None:
-            return None
-        return _read_image(resolve_texture_path(rel, mesh_path, sidecar), mode)
 
-    mask = texture(meta.skin_mask, "L")
-    return Head(
-        path=mesh_path,
-        vertices=vertices,
-        faces=faces,
-        uv=uv,
-        normals=normals,
-        metadata=meta,
-        albedo=texture(meta.albedo, "RGB"),
-        normal_map=texture(meta.normal_map, "RGB"),
-        specular_map=texture(meta.specular_map, "L"),
-        roughness_map=texture(meta.roughness_map, "L"),
-        skin_mask=None if mask is None else mask >= 128,
-    )
+def load_head_from_bytes(files: Mapping[str, bytes], mesh: str) -> Head:
+    """Load a head from its files' bytes (e.g. embedded in a project); nothing touches the disk.
+
+    The checks and caps are those of :func:`load_head` (the same functions parse the mesh, the
+    sidecar and the textures).
+
+    Args:
+        files: each file's bytes keyed by its path relative to the mesh's folder, POSIX separators:
+            the mesh, its sidecar as ``<mesh>`` + :data:`SIDECAR_SUFFIX` (optional) and the textures
+            the sidecar names.
+        mesh: the key of the mesh.
+
+    Returns:
+        The head; its ``path`` is ``<embedded>/<mesh>`` (:data:`EMBEDDED_FOLDER`; no file exists there).
+    """
+    where = f"embedded head {mesh!r}"
+    blob = files.get(mesh)
+    if blob is None:
+        raise HeadError(f"{where}: the mesh is not among the head's files")
+    if len(blob) > MAX_HEAD_FILE_BYTES:
+        raise HeadError(f"{where}: {len(blob):,} bytes, over the limit of {MAX_HEAD_FILE_BYTES:,}")
+    arrays = parse_mesh(blob, mesh, where)
+    sidecar = files.get(mesh + SIDECAR_SUFFIX)
+    meta = (default_metadata(PurePosixPath(mesh).stem, arrays[0]) if sidecar is None
+            else parse_metadata(sidecar, f"embedded {mesh}{SIDECAR_SUFFIX}"))
+
+    def texture(rel: str, mode: str) -> np.ndarray:
+        key = rel.replace("\\", "/")
+        if key not in files:
+            raise HeadError(f"{where}: texture {rel!r} is not embedded")
+        return decode_texture(files[key], f"embedded texture {key!r}", mode)
+
+    return _assemble(EMBEDDED_FOLDER / mesh, arrays, meta, texture)

@@ -104,8 +104,9 @@ class SafeZipReader:
             raise
 
     def _precheck(self, source: str | Path | IO[bytes]) -> None:
-        """Read the end-of-central-directory record before :mod:`zipfile` parses the directory, so a
-        forged directory announcing millions of entries is refused without being parsed.
+        """Check the end-of-central-directory record before :mod:`zipfile` parses the directory.
+
+        So a forged directory announcing millions of entries is refused without being parsed.
         """
         try:
             if isinstance(source, (str, Path)):
@@ -177,6 +178,7 @@ class SafeZipReader:
         self.close()
 
     def close(self) -> None:
+        """Close the underlying zip file."""
         self._zip.close()
 
     def names(self) -> list[str]:

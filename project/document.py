@@ -1,4 +1,9 @@
-"""Adapter between a :class:`project.io.Project` (the file) and a :class:`painting.Document` (issue 4).
+"""The one bridge between a :class:`project.model.Project` (the file) and a :class:`painting.Document`.
+
+:func:`document_from_project` rebuilds a document from a project (the head from disk or from the
+project's embedded bytes, the embedded materials as its library, every layer with its map copied
+bit-exactly, no undo history); :func:`project_from_document` makes the project to save. No other
+module of :mod:`project` imports :mod:`painting.document`.
 
 Only the document's public API is used: ``Document(head, library=…, resolution=…)``, ``add_layer``,
 ``set_thickness``, ``set_layer``, ``clear_history``, ``layer.thickness`` … So the file format does not
@@ -19,13 +24,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from painting.head import HeadError, load_head, load_head_from_bytes
 from project.errors import ProjectError
+from project.heads import make_head_ref
+from project.model import HeadRef, Project, ProjectLayer
 
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from km.library import Library
+    from painting.atlas import UVLayout
+    from painting.document import Document
+    from painting.head import Head
 
-def layout_digest(layout: Any) -> str:
+
+def layout_digest(layout: UVLayout) -> str:
     """SHA-256 (hex) of a paint layout's UVs (float64) and triangles (int64)."""
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(layout.uv, dtype=np.float64).tobytes())
@@ -33,12 +46,12 @@ def layout_digest(layout: Any) -> str:
     return h.hexdigest()
 
 
-def layout_record(layout: Any) -> dict[str, str]:
-    """The ``layout`` block of project.json for a document's layout."""
+def layout_record(layout: UVLayout) -> dict[str, str]:
+    """The ``layout`` block of project.json for a document's layout (``source``, ``sha256``)."""
     return {"source": str(layout.source), "sha256": layout_digest(layout)}
 
 
-def project_library(project: Any) -> Any:
+def project_library(project: Project) -> Library:
     """A ``km.Library`` of the project's embedded materials."""
     import km
 
@@ -46,24 +59,41 @@ def project_library(project: Any) -> Any:
     return km.Library(mats, name=f"{project.name} (embedded materials)")
 
 
-def document_from_project(project: Any, head_path: str | Path | None = None, **doc_kwargs: Any) -> Any:
-    """Build a ``painting.Document`` with the project's head, materials and layers (no undo history).
+def project_head(project: Project, head_path: str | Path | None = None) -> Head:
+    """The head a project paints on: ``head_path`` (a relink), else the embedded or referenced head.
 
-    ``head_path`` overrides the recorded head (after a relink); ``doc_kwargs`` go to ``Document``
-    (``progress``, ``cache``, ``history_budget`` …). Maps are copied bit-exactly.
+    Raises:
+        ProjectError: no head to load, or the head's files cannot be used (the
+            :class:`painting.head.HeadError`'s message, after the project's name).
     """
-    from painting.document import Document
-    from painting.head import load_head
-    from project.head import load_embedded_head
-
-    if head_path is not None:
-        head = load_head(head_path)
-    elif project.head.embedded:
-        head = load_embedded_head(project.head)
-    else:
+    try:
+        if head_path is not None:
+            return load_head(head_path)
+        if project.head.data is not None:
+            return load_head_from_bytes(project.head.data, project.head.mesh)
         if project.head.mesh_path is None:
             raise ProjectError(f"project '{project.name}': no head to load")
-        head = load_head(project.head.mesh_path)
+        return load_head(project.head.mesh_path)
+    except HeadError as exc:
+        raise ProjectError(f"project '{project.name}': {exc}") from None
+
+
+def document_from_project(project: Project, head_path: str | Path | None = None, **doc_kwargs: Any) -> Document:
+    """Build a ``painting.Document`` with the project's head, materials and layers (no undo history).
+
+    Args:
+        project: the opened project.
+        head_path: a mesh replacing the recorded head (after a relink).
+        **doc_kwargs: passed to ``Document`` (``progress``, ``cache``, ``history_budget``, ``library``
+            to use instead of the embedded materials …).
+
+    Raises:
+        ProjectError: the head cannot be loaded, or gives another paint layout than the one the maps
+            were painted on.
+    """
+    from painting.document import Document
+
+    head = project_head(project, head_path)
     doc_kwargs.setdefault("library", project_library(project))
     doc = Document(head, resolution=project.resolution, **doc_kwargs)
     if project.layout is not None:
@@ -83,17 +113,26 @@ def document_from_project(project: Any, head_path: str | Path | None = None, **d
     return doc
 
 
-def project_from_document(doc: Any, *, name: str = "Untitled", base: Any = None, head: Any = None,
-                          lights: list[dict[str, Any]] | None = None, camera: dict[str, Any] | None = None,
-                          look: dict[str, Any] | None = None, encoding: str = "exr-float32") -> Any:
-    """A :class:`project.io.Project` holding ``doc``'s layers (maps copied).
+def project_from_document(doc: Document, *, name: str = "Untitled", base: Project | None = None,
+                          head: HeadRef | None = None, lights: list[dict[str, Any]] | None = None,
+                          camera: dict[str, Any] | None = None, look: dict[str, Any] | None = None,
+                          encoding: str = "exr-float32") -> Project:
+    """A :class:`Project` holding ``doc``'s layers (maps copied).
 
-    ``base``: the project the document was opened from; its head reference, lights, camera, look and
-    name are kept unless given. Otherwise the head is referenced from ``doc.head.path`` (hashing its
-    files). Each layer's material is embedded from ``layer.material_object`` (``km.Material``).
+    Args:
+        doc: the document.
+        name: the project's name; "Untitled" keeps ``base``'s name.
+        base: the project the document was opened from (or last saved as); its head reference,
+            lights, camera, look and name are kept unless given.
+        head: the head reference; default ``base``'s, else the head at ``doc.head.path`` (hashing its
+            files).
+        lights: the project's lights (plain JSON, see :class:`Project`); default ``base``'s, else none.
+        camera: the project's camera (plain JSON) or None; default ``base``'s.
+        look: the look metadata (``name``, ``description``, ``tags``) or None; default ``base``'s.
+        encoding: every layer map's encoding (one of :data:`project.model.ENCODINGS`).
+
+    Each layer's material is embedded from ``layer.material_object`` (a ``km.Material``).
     """
-    from project.io import Project, ProjectLayer, make_head_ref
-
     if head is None:
         head = base.head if base is not None else make_head_ref(doc.head.path)
     materials: dict[str, dict[str, Any]] = {}

@@ -48,8 +48,9 @@ class HeadMissingError(ProjectError):
 
 
 class HeadChecksumError(ProjectError):
-    """A file of the referenced head no longer has the SHA-256 recorded in the project (offer to
-    relink, or to accept the changed head).
+    """A file of the referenced head no longer has the SHA-256 recorded in the project.
+
+    The studio offers to relink the head, or to accept the changed head.
 
     Attributes: ``head_path``, ``file`` (the changed file, relative to the head's folder),
     ``expected`` and ``actual`` (hex digests; ``actual`` is None when the file is gone).

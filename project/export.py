@@ -1,5 +1,7 @@
-"""Unpack a project for other tools: layer maps (EXR float32 + 16-bit PNG), materials, a manifest, and
-optionally an OpenRaster (``.ora``) stack that GIMP and Krita open.
+"""Unpack a project for other tools: layer maps, materials, a manifest, optionally an OpenRaster stack.
+
+The maps are written as EXR float32 (exact µm) and 16-bit PNG; the OpenRaster (``.ora``) stack is what
+GIMP and Krita open.
 
 ``manifest.json`` lists, per layer (bottom first): name, material, visibility, opacity, maximum
 thickness (µm), the EXR file (exact µm values), the PNG file and its ``scale_um`` (µm per count).
@@ -13,14 +15,17 @@ import io
 import json
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from core.atomicio import atomic_write_bytes
+from painting.maps_io import encode_exr, encode_png16, png16_um_per_count, quantise
 from project.container import container_bytes
-from project.io import Project, open_project
-from project.maps import encode_exr, encode_png16, png16_scale
+from project.io import open_project
+
+if TYPE_CHECKING:
+    from project.model import Project
 
 
 def _slug(text: str) -> str:
@@ -35,9 +40,9 @@ def export_project(path: str | Path, out_dir: str | Path, *, ora: bool = False) 
     layers = []
     for i, layer in enumerate(project.layers):
         stem = f"layers/{i:03d}-{_slug(layer.name)}"
-        scale = png16_scale(layer.thickness)
+        scale = png16_um_per_count(layer.thickness)
         atomic_write_bytes(out / f"{stem}.exr", encode_exr(layer.thickness))
-        atomic_write_bytes(out / f"{stem}.png", encode_png16(layer.thickness, scale))
+        atomic_write_bytes(out / f"{stem}.png", encode_png16(quantise(layer.thickness, scale)))
         layers.append({"name": layer.name, "material": layer.material, "visible": layer.visible,
                        "opacity": layer.opacity, "max_thickness_um": layer.max_thickness_um,
                        "resolution": layer.resolution, "exr": f"{stem}.exr", "png": f"{stem}.png", "scale_um": scale,

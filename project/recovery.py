@@ -5,17 +5,16 @@
   project (``<folder>/.<name>.recovery``), or in :func:`recovery_dir` when the project has no file yet
   (``untitled-<session>.recovery``) or its folder is not writable (``<hash>-<name>.recovery``). A
   recovery file is an ordinary ``.sheer`` zip whose ``project.json`` has a ``recovery`` block
-  (original path, UTC time, process id).
+  (original path, UTC time, process id). Where it goes is :mod:`project.recovery_files`.
 - A normal save (:func:`project.io.save_project`) or close (:meth:`Autosaver.close`) removes it.
   So a recovery file that exists when the studio starts means the last session did not end normally:
   offer :func:`find_recovery` (for a file being opened) or :func:`list_recoveries` (all of them,
-  including untitled work), then :func:`recover` or :func:`discard_recovery`.
+  including untitled work), then :func:`recover` or
+  :func:`project.recovery_files.discard_recovery`.
 """
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
 import os
 import time
 from dataclasses import dataclass, replace
@@ -24,52 +23,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from project.errors import ProjectError
+from project.io import open_project, save_project
+from project.recovery_files import (
+    RECOVERY_SUFFIX,
+    discard_recovery,
+    new_session_id,
+    recovery_candidates,
+    recovery_dir,
+    recovery_path,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from painting.document import ChangeEvent, Document
+    from project.model import Project
+
 #: Seconds between autosaves of a project with unsaved changes.
 DEFAULT_AUTOSAVE_INTERVAL_S = 180.0
-RECOVERY_SUFFIX = ".recovery"
-
-
-def recovery_dir() -> Path:
-    """Where recovery files of untitled projects go: ``$SHEER_RECOVERY_DIR``, else
-    ``$XDG_STATE_HOME/sheer/recovery`` (default ``~/.local/state/sheer/recovery``).
-    """
-    env = os.environ.get("SHEER_RECOVERY_DIR")
-    if env:
-        return Path(env).expanduser()
-    state = os.environ.get("XDG_STATE_HOME") or str(Path.home() / ".local" / "state")
-    return Path(state) / "sheer" / "recovery"
-
-
-def _beside(project_path: Path) -> Path:
-    return project_path.with_name(f".{project_path.name}{RECOVERY_SUFFIX}")
-
-
-def _central(project_path: Path) -> Path:
-    digest = hashlib.sha256(str(project_path.absolute()).encode()).hexdigest()[:12]
-    return recovery_dir() / f"{digest}-{project_path.name}{RECOVERY_SUFFIX}"
-
-
-def recovery_candidates(project_path: str | Path) -> list[Path]:
-    """Where the recovery file of ``project_path`` may be, in order of preference."""
-    p = Path(project_path).absolute()
-    return [_beside(p), _central(p)]
-
-
-def recovery_path(project_path: str | Path | None, session_id: str | None = None) -> Path:
-    """The recovery file autosave writes for ``project_path`` (None: an untitled project)."""
-    if project_path is None:
-        return recovery_dir() / f"untitled-{session_id or _session_id()}{RECOVERY_SUFFIX}"
-    p = Path(project_path).absolute()
-    beside = _beside(p)
-    return beside if os.access(p.parent, os.W_OK) else _central(p)
-
-
-def _session_id() -> str:
-    return f"{os.getpid()}-{int(time.time())}"
 
 
 @dataclass
@@ -96,6 +67,7 @@ class RecoveryInfo:
 
 
 def _pid_alive(pid: int) -> bool:
+    """True when process ``pid`` runs (this process included; pid ≤ 0 never)."""
     if pid <= 0 or pid == os.getpid():
         return pid == os.getpid()
     try:
@@ -108,8 +80,7 @@ def _pid_alive(pid: int) -> bool:
 
 
 def _info(path: Path) -> RecoveryInfo:
-    from project.io import open_project
-
+    """Describe the recovery file at ``path`` (its ``error`` says why when it does not open)."""
     try:
         project = open_project(path, verify_head=False)
     except ProjectError as exc:
@@ -123,14 +94,12 @@ def _info(path: Path) -> RecoveryInfo:
     return RecoveryInfo(path, original, str(block.get("saved_at", "")), pid, _pid_alive(pid), newer)
 
 
-def autosave(project: object, project_path: str | Path | None, *, session_id: str | None = None) -> Path:
-    """Write ``project`` (a :class:`project.io.Project`) to its recovery file, atomically.
+def autosave(project: Project, project_path: str | Path | None, *, session_id: str | None = None) -> Path:
+    """Write ``project`` to the recovery file of ``project_path`` (None: untitled), atomically.
 
-    The project object is not modified. Returns the recovery file's path.
+    ``session_id`` names an untitled project's file. The project object is not modified. Returns the
+    recovery file's path.
     """
-    from project.io import Project, save_project
-
-    assert isinstance(project, Project)
     target = recovery_path(project_path, session_id)
     target.parent.mkdir(parents=True, exist_ok=True)
     snapshot = replace(project, recovery={
@@ -159,43 +128,33 @@ def list_recoveries() -> list[RecoveryInfo]:
     return sorted(found, key=lambda info: info.saved_at, reverse=True)
 
 
-def recover(info: RecoveryInfo | str | Path, **open_kwargs: object) -> object:
+def recover(info: RecoveryInfo | str | Path, *, head_path: str | Path | None = None,
+            accept_head_change: bool = False) -> Project:
     """Open a recovery file as a project (``source_path`` = the original file, or None when untitled).
 
     The recovery file is left in place until the recovered project is saved (which removes it) or
-    :func:`discard_recovery` is called. ``open_kwargs`` go to :func:`project.io.open_project`
-    (``head_path=`` to relink, ``accept_head_change=True``).
+    :func:`project.recovery_files.discard_recovery` is called. ``head_path`` and
+    ``accept_head_change`` relink the head as in :func:`project.io.open_project`.
     """
-    from project.io import open_project
-
     path = info.path if isinstance(info, RecoveryInfo) else Path(info)
-    project = open_project(path, **open_kwargs)  # type: ignore[arg-type]
+    project = open_project(path, head_path=head_path, accept_head_change=accept_head_change)
     block = project.recovery or {}
     project.recovery = None
     project.source_path = Path(block["original"]) if block.get("original") else None
     return project
 
 
-def discard_recovery(project_path: str | Path | None, session_id: str | None = None) -> None:
-    """Remove the recovery file(s) of ``project_path`` (or of an untitled session)."""
-    paths = (recovery_candidates(project_path) if project_path is not None
-             else [recovery_path(None, session_id)] if session_id else [])
-    for p in paths:
-        with contextlib.suppress(FileNotFoundError):
-            p.unlink()
-
-
 class Autosaver:
     """Periodic autosave driven by the caller's clock (a ``QTimer`` in the studio, a loop in tests).
 
     Args:
-        snapshot: returns the current :class:`project.io.Project` (called only when saving).
+        snapshot: returns the current :class:`project.model.Project` (called only when saving).
         project_path: the project's file, or None while untitled.
         interval_s: seconds between autosaves of unsaved changes.
         clock: monotonic time source in seconds (tests inject a fake one).
     """
 
-    def __init__(self, snapshot: Callable[[], object], project_path: str | Path | None = None,
+    def __init__(self, snapshot: Callable[[], Project], project_path: str | Path | None = None,
                  interval_s: float = DEFAULT_AUTOSAVE_INTERVAL_S,
                  clock: Callable[[], float] = time.monotonic) -> None:
         if not interval_s > 0:
@@ -204,7 +163,7 @@ class Autosaver:
         self.project_path = None if project_path is None else Path(project_path).absolute()
         self.interval_s = float(interval_s)
         self.clock = clock
-        self.session_id = _session_id()
+        self.session_id = new_session_id()
         self.dirty = False
         self.last_autosave: Path | None = None
         self._last = clock()
@@ -213,16 +172,14 @@ class Autosaver:
         """Record that the project changed since it was last saved (connect to the document's events)."""
         self.dirty = True
 
-    def watch(self, doc: object) -> Callable[[], None]:
-        """Mark dirty on every change event of a ``painting.Document`` (paint, layers, material);
-        returns the unsubscribe function.
-        """
+    def watch(self, doc: Document) -> Callable[[], None]:
+        """Mark dirty on every change event of ``doc`` (paint, layers, material); returns the unsubscribe."""
 
-        def on_event(event: object) -> None:
-            if getattr(event, "kind", "") != "history":
+        def on_event(event: ChangeEvent) -> None:
+            if event.kind != "history":
                 self.dirty = True
 
-        return doc.subscribe(on_event)  # type: ignore[attr-defined]
+        return doc.subscribe(on_event)
 
     def due(self) -> bool:
         """Unsaved changes and at least ``interval_s`` since the last save or autosave."""
@@ -232,11 +189,11 @@ class Autosaver:
         """Call periodically; autosaves when :meth:`due`. Returns the recovery file when it wrote one."""
         return self.autosave_now() if self.due() else None
 
-    def autosave_now(self, project: object | None = None) -> Path:
+    def autosave_now(self, project: Project | None = None) -> Path:
         """Write the recovery file now, of ``project`` or else of ``snapshot()``.
 
         Writing a large project takes a moment (about 1 s for four 2048² layers): the studio can take
-        the snapshot on the UI thread when :meth:`due` (``Project.from_document`` copies the maps) and
+        the snapshot on the UI thread when :meth:`due` (``project_from_document`` copies the maps) and
         pass it to this method on a worker thread.
         """
         path = autosave(self.snapshot() if project is None else project, self.project_path,
@@ -260,31 +217,8 @@ class Autosaver:
         self.dirty = False
 
     def _discard(self) -> None:
+        """Remove this session's recovery files (of the project's file and of its untitled work)."""
         if self.project_path is not None:
             discard_recovery(self.project_path)
         discard_recovery(None, self.session_id)
         self.last_autosave = None
-
-
-def stale_temporaries(project_path: str | Path, min_age_s: float = 60.0) -> list[Path]:
-    """Temporary files an interrupted save of ``project_path`` left beside it (``.<name>.*.tmp``)
-    that are older than ``min_age_s`` seconds (a save in progress is never that old).
-    """
-    p = Path(project_path).absolute()
-    now = time.time()
-    found = []
-    for candidate in p.parent.glob(f".{p.name}.*.tmp"):
-        with contextlib.suppress(OSError):
-            if candidate.is_file() and not candidate.is_symlink() and now - candidate.stat().st_mtime >= min_age_s:
-                found.append(candidate)
-    return sorted(found)
-
-
-def remove_stale_temporaries(project_path: str | Path, min_age_s: float = 60.0) -> int:
-    """Remove :func:`stale_temporaries`; returns how many were removed."""
-    removed = 0
-    for candidate in stale_temporaries(project_path, min_age_s):
-        with contextlib.suppress(OSError):
-            candidate.unlink()
-            removed += 1
-    return removed

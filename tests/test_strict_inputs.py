@@ -426,7 +426,7 @@ def test_look_files_deep_and_stroke_values(case: str, tmp_path: Path) -> None:
 
 
 def _exr(arr: np.ndarray) -> bytes:
-    from project.maps import encode_exr
+    from painting.maps_io import encode_exr
 
     return encode_exr(arr)
 

@@ -67,14 +67,14 @@ def run_new(args: argparse.Namespace) -> int:
         from painting.document import Document
         from painting.head import load_head
         from painting.looks import apply_look, load_look
-        from project.io import Project
+        from project.document import project_from_document
 
         look = load_look(args.look)  # validated before the (slow) document is built
         assert project.head.mesh_path is not None
         doc = Document(load_head(project.head.mesh_path), resolution=args.resolution)
         apply_look(doc, look)
         meta = {"name": look.name, "description": look.description} if look.description else {"name": look.name}
-        project = Project.from_document(doc, name=project.name, head=project.head, look=meta)
+        project = project_from_document(doc, name=project.name, head=project.head, look=meta)
     save_project(project, out, self_contained=args.self_contained)
     print(f"wrote {out} (head '{project.head.name}', {len(project.layers)} layers, "
           f"resolution {project.resolution}²)")
@@ -82,7 +82,7 @@ def run_new(args: argparse.Namespace) -> int:
 
 
 def _summary(project: object) -> dict:
-    from project.io import Project
+    from project.model import Project
 
     assert isinstance(project, Project)
     return {

@@ -79,11 +79,10 @@ def _state(window: Any) -> tuple[list[tuple[Any, ...]], list[np.ndarray]]:
 
 def _head_copy(folder: Path) -> Path:
     """The sample head's files copied to ``folder`` (keyed as a project records them); the mesh's path."""
-    from project.io import make_head_ref
+    from project.heads import head_file_set, make_head_ref
 
     ref = make_head_ref(None)
     folder.mkdir(parents=True)
-    from project.io import head_file_set
 
     for key, src in head_file_set(ref.mesh_path).items():
         (folder / key).parent.mkdir(parents=True, exist_ok=True)
@@ -93,9 +92,11 @@ def _head_copy(folder: Path) -> Path:
 
 def _project_on(window: Any, mesh: Path, path: Path) -> Path:
     """Save the window's document as a project referencing the head at ``mesh``."""
-    from project.io import Project, make_head_ref, save_project
+    from project.document import project_from_document
+    from project.heads import make_head_ref
+    from project.io import save_project
 
-    project = Project.from_document(window.doc, name=path.stem, head=make_head_ref(mesh),
+    project = project_from_document(window.doc, name=path.stem, head=make_head_ref(mesh),
                                     **vars(window.files.view_state()))
     return save_project(project, path)
 
@@ -162,7 +163,7 @@ def _project_on_retouched_head(window: Any, tmp_path: Path, seed: int) -> tuple[
 
 def test_changed_head_offers_relink_and_opens_with_use_it_anyway(window: Any, driver: DialogDriver,
                                                                   tmp_path: Path) -> None:
-    from project.io import sha256_file
+    from project.heads import sha256_file
 
     maps, mesh, path = _project_on_retouched_head(window, tmp_path, 2)
     driver.answer("Use it anyway")

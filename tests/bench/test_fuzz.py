@@ -94,7 +94,7 @@ def test_any_valid_project_round_trips_exactly(layers: list, name: str) -> None:
     """Property: save → open gives back the same project, maps bit-exact (EXR layers)."""
     import numpy as np
 
-    from project.io import ProjectLayer
+    from project.model import ProjectLayer
 
     project = sample_project(64, 0, name=name, embedded=True)
     for lname, material, visible, opacity, max_um, values, side in layers:

@@ -12,18 +12,11 @@ import pytest
 
 from bench.fuzz import sample_project, write_tiny_head
 from project.container import SafeZipReader
-from project.io import (
-    MIMETYPE,
-    HeadChecksumError,
-    HeadMissingError,
-    ProjectLayer,
-    make_head_ref,
-    open_project,
-    project_bytes,
-    save_project,
-    schema,
-    validate_json,
-)
+from project.errors import HeadChecksumError, HeadMissingError, ProjectError
+from project.heads import make_head_ref
+from project.io import open_project, project_bytes, project_json, save_project
+from project.model import MIMETYPE, ProjectLayer
+from project.schema import schema, validate_json
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -106,9 +99,10 @@ def test_self_contained_sample_head_loads_in_memory(tmp_path: Path) -> None:
         ref = make_head_ref(None, embed=True)
     except AssetNotFoundError:
         pytest.skip("sample assets not available")
-    from project.head import load_embedded_head
+    from painting.head import load_head_from_bytes
 
-    head = load_embedded_head(ref)
+    assert ref.data is not None
+    head = load_head_from_bytes(ref.data, ref.mesh)
     assert head.faces.shape[1] == 3 and head.uv.shape == (len(head.vertices), 2)
     assert head.albedo is not None and head.mm_per_unit > 0
 
@@ -150,8 +144,6 @@ def test_schema_agrees_with_what_is_written_and_refused() -> None:
     import jsonschema
 
     jsonschema.Draft202012Validator.check_schema(schema())
-    from project.io import project_json
-
     doc = project_json(sample_project(64, 2), None, True)
     validate_json(doc, "x")  # what we write is valid
     assert set(doc) == set(schema()["required"])
@@ -160,8 +152,6 @@ def test_schema_agrees_with_what_is_written_and_refused() -> None:
 
 
 def test_save_refuses_a_project_it_could_not_open(tmp_path: Path) -> None:
-    from project.io import ProjectError
-
     project = sample_project(64, 2)
     project.layers[0].thickness[0, 0] = np.nan
     with pytest.raises(ProjectError, match="NaN"):

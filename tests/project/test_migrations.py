@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 
 from bench.fuzz import tiny_material
+from painting.maps_io import encode_exr
 from project.container import container_bytes
 from project.errors import MigrationError, ProjectVersionError
-from project.io import open_project, project_version, read_project, save_project, validate_json
-from project.maps import encode_exr
+from project.io import open_project, project_version, read_project, save_project
 from project.migrations import MIGRATIONS, SCHEMA_VERSION, migrate
+from project.schema import validate_json
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "project"
 

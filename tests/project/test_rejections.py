@@ -14,9 +14,9 @@ import pytest
 
 import project.container as pz
 from bench.fuzz import sample_project
-from project.errors import ProjectContainerError, ProjectVersionError
-from project.io import ProjectError, open_project, project_bytes, read_project
-from project.maps import encode_exr
+from painting.maps_io import encode_exr
+from project.errors import ProjectContainerError, ProjectError, ProjectVersionError
+from project.io import open_project, project_bytes, read_project
 
 if TYPE_CHECKING:
     from collections.abc import Callable

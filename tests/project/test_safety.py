@@ -11,13 +11,9 @@ import pytest
 
 from bench.fuzz import crash_runs, sample_project
 from project.io import open_project, save_project
-from project.recovery import (
-    Autosaver,
-    autosave,
+from project.recovery import Autosaver, autosave, find_recovery, list_recoveries, recover
+from project.recovery_files import (
     discard_recovery,
-    find_recovery,
-    list_recoveries,
-    recover,
     recovery_path,
     remove_stale_temporaries,
     stale_temporaries,
