@@ -54,14 +54,20 @@ class OrbitCamera:
         return np.asarray(self.target, dtype=float) + self.distance * d
 
     def view(self) -> np.ndarray:
+        """The 4×4 view matrix (world → eye, column vectors, float64), +Y up."""
         return look_at(self.eye(), np.asarray(self.target, dtype=float), np.array([0.0, 1.0, 0.0]))
 
     def projection(self, aspect: float) -> np.ndarray:
+        """The 4×4 perspective projection for ``aspect`` = width / height (> 0), float64.
+
+        The clip planes widen with the distance (near ≥ 5 %, far ≥ 4× of it), so zooming out never clips.
+        """
         near = max(self.near, self.distance * 0.05)
         far = max(self.far, self.distance * 4.0)
         return perspective(self.fov_y, aspect, near, far)
 
     def view_projection(self, aspect: float) -> np.ndarray:
+        """Projection × view for ``aspect`` = width / height (4×4 float64, column vectors)."""
         return self.projection(aspect) @ self.view()
 
     def frame(self, centre: np.ndarray, radius: float, margin: float = 1.15) -> None:

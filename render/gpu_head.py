@@ -7,9 +7,15 @@ colour; the normal map is linear RGB8 (tangent space, +Y up in the map).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from painting.head import Head
+    from painting.layout import UVLayout
 
 GL_SRGB8_ALPHA8 = 0x8C43
 
@@ -54,8 +60,11 @@ class GpuHead:
 
     ATTRIBUTES = ("in_position", "in_normal", "in_uv", "in_uv_paint", "in_tangent")
 
-    def __init__(self, ctx: Any, head: Any, layout: Any = None, alpha_mask: np.ndarray | None = None) -> None:
-        """``layout``: the painting document's UV layout (``doc.layout``). When it is not the mesh's own
+    def __init__(self, ctx: moderngl.Context, head: Head, layout: UVLayout | None = None,
+                 alpha_mask: np.ndarray | None = None) -> None:
+        """Upload ``head``'s mesh and textures to ``ctx``.
+
+        ``layout``: the painting document's UV layout (``doc.layout``). When it is not the mesh's own
         UVs (``layout.source != "mesh"``, an xatlas unwrap), the layout's split vertices are drawn and its
         UVs address the thickness/KM maps (``in_uv_paint``) while the head's UVs address the textures.
         ``alpha_mask``: a bool (H, W) map in the head's UV space (e.g. the skin mask) stored as the albedo
@@ -96,7 +105,7 @@ class GpuHead:
                                      + np.ascontiguousarray(faces, dtype="<u4").tobytes()).hexdigest()[:32]
         self.triangle_count = len(faces)
         self.vertices = v
-        self._vaos: dict[int, Any] = {}
+        self._vaos: dict[int, moderngl.VertexArray] = {}
         white = np.full((1, 1, 3), 255, np.uint8)
         self.albedo = self._texture(head.albedo if head.albedo is not None else white, srgb=True, alpha=alpha_mask)
         flat = np.array([[[128, 128, 255]]], np.uint8)
@@ -108,7 +117,7 @@ class GpuHead:
         self.specular = self._texture(head.specular_map if head.specular_map is not None else one)
         self.roughness = self._texture(head.roughness_map if head.roughness_map is not None else one)
 
-    def _texture(self, img: np.ndarray, srgb: bool = False, alpha: np.ndarray | None = None) -> Any:
+    def _texture(self, img: np.ndarray, srgb: bool = False, alpha: np.ndarray | None = None) -> moderngl.Texture:
         img = np.ascontiguousarray(img, dtype=np.uint8)
         h, w = img.shape[:2]
         comps = 1 if img.ndim == 2 else img.shape[2]
@@ -131,7 +140,7 @@ class GpuHead:
         tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
         return tex
 
-    def vertex_array(self, program: Any) -> Any:
+    def vertex_array(self, program: moderngl.Program) -> moderngl.VertexArray:
         """A vertex array binding the attributes ``program`` uses (cached per program)."""
         key = program.glo
         vao = self._vaos.get(key)
@@ -141,14 +150,17 @@ class GpuHead:
             self._vaos[key] = vao
         return vao
 
-    def draw(self, program: Any) -> None:
+    def draw(self, program: moderngl.Program) -> None:
+        """Draw the mesh's triangles with ``program`` (its uniforms and textures set by the caller)."""
         self.vertex_array(program).render()
 
     def bind_textures(self, start: int = 0) -> None:
+        """Bind albedo, normal, specular and roughness to units ``start`` .. ``start + 3``."""
         for i, tex in enumerate((self.albedo, self.normal, self.specular, self.roughness)):
             tex.use(start + i)
 
     def release(self) -> None:
+        """Free every GPU object (call with the context current)."""
         for vao in self._vaos.values():
             vao.release()
         self._vaos.clear()

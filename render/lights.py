@@ -17,20 +17,36 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from render.camera import look_at, orthographic, perspective
 from render.errors import RenderError
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import moderngl
+
+    from render.shaders import ShaderLibrary
+
 MAX_LIGHTS = 8
 
 
 @dataclass
 class Light:
-    """A light. ``kind`` is ``"directional"`` (``vector`` = unit direction towards the light) or ``"point"``
-    (``vector`` = position, mesh units; ``intensity`` is then the irradiance at ``reference_distance``).
+    """A light in head space.
+
+    Attributes:
+        kind: ``"directional"`` (``vector`` = direction towards the light, any length > 0) or ``"point"``
+            (``vector`` = position, mesh units).
+        vector: see ``kind``.
+        colour: linear RGB, each ≥ 0.
+        intensity: irradiance on a surface facing the light (≥ 0; for a point light, at
+            ``reference_distance``).
+        shadows: the light casts shadows (a shadow map).
+        reference_distance: mesh units, point lights only.
     """
 
     kind: str = "directional"
@@ -49,16 +65,24 @@ class Light:
     @classmethod
     def directional(cls, azimuth: float = 0.0, elevation: float = 0.0, intensity: float = 1.0,
                     colour: tuple[float, float, float] = (1.0, 1.0, 1.0), shadows: bool = True) -> Light:
+        """A directional light from ``azimuth``, ``elevation`` degrees (head space, see the module doc)."""
         return cls("directional", cls.direction_from_angles(azimuth, elevation), colour, intensity, shadows)
 
     @classmethod
     def point(cls, position: tuple[float, float, float], intensity: float = 1.0,
               colour: tuple[float, float, float] = (1.0, 1.0, 1.0), reference_distance: float = 10.0,
               shadows: bool = True) -> Light:
+        """A point light at ``position`` (mesh units); ``intensity`` is the irradiance at ``reference_distance``."""
         return cls("point", tuple(float(x) for x in position), colour, intensity, shadows,  # type: ignore[arg-type]
                    reference_distance)
 
     def validate(self, where: str = "light") -> None:
+        """Check the fields; ``where`` names the light in the message.
+
+        Raises:
+            RenderError: an unknown kind, a non-finite value, a negative intensity or colour, or a zero
+                direction.
+        """
         if self.kind not in ("directional", "point"):
             raise RenderError(f"{where}: kind must be 'directional' or 'point', got {self.kind!r}")
         vals = [*self.vector, *self.colour, self.intensity, self.reference_distance]
@@ -70,6 +94,7 @@ class Light:
             raise RenderError(f"{where}: direction must not be zero")
 
     def key(self) -> tuple[Any, ...]:
+        """What the light's shadow map depends on (kind, vector, whether it casts shadows)."""
         return (self.kind, tuple(self.vector), self.shadows)
 
 
@@ -183,6 +208,11 @@ class Environment:
 
     @classmethod
     def from_image(cls, rgb: np.ndarray, name: str = "environment", intensity: float = 1.0) -> Environment:
+        """The SH irradiance of an equirectangular linear RGB image (H, W, 3), scaled to a mean ``intensity``.
+
+        Raises:
+            RenderError: the image is black.
+        """
         h, w, _ = rgb.shape
         d, dw = equirect_directions(h, w)
         basis = sh9_basis(d)  # (H, W, 9)
@@ -195,6 +225,7 @@ class Environment:
 
     @classmethod
     def load(cls, name_or_path: str, intensity: float = 1.0) -> Environment:
+        """An environment by sample name (``"studio"``, see :func:`find_environment`) or EXR path."""
         path = find_environment(name_or_path)
         return cls.from_image(read_exr_rgb(path), path.stem, intensity)
 
@@ -206,8 +237,9 @@ class Environment:
 # --- shadow maps -------------------------------------------------------------------------------------
 
 class ShadowMaps:
-    """Depth maps for up to :data:`MAX_LIGHTS` lights in one atlas texture (4 × 2 tiles of ``size``²),
-    fitted to a bounding sphere. One sampler serves every light (llvmpipe turns a dynamically indexed
+    """Depth maps for up to :data:`MAX_LIGHTS` lights in one atlas texture (4 × 2 tiles of ``size``²).
+
+    Each is fitted to a bounding sphere. One sampler serves every light (llvmpipe turns a dynamically indexed
     sampler array into a switch over all of them, which made each shadow lookup 8× dearer).
 
     ``update(lights, centre, radius, draw)`` re-renders only when the lights' positions/directions or the
@@ -218,7 +250,7 @@ class ShadowMaps:
 
     COLUMNS, ROWS = 4, 2
 
-    def __init__(self, ctx: Any, shaders: Any, size: int = 1024) -> None:
+    def __init__(self, ctx: moderngl.Context, shaders: ShaderLibrary, size: int = 1024) -> None:
         self.ctx = ctx
         self.size = size
         self.program = shaders.program(ctx, "shadow.vert", "shadow.frag")
@@ -232,10 +264,16 @@ class ShadowMaps:
         self.renders = 0
 
     def tile(self, i: int) -> tuple[float, float, float, float]:
+        """Light ``i``'s tile of the atlas: (u offset, v offset, u scale, v scale) in [0, 1]."""
         c, r = i % self.COLUMNS, i // self.COLUMNS
         return (c / self.COLUMNS, r / self.ROWS, 1.0 / self.COLUMNS, 1.0 / self.ROWS)
 
-    def update(self, lights: list[Light], centre: np.ndarray, radius: float, draw: Any) -> None:
+    def update(self, lights: list[Light], centre: np.ndarray, radius: float,
+               draw: Callable[[moderngl.Program], None]) -> None:
+        """Re-render the maps if the lights or the bounding sphere (``centre``, ``radius``: mesh units) changed.
+
+        ``draw(program)`` draws the scene's geometry with ``program`` (its ``u_mvp`` set here).
+        """
         key = (tuple(lt.key() for lt in lights), tuple(np.round(centre, 6)), round(radius, 6))
         if key == self._key:
             return
@@ -271,18 +309,21 @@ class ShadowMaps:
         self.renders += 1
 
     def invalidate(self) -> None:
+        """Re-render at the next :meth:`update` whatever the lights (e.g. to time a relight)."""
         self._key = None
 
     def release(self) -> None:
+        """Free every GPU object (call with the context current)."""
         from render.glutil import release_all
 
         release_all(self.ctx, (self.fbo, self.texture, self.program))
 
 
-def upload_lights(program: Any, lights: list[Light], shadows: ShadowMaps, pcf_radius: float,
+def upload_lights(program: moderngl.Program, lights: list[Light], shadows: ShadowMaps, pcf_radius: float,
                   environment: Environment | None, shadows_on: bool = True) -> None:
-    """Set lighting.glsl's uniforms for ``lights`` (at most MAX_LIGHTS, validated by the caller):
-    directions (unit, w = 0) or positions (w = 1), colour × intensity with the point lights' reference
+    """Set lighting.glsl's uniforms for ``lights`` (at most MAX_LIGHTS, validated by the caller).
+
+    Directions (unit, w = 0) or positions (w = 1), colour × intensity with the point lights' reference
     distance, each shadowed light's PCF parameters (radius in shadow-map texels, bias and texel size in
     mesh units) and atlas matrix, and the environment's SH irradiance (off without one).
     """

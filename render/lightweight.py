@@ -22,7 +22,7 @@ Reuses: :class:`render.gpu_head.GpuHead` (mesh upload), :class:`render.shaders.S
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,6 +32,11 @@ from render.glutil import set_uniform, write_uniform
 from render.gpu_head import GpuHead
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, upload_lights
 from render.shaders import ShaderLibrary
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from painting.head import Head
 
 #: Cornea radius (Wyszecki & Stiles, via the paper), millimetres.
 CORNEA_RADIUS_MM = 7.8
@@ -67,7 +72,7 @@ class LightweightRenderer:
     R_top, T, R_bottom — e.g. a :class:`render.km_pass.KMTextureSpace` — or None).
     """
 
-    def __init__(self, ctx: Any, head: Any, face: Any, shaders: ShaderLibrary | None = None,
+    def __init__(self, ctx: moderngl.Context, head: Head, face: Any, shaders: ShaderLibrary | None = None,
                  shadow_size: int = 512) -> None:
         self.ctx = ctx
         self.head = head
@@ -129,9 +134,10 @@ class LightweightRenderer:
     _set = staticmethod(set_uniform)
     _write = staticmethod(write_uniform)
 
-    def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool) -> Any:
-        """The face program specialised for this configuration (compiled once, cached); ``shadows`` is
-        0 (off), 1 (per pixel) or 2 (per vertex).
+    def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool) -> moderngl.Program:
+        """The face program specialised for this configuration (compiled once, cached).
+
+        ``n_lights`` 0..8; ``shadows`` 0 (off), 1 (per pixel) or 2 (per vertex).
         """
         key = (n_lights, int(shadows), int(env), int(makeup))
         prog = self._programs.get(key)
@@ -141,7 +147,7 @@ class LightweightRenderer:
             self._programs[key] = prog
         return prog
 
-    def _upload_lights(self, prog: Any) -> None:
+    def _upload_lights(self, prog: moderngl.Program) -> None:
         if len(self.lights) > MAX_LIGHTS:
             raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
         for i, lt in enumerate(self.lights):
@@ -162,7 +168,7 @@ class LightweightRenderer:
             raise RenderError(f"shadow_mode must be 'auto', 'pixel' or 'vertex', got {self.shadow_mode!r}")
         return "off" if n_shadowed == 0 else mode
 
-    def render(self, fbo: Any, viewport: tuple[int, int, int, int] | None = None) -> None:
+    def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
         """Draw a frame into ``fbo`` (which needs a depth attachment)."""
         ctx = self.ctx
         vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
@@ -233,8 +239,9 @@ class LightweightRenderer:
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE)
 
     def render_image(self, size: tuple[int, int]) -> np.ndarray:
-        """Render into an offscreen target (kept for the next call of the same size) and return uint8 sRGB
-        (H, W, 3), top row first.
+        """Render ``size`` (width, height in pixels) offscreen and return uint8 sRGB (H, W, 3), top row first.
+
+        The offscreen target is kept for the next call of the same size.
         """
         if self._offscreen is None or self._offscreen[0].size != tuple(size):
             self._release_offscreen()

@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from render.errors import RenderError
+
+if TYPE_CHECKING:
+    import moderngl
 
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 _VERSION = "#version 450 core"
@@ -81,8 +84,13 @@ class ShaderLibrary:
                 out.append(line)
         return "\n".join(out)
 
-    def program(self, ctx: Any, vertex: str, fragment: str, defines: dict[str, Any] | None = None) -> Any:
-        """Compile and link a ``moderngl.Program`` from two shader names."""
+    def program(self, ctx: moderngl.Context, vertex: str, fragment: str,
+                defines: dict[str, Any] | None = None) -> moderngl.Program:
+        """Compile and link a ``moderngl.Program`` from two shader names (see :meth:`source`).
+
+        Raises:
+            RenderError: a shader is missing, or the compiler or linker refused them (its log included).
+        """
         vs = self.source(vertex, defines)
         fs = self.source(fragment, defines)
         try:

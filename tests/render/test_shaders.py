@@ -11,8 +11,8 @@ from render.camera import OrbitCamera
 from render.errors import RenderError
 from render.gpu_head import vertex_tangents
 from render.lights import Environment, Light, equirect_directions
-from render.sss import SKIN_GAUSSIANS, fast_kernel
 from render.shaders import ShaderLibrary
+from render.sss import SKIN_GAUSSIANS, fast_kernel
 
 if TYPE_CHECKING:
     from pathlib import Path
