@@ -104,16 +104,21 @@ class PinPad(QWidget):
 
 
 class _ActivityFilter(QObject):
-    """Any touch, click or key counts as activity (resets the idle timer, ends attract mode)."""
+    """Any touch, click or key counts as activity (resets the idle timer, ends attract mode).
 
-    def __init__(self, on_activity: Callable[[], None]) -> None:
+    ``on_activity`` returns True when the event only woke the kiosk from its attract mode: the event is
+    then consumed, so the touch that shows the start screen is not also a touch on it.
+    """
+
+    def __init__(self, on_activity: Callable[[], bool]) -> None:
         super().__init__()
         self.on_activity = on_activity
 
     def eventFilter(self, obj: QObject, event: QEvent) -> bool:  # noqa: N802
+        """Report presses and key presses as activity; consume the one that ends the attract mode."""
         if event.type() in (QEvent.Type.MouseButtonPress, QEvent.Type.TouchBegin, QEvent.Type.KeyPress,
                             QEvent.Type.TabletPress):
-            self.on_activity()
+            return self.on_activity()
         return False
 
 
@@ -198,10 +203,11 @@ class KioskWindow(QWidget):
 
     # ------------------------------------------------------------------ construction
     def _make_viewport(self) -> Any:
+        from app.render_adapter import layer_inputs
         from app.viewport import Viewport
 
         vp = Viewport(self.doc.head, getattr(self.doc, "layout", None))
-        vp.set_document(self.doc, self.library)  # its binding follows the looks and shades applied
+        vp.layers_source = lambda: layer_inputs(self.doc, self.library)
         vp.paint_enabled = False
         vp.gl_failed.connect(lambda msg: self.fail(msg))
         return vp
@@ -428,6 +434,7 @@ class KioskWindow(QWidget):
         for cat, label in self.product_labels.items():
             i = self._layer_for(cat)
             label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
+        self.viewport.layers_changed()
 
     def snapshot(self) -> Path:
         folder = Path(self.config.snapshot_dir)
@@ -460,11 +467,18 @@ class KioskWindow(QWidget):
         self.viewport.update()
         self.activity()
 
-    def activity(self) -> None:
-        if self.attract:
+    def activity(self) -> bool:
+        """A touch, click or key: restart the idle timer; in the attract mode, back to the start screen.
+
+        Returns:
+            True when this ended the attract mode.
+        """
+        woke = self.attract
+        if woke:
             self.stop_attract()
             self.show_start()
         self.idle_timer.start(int(self.config.idle_seconds * 1000))
+        return woke
 
     def start_attract(self) -> None:
         if self.stack.currentWidget() is self.pin_pad:

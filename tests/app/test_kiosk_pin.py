@@ -194,6 +194,9 @@ def test_pin_guard(kiosk: object, qtbot: object) -> None:
     kiosk._pin_cancelled()
     qtbot.keyClick(kiosk, Qt.Key.Key_Q, Qt.KeyboardModifier.ControlModifier)
     assert kiosk.stack.currentWidget() is kiosk.pin_pad
+    kiosk._pin_cancelled()
+    qtbot.keyClick(kiosk, Qt.Key.Key_F4, Qt.KeyboardModifier.AltModifier)
+    assert kiosk.isVisible() and kiosk.stack.currentWidget() is kiosk.pin_pad
     for k in "1111":
         kiosk.pin_pad.buttons[k].click()
     kiosk.pin_pad.buttons["OK"].click()
