@@ -22,8 +22,12 @@ the map's pages already mapped). ``dab_floor_ratio_4096_1024`` = (fixed₁₀₂
 The ``_cold`` variants measure the same with the caches cold (160 MB read before each pass or dab).
 ``dab_ns_per_texel_*`` = (dab − fixed) / texels in the dab: flat or falling with the map size when a
 dab's cost follows the texels under the brush and nothing else.
+Every median ``K`` has ``K_p90`` and ``K_max`` beside it (the 90th percentile and the slowest of the
+same runs: a median hides hitches); ``stroke_resolution`` names the map the 1000-dab stroke, undo and
+redo ran on (2048², or the largest map measured below it with ``--sizes``).
 Atlases are baked once and cached on disk (the first run takes longer); the kernels are compiled (or
-loaded from their cache) before timing.
+loaded from their cache) before timing. ``--sizes 256,512 --dabs 5 --evict-mb 16`` is a quick run
+(the test suite's smoke test).
 """
 
 from __future__ import annotations
@@ -32,9 +36,16 @@ import argparse
 import json
 import statistics
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from painting.brush import Brush
+    from painting.document import Document
+    from painting.layer import Layer
 
 TARGETS = {"dab_ms_2048": 5.0, "dab_ratio_4096_1024": 1.5, "stroke_1000_ms": 2000.0, "undo_ms": 20.0,
            "redo_ms": 20.0}
@@ -102,8 +113,9 @@ def _floor_kernel() -> Any:
 
         def texel_floor(flat: np.ndarray, pos: np.ndarray, c: np.ndarray, r2: np.float32,
                         out: np.ndarray) -> int:
-            """Read the position (``pos``: flat (H·W·3,) float32) of each texel ``flat`` (ascending) and
-            write its squared distance to ``c`` into ``out`` when inside ``r2``; returns the count.
+            """Write each texel's squared distance to ``c`` into ``out`` when inside ``r2``; returns the count.
+
+            ``flat``: the texels (ascending); ``pos``: the positions, flat (H·W·3,) float32.
             """
             n = 0
             for i in range(len(flat)):
@@ -121,16 +133,18 @@ def _floor_kernel() -> Any:
     return _FLOOR_KERNEL
 
 
-def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10.0,
-                    evict: np.ndarray | None = None) -> dict[str, float]:
-    """``floor_ms``: the median floor pass (module docstring) over each point's dab texels (the covered
-    texels within ``radius_mm``, found outside the timing); ``fixed_ms``: the median real dab of 0.2 mm
-    radius at the same points (each the first of its stroke, as in :func:`measure`). With ``evict``,
-    also ``floor_cold_ms`` and ``fixed_cold_ms``, each pass or dab after reading ``evict``.
+def floor_and_fixed(doc: Document, layer: Layer, pts: np.ndarray, radius_mm: float = 10.0,
+                    evict: np.ndarray | None = None) -> dict[str, list[float]]:
+    """The floor pass and the fixed cost of a dab at each point (seconds, one value per point).
+
+    ``floor``: the floor pass (module docstring) over each point's dab texels (the covered texels within
+    ``radius_mm``, found outside the timing); ``fixed``: the real dab of 0.2 mm radius at the same points
+    (each the first of its stroke, as in :func:`measure`). With ``evict``, also ``floor_cold`` and
+    ``fixed_cold``, each pass or dab after reading ``evict``. ``floor`` is missing without numba.
     """
     from painting import Brush
 
-    out: dict[str, float] = {}
+    out: dict[str, list[float]] = {}
     passes: list[tuple[str, np.ndarray | None]] = [("", None)]
     if evict is not None:
         passes.append(("_cold", evict))
@@ -157,7 +171,7 @@ def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10
                 t0 = time.perf_counter()
                 kernel(flat, pos, c, r2, target)
                 times.append(time.perf_counter() - t0)
-            out[f"floor{suffix}_ms"] = 1000 * statistics.median(times)
+            out[f"floor{suffix}"] = times
     tiny = Brush(radius_mm=0.2, hardness=0.5, strength=1.0, mode="add")
     for suffix, buffer in passes:
         times = []
@@ -168,20 +182,21 @@ def floor_and_fixed(doc: Any, layer: Any, pts: np.ndarray, radius_mm: float = 10
                 t0 = time.perf_counter()
                 s.dab(p)
                 times.append(time.perf_counter() - t0)
-        out[f"fixed{suffix}_ms"] = 1000 * statistics.median(times)
+        out[f"fixed{suffix}"] = times
     return out
 
 
 #: Bytes read before each "cold" dab: more than this machine's last-level cache (105 MB), the same at
-#: every map size.
+#: every map size (``--evict-mb``).
 EVICT_BYTES = 160 * 2**20
 
 
-def _timed_dabs(doc: Any, layer: Any, pts: np.ndarray, brush: Any,
+def _timed_dabs(doc: Document, layer: Layer, pts: np.ndarray, brush: Brush,
                 evict: np.ndarray | None = None) -> tuple[list[float], list[float], list[float], list[int]]:
-    """One single-dab stroke at each point: (dab wall s, dab CPU s, whole stroke s, texels newly
-    painted). The new texels are counted in the dab's own 64² tiles (a count over the whole map between
-    dabs would itself read 64 MB at 4096² and leave the next dab with cold caches only there). With
+    """One single-dab stroke at each point: (dab wall s, dab CPU s, whole stroke s, texels newly painted).
+
+    The new texels are counted in the dab's own 64² tiles (a count over the whole map between dabs
+    would itself read 64 MB at 4096² and leave the next dab with cold caches only there). With
     ``evict`` (a large array), it is read before each dab: the caches cold, alike at every map size.
     """
     res = layer.resolution
@@ -210,9 +225,14 @@ def _timed_dabs(doc: Any, layer: Any, pts: np.ndarray, brush: Any,
 
 
 def measure(resolution: int, library: Any, material: str, dabs: int = 40,
-            evict: np.ndarray | None = None) -> dict[str, Any]:
-    """The dab figures at one map size (see the module docstring); ``evict`` as :func:`_timed_dabs`, for
-    a second pass on a fresh layer with cold caches (``dab_cold_ms``).
+            evict: np.ndarray | None = None) -> tuple[Document, Layer, dict[str, list[float]]]:
+    """The dab figures at one map size (see the module docstring), as raw values per dab.
+
+    Returns the document, its layer painted by the timed dabs, and lists of seconds per dab: ``dab``
+    (wall), ``dab_cpu`` (process CPU), ``dab_stroke`` (the whole one-dab stroke), ``dab_cold`` (with
+    ``evict`` as :func:`_timed_dabs`: a second pass on a fresh layer with cold caches), and those of
+    :func:`floor_and_fixed` as ``dab_fixed``, ``dab_floor`` (and ``_cold``); ``new_texels`` counts the
+    texels each dab newly painted.
     """
     from painting import Brush, Document
 
@@ -222,48 +242,87 @@ def measure(resolution: int, library: Any, material: str, dabs: int = 40,
     pts = _face_path(doc, dabs)
     brush = Brush(radius_mm=10.0, hardness=0.5, strength=1.0, mode="add")
     times, cpu, strokes, new = _timed_dabs(doc, layer, pts, brush)
-    out = {"doc": doc, "layer": layer, "dab_ms": 1000 * statistics.median(times),
-           "dab_cpu_ms": 1000 * statistics.median(cpu), "dab_stroke_ms": 1000 * statistics.median(strokes),
-           "texels_per_dab": int(np.median(new))}
+    runs: dict[str, list[float]] = {"dab": times, "dab_cpu": cpu, "dab_stroke": strokes,
+                                    "new_texels": [float(n) for n in new]}
     if evict is not None:
-        cold, _, _, _ = _timed_dabs(doc, doc.add_layer(material), pts, brush, evict)
-        out["dab_cold_ms"] = 1000 * statistics.median(cold)
-    out.update(floor_and_fixed(doc, layer, pts, evict=evict))
-    return out
+        runs["dab_cold"], _, _, _ = _timed_dabs(doc, doc.add_layer(material), pts, brush, evict)
+    runs.update({f"dab_{k}": v for k, v in floor_and_fixed(doc, layer, pts, evict=evict).items()})
+    return doc, layer, runs
+
+
+def spread(key: str, values: Sequence[float], scale: float = 1000.0, digits: int = 3) -> dict[str, float]:
+    """The median of ``values`` × ``scale`` as ``key``, beside its 90th percentile and largest.
+
+    ``key_p90`` is the 90th percentile (linear interpolation), ``key_max`` the largest; each is rounded
+    to ``digits`` decimals (seconds → ms by default).
+    """
+    v = np.asarray(values, dtype=np.float64) * scale
+    return {key: round(float(statistics.median(v.tolist())), digits),
+            f"{key}_p90": round(float(np.percentile(v, 90)), digits),
+            f"{key}_max": round(float(v.max()), digits)}
+
+
+def _sizes(text: str) -> tuple[int, ...]:
+    try:
+        sizes = tuple(int(t) for t in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be map sizes separated by commas, got {text!r}") from None
+    if not sizes or any(n < 64 or n % 64 for n in sizes):
+        raise argparse.ArgumentTypeError(f"map sizes must be multiples of 64, got {text!r}")
+    return sizes
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="sheer bench paint", description=__doc__)
+    """Run the benchmark and print one JSON object on stdout; returns the exit status."""
+    parser = argparse.ArgumentParser(prog="sheer bench paint", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
-    parser.add_argument("--quick", action="store_true", help="skip the 4096² map")
-    args = parser.parse_args(argv)
+    parser.add_argument("--quick", action="store_true", help="skip the 4096² map (the same as --sizes 1024,2048)")
+    parser.add_argument("--sizes", type=_sizes, default=None,
+                        help="map sizes in texels per side, separated by commas (default 1024,2048,4096)")
+    parser.add_argument("--dabs", type=_positive_int, default=40, help="timed dabs per map size (default 40)")
+    parser.add_argument("--evict-mb", type=_positive_int, default=EVICT_BYTES // 2**20,
+                        help=f"MB read before each cold dab (default {EVICT_BYTES // 2**20})")
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, or a bad option (argparse has printed why)
+        return int(exc.code or 0)
     library, material = _library()
     from painting import kernels
 
     if kernels.enabled():
         kernels.warm_up(background=False)  # compiled (or loaded from the cache) before any timing
     out: dict[str, Any] = {"paint_path": "numba" if kernels.active() else "numpy"}
-    sizes = (1024, 2048) if args.quick else (1024, 2048, 4096)
-    keep: dict[str, Any] = {}
-    evict = np.ones(EVICT_BYTES // 4, dtype=np.float32)
+    sizes = args.sizes or ((1024, 2048) if args.quick else (1024, 2048, 4096))
+    stroke_res = 2048 if 2048 in sizes else max((n for n in sizes if n < 2048), default=min(sizes))
+    keep: tuple[Document, Layer] | None = None
+    evict = np.ones(args.evict_mb * 2**20 // 4, dtype=np.float32)
     for res in sizes:
-        r = measure(res, library, material, evict=evict)
-        out[f"dab_ms_{res}"] = round(r["dab_ms"], 3)
-        out[f"dab_cpu_ms_{res}"] = round(r["dab_cpu_ms"], 3)
-        out[f"dab_cold_ms_{res}"] = round(r["dab_cold_ms"], 3)
-        out[f"dab_stroke_ms_{res}"] = round(r["dab_stroke_ms"], 3)
-        out[f"dab_new_texels_{res}"] = r["texels_per_dab"]
-        out[f"texels_in_1cm_dab_{res}"] = int(round(np.pi * (10.0 / r["doc"].atlas.texel_mm) ** 2))
-        for key in ("fixed", "fixed_cold", "floor", "floor_cold"):
-            if f"{key}_ms" in r:
-                out[f"dab_{key}_ms_{res}"] = round(r[f"{key}_ms"], 3)
+        doc, layer, runs = measure(res, library, material, dabs=args.dabs, evict=evict)
+        for name in ("dab", "dab_cpu", "dab_cold", "dab_stroke", "dab_fixed", "dab_fixed_cold", "dab_floor",
+                     "dab_floor_cold"):
+            if name in runs:
+                out.update(spread(f"{name}_ms_{res}", runs[name]))
+        new = runs["new_texels"]
+        out[f"dab_new_texels_{res}"] = int(np.median(new))
+        out[f"dab_new_texels_{res}_p90"] = int(np.percentile(new, 90))
+        out[f"dab_new_texels_{res}_max"] = int(max(new))
+        out[f"texels_in_1cm_dab_{res}"] = int(round(np.pi * (10.0 / doc.atlas.texel_mm) ** 2))
         texels = out[f"texels_in_1cm_dab_{res}"]
-        out[f"dab_ns_per_texel_{res}"] = round(1e6 * (r["dab_ms"] - r["fixed_ms"]) / max(texels, 1), 1)
-        if res == 2048:
-            keep = r
-        else:
-            del r
-    if "dab_ms_4096" in out:
+        fixed_ms = 1000 * statistics.median(runs["dab_fixed"])
+        dab_ms = 1000 * statistics.median(runs["dab"])
+        out[f"dab_ns_per_texel_{res}"] = round(1e6 * (dab_ms - fixed_ms) / max(texels, 1), 1)
+        if res == stroke_res:
+            keep = (doc, layer)
+        del doc, layer, runs
+    if "dab_ms_4096" in out and "dab_ms_1024" in out:
         out["dab_ratio_4096_1024"] = round(out["dab_ms_4096"] / out["dab_ms_1024"], 3)
         out["dab_cpu_ratio_4096_1024"] = round(out["dab_cpu_ms_4096"] / out["dab_cpu_ms_1024"], 3)
         out["dab_cold_ratio_4096_1024"] = round(out["dab_cold_ms_4096"] / out["dab_cold_ms_1024"], 3)
@@ -273,9 +332,23 @@ def main(argv: list[str] | None = None) -> int:
                 lo, hi = out[f"dab_floor{cold}_ms_1024"], out[f"dab_floor{cold}_ms_4096"]
                 out[f"dab_floor{cold}_ratio_4096_1024"] = round((fixed + hi) / (fixed + lo), 3)
                 out[f"dab_fixed{cold}_needed_ms"] = round(2 * hi - 3 * lo, 3)
+    assert keep is not None
+    out.update(_stroke_and_undo(*keep))
+    out["stroke_resolution"] = stroke_res
+    out["targets"] = TARGETS
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _stroke_and_undo(doc: Document, layer: Layer) -> dict[str, Any]:
+    """Time a 1000-dab stroke on ``layer`` (its undo record included), then its undo and redo.
+
+    Returns the times (ms), the dabs painted, whether redo restored the map bit-exactly, and the undo
+    stack's peak and budget (MB).
+    """
     from painting import Brush
 
-    doc, layer = keep["doc"], keep["layer"]
+    out: dict[str, Any] = {}
     doc.clear_history()
     doc.history.peak_bytes = 0  # the peak of the 1000-dab stroke alone, not of the single dabs above
     pts = _face_path(doc, 1100)[:1000]  # a few rays may miss the face: keep exactly 1000 points
@@ -299,9 +372,7 @@ def main(argv: list[str] | None = None) -> int:
     out["undo_peak_mb"] = round(doc.history.peak_bytes / 2**20, 3)
     out["undo_budget_mb"] = round(doc.history.budget_bytes / 2**20, 1)
     out["stroke_tiles"] = int(sum(len(d.tiles) for d in doc.history._undo[-1].deltas)) if doc.history.can_undo else 0
-    out["targets"] = TARGETS
-    print(json.dumps(out, indent=2))
-    return 0
+    return out
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
-"""``sheer bench km``: a smoke run on a tiny texture, and its pipeline checked against nested ``over``.
+"""``sheer bench km``: a smoke run on a tiny texture through the ``sheer`` command, and its pipeline
+checked against nested ``over``.
 
-No assertion on timing: only that the numbers are there and the pipeline computes the right thing.
+No assertion on timing: only that the numbers are there (every median with its p90 and maximum) and the
+pipeline computes the right thing.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from app.cli import main as sheer
 from bench import km as bench
 from km.colour import spectrum_to_rgb
 from km.optics import layer_rt, over
@@ -19,14 +22,24 @@ if TYPE_CHECKING:
     import pytest
 
 
-def test_bench_main_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
-    assert bench.main(["--json", "--size", "8", "--repeats", "2", "--chunk", "24"]) == 0
+def test_sheer_bench_km_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
+    assert sheer(["bench", "km", "--json", "--size", "8", "--repeats", "3", "--chunk", "24"]) == 0
     result = json.loads(capsys.readouterr().out)
+    assert set(result) == {"benchmark", "what", "texels", "size", "wavelengths", "layers", "repeats",
+                           "chunk_texels", "texels_per_s", "seconds_median", "seconds_p90", "seconds_max",
+                           "seconds_all", "stages_s", "stages_s_p90", "stages_s_max", "mean_rgb", "machine"}
     assert result["benchmark"] == "km"
     assert result["texels"] == 64 and result["wavelengths"] == 81 and result["layers"] == 4
-    assert result["repeats"] == 2 and len(result["seconds_all"]) == 2
+    assert result["repeats"] == 3 and len(result["seconds_all"]) == 3
     assert result["texels_per_s"] > 0
-    assert set(result["stages_s"]) == {"layer_rt", "stack", "over", "spectrum_to_rgb"}
+    runs = sorted(result["seconds_all"])
+    assert result["seconds_median"] == runs[1] and result["seconds_max"] == runs[2]
+    assert runs[1] <= result["seconds_p90"] <= runs[2]
+    for key in ("stages_s", "stages_s_p90", "stages_s_max"):
+        assert set(result[key]) == {"layer_rt", "stack", "over", "spectrum_to_rgb"}
+        assert all(v >= 0 for v in result[key].values())
+    assert all(result["stages_s"][k] <= result["stages_s_p90"][k] <= result["stages_s_max"][k]
+               for k in result["stages_s"])
     assert result["machine"]["cpu_count"] >= 1
     assert all(0.0 < c < 1.0 for c in result["mean_rgb"])
 

@@ -1,17 +1,52 @@
-"""``sheer bench paint``'s floor and fixed-cost figures (bench.paint): the floor pass must visit exactly
-the dab's texels and write each one, or the bound it reports on ``dab_ratio_4096_1024`` means nothing."""
+"""``sheer bench paint``: a smoke run in a small configuration through the ``sheer`` command (every key,
+every median with its p90 and maximum), and its floor and fixed-cost figures (bench.paint): the floor
+pass must visit exactly the dab's texels and write each one, or the bound it reports on
+``dab_ratio_4096_1024`` means nothing."""
 
 from __future__ import annotations
 
-import numpy as np
-import pytest
+import json
+from typing import TYPE_CHECKING
 
+import numpy as np
+
+from app.cli import main as sheer
 from bench import paint as bench
-from painting import kernels
 from tests.painting.helpers import make_doc, texel_positions
 
+if TYPE_CHECKING:
+    import pytest
 
-@pytest.mark.skipif(not kernels.HAVE_NUMBA, reason="numba is not installed")
+#: the medians measured at each map size (``<name>_ms_<size>``), each with ``_p90`` and ``_max``
+TIMED = ("dab", "dab_cpu", "dab_cold", "dab_stroke", "dab_fixed", "dab_fixed_cold", "dab_floor", "dab_floor_cold")
+
+
+def test_sheer_bench_paint_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
+    assert sheer(["bench", "paint", "--json", "--sizes", "256,512", "--dabs", "5", "--evict-mb", "16"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    per_size = {f"{name}_ms_{res}{stat}" for name in TIMED for res in (256, 512) for stat in ("", "_p90", "_max")}
+    per_size |= {f"{name}_{res}{stat}" for name in ("dab_new_texels",) for res in (256, 512)
+                 for stat in ("", "_p90", "_max")}
+    per_size |= {f"{name}_{res}" for name in ("texels_in_1cm_dab", "dab_ns_per_texel") for res in (256, 512)}
+    once = {"paint_path", "stroke_1000_ms", "stroke_1000_cpu_ms", "stroke_dabs", "undo_ms", "redo_ms",
+            "redo_bit_exact", "undo_peak_mb", "undo_budget_mb", "stroke_tiles", "stroke_resolution", "targets"}
+    assert set(result) == per_size | once
+    assert result["paint_path"] in ("numba", "numpy")
+    for name in TIMED:
+        for res in (256, 512):
+            key = f"{name}_ms_{res}"
+            assert 0 <= result[key] <= result[f"{key}_p90"] <= result[f"{key}_max"], key
+    assert 0 < result["dab_new_texels_512"] <= result["dab_new_texels_512_max"]
+    assert result["stroke_resolution"] == 512 and result["stroke_dabs"] == 1000
+    assert result["redo_bit_exact"] is True and result["stroke_tiles"] > 0
+    assert result["targets"] == bench.TARGETS
+
+
+def test_sheer_bench_paint_rejects_bad_sizes(capsys: pytest.CaptureFixture[str]) -> None:
+    assert sheer(["bench", "paint", "--sizes", "100"]) == 2
+    assert "multiples of 64" in capsys.readouterr().err
+
+
 def test_floor_pass_writes_exactly_the_dab_texels() -> None:
     doc = make_doc(256)
     atlas = doc.atlas
@@ -36,9 +71,7 @@ def test_floor_and_fixed_report_positive_times_and_leave_the_layer_painted_only_
     _, pos, _ = texel_positions(doc.atlas)
     pts = pos[:: max(1, len(pos) // 5)][:5]
     out = bench.floor_and_fixed(doc, layer, pts)
-    assert out["fixed_ms"] > 0
-    if kernels.HAVE_NUMBA:
-        assert out["floor_ms"] > 0
+    assert min(out["fixed"]) > 0 and min(out["floor"]) > 0 and len(out["fixed"]) == len(out["floor"]) == len(pts)
     # Each tiny dab is its own undoable stroke; the floor pass never touches the layer.
     while doc.can_undo:
         doc.undo()
