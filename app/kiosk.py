@@ -203,11 +203,10 @@ class KioskWindow(QWidget):
 
     # ------------------------------------------------------------------ construction
     def _make_viewport(self) -> Any:
-        from app.render_adapter import layer_inputs
         from app.viewport import Viewport
 
         vp = Viewport(self.doc.head, getattr(self.doc, "layout", None))
-        vp.layers_source = lambda: layer_inputs(self.doc, self.library)
+        vp.set_document(self.doc, self.library)  # its binding follows the looks and shades applied
         vp.paint_enabled = False
         vp.gl_failed.connect(lambda msg: self.fail(msg))
         return vp
@@ -434,7 +433,6 @@ class KioskWindow(QWidget):
         for cat, label in self.product_labels.items():
             i = self._layer_for(cat)
             label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
-        self.viewport.layers_changed()
 
     def snapshot(self) -> Path:
         folder = Path(self.config.snapshot_dir)
