@@ -7,8 +7,8 @@ light, no post-processing) measured in the same run, the ratios ``one_light_over
 and ``eight_lights_shadows_over_baseline`` (target ≤ 3), and ``capture_s``: the full capture of the
 synthetic ground-truth photograph of the sample head (target ≤ 30 s), and the spread of the Phong fit
 over ``--starts`` random starts (paper: 200, under 2.5 %). Frames are timed with ``ctx.finish()`` after
-two warm-up frames; every median frame time (``…_ms``) has its 90th percentile (``…_p90_ms``) and maximum
-(``…_max_ms``) beside it. ``eight_lights_shadow_mode`` says how the eight-light figures compare shadows
+two warm-up frames; every median frame time (``K``) has its 90th percentile (``K_p90``) and maximum
+(``K_max``) beside it. ``eight_lights_shadow_mode`` says how the eight-light figures compare shadows
 (``"vertex"``: per vertex, interpolated — the engine's ``shadow_mode="auto"`` for more than two shadowed
 lights; the one-light figure has none).
 """

@@ -19,8 +19,8 @@ passes and their masks) and ``fast_composite_ms`` (the composite and display pas
 and the composite reduced to constant writes (the pass structure, rasterisation, targets and SSS left):
 what no shading work can go below on this machine; ``fast_floor_over_baseline`` its ratio.
 
-Every time reported as a median (``…_ms``) has its 90th percentile (``…_p90_ms``) and maximum
-(``…_max_ms``) beside it, over the same frames: a median alone hides hitches.
+Every time reported as a median (``K``, in ms) has its 90th percentile (``K_p90``) and maximum (``K_max``)
+beside it, over the same frames: a median alone hides hitches.
 """
 
 from __future__ import annotations
@@ -49,15 +49,14 @@ def spread(key: str, times_ms: Sequence[float]) -> dict[str, float]:
     """The median of ``times_ms`` under ``key``, with the 90th percentile and the maximum beside it.
 
     Args:
-        key: the median's name, ending in ``_ms``; the others are ``…_p90_ms`` and ``…_max_ms``.
+        key: the median's name; the others are ``key + "_p90"`` and ``key + "_max"``.
         times_ms: at least one time, milliseconds.
 
     Returns:
         The three figures (ms) by name.
     """
-    stem = key.removesuffix("_ms")
-    return {key: float(np.median(times_ms)), f"{stem}_p90_ms": float(np.percentile(times_ms, 90)),
-            f"{stem}_max_ms": float(np.max(times_ms))}
+    return {key: float(np.median(times_ms)), f"{key}_p90": float(np.percentile(times_ms, 90)),
+            f"{key}_max": float(np.max(times_ms))}
 
 
 def _times_ms(ctx: moderngl.Context, fn: Callable[[], object], frames: int, warmup: int = 2) -> list[float]:
@@ -283,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
         ctx.release()
     keys = ["baseline_ms", "fast_ms", "reference_ms", "fast_over_baseline", "reference_over_baseline",
             "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms"]
+    keys = [k for key in keys for k in (key, f"{key}_p90", f"{key}_max") if k in out]  # spreads beside medians
     ordered = {k: round(out[k], 3) if isinstance(out[k], float) else out[k] for k in keys}
     ordered.update({k: (round(v, 3) if isinstance(v, float) else v) for k, v in out.items() if k not in keys})
     json.dump(ordered, sys.stdout, indent=2)
