@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     import moderngl
     from PySide6.QtCore import QEvent
 
+    from capture.pipeline import Face
     from km.library import Library
     from painting import Document
     from painting.head import Head
@@ -77,7 +78,7 @@ def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
     from app.workers import run_task
     from render.view import preload_renderer
 
-    def done(_result: Any = None) -> None:
+    def done(_result: object = None) -> None:
         _PRELOAD["task"] = None
         waiting, _PRELOAD["waiting"] = _PRELOAD["waiting"], []
         for fn in waiting:
@@ -121,7 +122,7 @@ class Viewport(QOpenGLWidget):
         self.split = 0.0
         self.debug = 0
         self.mode = "fast"  # fast | reference | lightweight (render.view.RENDER_MODES)
-        self.face: Any = None  # a captured face for the lightweight mode (capture.pipeline.Face)
+        self.face: Face | None = None  # a captured face for the lightweight mode
         self.debug_layer_index = 0  # the document layer the thickness view shows
         self.brush_radius_units = 0.2
         self.paint_enabled = True
