@@ -17,6 +17,7 @@ BENCHMARKS: dict[str, str] = {
     "lightweight": "bench.lightweight:main",
     "studio": "bench.studio:main",
     "fuzz": "bench.fuzz:bench_main",
+    "project": "bench.project:main",
 }
 
 

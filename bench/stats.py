@@ -1,0 +1,27 @@
+"""Summaries of timed series for the benchmarks' JSON: a median never stands alone (it hides hitches)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+
+def spread(key: str, values: Sequence[float], digits: int = 2) -> dict[str, float]:
+    """The median of ``values`` under ``key``, its 90th percentile and its maximum beside it.
+
+    Args:
+        key: the median's name (e.g. ``save_ms``); the others are ``key + "_p90"`` (linear
+            interpolation between order statistics) and ``key + "_max"``.
+        values: at least one sample, in the unit ``key`` names.
+        digits: decimals kept.
+
+    Returns:
+        The three figures by name, in the unit of ``values``.
+    """
+    arr = np.asarray(values, dtype=np.float64)
+    return {key: round(float(np.median(arr)), digits), f"{key}_p90": round(float(np.percentile(arr, 90)), digits),
+            f"{key}_max": round(float(arr.max()), digits)}
