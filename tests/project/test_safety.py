@@ -34,8 +34,8 @@ def test_killing_a_saving_process_always_leaves_a_loadable_project(tmp_path: Pat
     result = crash_runs(30, seed=7, folder=tmp_path, max_delay_s=0.08)
     assert result["runs"] == 30
     assert result["failures"] == 0, result["failure_examples"]
-    assert result.get("file_loaded", 0) == 30  # the first save happens before any kill
-    assert result.get("bak_loaded", 0) >= 20
+    assert result["file_loaded"] == 30 and result["file_absent"] == 0  # the first save happens before any kill
+    assert result["bak_loaded"] == 30 and result["bak_absent"] == 0  # so does the first .bak
 
 
 def test_a_failing_save_leaves_the_old_file(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
