@@ -113,7 +113,7 @@ def _floor_kernel() -> Any:
 
         def texel_floor(flat: np.ndarray, pos: np.ndarray, c: np.ndarray, r2: np.float32,
                         out: np.ndarray) -> int:
-            """Write each texel's squared distance to ``c`` into ``out`` when inside ``r2``; returns the count.
+            """Write the squared distance to ``c`` of each texel inside ``r2`` into ``out``; returns the count.
 
             ``flat``: the texels (ascending); ``pos``: the positions, flat (H·W·3,) float32.
             """
@@ -284,7 +284,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="sheer bench paint", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
-    parser.add_argument("--quick", action="store_true", help="skip the 4096² map (the same as --sizes 1024,2048)")
+    parser.add_argument("--quick", action="store_true",
+                        help="skip the 4096² map (the same as --sizes 1024,2048)")
     parser.add_argument("--sizes", type=_sizes, default=None,
                         help="map sizes in texels per side, separated by commas (default 1024,2048,4096)")
     parser.add_argument("--dabs", type=_positive_int, default=40, help="timed dabs per map size (default 40)")

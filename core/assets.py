@@ -1,5 +1,7 @@
-"""Where Sheer's files are: the data shipped in the ``resources`` package (shaders, the default material
-library, looks, head metadata, icons), the sample assets' search path, and the assets' credits.
+"""Where Sheer's files are: the shipped data, the sample assets' search path, and the assets' credits.
+
+The shipped data is in the ``resources`` package (shaders, the default material library, looks, head
+metadata, icons).
 
 The sample assets (the scanned head, photographs, HDR environments, spectra) are never copied into the
 repository. They are found, in this order, in

@@ -73,9 +73,10 @@ def atomic_write_with(path: str | Path, writer: Callable[[IO], None], keep_backu
 
 
 def _keep_backup(target: Path) -> None:
-    """Make ``<target>.bak`` the current ``target``: a hard link when the file system allows it (no
-    copy of a large project on every save), else a copy; fsynced, and put in place by a rename, so
-    the previous ``.bak`` is replaced atomically too.
+    """Make ``<target>.bak`` the current ``target``.
+
+    A hard link when the file system allows it (no copy of a large project on every save), else a
+    copy; fsynced, and put in place by a rename, so the previous ``.bak`` is replaced atomically too.
     """
     backup = target.with_name(target.name + ".bak")
     backup_tmp = target.with_name(f".{target.name}.bak.tmp")

@@ -17,8 +17,9 @@ from core.atomicio import atomic_write_bytes
 
 
 def cache_dir(kind: str) -> Path:
-    """The folder of one kind of cache: ``$SHEER_CACHE_DIR/<kind>``, else ``$XDG_CACHE_HOME/sheer/<kind>``
-    (default ``~/.cache/sheer/<kind>``).
+    """The folder of one kind of cache (``kind``: e.g. "atlas", "colour").
+
+    ``$SHEER_CACHE_DIR/<kind>``, else ``$XDG_CACHE_HOME/sheer/<kind>`` (default ``~/.cache/sheer/<kind>``).
     """
     env = os.environ.get("SHEER_CACHE_DIR")
     if env:
@@ -28,8 +29,9 @@ def cache_dir(kind: str) -> Path:
 
 
 def save_array(path: Path, array: np.ndarray) -> None:
-    """Write ``array`` to the cache file ``path`` (``.npy``) atomically, making its folder; failing to
-    write is not an error (a cache is an optimisation only).
+    """Write ``array`` to the cache file ``path`` (``.npy``) atomically, making its folder.
+
+    Failing to write is not an error (a cache is an optimisation only).
     """
     try:
         buf = io.BytesIO()

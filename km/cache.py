@@ -48,8 +48,9 @@ def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
 
 
 def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> bool:
-    """Whether :func:`spectral_rgb_matrix_cached` would answer without colour-science: the matrix is in
-    this process already or its cache file exists.
+    """Whether :func:`spectral_rgb_matrix_cached` would answer without colour-science.
+
+    True when the matrix is in this process already or its cache file exists.
     """
     wl = np.asarray(wavelengths, dtype=np.float64)
     memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))
@@ -57,9 +58,11 @@ def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", c
 
 
 def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> np.ndarray:
-    """:func:`km.colour.spectral_rgb_matrix` for ``wavelengths`` (nm), read from the disk cache when it is
-    there (keyed by the grid, the illuminant, the adaptation transform and colour-science's version) and
-    written to it otherwise. Returns a read-only float64 (n_wavelengths, 3) array.
+    """:func:`km.colour.spectral_rgb_matrix` for ``wavelengths`` (nm), through the disk cache.
+
+    Read from the cache when it is there (keyed by the grid, the illuminant, the adaptation transform
+    and colour-science's version) and written to it otherwise. Returns a read-only float64
+    (n_wavelengths, 3) array.
     """
     wl = np.asarray(wavelengths, dtype=np.float64)
     memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))

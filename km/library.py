@@ -50,8 +50,9 @@ class LibraryError(SheerError, ValueError):
 
 
 def register_migration(from_version: int) -> Callable[[Migration], Migration]:
-    """Decorator registering ``func(data) -> data`` that upgrades a library dict from ``from_version`` to
-    ``from_version + 1`` (it may modify and return its argument; it receives a private copy).
+    """Register ``func(data) -> data`` (a decorator) as the upgrade of a library dict from ``from_version``.
+
+    It upgrades to ``from_version + 1``; it may modify and return its argument (a private copy).
     """
 
     def decorate(func: Migration) -> Migration:
@@ -64,8 +65,10 @@ def register_migration(from_version: int) -> Callable[[Migration], Migration]:
 
 
 def migrate(data: dict[str, Any], *, source: str = "library") -> dict[str, Any]:
-    """Bring a parsed library dict up to :data:`SCHEMA_VERSION` (returns a new dict; the input is
-    untouched). Raises :class:`LibraryError` for a missing, invalid, unknown or newer version.
+    """Bring a parsed library dict up to :data:`SCHEMA_VERSION` (a new dict; the input is untouched).
+
+    Raises:
+        LibraryError: a missing, invalid, unknown or newer version.
     """
     if not isinstance(data, dict):
         raise LibraryError(f"{source}: the top level must be a JSON object, got {_json_type(data)}")
@@ -154,8 +157,10 @@ class Library:
         return None
 
     def get(self, name: str) -> Material:
-        """The material called ``name`` (case-insensitive). Raises :class:`LibraryError` suggesting close
-        matches when there is none.
+        """The material called ``name`` (case-insensitive).
+
+        Raises:
+            LibraryError: there is none (the message suggests close matches).
         """
         i = self._index(name)
         if i is None:
@@ -180,8 +185,10 @@ class Library:
     # ---- editing
 
     def add(self, material: Material, *, replace: bool = False) -> Material:
-        """Append ``material``; a material with the same name (case-insensitive) is an error unless
-        ``replace`` (then it is replaced in place).
+        """Append ``material``.
+
+        A material with the same name (case-insensitive) is an error unless ``replace`` (then it is
+        replaced in place).
         """
         if not isinstance(material, Material):
             raise TypeError(f"expected a Material, got {type(material).__name__}")
@@ -219,8 +226,9 @@ class Library:
         return renamed
 
     def duplicate(self, name: str, new_name: str | None = None) -> Material:
-        """Copy the material ``name`` under ``new_name`` (default: ``"<name> copy"``, ``"<name> copy 2"``…),
-        inserted right after it; returns the copy.
+        """Copy the material ``name`` under ``new_name``, inserted right after it; returns the copy.
+
+        ``new_name`` defaults to ``"<name> copy"`` (``"<name> copy 2"``… when taken).
         """
         i = self._index(name)
         if i is None:
@@ -238,7 +246,10 @@ class Library:
         return dup
 
     def unique_name(self, base: str) -> str:
-        """``base`` if no material has that name, else ``"base 2"``, ``"base 3"``…"""
+        """A free material name: ``base``, else the first unused of ``"base 2"``, ``"base 3"`` and so on.
+
+        The name is cut to fit :data:`MAX_NAME_CHARS` with its suffix; an empty one becomes "material".
+        """
         base = base.strip()[: MAX_NAME_CHARS - 6] or "material"
         if self._index(base) is None:
             return base
@@ -255,8 +266,10 @@ class Library:
                 "materials": [m.to_json() for m in self._materials]}
 
     def dumps(self) -> str:
-        """The file content: indented JSON with each list of numbers on one line, shortest round-trip
-        floats (bit-identical on reload), a final newline. Deterministic.
+        """The file content (deterministic).
+
+        Indented JSON with each list of numbers on one line, shortest round-trip floats (bit-identical
+        on reload), a final newline.
         """
         text = json.dumps(self.to_json(), indent=1, ensure_ascii=False, allow_nan=False)
         # Only lists that the indenter spread over several lines are joined; JSON strings never hold a
@@ -341,8 +354,9 @@ class Library:
         return cls.loads(raw, source=source, path=p)
 
     def save(self, path: str | Path | None = None, *, keep_backup: bool = True) -> Path:
-        """Write the library atomically to ``path`` (default: where it was loaded from); the previous
-        file is kept as ``FILE.bak`` unless ``keep_backup=False``. Returns the path written.
+        """Write the library atomically to ``path`` (default: where it was loaded from).
+
+        The previous file is kept as ``FILE.bak`` unless ``keep_backup=False``. Returns the path written.
         """
         from core.atomicio import atomic_write_text
 
@@ -396,8 +410,10 @@ def _cached_default() -> Library:
 
 
 def default_library() -> Library:
-    """The default library shipped with Sheer (loaded once; each call returns an independent copy,
-    safe to mutate, whose ``path`` is None so that saving it needs an explicit path).
+    """The default library shipped with Sheer.
+
+    Loaded once; each call returns an independent copy, safe to mutate, whose ``path`` is None so that
+    saving it needs an explicit path.
     """
     lib = _cached_default().copy()
     lib.path = None

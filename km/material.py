@@ -132,8 +132,10 @@ MATERIAL_JSON_SCHEMA: dict[str, Any] = {
 
 
 class MaterialError(SheerError, ValueError):
-    """An invalid material or measurement. ``field`` is the path of the offending value (e.g.
-    ``materials[3].S[12]``) and ``reason`` says what is wrong with it; ``str()`` gives both.
+    """An invalid material or measurement.
+
+    ``field`` is the path of the offending value (e.g. ``materials[3].S[12]``) and ``reason`` says what
+    is wrong with it; ``str()`` gives both.
     """
 
     def __init__(self, field: str, reason: str) -> None:
@@ -191,8 +193,9 @@ def _check_name(value: Any, where: str = "name") -> str:
 
 def _check_array(value: Any, where: str, lo: float | None = None, hi: float | None = None,
                  length: int | None = None, length_of: str = "wavelengths") -> np.ndarray:
-    """A 1-D finite float64 read-only copy of ``value``; a list from JSON is checked element by element
-    so that the error names the index.
+    """A 1-D finite float64 read-only copy of ``value``.
+
+    A list from JSON is checked element by element so that the error names the index.
     """
     if isinstance(value, np.ndarray):
         if value.ndim != 1:
@@ -317,8 +320,10 @@ class Measurement:
     __hash__ = None  # type: ignore[assignment]
 
     def invert(self, *, clip: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """(S, K) per mm from this triplet with :func:`km.invert_sk` (Eq. 6–7), Saunderson-corrected when
-        ``saunderson`` is set. Raises :class:`km.KMDomainError` on invalid data unless ``clip``.
+        """(S, K) per mm from this triplet with :func:`km.invert_sk` (Eq. 6–7).
+
+        Saunderson-corrected when ``saunderson`` is set. Raises :class:`km.KMDomainError` on invalid data
+        unless ``clip``.
         """
         from km.optics import invert_sk
 
@@ -423,8 +428,9 @@ class Material:
     # ---- optics
 
     def rt(self, thickness_um: float | np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """``(R0, T)`` of a layer of ``thickness_um`` µm (default: ``self.thickness_um``) over nothing
-        (Eq. 1–2); arrays on ``self.wavelengths``. An array of thicknesses broadcasts: shape
+        """``(R0, T)`` of a layer of ``thickness_um`` µm (default: ``self.thickness_um``) over nothing.
+
+        Eq. 1–2; fractions in [0, 1] on ``self.wavelengths``. An array of thicknesses broadcasts: shape
         ``(*thickness.shape, n_wavelengths)``.
         """
         from km.optics import layer_rt
@@ -444,8 +450,9 @@ class Material:
         return self.rt(thickness_um)[1]
 
     def r_inf(self) -> np.ndarray:
-        """Reflectance of an opaque layer, R∞ = 1 + K/S − √((K/S)² + 2K/S) (fraction, per wavelength;
-        0 where S = 0).
+        """Reflectance of an opaque layer, R∞ = 1 + K/S − √((K/S)² + 2K/S).
+
+        A fraction in [0, 1] per wavelength; 0 where S = 0.
         """
         from km.optics import r_inf_from_ks
 
@@ -455,8 +462,10 @@ class Material:
 
     def reflectance_over(self, background: float | np.ndarray | str = "black",
                          thickness_um: float | None = None) -> np.ndarray:
-        """Total reflectance of the layer over a background: ``"black"`` (0), ``"white"`` (1), a number
-        in [0, 1] or a reflectance spectrum on ``self.wavelengths``.
+        """Total reflectance (fraction, per wavelength) of the layer over a background.
+
+        ``background``: ``"black"`` (0), ``"white"`` (1), a number in [0, 1] or a reflectance spectrum on
+        ``self.wavelengths``; ``thickness_um`` as :meth:`rt`.
         """
         from km.optics import over
 
@@ -466,9 +475,12 @@ class Material:
 
     def swatch_rgb(self, background: float | np.ndarray | str = "black", thickness_um: float | None = None,
                    illuminant: str = "D65", *, encoded: bool = True) -> np.ndarray:
-        """Display colour of the layer over ``background`` (see :meth:`reflectance_over`) under
-        ``illuminant``: gamma-encoded sRGB in [0, 1] (clipped), or linear sRGB (unclipped) with
-        ``encoded=False``. ``background="opaque"`` gives the colour of R∞.
+        """Display colour of the layer over ``background`` (see :meth:`reflectance_over`) under a light.
+
+        ``illuminant``: a CIE illuminant name (default D65).
+
+        Gamma-encoded sRGB in [0, 1] (clipped), or linear sRGB (unclipped) with ``encoded=False``.
+        ``background="opaque"`` gives the colour of R∞.
         """
         # km.colour.spectrum_to_rgb's matrix through km's disk cache: swatches are drawn while the studio
         # starts, and importing colour-science for them cost about a second there (the same product)
@@ -491,8 +503,9 @@ class Material:
         return f"#{r:02x}{g:02x}{b:02x}"
 
     def on_wavelengths(self, wavelengths: np.ndarray | Sequence[float]) -> Material:
-        """This material with S and K linearly interpolated onto ``wavelengths`` (nm; held constant
-        beyond the ends). The measurement, if any, stays on its own grid.
+        """This material with S and K linearly interpolated onto ``wavelengths`` (nm).
+
+        Held constant beyond the ends. The measurement, if any, stays on its own grid.
         """
         from km.spectra import WavelengthGrid
 
@@ -516,8 +529,10 @@ class Material:
 
     @classmethod
     def from_json(cls, data: Any, *, where: str = "material") -> Material:
-        """Validate and build a material from its JSON dict. Any problem raises :class:`MaterialError`
-        naming ``where.<field>`` (e.g. ``materials[3].S[12]``); nothing is silently fixed.
+        """Validate and build a material from its JSON dict; nothing is silently fixed.
+
+        Raises:
+            MaterialError: any problem, naming ``where.<field>`` (e.g. ``materials[3].S[12]``).
         """
         try:
             d = _check_keys(data, _MATERIAL_KEYS, "")

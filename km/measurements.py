@@ -1,5 +1,6 @@
-"""Import Kubelka–Munk measurements (R∞, R, Rg at thickness D) from CSV and X-Rite/CGATS spectral files,
-invert them to materials, and export materials as CSV.
+"""Kubelka–Munk measurements: import (R∞, R, Rg at thickness D) from CSV and X-Rite/CGATS, export as CSV.
+
+Imported triplets are inverted to materials (S and K per mm).
 
 CSV
 ---
@@ -74,8 +75,9 @@ class MeasurementImportError(SheerError, ValueError):
 
 @dataclass
 class ImportResult:
-    """What an import produced: the materials, and every rejected ``(where, reason)``
-    (``where`` is e.g. ``"line 12"``, ``"sample 'Rose R'"`` or ``"Rose: 455 nm"``).
+    """What an import produced: the materials, and every rejected ``(where, reason)``.
+
+    ``where`` is e.g. ``"line 12"``, ``"sample 'Rose R'"`` or ``"Rose: 455 nm"``.
     """
 
     source: str
@@ -290,8 +292,9 @@ _META_RE = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_ ]*?)\s*[:=]\s*(.*?)\s*$")
 
 
 def _column_key(text: str) -> str:
-    """Normalised column name: lowercase, units in brackets dropped, spaces as underscores
-    (``"Wavelength (nm)"`` → ``wavelength``, ``"R inf"`` → ``r_inf``).
+    """Normalised column name: lowercase, units in brackets dropped, spaces as underscores.
+
+    ``"Wavelength (nm)"`` → ``wavelength``, ``"R inf"`` → ``r_inf``.
     """
     key = re.sub(r"[\(\[].*?[\)\]]", "", text.strip().strip('"')).strip().lower()
     return re.sub(r"\s+", "_", key)
@@ -299,9 +302,11 @@ def _column_key(text: str) -> str:
 
 def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
              category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
-    """Import one material from a CSV triplet file (see the module docstring). ``thickness_mm`` (D, mm)
-    overrides the file's ``D_mm``; ``name`` and ``category`` override the file's metadata (defaults: the
-    file name and ``other``). ``grid``: target wavelengths (nm), default 380–780 nm in 5 nm steps.
+    """Import one material from a CSV triplet file (see the module docstring).
+
+    ``thickness_mm`` (D, mm) overrides the file's ``D_mm``; ``name`` and ``category`` override the
+    file's metadata (defaults: the file name and ``other``). ``grid``: target wavelengths (nm), default
+    380–780 nm in 5 nm steps.
     """
     p = Path(path)
     source = str(p)
@@ -418,8 +423,9 @@ def _role(label: str) -> tuple[str, str] | None:
 
 def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str | None = None,
                category: str | None = None, grid: np.ndarray | Sequence[float] | None = None) -> ImportResult:
-    """Import materials from an X-Rite / CGATS spectral file (see the module docstring). ``name`` may be
-    given only when the file holds one material.
+    """Import materials from an X-Rite / CGATS spectral file (see the module docstring).
+
+    ``name`` may be given only when the file holds one material.
     """
     p = Path(path)
     source = str(p)
@@ -590,10 +596,11 @@ def import_file(path: str | Path, *, thickness_mm: float | None = None, name: st
 
 
 def export_csv(material: Material, path: str | Path) -> Path:
-    """Write a material as CSV (atomically): its measurement triplet on the material's wavelengths
-    (linearly resampled) with ``# D_mm`` and the other metadata, plus ``S_per_mm`` and ``K_per_mm``
-    columns. A material without a measurement gets the triplet its S and K predict (R∞, R over black
-    at D = 0.15 mm, Rg = 0). :func:`read_csv` reads the file back.
+    """Write a material as CSV (atomically); :func:`read_csv` reads the file back.
+
+    Its measurement triplet on the material's wavelengths (linearly resampled) with ``# D_mm`` and the
+    other metadata, plus ``S_per_mm`` and ``K_per_mm`` columns. A material without a measurement gets
+    the triplet its S and K predict (R∞, R over black at D = 0.15 mm, Rg = 0).
     """
     from core.atomicio import atomic_write_text
 

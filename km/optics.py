@@ -413,6 +413,7 @@ class SKInversion(tuple[FloatArray, FloatArray]):
     report: str
 
     def __new__(cls, S: FloatArray, K: FloatArray, invalid: NDArray[np.bool_], report: str) -> SKInversion:
+        """The pair ``(S, K)`` carrying its ``invalid`` mask and ``report``."""
         obj = super().__new__(cls, (S, K))
         obj.invalid = invalid
         obj.report = report
@@ -420,10 +421,12 @@ class SKInversion(tuple[FloatArray, FloatArray]):
 
     @property
     def S(self) -> FloatArray:
+        """Scattering coefficient S per mm (the first element)."""
         return self[0]
 
     @property
     def K(self) -> FloatArray:
+        """Absorption coefficient K per mm (the second element)."""
         return self[1]
 
 

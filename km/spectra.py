@@ -112,10 +112,12 @@ class WavelengthGrid:
 
     @property
     def start(self) -> float:
+        """The first wavelength (nm)."""
         return float(self._wl[0])
 
     @property
     def stop(self) -> float:
+        """The last wavelength (nm, included)."""
         return float(self._wl[-1])
 
     @property
@@ -125,6 +127,7 @@ class WavelengthGrid:
 
     @property
     def is_uniform(self) -> bool:
+        """Whether the wavelengths are evenly spaced."""
         return self._step is not None
 
     def __len__(self) -> int:

@@ -1,5 +1,6 @@
-"""The paint atlas: the per-texel bake of a :class:`painting.layout.UVLayout` (3D position, normal,
-triangle id, chart id, coverage) with padding beyond chart borders, and its cache on disk.
+"""The paint atlas: the per-texel bake of a :class:`painting.layout.UVLayout`, and its cache on disk.
+
+Per texel: 3D position, normal, triangle id, chart id and coverage, with padding beyond chart borders.
 
 Units: positions in **mesh units** (as loaded, see :mod:`painting.head`); normals are unit vectors;
 texture space follows :mod:`painting.head` (row ``i`` covers ``v ∈ [i/H, (i+1)/H)``).
@@ -74,6 +75,7 @@ class Atlas:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """(rows, columns) of every map: (resolution, resolution) texels."""
         return (self.resolution, self.resolution)
 
     @property
@@ -83,8 +85,9 @@ class Atlas:
 
     @property
     def index(self) -> TexelIndex:
-        """The texel spatial index (:class:`painting.spatial.TexelIndex`), built on first use and kept on
-        disk beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s).
+        """The texel spatial index (:class:`painting.spatial.TexelIndex`), built on first use.
+
+        Kept on disk beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s).
         """
         if self._index is None:
             folder = (None if self._cache_path is None
@@ -101,6 +104,7 @@ class Atlas:
 
     def pads_of(self, flat: np.ndarray, has_pad: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Padding texels fed by the covered texels ``flat``: (dst, src) flat index arrays.
+
         ``has_pad`` (optional, bool like ``flat``) says which of them feed any (a shortcut).
         """
         if len(self.pad_src) == 0 or len(flat) == 0:
@@ -126,6 +130,7 @@ class Atlas:
         return self.pad_dst[k], self.pad_src[k]
 
     def charts_at(self, flat: np.ndarray) -> np.ndarray:
+        """Chart id (int32, -1 where nothing was baked) of each flat texel index in ``flat``."""
         return self.chart.reshape(-1)[flat]
 
 
@@ -142,8 +147,9 @@ def check_resolution(resolution: Any) -> int:
 
 
 def cache_dir() -> Path:
-    """Where baked atlases are cached: ``$SHEER_CACHE_DIR`` or ``$XDG_CACHE_HOME/sheer/atlas``
-    (default ``~/.cache/sheer/atlas``).
+    """Where baked atlases are cached: the ``atlas`` folder of :func:`core.cache.cache_dir`.
+
+    ``$SHEER_CACHE_DIR/atlas`` or ``$XDG_CACHE_HOME/sheer/atlas`` (default ``~/.cache/sheer/atlas``).
     """
     from core.cache import cache_dir as km_cache_dir
 
@@ -224,8 +230,10 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
 
 
 def _padding_sources(covered: np.ndarray, padding: int) -> tuple[np.ndarray, np.ndarray]:
-    """Uncovered texels within ``padding`` texels (Euclidean, centre to centre) of a covered one, and
-    their nearest covered texel: (dst, src) flat indices sorted by src.
+    """Uncovered texels near a covered one, and their nearest covered texel: (dst, src) sorted by src.
+
+    ``dst`` are the texels within ``padding`` texels (Euclidean, centre to centre) of a covered one;
+    both are flat indices.
 
     Same result as ``scipy.ndimage.distance_transform_edt(..., return_indices=True)`` restricted to the
     band (ties aside), but only the band is searched: a square dilation bounds it and a cKDTree over the
@@ -271,9 +279,10 @@ CACHE_LIMIT_BYTES = 3 * 1024**3
 
 
 def _save_cached(path: Path, atlas: Atlas) -> None:
-    """Write ``atlas`` as a folder of ``.npy`` files (no zip: reading a 2048² bake from a ``.npz``
-    spent half its second on decompressing nothing and checking CRCs), made atomically: a sibling
-    folder renamed into place.
+    """Write ``atlas`` as a folder of ``.npy`` files, made atomically (a sibling folder renamed into place).
+
+    No zip: reading a 2048² bake from a ``.npz`` spent half its second on decompressing nothing and
+    checking CRCs.
     """
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
@@ -297,8 +306,9 @@ def _folder_bytes(folder: Path) -> int:
 
 
 def _prune_cache(folder: Path, keep: Path) -> None:
-    """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``), each with its
-    spatial index.
+    """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``).
+
+    Each goes with its spatial index.
     """
     bakes = sorted((d for d in folder.glob(f"*-v{_CACHE_VERSION}") if d.is_dir()),
                    key=lambda d: d.stat().st_mtime, reverse=True)

@@ -1,5 +1,6 @@
-"""The painting document: a head, its paint atlas, an ordered stack of thickness layers, undo/redo and
-change events. Qt-free; the studio and the renderer observe it (see :mod:`painting`).
+"""The painting document: a head, its paint atlas, an ordered stack of thickness layers, undo/redo, events.
+
+Qt-free; the studio and the renderer observe it (see :mod:`painting`).
 
 The layers are :class:`painting.layer.Layer`; strokes are run by the stroke engine
 (:class:`painting.stroke.Stroke`); every edit is one step of :class:`painting.history.History`.
@@ -44,9 +45,10 @@ class MaterialLibrary(Protocol):
     """Where a document finds its materials by name (:class:`km.library.Library`, or a stand-in)."""
 
     def get(self, name: str) -> Any:
-        """The material called ``name``: an object with ``name``, ``thickness_um`` (or
-        ``default_thickness_um``) and ``max_thickness_um`` (µm); raises ``KeyError`` or a
-        :class:`core.errors.SheerError` for an unknown name.
+        """The material called ``name``.
+
+        An object with ``name``, ``thickness_um`` (or ``default_thickness_um``) and ``max_thickness_um``
+        (µm); an unknown name raises ``KeyError`` or a :class:`core.errors.SheerError`.
         """
         ...
 
@@ -286,8 +288,12 @@ class Document:
         self.set_layer(layer, name=name)
 
     def set_layer(self, layer: Layer | int, **changes: Any) -> None:
-        """Change layer fields as one undoable step: ``name`` (str), ``visible`` (bool), ``opacity``
-        ([0, 1]), ``max_thickness`` (µm, > 0), ``material`` (library name).
+        """Change layer fields as one undoable step.
+
+        Args:
+            layer: a layer of this document, or its index.
+            **changes: ``name`` (str), ``visible`` (bool), ``opacity`` ([0, 1]), ``max_thickness`` (µm,
+                > 0), ``material`` (library name).
         """
         self._check_idle("change a layer")
         lay = self.resolve(layer)
@@ -377,8 +383,10 @@ class Document:
         return Stroke(self, lay, brush, brush.mirror if mirror is None else bool(mirror))
 
     def fill(self, layer: Layer | int, thickness_um: float | None = None, chart: int | None = None) -> None:
-        """Set every covered texel of ``layer`` (or of one ``chart``) to ``thickness_um`` (default: the
-        material's default thickness; clamped to the layer maximum); one undo step.
+        """Set every covered texel of ``layer`` (or of one ``chart``) to ``thickness_um``; one undo step.
+
+        ``thickness_um`` (µm) defaults to the material's default thickness and is clamped to the layer's
+        maximum.
         """
         self._check_idle("fill")
         lay = self.resolve(layer)

@@ -27,8 +27,9 @@ DEFAULT_BUDGET_BYTES = 256 * 1024 * 1024
 
 @dataclass
 class TileDelta:
-    """Stored tiles of one layer: ``tiles`` int32 (n, 2) (tile row, tile column), ``data`` float32
-    (n, 64, 64) µm.
+    """Stored tiles of one layer.
+
+    ``tiles``: int32 (n, 2) (tile row, tile column); ``data``: float32 (n, 64, 64) thickness in µm.
     """
 
     layer: Layer
@@ -37,6 +38,7 @@ class TileDelta:
 
     @property
     def nbytes(self) -> int:
+        """Bytes held (the stored tiles and their indices)."""
         return int(self.data.nbytes + self.tiles.nbytes)
 
     def swap(self) -> None:
@@ -62,6 +64,7 @@ class Step:
 
     @property
     def nbytes(self) -> int:
+        """Bytes held: the tile deltas, ``extra_bytes`` (e.g. a removed layer's map) and a small overhead."""
         return sum(d.nbytes for d in self.deltas) + int(self.extra_bytes) + 256
 
 
@@ -89,10 +92,12 @@ class History:
 
     @property
     def can_undo(self) -> bool:
+        """Whether there is a step to undo."""
         return bool(self._undo)
 
     @property
     def can_redo(self) -> bool:
+        """Whether there is a step to redo."""
         return bool(self._redo)
 
     def __len__(self) -> int:
@@ -100,10 +105,12 @@ class History:
 
     @property
     def undo_label(self) -> str | None:
+        """The label of the step :meth:`pop_undo` would return, or None."""
         return self._undo[-1].label if self._undo else None
 
     @property
     def redo_label(self) -> str | None:
+        """The label of the step :meth:`pop_redo` would return, or None."""
         return self._redo[-1].label if self._redo else None
 
     def push(self, step: Step) -> None:
@@ -126,6 +133,7 @@ class History:
         self.peak_bytes = max(self.peak_bytes, self._bytes)
 
     def pop_undo(self) -> Step | None:
+        """The last step, moved to the redo stack (the caller replays it backwards), or None."""
         if not self._undo:
             return None
         step = self._undo.pop()
@@ -133,6 +141,7 @@ class History:
         return step
 
     def pop_redo(self) -> Step | None:
+        """The last undone step, moved back to the undo stack (the caller replays it), or None."""
         if not self._redo:
             return None
         step = self._redo.pop()
@@ -140,6 +149,7 @@ class History:
         return step
 
     def clear(self) -> None:
+        """Forget every step."""
         self._undo.clear()
         self._redo.clear()
         self._bytes = 0

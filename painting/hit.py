@@ -134,16 +134,19 @@ def unproject(ndc_xy: ArrayLike, depth: float, inv_view_proj: ArrayLike) -> np.n
 
 
 def pixel_to_ndc(px: float, py: float, width: int, height: int) -> tuple[float, float]:
-    """NDC of the centre of pixel (column ``px``, row ``py`` counted from the *top*); for a row read
-    with ``glReadPixels`` (bottom first) pass ``height − 1 − row``.
+    """NDC of the centre of pixel (column ``px``, row ``py`` counted from the *top*), each in [-1, 1].
+
+    For a row read with ``glReadPixels`` (bottom first) pass ``height − 1 − row``.
     """
     return (2.0 * (px + 0.5) / width - 1.0, 1.0 - 2.0 * (py + 0.5) / height)
 
 
 def depth_hit(doc: PickTarget, ndc_xy: ArrayLike, depth: float, inv_view_proj: ArrayLike,
               max_distance_mm: float = 2.0) -> Hit | None:
-    """Pick from a depth-buffer value: unproject, then snap to the nearest surface point. None for the
-    far plane (depth 1) or when the point is farther than ``max_distance_mm`` from the surface.
+    """Pick from a depth-buffer value: unproject, then snap to the nearest surface point.
+
+    None for the far plane (depth 1) or when the point is farther than ``max_distance_mm`` from the
+    surface.
     """
     import trimesh
 

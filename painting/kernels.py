@@ -1,9 +1,9 @@
 """Compiled (numba) kernels for the brush: the nearest texel, a dab's weights and its compositing.
 
 Each kernel does in one pass over the candidate texels what the numpy reference in
-:mod:`painting.document` and :mod:`painting.spatial` does in a few dozen array operations, with the same
+:mod:`painting.stroke` and :mod:`painting.spatial` does in a few dozen array operations, with the same
 float32 arithmetic in the same order, so the two paths give bit-identical maps (tested in
-``tests/test_painting_kernels.py``). Measured (``sheer bench paint``, 1 cm dabs, shared machine): numpy
+``tests/painting/test_kernels.py``). Measured (``sheer bench paint``, 1 cm dabs, shared machine): numpy
 ~0.15 µs per painted texel plus ~1 ms per dab; the kernels 44–63 ns per texel at 4096² (weights ~12 ns
 per candidate, compositing and the 64² tiles saved for undo the rest) plus 0.04–0.12 ms per dab, mostly
 Python. That is about five times the bench's floor (a bare pass that reads each texel's position and
@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from painting.tiles import TILE
+
 #: numba is a dependency; the numpy reference path keeps painting usable without it. It is imported only
 #: by the warm-up thread (importing it takes most of a second: never on the caller's start-up path).
 HAVE_NUMBA = importlib.util.find_spec("numba") is not None
@@ -55,9 +57,7 @@ _loading = False  # the warm-up thread is compiling or loading them in this proc
 
 
 def enabled() -> bool:
-    """Whether dabs use the compiled kernels (False: the numpy reference path). They are used once
-    :func:`ready` too.
-    """
+    """Whether dabs use the compiled kernels (False: the numpy reference path), once :func:`ready` too."""
     return _enabled
 
 
@@ -79,8 +79,9 @@ _jitted = False
 
 
 def _jit_all() -> None:
-    """Import numba and replace each function of :data:`_KERNELS` in this module by its compiled
-    dispatcher (cached on disk); the compiled callers then find their helpers compiled.
+    """Import numba and replace each function of :data:`_KERNELS` in this module by its compiled dispatcher.
+
+    The dispatchers are cached on disk; the compiled callers then find their helpers compiled.
     """
     global _jitted
     with _jit_lock:
@@ -98,9 +99,10 @@ def _jit_all() -> None:
 # ---------------------------------------------------------------------------------------- grid runs
 def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
                  c: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """Runs [start, end) of cell-sorted texels in the grid cells meeting the sphere, in the order
-    :meth:`painting.spatial.TexelIndex.query_sphere` concatenates them (grid y outer, z inner);
-    returns (starts, ends, total texels).
+    """Runs [start, end) of cell-sorted texels in the grid cells meeting the sphere (``c``, mesh units).
+
+    In the order :meth:`painting.spatial.TexelIndex.query_sphere` concatenates them (grid y outer, z
+    inner); returns (starts, ends, total texels).
     """
     nx, ny = dims[0], dims[1]
     lo = np.empty(3, np.int64)
@@ -141,9 +143,12 @@ def _sphere_runs(origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: 
 
 def nearest(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, cell_start: np.ndarray,
             p: np.ndarray, max_distance: float) -> tuple[int, float]:
-    """Sorted index and distance (mesh units) of the texel nearest to ``p`` within ``max_distance``
-    (``pn``: the index's (N, 6) positions and normals), or
-    (-1, inf): the same texel as :meth:`painting.spatial.TexelIndex.nearest_reference`.
+    """Sorted index and distance (mesh units) of the texel nearest to ``p`` within ``max_distance``.
+
+    (-1, inf) when there is none.
+
+    ``pn``: the index's (N, 6) positions and normals. The same texel as
+    :meth:`painting.spatial.TexelIndex.nearest_reference`.
 
     The ball searched grows from half a grid cell, doubling up to ``max_distance``, and stops as soon as
     its nearest texel lies inside it (then no texel outside it can be nearer). Equal float32 distances
@@ -182,10 +187,13 @@ def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
             a_pts: np.ndarray, b_pts: np.ndarray, normals: np.ndarray, r: float, cos_max: np.float32,
             use_angle: bool, kind: int, h: np.float32, xs: np.ndarray, curve: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray]:
-    """Texels within ``r`` of any capsule (a_pts[i], b_pts[i]) and facing ``normals[i]`` (float64 (P, 3),
-    mesh units; ``pn`` the index's (N, 6) texel positions and normals): (sorted indices int64, falloff weights float32, as :meth:`painting.brush.Brush.falloff`
-    with ``kind``, hardness ``h`` and the curve samples ``xs``/``curve``); a texel reached by several
-    capsules keeps its largest weight (then the indices are ascending).
+    """Texels within ``r`` of any capsule (a_pts[i], b_pts[i]) and facing ``normals[i]``, with their weights.
+
+    Capsules are float64 (P, 3) in mesh units; ``pn`` is the index's (N, 6) texel positions and normals.
+    Returns (sorted indices int64, falloff weights float32 in [0, 1], as
+    :meth:`painting.brush.Brush.falloff` with ``kind``, hardness ``h`` and the curve samples
+    ``xs``/``curve``); a texel reached by several capsules keeps its largest weight (then the indices
+    are ascending).
     """
     f32 = np.float32
     one = f32(1.0)
@@ -285,8 +293,9 @@ def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
 # ---------------------------------------------------------------------------------------- compositing
 def _touch(tid: int, touched: np.ndarray, mark: np.ndarray, tiles: np.ndarray, ntiles: int,
            data: np.ndarray, base: np.ndarray, res: int, nt: int) -> int:
-    """Before writing a texel of tile ``tid``: save the tile in ``base`` if the stroke had not touched it
-    yet, and list it among this dab's tiles; returns the new tile count.
+    """Get tile ``tid`` ready for a write: save it in ``base`` if the stroke had not touched it yet.
+
+    It is listed among this dab's tiles; returns the new tile count.
     """
     if not mark[tid]:
         mark[tid] = True
@@ -294,11 +303,11 @@ def _touch(tid: int, touched: np.ndarray, mark: np.ndarray, tiles: np.ndarray, n
         ntiles += 1
         if not touched[tid]:
             touched[tid] = True
-            r0 = (tid // nt) * 64
-            c0 = (tid % nt) * 64
-            for rr in range(r0, r0 + 64):
+            r0 = (tid // nt) * TILE
+            c0 = (tid % nt) * TILE
+            for rr in range(r0, r0 + TILE):
                 o = rr * res + c0
-                base[o:o + 64] = data[o:o + 64]
+                base[o:o + TILE] = data[o:o + TILE]
     return ntiles
 
 
@@ -306,14 +315,16 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
               has_pad: np.ndarray, pad_src: np.ndarray, pad_dst: np.ndarray, data: np.ndarray,
               mask: np.ndarray, base: np.ndarray, touched: np.ndarray, mark: np.ndarray, res: int,
               mode: int, strength: np.float32, amount: np.float32, top: np.float32) -> np.ndarray:
-    """Composite one dab into a stroke (the reference: ``Stroke._composite``): for the sorted texels
-    ``sidx`` with weights ``w``, ``m ← m + (1 − m)·w·alpha`` in the stroke's coverage ``mask`` and the
-    texel (and the padding texels it feeds) set from its stroke ``base`` value by ``mode`` (0 add up to
-    ``top``, 1 erase, 2 set towards ``amount``). Tiles are saved to ``base`` when first touched
-    (``touched``, the stroke's tile table; ``mark`` all False on entry and exit). Flat maps of side
-    ``res``. Returns the dab's tile ids (row · tiles per row + column), ascending.
+    """Composite one dab into a stroke (the reference: ``Stroke._composite``).
+
+    For the sorted texels ``sidx`` with weights ``w``, ``m ← m + (1 − m)·w·alpha`` in the stroke's
+    coverage ``mask`` and the texel (and the padding texels it feeds) set from its stroke ``base``
+    value by ``mode`` (0 add up to ``top``, 1 erase, 2 set towards ``amount``; thickness in µm). Tiles
+    are saved to ``base`` when first touched (``touched``, the stroke's tile table; ``mark`` all False
+    on entry and exit). Flat maps of side ``res``. Returns the dab's tile ids (row · tiles per row +
+    column), ascending.
     """
-    nt = res // 64
+    nt = res // TILE
     one = np.float32(1.0)
     tiles = np.empty(nt * nt, np.int64)
     ntiles = 0
@@ -330,7 +341,7 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
             hi = lo
             while hi < npad and pad_src[hi] == f:
                 dst = pad_dst[hi]
-                ntiles = _touch((dst // (res * 64)) * nt + (dst % res) // 64, touched, mark, tiles, ntiles,
+                ntiles = _touch((dst // (res * TILE)) * nt + (dst % res) // TILE, touched, mark, tiles, ntiles,
                                 data, base, res, nt)
                 hi += 1
         else:
@@ -362,8 +373,9 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
 
 # ---------------------------------------------------------------------------------------- warm-up
 def _compile_all() -> None:
-    """Compile every kernel (:func:`_jit_all`) and call it once on tiny arrays of the types the document
-    uses (compiles, or loads the on-disk cache).
+    """Compile every kernel (:func:`_jit_all`) and call it once on tiny arrays of the document's types.
+
+    This compiles them, or loads the on-disk cache.
     """
     _jit_all()
     f32, f64, i64 = np.float32, np.float64, np.int64
@@ -385,8 +397,9 @@ def _compile_all() -> None:
 
 
 def _marker() -> Path | None:
-    """A file saying these kernels were compiled into the on-disk cache once (source, numba and Python
-    versions in its name), or None when the cache folder cannot be written.
+    """A file saying these kernels were compiled into the on-disk cache once, or None.
+
+    Its name holds the source, numba and Python versions; None when the cache folder cannot be written.
     """
     src = Path(__file__)
     # numba's cache is keyed by the source's modification time and size: so is the marker.
@@ -413,9 +426,11 @@ def _mark_compiled() -> None:
 
 
 def _warm() -> None:
-    """The warm-up thread: the first time on a machine, compile in a child process (the compiler holds
-    the GIL for tens of seconds, which would stall the studio) and let it fill the disk cache; then load
-    the cached kernels here (a fraction of a second). Dabs use the numpy path until this ends.
+    """The warm-up thread: compile the kernels (first time on a machine) or load them.
+
+    The first time on a machine, compile in a child process (the compiler holds the GIL for tens of
+    seconds, which would stall the studio) and let it fill the disk cache; then load the cached kernels
+    here (a fraction of a second). Dabs use the numpy path until this ends.
     """
     global _ready, _loading
     marker = _marker()
@@ -439,8 +454,10 @@ def _warm() -> None:
 
 
 def _join_warm_up() -> None:
-    """At exit, let an in-process compile or cache load finish (one torn down by the interpreter's
-    shutdown can crash it); a child process compiling the cache is left to finish on its own.
+    """At exit, let an in-process compile or cache load finish.
+
+    One torn down by the interpreter's shutdown can crash it; a child process compiling the cache is
+    left to finish on its own.
     """
     thread = _warm_thread
     if thread is not None and thread.is_alive() and _loading:
@@ -461,8 +478,9 @@ def active() -> bool:
 
 
 def warm_up(background: bool = True) -> None:
-    """Compile (first run on a machine: in a child process) or load the cached kernels, once per process,
-    on a daemon thread; with ``background`` False, wait for it. Until it ends, dabs take the numpy path
+    """Compile (first run on a machine: in a child process) or load the cached kernels, once per process.
+
+    On a daemon thread; with ``background`` False, wait for it. Until it ends, dabs take the numpy path
     (bit-identical), so no dab ever waits for the compiler.
     """
     global _warm_thread

@@ -1,5 +1,6 @@
-"""The paint layout: mesh cleaning, the check of a mesh's own UVs, and the UVs painted (the file's own
-when they can be painted, else an xatlas unwrap).
+"""The paint layout: mesh cleaning, the check of a mesh's own UVs, and the UVs painted.
+
+The UVs painted are the file's own when they can be painted, else an xatlas unwrap.
 
 Units: positions in **mesh units** (as loaded, see :mod:`painting.head`); normals are unit vectors;
 UVs in [0, 1] (texture space as :mod:`painting.head`: row ``i`` covers ``v ∈ [i/H, (i+1)/H)``).
@@ -151,9 +152,11 @@ class UVLayout:
         return self._key
 
     def source_uv(self, head: Head) -> np.ndarray:
-        """The file's own UVs per layout triangle corner, float64 (F, 3, 2) (for textures authored on
-        them, e.g. the albedo, when the paint layout is an xatlas unwrap; layout triangle ``i`` is the
-        head's triangle ``face_map[i]``, with corners 1 and 2 swapped where cleaning flipped it).
+        """The file's own UVs per layout triangle corner, float64 (F, 3, 2) in [0, 1].
+
+        For textures authored on them, e.g. the albedo, when the paint layout is an xatlas unwrap;
+        layout triangle ``i`` is the head's triangle ``face_map[i]``, with corners 1 and 2 swapped where
+        cleaning flipped it.
         """
         corners = np.asarray(head.faces)[self.face_map]
         if self.clean.flipped is not None and self.clean.flipped.any():
@@ -175,7 +178,8 @@ def clean_mesh(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.
     """Weld seam-split vertices, drop degenerate triangles and make the winding consistent (trimesh).
 
     Args:
-        vertices: (N, 3) mesh units. faces: (F, 3) int.
+        vertices: (N, 3) mesh units.
+        faces: (F, 3) int, into ``vertices``.
 
     Returns:
         (faces_kept, face_index, welded_normals, report): ``faces_kept`` (F', 3) still index the
@@ -240,8 +244,10 @@ def uv_charts(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, int]:
 
 
 def coverage_count(tri: np.ndarray, width: int, height: int) -> np.ndarray:
-    """How many triangles strictly contain each pixel centre (int32 (H, W)); shared edges count once
-    (points within a tiny tolerance of an edge count for neither triangle).
+    """How many triangles strictly contain each pixel centre (int32 (H, W)).
+
+    ``tri``: (F, 3, 2) corners in pixels. Shared edges count once (points within a tiny tolerance of an
+    edge count for neither triangle).
     """
     count = np.zeros(height * width, dtype=np.int32)
     for tri_idx, rows, cols in iter_candidates(tri, width, height):
@@ -300,8 +306,10 @@ def check_uvs(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray,
 
 def build_layout(head: Head, progress: ProgressCallback | None = None, force_unwrap: bool = False,
                  check_resolution: int = CHECK_RESOLUTION) -> UVLayout:
-    """Clean the head's mesh and choose its paint UVs: the file's own when :func:`check_uvs` accepts them
-    (and ``force_unwrap`` is False), otherwise an xatlas unwrap.
+    """Clean the head's mesh and choose its paint UVs.
+
+    The file's own when :func:`check_uvs` accepts them (and ``force_unwrap`` is False), otherwise an
+    xatlas unwrap.
 
     ``head`` needs ``vertices``, ``faces``, ``uv`` and ``mm_per_unit`` (a :class:`painting.head.Head`).
     """

@@ -58,6 +58,8 @@ class LookStroke:
 
 @dataclass
 class LookLayer:
+    """One layer of a look: a material (library name), the layer's name and its strokes, in order."""
+
     material: str
     name: str = ""
     strokes: list[LookStroke] = field(default_factory=list)
@@ -65,12 +67,19 @@ class LookLayer:
 
 @dataclass
 class Look:
+    """A look: its name, a description and its layers, bottom first (see the module docstring)."""
+
     name: str
     description: str = ""
     layers: list[LookLayer] = field(default_factory=list)
 
     @classmethod
     def from_json(cls, data: Any, source: str) -> Look:
+        """Validate and build a look from its parsed JSON; ``source`` names it in messages.
+
+        Raises:
+            LookError: a missing or malformed field (the message names it).
+        """
         if not isinstance(data, dict):
             raise LookError(f"{source}: a look must be a JSON object")
         if data.get("schema_version") != LOOK_SCHEMA_VERSION:
@@ -115,6 +124,7 @@ class Look:
 
 
 def look_path(name: str) -> Path:
+    """The file of the built-in look ``name`` (in ``resources/looks``; it may not exist)."""
     from core.assets import resource_path
 
     return resource_path("looks", f"{name}.json")
@@ -235,15 +245,16 @@ _CODE_DIGEST: str | None = None
 
 
 def _code_digest() -> str:
-    """A digest of the painting modules whose code decides what a stroke paints: a cached look is never
-    reused after any of them changed.
+    """A digest of the painting modules whose code decides what a stroke paints.
+
+    A cached look is never reused after any of them changed.
     """
     global _CODE_DIGEST
     if _CODE_DIGEST is None:
         h = hashlib.sha256()
         folder = Path(__file__).resolve().parent
-        for name in ("brush.py", "document.py", "spatial.py", "kernels.py", "atlas.py", "history.py",
-                     "raster.py", "looks.py"):
+        for name in ("brush.py", "document.py", "layer.py", "stroke.py", "spatial.py", "kernels.py",
+                     "layout.py", "atlas.py", "history.py", "raster.py", "looks.py"):
             f = folder / name
             h.update(name.encode() + (f.read_bytes() if f.is_file() else b"-"))
         _CODE_DIGEST = h.hexdigest()
@@ -251,9 +262,10 @@ def _code_digest() -> str:
 
 
 def _maps_cache_path(doc: Document, look: Look, points: list[list[list[np.ndarray]]]) -> Path | None:
-    """Where the painted maps of ``look`` on ``doc`` are cached: keyed by the paint layout, the layers'
-    resolution, the materials' maximum and default thickness, every stroke's brush and resolved surface
-    points, the mirror plane and the painting code (a real :class:`painting.Document` only).
+    """Where the painted maps of ``look`` on ``doc`` are cached (a real :class:`painting.Document` only).
+
+    Keyed by the paint layout, the layers' resolution, the materials' maximum and default thickness,
+    every stroke's brush and resolved surface points, the mirror plane and the painting code.
     """
     from painting.document import Document
 
@@ -307,8 +319,9 @@ def _save_maps(path: Path, maps: list[np.ndarray]) -> None:
 
 
 def apply_look(doc: Document, look: Look | str, clear: bool = True) -> list[Layer]:
-    """Paint ``look`` on a :class:`painting.Document` through its brush API (one undo step per stroke
-    and per added layer); ``clear`` removes the document's layers first. Returns the added layers.
+    """Paint ``look`` on a :class:`painting.Document` through its brush API; returns the added layers.
+
+    One undo step per stroke and per added layer; ``clear`` removes the document's layers first.
 
     Every point is resolved on the surface before the document changes (a bad point leaves it as it
     was). The painted maps are cached on disk (:func:`_maps_cache_path`): applying the same look to the

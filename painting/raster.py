@@ -39,8 +39,10 @@ def _edge_coeffs(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
 
 def iter_candidates(tri: np.ndarray, width: int, height: int, pad: float = 0.0
                     ) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Yield (triangle index, row, column) arrays of every pixel whose centre lies in a triangle's
-    bounding box grown by ``pad`` pixels, clipped to the image; batched to bound memory.
+    """Yield (triangle index, row, column) arrays of the pixels near each triangle, batched to bound memory.
+
+    A pixel is a candidate when its centre lies in the triangle's bounding box grown by ``pad`` pixels,
+    clipped to the image.
     """
     lo = np.ceil(tri.min(axis=1) - pad - 0.5).astype(np.int64)  # first centre >= min - pad
     hi = np.floor(tri.max(axis=1) + pad - 0.5).astype(np.int64)  # last centre <= max + pad
@@ -71,8 +73,9 @@ def iter_candidates(tri: np.ndarray, width: int, height: int, pad: float = 0.0
 
 
 def barycentric(tri: np.ndarray, tri_idx: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates (n, 3) of points (x, y) in triangles ``tri[tri_idx]``; NaN for
-    degenerate triangles.
+    """Barycentric coordinates (n, 3) of points (x, y) in triangles ``tri[tri_idx]``.
+
+    NaN for degenerate triangles.
     """
     t = tri[tri_idx]
     p0, p1, p2 = t[:, 0], t[:, 1], t[:, 2]
@@ -89,7 +92,8 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
 
     Args:
         tri: float64 (F, 3, 2) vertex positions in pixel units (x right, y down).
-        width, height: grid size in pixels.
+        width: grid width in pixels.
+        height: grid height in pixels.
         depth: optional float (F, 3) per-vertex depth; where triangles overlap the one with the
             *smallest* interpolated depth wins (a z-buffer). Without it, the triangle whose
             centroid is nearest to the pixel centre wins (stable for chart borders).
@@ -173,8 +177,9 @@ def rasterize(tri: np.ndarray, width: int, height: int, depth: np.ndarray | None
 
 
 def _keep_nearest(flat: np.ndarray, key: np.ndarray, best: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Of the candidates (texel ``flat[i]``, ordering ``key[i]``), the one with the smallest key per texel,
-    kept only where it beats ``best`` (updated in place). Returns (texels, candidate indices).
+    """Of the candidates (texel ``flat[i]``, ordering ``key[i]``), the one with the smallest key per texel.
+
+    Kept only where it beats ``best`` (updated in place). Returns (texels, candidate indices).
     """
     order = np.lexsort((key, flat))
     flat_s = flat[order]

@@ -17,6 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from painting.tiles import TILE
+
 if TYPE_CHECKING:
     from pathlib import Path
 
@@ -85,7 +87,7 @@ class TexelIndex:
         cols = [pn[:, k] for k in range(6)]
         flat = flat[order].astype(np.int64)
         res = int(atlas.resolution)
-        tile = ((flat // (res * 64)) * (res // 64) + (flat % res) // 64).astype(np.int32)
+        tile = ((flat // (res * TILE)) * (res // TILE) + (flat % res) // TILE).astype(np.int32)
         has_pad = np.zeros(res * res, dtype=bool)
         has_pad[atlas.pad_src] = True
         return cls(origin=origin, cell=cell, dims=dims, cell_start=cell_start, x=cols[0], y=cols[1],
@@ -98,9 +100,11 @@ class TexelIndex:
     _SAVED = ("cell_start", "pn", "flat", "tile", "has_pad")
 
     def save(self, folder: Path) -> None:
-        """Write the index as ``.npy`` files into ``folder`` (made atomically: a sibling folder renamed
-        into place; an existing folder is left as it is). Failing to write is not an error: the index is
-        a cache (it takes about 2 s to build at 2048², 0.1 s to read).
+        """Write the index as ``.npy`` files into ``folder``.
+
+        Made atomically: a sibling folder renamed into place; an existing folder is left as it is.
+        Failing to write is not an error: the index is a cache (it takes about 2 s to build at 2048²,
+        0.1 s to read).
         """
         tmp = folder.with_name(f".{folder.name}.{os.getpid()}.tmp")
         try:
@@ -119,8 +123,9 @@ class TexelIndex:
 
     @classmethod
     def load(cls, folder: Path, count: int) -> TexelIndex | None:
-        """An index written by :meth:`save`, or None if ``folder`` is missing, unreadable or inconsistent
-        (``count``: the number of covered texels it must hold).
+        """An index written by :meth:`save`, or None if ``folder`` is missing, unreadable or inconsistent.
+
+        ``count``: the number of covered texels it must hold.
         """
         try:
             meta = np.load(folder / "meta.npy", allow_pickle=False)
@@ -165,8 +170,9 @@ class TexelIndex:
         return dx * dx + dy * dy + dz * dz
 
     def query_box(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Sorted-texel indices of every texel in the cells overlapping the box [lo, hi] (mesh units);
-        a superset of the texels inside the box.
+        """Sorted-texel indices of every texel in the cells overlapping the box [lo, hi] (mesh units).
+
+        A superset of the texels inside the box.
         """
         nx, ny, nz = self.dims
         a = np.floor((np.asarray(lo, dtype=np.float64) - self.origin) / self.cell).astype(np.int64)
@@ -188,9 +194,10 @@ class TexelIndex:
         return np.arange(total, dtype=np.int64) + offs
 
     def query_sphere(self, centre: np.ndarray, radius: float) -> np.ndarray:
-        """Sorted-texel indices of the texels in grid cells that intersect the sphere (a superset of the
-        texels inside it): per grid row only the x-run under the sphere's chord is taken, so the
-        candidates are about the sphere's, not its bounding box's.
+        """Sorted-texel indices of the texels in grid cells that intersect the sphere (mesh units).
+
+        A superset of the texels inside it: per grid row only the x-run under the sphere's chord is
+        taken, so the candidates are about the sphere's, not its bounding box's.
         """
         nx, ny, nz = self.dims
         c = np.asarray(centre, dtype=np.float64)
@@ -225,9 +232,9 @@ class TexelIndex:
         return np.arange(total, dtype=np.int64) + offs
 
     def nearest(self, point: np.ndarray, max_distance: float) -> tuple[int, float]:
-        """Sorted index and distance of the texel nearest to ``point`` within ``max_distance`` (mesh
-        units), or (-1, inf). Uses the compiled kernel when enabled (same result as
-        :meth:`nearest_reference`).
+        """Sorted index and distance of the texel nearest to ``point`` within ``max_distance``, or (-1, inf).
+
+        Mesh units. Uses the compiled kernel when enabled (same result as :meth:`nearest_reference`).
         """
         from painting import kernels
 

@@ -88,7 +88,8 @@ class Stroke:
         detail: the ``detail`` of the paint events and the undo step's label ("stroke", "fill", "import"…).
     """
 
-    def __init__(self, doc: StrokeHost, layer: Layer, brush: Brush, mirror: bool, detail: str = "stroke") -> None:
+    def __init__(self, doc: StrokeHost, layer: Layer, brush: Brush, mirror: bool,
+                 detail: str = "stroke") -> None:
         self.doc = doc
         self.layer = layer
         self.brush = brush
@@ -172,7 +173,8 @@ class Stroke:
         self.doc._emit(ChangeEvent("paint", self.layer.id, tuple(map(tuple, tiles.tolist())), "rollback"))
 
     # ---- texel writes
-    def _prepare(self, flat: np.ndarray, sidx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, Tiles]:
+    def _prepare(self, flat: np.ndarray,
+                 sidx: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, Tiles]:
         """Get ready to write covered texels ``flat`` (``sidx``: their spatial-index entries, a shortcut).
 
         Returns the padding texels they feed (dst, src), and the touched tiles, whose old values are
@@ -313,9 +315,11 @@ class Stroke:
             out.append((pts[i], pts[i + 1], m / norm if norm > 1e-9 else normals[i + 1]))
         return out
 
-    def _weights(self, pieces: Pieces, r: float, index: TexelIndex) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Texels within ``r`` of any capsule and facing its normal: (flat, weight, sorted index), the
-        weight of a texel reached by several capsules being the largest.
+    def _weights(self, pieces: Pieces, r: float,
+                 index: TexelIndex) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Texels within ``r`` of any capsule and facing its normal: (flat, weight, sorted index).
+
+        The weight (falloff, in [0, 1]) of a texel reached by several capsules is the largest.
         """
         cos_max = np.float32(math.cos(math.radians(self.brush.max_angle_deg)))
         r2 = np.float32(r * r)
@@ -400,8 +404,10 @@ class Stroke:
         return tuple(zip((ids // nt).tolist(), (ids % nt).tolist()))
 
     def _paint_numpy(self, pieces: Pieces, r: float, alpha: np.float32, index: TexelIndex) -> Tiles:
-        """Paint the dab's capsules through the numpy reference: :meth:`_weights`, then :meth:`_composite`
-        (or :meth:`_smooth`); arguments and result as :meth:`_paint_compiled`.
+        """Paint the dab's capsules through the numpy reference (arguments and result as the compiled path).
+
+        The one entry point to it: :meth:`_weights`, then :meth:`_composite` (or :meth:`_smooth`);
+        bit-identical to :meth:`_paint_compiled`.
         """
         flat, w, sidx = self._weights(pieces, r, index)
         if len(flat) == 0:

@@ -36,6 +36,7 @@ def test_import_contracts_kept() -> None:
 
 
 def test_mypy_passes_on_the_model_packages() -> None:
-    proc = subprocess.run([_tool("mypy"), "--cache-dir", os.devnull], cwd=ROOT, capture_output=True, text=True)
+    proc = subprocess.run([_tool("mypy"), "--cache-dir", os.devnull], cwd=ROOT, capture_output=True,
+                          text=True)
     assert proc.returncode == 0, proc.stdout[-5000:] + proc.stderr[-2000:]
     assert "Success" in proc.stdout

@@ -18,18 +18,20 @@ if TYPE_CHECKING:
     import pytest
 
 #: the medians measured at each map size (``<name>_ms_<size>``), each with ``_p90`` and ``_max``
-TIMED = ("dab", "dab_cpu", "dab_cold", "dab_stroke", "dab_fixed", "dab_fixed_cold", "dab_floor", "dab_floor_cold")
+TIMED = ("dab", "dab_cpu", "dab_cold", "dab_stroke", "dab_fixed", "dab_fixed_cold", "dab_floor",
+         "dab_floor_cold")
 
 
 def test_sheer_bench_paint_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
     assert sheer(["bench", "paint", "--json", "--sizes", "256,512", "--dabs", "5", "--evict-mb", "16"]) == 0
     result = json.loads(capsys.readouterr().out)
-    per_size = {f"{name}_ms_{res}{stat}" for name in TIMED for res in (256, 512) for stat in ("", "_p90", "_max")}
-    per_size |= {f"{name}_{res}{stat}" for name in ("dab_new_texels",) for res in (256, 512)
-                 for stat in ("", "_p90", "_max")}
+    stats = ("", "_p90", "_max")
+    per_size = {f"{name}_ms_{res}{stat}" for name in TIMED for res in (256, 512) for stat in stats}
+    per_size |= {f"dab_new_texels_{res}{stat}" for res in (256, 512) for stat in stats}
     per_size |= {f"{name}_{res}" for name in ("texels_in_1cm_dab", "dab_ns_per_texel") for res in (256, 512)}
     once = {"paint_path", "stroke_1000_ms", "stroke_1000_cpu_ms", "stroke_dabs", "undo_ms", "redo_ms",
-            "redo_bit_exact", "undo_peak_mb", "undo_budget_mb", "stroke_tiles", "stroke_resolution", "targets"}
+            "redo_bit_exact", "undo_peak_mb", "undo_budget_mb", "stroke_tiles", "stroke_resolution",
+            "targets"}
     assert set(result) == per_size | once
     assert result["paint_path"] in ("numba", "numpy")
     for name in TIMED:
@@ -71,7 +73,8 @@ def test_floor_and_fixed_report_positive_times_and_leave_the_layer_painted_only_
     _, pos, _ = texel_positions(doc.atlas)
     pts = pos[:: max(1, len(pos) // 5)][:5]
     out = bench.floor_and_fixed(doc, layer, pts)
-    assert min(out["fixed"]) > 0 and min(out["floor"]) > 0 and len(out["fixed"]) == len(out["floor"]) == len(pts)
+    assert len(out["fixed"]) == len(out["floor"]) == len(pts)
+    assert min(out["fixed"]) > 0 and min(out["floor"]) > 0
     # Each tiny dab is its own undoable stroke; the floor pass never touches the layer.
     while doc.can_undo:
         doc.undo()

@@ -77,7 +77,8 @@ def test_swatches_equal_km_colour_and_srgb_encoding_equals_colour_science() -> N
     from km.srgb import srgb_encode
 
     x = np.concatenate([np.linspace(-0.1, 1.2, 400), [0.0031308, 0.0031309, 1.0]])
-    np.testing.assert_allclose(srgb_encode(np.clip(x, 0, 1)), colour.cctf_encoding(np.clip(x, 0, 1), function="sRGB"),
+    clipped = np.clip(x, 0, 1)
+    np.testing.assert_allclose(srgb_encode(clipped), colour.cctf_encoding(clipped, function="sRGB"),
                                rtol=0, atol=1e-12)
     for mat in list(km.default_library())[:6]:
         for bg, illum in (("opaque", "D65"), ("black", "D50"), (0.4, "A")):
