@@ -7,6 +7,10 @@
 - :mod:`core.cache`: the cache folder (``$SHEER_CACHE_DIR``, else ``$XDG_CACHE_HOME/sheer``) and
   :func:`~core.cache.save_array`.
 - :mod:`core.lazy`: :func:`~core.lazy.install_lazy`, lazy public names for a package's ``__init__``.
+- :mod:`core.assets`: where Sheer's files are (:func:`~core.assets.resource_path` in the ``resources``
+  data package, :func:`~core.assets.find_asset` on the sample assets' search path) and the assets'
+  credits.
 
-May import: the standard library and numpy only. Every other Sheer package may import it.
+May import: the standard library and numpy only (``resources`` is read as files, never imported). Every
+other Sheer package may import it.
 """

@@ -3,6 +3,16 @@
 Units: wavelengths in nm; S and K per mm; thicknesses X and D in mm; reflectances and transmittances
 are fractions in [0, 1]. Arrays broadcast, wavelengths on the last axis.
 
+Modules: :mod:`km.optics` (Kubelka–Munk Eq. 1–4 and 6–7, Saunderson, mixing), :mod:`km.spectra`
+(wavelength grids), :mod:`km.srgb` (the sRGB transfer functions), :mod:`km.colour` (spectra to XYZ,
+linear sRGB, Lab, ΔE2000), :mod:`km.cache` (the spectral → RGB matrix on disk), :mod:`km.material`
+(Material, Measurement), :mod:`km.measurements` (CSV and CGATS import, CSV export), :mod:`km.library`
+(Library, the default library).
+
+What km may import: :mod:`core`, numpy and colour-science; never :mod:`painting`, :mod:`project`,
+:mod:`render`, :mod:`capture`, :mod:`app`, Qt or GL (the import-linter contracts in ``pyproject.toml``
+check it).
+
 The public names are exported lazily (PEP 562), so ``import km`` stays cheap and each module is
 loaded on first use (:func:`core.lazy.install_lazy`): add a public name by adding one line to ``_EXPORTS``.
 """
