@@ -272,13 +272,6 @@ def _sizes(text: str) -> tuple[int, ...]:
     return sizes
 
 
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
-    return value
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmark and print one JSON object on stdout; returns the exit status."""
     parser = argparse.ArgumentParser(prog="sheer bench paint", description=__doc__,
@@ -288,11 +281,13 @@ def main(argv: list[str] | None = None) -> int:
                         help="skip the 4096² map (the same as --sizes 1024,2048)")
     parser.add_argument("--sizes", type=_sizes, default=None,
                         help="map sizes in texels per side, separated by commas (default 1024,2048,4096)")
-    parser.add_argument("--dabs", type=_positive_int, default=40, help="timed dabs per map size (default 40)")
-    parser.add_argument("--evict-mb", type=_positive_int, default=EVICT_BYTES // 2**20,
+    parser.add_argument("--dabs", type=int, default=40, help="timed dabs per map size (default 40)")
+    parser.add_argument("--evict-mb", type=int, default=EVICT_BYTES // 2**20,
                         help=f"MB read before each cold dab (default {EVICT_BYTES // 2**20})")
     try:
         args = parser.parse_args(argv)
+        if args.dabs < 1 or args.evict_mb < 1:
+            parser.error(f"--dabs and --evict-mb must be at least 1, got {args.dabs} and {args.evict_mb}")
     except SystemExit as exc:  # --help, or a bad option (argparse has printed why)
         return int(exc.code or 0)
     library, material = _library()

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from core.errors import SheerError
+from painting.layer import as_vec3
 
 if TYPE_CHECKING:
     import trimesh
@@ -69,16 +70,6 @@ def _mesh(doc: PickTarget) -> trimesh.Trimesh:
     return doc._mesh
 
 
-def _vec(value: ArrayLike, what: str) -> np.ndarray:
-    try:
-        v = np.asarray(value, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        raise PickError(f"{what} must be 3 numbers, got {value!r}") from None
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise PickError(f"{what} must be 3 finite numbers, got {value!r}")
-    return v
-
-
 def make_hit(doc: PickTarget, face: int, point: np.ndarray, distance: float) -> Hit:
     """A :class:`Hit` for ``point`` on layout triangle ``face``."""
     import trimesh
@@ -98,8 +89,8 @@ def make_hit(doc: PickTarget, face: int, point: np.ndarray, distance: float) -> 
 
 def ray_hit(doc: PickTarget, origin: ArrayLike, direction: ArrayLike) -> Hit | None:
     """The first surface hit of the ray ``origin + t·direction`` (t ≥ 0, mesh units), or None."""
-    o = _vec(origin, "ray origin")
-    d = _vec(direction, "ray direction")
+    o = as_vec3(origin, "ray origin", PickError)
+    d = as_vec3(direction, "ray direction", PickError)
     norm = float(np.linalg.norm(d))
     if norm == 0:
         raise PickError("ray direction must not be zero")

@@ -104,16 +104,17 @@ class Layer:
                 f"resolution={self.resolution}, visible={self.visible}, opacity={self.opacity})")
 
 
-def as_vec3(value: ArrayLike, what: str) -> np.ndarray:
+def as_vec3(value: ArrayLike, what: str, error: type[SheerError] = DocumentError) -> np.ndarray:
     """``value`` as a float64 (3,) vector (a point in mesh units, or a direction).
 
     Raises:
-        DocumentError: it is not 3 finite numbers (``what`` names it in the message).
+        SheerError: ``error`` (a :class:`DocumentError` by default), when it is not 3 finite numbers
+            (``what`` names it in the message).
     """
     try:
         arr = np.asarray(value, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise DocumentError(f"{what} must be 3 numbers (x, y, z), got {value!r}") from None
+        raise error(f"{what} must be 3 numbers (x, y, z), got {value!r}") from None
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise DocumentError(f"{what} must be 3 finite numbers (x, y, z), got {value!r}")
+        raise error(f"{what} must be 3 finite numbers (x, y, z), got {value!r}")
     return arr

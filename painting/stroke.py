@@ -75,7 +75,7 @@ class StrokeHost(Protocol):
 
 
 class Stroke:
-    """A stroke in progress (from :meth:`painting.document.Document.stroke`); call :meth:`dab` for each point.
+    """A stroke in progress (from :meth:`painting.document.Document.stroke`): call :meth:`dab` per point.
 
     Use it as a context manager: the stroke becomes one undo step when the block ends, and is rolled
     back (the map restored, a "rollback" paint event sent) if the block raises.
