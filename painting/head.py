@@ -252,24 +252,25 @@ def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None)
     return beside_mesh
 
 
-def read_head_file(path: Path, what: str) -> bytes:
-    """The bytes of one head file (mesh, sidecar or texture) of at most :data:`MAX_HEAD_FILE_BYTES`.
+def read_file_at_most(path: Path, limit: int, what: str, error: type[SheerError] = HeadError) -> bytes:
+    """The bytes of the file at ``path``, refused unread when longer than ``limit`` bytes.
 
-    ``what`` names the file's role in messages ("head mesh", "texture file" …).
+    Reads a head's files (``limit`` :data:`MAX_HEAD_FILE_BYTES`) and, in :mod:`painting.maps_io`, map
+    files. ``what`` names the file's role in messages ("head mesh", "texture file" …).
 
     Raises:
-        HeadError: the file is missing, unreadable or too large.
+        SheerError: ``error`` (default :class:`HeadError`): the file is missing, unreadable or too large.
     """
     try:
         size = path.stat().st_size
-        if size > MAX_HEAD_FILE_BYTES:
-            raise HeadError(f"{path}: {what} of {size:,} bytes, over the limit of {MAX_HEAD_FILE_BYTES:,}")
+        if size > limit:
+            raise error(f"{path}: {what} of {size:,} bytes, over the limit of {limit:,}")
         with open(path, "rb") as fh:
-            return fh.read(MAX_HEAD_FILE_BYTES + 1)[:MAX_HEAD_FILE_BYTES]
+            return fh.read(limit + 1)[:limit]
     except FileNotFoundError:
-        raise HeadError(f"{path}: {what} not found") from None
+        raise error(f"{path}: {what} not found") from None
     except OSError as exc:
-        raise HeadError(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
+        raise error(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
 
 
 def parse_metadata(blob: bytes, where: str) -> HeadMetadata:
@@ -307,7 +308,7 @@ def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> H
     sidecar = find_sidecar(mesh_path)
     if sidecar is None:
         return default_metadata(mesh_path.stem, mesh_vertices)
-    return parse_metadata(read_head_file(sidecar, "head metadata"), str(sidecar))
+    return parse_metadata(read_file_at_most(sidecar, MAX_HEAD_FILE_BYTES, "head metadata"), str(sidecar))
 
 
 def decode_texture(blob: bytes, where: str, mode: str) -> np.ndarray:
@@ -336,7 +337,7 @@ def decode_texture(blob: bytes, where: str, mode: str) -> np.ndarray:
 
 def _read_image(path: Path, mode: str) -> np.ndarray:
     """A texture file decoded by :func:`decode_texture`."""
-    return decode_texture(read_head_file(path, "texture file"), str(path), mode)
+    return decode_texture(read_file_at_most(path, MAX_HEAD_FILE_BYTES, "texture file"), str(path), mode)
 
 
 def _mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -423,7 +424,8 @@ def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """
     if not path.is_file():
         raise HeadError(f"{path}: head mesh not found")
-    return parse_mesh(read_head_file(path, "head mesh"), path.name, str(path), folder=path.parent, cache=True)
+    blob = read_file_at_most(path, MAX_HEAD_FILE_BYTES, "head mesh")
+    return parse_mesh(blob, path.name, str(path), folder=path.parent, cache=True)
 
 
 #: Bump when what :func:`parse_mesh` returns for the same bytes changes.

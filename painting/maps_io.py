@@ -40,6 +40,7 @@ import numpy as np
 
 from core.atomicio import atomic_write_bytes
 from core.errors import SheerError
+from painting.head import read_file_at_most
 
 if TYPE_CHECKING:
     from collections.abc import Iterator, Mapping
@@ -371,20 +372,6 @@ def _suffix(path: Path) -> str:
     return s
 
 
-def _read_file(path: Path) -> bytes:
-    """The bytes of a map file of at most :data:`MAX_FILE_BYTES` (:class:`MapError` otherwise)."""
-    try:
-        size = path.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise MapError(f"{path}: {size:,} bytes, over the limit of {MAX_FILE_BYTES:,} for a map file")
-        with open(path, "rb") as fh:
-            return fh.read(MAX_FILE_BYTES + 1)[:MAX_FILE_BYTES]
-    except FileNotFoundError:
-        raise MapError(f"{path}: file not found") from None
-    except OSError as exc:
-        raise MapError(f"{path}: cannot read: {exc.strerror or exc}") from None
-
-
 def _write_file(path: Path, data: bytes) -> None:
     try:
         atomic_write_bytes(path, data)
@@ -435,7 +422,7 @@ def read_thickness(path: str | Path, expected_shape: tuple[int, int] | None = No
     """
     p = Path(path)
     kind = _suffix(p)
-    data = _read_file(p)
+    data = read_file_at_most(p, MAX_FILE_BYTES, "map file", MapError)
     if kind == ".exr":
         return check_thickness(decode_exr(data, str(p), expected_shape), str(p), expected_shape)
     counts, text = decode_png(data, str(p), expected_shape, eight_bit=True)
@@ -468,7 +455,7 @@ def write_mask(path: str | Path, mask: np.ndarray) -> None:
 def read_mask(path: str | Path, expected_shape: tuple[int, int] | None = None) -> np.ndarray:
     """Read a mask file as float32 (H, W) in [0, 1] (PNG 8 or 16-bit, white = 1; EXR ``Y``)."""
     p = Path(path)
-    data = _read_file(p)
+    data = read_file_at_most(p, MAX_FILE_BYTES, "map file", MapError)
     if _suffix(p) == ".exr":
         arr = decode_exr(data, str(p), expected_shape)
     else:
