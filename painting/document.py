@@ -58,7 +58,7 @@ class Document:
 
     Args:
         head: a :class:`painting.head.Head`.
-        layout: its paint UV layout (default: :func:`painting.atlas.build_layout`).
+        layout: its paint UV layout (default: :func:`painting.layout.build_layout`).
         library: a material library with ``get(name)`` (default: ``km.default_library()``, loaded on
             first use).
         resolution: default layer resolution (texels per side, multiple of 64).
@@ -102,7 +102,7 @@ class Document:
     # ------------------------------------------------------------------------------------ basics
     @property
     def clean_report(self) -> CleanReport:
-        """What cleaning the mesh changed (:class:`painting.atlas.CleanReport`)."""
+        """What cleaning the mesh changed (:class:`painting.layout.CleanReport`)."""
         return self.layout.clean
 
     @property
