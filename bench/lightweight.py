@@ -20,7 +20,7 @@ import json
 import time
 from typing import TYPE_CHECKING, Any
 
-from bench.render import spread
+from bench.stats import spread
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 def _interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]], frames: int,
                     warmup: int = 2) -> dict[str, float]:
-    """Median, p90 and maximum (ms, see :func:`bench.render.spread`) of each configuration's frames.
+    """Median, p90 and maximum (ms, see :func:`bench.stats.spread`) of each configuration's frames.
 
     One frame of each configuration per round, so a CPU shared with other work loads them alike.
     """
@@ -47,7 +47,7 @@ def _interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]
             times[key].append((time.perf_counter() - t) * 1000.0)
     out: dict[str, float] = {}
     for k, v in times.items():
-        out.update(spread(k, v))
+        out.update(spread(k, v, digits=3))
     return out
 
 

@@ -33,10 +33,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from bench.stats import spread
 from painting.tiles import TILE
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Sequence
+    from collections.abc import Callable
     from pathlib import Path
 
     import moderngl
@@ -45,18 +46,8 @@ if TYPE_CHECKING:
     from render.shaders import ShaderLibrary
 
 
-def spread(key: str, times_ms: Sequence[float]) -> dict[str, float]:
-    """The median of ``times_ms`` under ``key``, with the 90th percentile and the maximum beside it.
-
-    Args:
-        key: the median's name; the others are ``key + "_p90"`` and ``key + "_max"``.
-        times_ms: at least one time, milliseconds.
-
-    Returns:
-        The three figures (ms) by name.
-    """
-    return {key: float(np.median(times_ms)), f"{key}_p90": float(np.percentile(times_ms, 90)),
-            f"{key}_max": float(np.max(times_ms))}
+#: decimals of the milliseconds reported
+DIGITS = 3
 
 
 def _times_ms(ctx: moderngl.Context, fn: Callable[[], object], frames: int, warmup: int = 2) -> list[float]:
@@ -117,7 +108,7 @@ def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, fr
         r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask = saved  # type: ignore[method-assign]
     out: dict[str, float] = {}
     for k, v in per_frame.items():
-        out.update(spread(f"fast_{k}{'_pass' if k == 'lit' else ''}_ms", v))
+        out.update(spread(f"fast_{k}{'_pass' if k == 'lit' else ''}_ms", v, DIGITS))
     return out
 
 
@@ -198,17 +189,19 @@ def main(argv: list[str] | None = None) -> int:
         layers = [LayerInput(lay.material_object, np.array(lay.thickness), lay.opacity, lay.visible, lay.name)
                   for lay in doc.layers]
         out["km_layers"] = len(layers)
-        out.update(spread("km_full_2048_ms", _times_ms(ctx, lambda: r.set_layers(layers), max(5, args.frames // 2), 1)))
+        out.update(spread("km_full_2048_ms", _times_ms(ctx, lambda: r.set_layers(layers), max(5, args.frames // 2), 1),
+                          DIGITS))
         ys, xs = np.nonzero(layers[0].thickness > 0)
         tile = (int(ys[len(ys) // 2]) // TILE, int(xs[len(xs) // 2]) // TILE)  # (row, col)
-        out.update(spread("km_tile_64_ms", _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2)))
+        out.update(spread("km_tile_64_ms", _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2),
+                          DIGITS))
         rng = np.random.default_rng(0)
         dense = [LayerInput(lay.material, (1.0 + rng.random(lay.thickness.shape, np.float32) * 20.0))
                  for lay in layers]
-        out.update(spread("km_full_2048_dense_ms", _times_ms(ctx, lambda: r.set_layers(dense), 2, 1)))
+        out.update(spread("km_full_2048_dense_ms", _times_ms(ctx, lambda: r.set_layers(dense), 2, 1), DIGITS))
         # worst-case tile: all four layers non-zero in it
         out.update(spread("km_tile_64_dense_ms",
-                          _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2)))
+                          _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2), DIGITS))
         r.set_layers(layers)
 
         # frames: modes interleaved round-robin, so a CPU shared with other work weighs on all alike
@@ -241,8 +234,9 @@ def main(argv: list[str] | None = None) -> int:
                 ctx.finish()
                 times[key].append((time.perf_counter() - t0) * 1000.0)
         for key, ts in times.items():
-            out.update(spread(key, ts))
-        out.update(spread("fast_relight_ms", _times_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1)))
+            out.update(spread(key, ts, DIGITS))
+        out.update(spread("fast_relight_ms", _times_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1),
+                          DIGITS))
         r.settings.mode, r.settings.taps = "fast", 17
         out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2)))
         import tempfile
@@ -259,7 +253,7 @@ def main(argv: list[str] | None = None) -> int:
                 for _ in range(args.frames):  # interleaved with the baseline, like the modes above
                     fl += _times_ms(ctx, lambda: floor.render(fbo), 1, 0)
                     base += _times_ms(ctx, lambda: r.render_baseline(fbo), 1, 0)
-                out.update(spread("fast_floor_ms", fl))
+                out.update(spread("fast_floor_ms", fl, DIGITS))
                 out["fast_floor_over_baseline"] = float(np.median(fl)) / float(np.median(base))
             finally:
                 floor.release()
