@@ -7,12 +7,28 @@ context (see :meth:`app.main_window.StudioWindow.context`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
 
 
 @dataclass(frozen=True)
 class ActionSpec:
+    """One action of the studio's menus or the kiosk's shortcuts.
+
+    Attributes:
+        id: a stable name ("file.save"), the key of its handler and of ``StudioWindow.actions_by_id``.
+        title: the menu text (``&`` marks the mnemonic, "…" a dialog).
+        menu: the menu it is listed in (one of :data:`MENU_ORDER`, or "Kiosk").
+        shortcut: a ``QKeySequence`` string ("Ctrl+S", "[") or "" for none.
+        enabled_when: "always" or the name of a predicate of the window's context (``has_layers``,
+            ``can_undo``, ``can_redo``).
+        checkable: the action toggles (shown with a check mark).
+        tip: the status-bar tip ("" for none).
+    """
+
     id: str
     title: str
     menu: str
@@ -67,6 +83,7 @@ MENU_ORDER: tuple[str, ...] = ("File", "Edit", "Brush", "View", "Help")
 
 
 def is_enabled(spec: ActionSpec, context: Mapping[str, bool]) -> bool:
+    """Whether ``spec`` is enabled in ``context`` (predicate name → value; a missing predicate is False)."""
     return spec.enabled_when == "always" or bool(context.get(spec.enabled_when, False))
 
 
@@ -81,6 +98,3 @@ def shortcut_sheet(specs: tuple[ActionSpec, ...] = STUDIO_ACTIONS) -> list[tuple
         ("Viewport", "Move the light", "Ctrl+left drag"),
     ]
     return rows
-
-
-Handler = Callable[[], None]

@@ -1,5 +1,6 @@
-"""Every message and question the studio shows, as modal message boxes (each one also logged), and its two
-information dialogs (About, Keyboard Shortcuts).
+"""Every message and question the studio shows, and its About and Keyboard Shortcuts dialogs.
+
+Messages and questions are modal message boxes, each one also logged.
 
 Tests answer these boxes as a user would: a timer finds the visible box and clicks a button
 (``tests/app/studio_support.py``).

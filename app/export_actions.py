@@ -1,5 +1,7 @@
-"""The studio's exports and map transfers: File → Export Layer Maps / glTF / Rendered Image, and a layer's
-thickness map exported or imported from the Layers panel.
+"""The studio's exports and layer-map transfers.
+
+File → Export Layer Maps / glTF / Rendered Image, and a layer's thickness map exported or imported from
+the Layers panel.
 
 :class:`ExportActions` asks where (file dialogs) and runs the work of :mod:`app.export` in worker threads
 with a progress dialog; results go to the status bar, failures to a message box.

@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from PySide6.QtCore import QEvent, QObject, Qt, QTimer, Signal
+from PySide6.QtCore import QEvent, QObject, Qt, QTimer
 from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QGridLayout,
@@ -29,78 +29,28 @@ from PySide6.QtWidgets import (
 
 from app.actions import KIOSK_ACTIONS
 from app.kiosk_config import KioskConfig, check_pin, require_pin
+from app.pin_pad import PinPad, big_button
 from app.session import Session
 from app.settings import LIGHT_PRESETS
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+    from types import TracebackType
+
+    import numpy as np
+    from PySide6.QtGui import QMouseEvent
+
+    from app.viewport import Viewport
+    from capture.pipeline import Face
 
 log = logging.getLogger("sheer.kiosk")
 
+#: The material categories a shopper can swap shades of (one row of ◀ ▶ buttons each).
 CATEGORIES: tuple[str, ...] = ("foundation", "lipstick", "blush", "eyeshadow")
+#: The built-in looks on the try-on screen (``bare`` is left out of the attract mode's cycle).
 KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
+#: What the start screen says after an error (the error itself is only logged).
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
-
-
-def big_button(text: str, height: int = 72) -> QPushButton:
-    b = QPushButton(text)
-    b.setMinimumHeight(height)
-    b.setMinimumWidth(120)
-    b.setFocusPolicy(Qt.FocusPolicy.NoFocus)
-    return b
-
-
-class PinPad(QWidget):
-    """An in-window PIN pad (no dialog): emits ``entered(pin)`` or ``cancelled``."""
-
-    entered = Signal(str)
-    cancelled = Signal()
-
-    def __init__(self, parent: QWidget | None = None) -> None:
-        super().__init__(parent)
-        self.setObjectName("pinpad")
-        self.pin = ""
-        self.display = QLabel("Administrator PIN")
-        self.display.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        self.message = QLabel("")
-        self.message.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        grid = QGridLayout()
-        keys = ["1", "2", "3", "4", "5", "6", "7", "8", "9", "Clear", "0", "OK"]
-        self.buttons: dict[str, QPushButton] = {}
-        for i, k in enumerate(keys):
-            b = big_button(k, 80)
-            b.clicked.connect(lambda _c=False, key=k: self.press(key))
-            grid.addWidget(b, i // 3, i % 3)
-            self.buttons[k] = b
-        cancel = big_button("Cancel", 64)
-        cancel.clicked.connect(self._cancel)
-        lay = QVBoxLayout(self)
-        lay.addStretch(1)
-        lay.addWidget(self.display)
-        lay.addWidget(self.message)
-        lay.addLayout(grid)
-        lay.addWidget(cancel)
-        lay.addStretch(1)
-
-    def reset(self, message: str = "") -> None:
-        self.pin = ""
-        self.display.setText("Administrator PIN")
-        self.message.setText(message)
-
-    def press(self, key: str) -> None:
-        if key == "Clear":
-            self.reset()
-        elif key == "OK":
-            pin, self.pin = self.pin, ""
-            self.display.setText("Administrator PIN")
-            self.entered.emit(pin)
-        elif len(self.pin) < 12:
-            self.pin += key
-            self.display.setText("•" * len(self.pin))
-
-    def _cancel(self) -> None:
-        self.reset()
-        self.cancelled.emit()
 
 
 class _ActivityFilter(QObject):
@@ -125,11 +75,11 @@ class _ActivityFilter(QObject):
 class _TouchPage(QWidget):
     """A page that reacts to a touch anywhere on it."""
 
-    def __init__(self, on_touch: Callable[[], Any]) -> None:
+    def __init__(self, on_touch: Callable[[], object]) -> None:
         super().__init__()
         self.on_touch = on_touch
 
-    def mousePressEvent(self, event: Any) -> None:  # noqa: N802
+    def mousePressEvent(self, event: QMouseEvent) -> None:  # noqa: N802
         self.on_touch()
 
 
@@ -156,9 +106,10 @@ class KioskWindow(QWidget):
         self.library = self.session.library
         self.doc = self.session.document
         self.look = "natural"
-        self._look_cache: dict[str, list[tuple[str, str, float, Any]]] = {}
+        # per look: (material, layer name, max thickness µm, map µm) of each layer, bottom first
+        self._look_cache: dict[str, list[tuple[str, str, float, np.ndarray]]] = {}
         self.viewport = self._make_viewport()
-        self.face: Any = None
+        self.face: Face | None = None
         self.engine = "physical"  # the engine in use: physical | lightweight
         self._frame_samples: list[float] = []
         self._load_face()
@@ -202,10 +153,10 @@ class KioskWindow(QWidget):
         self.show_start()
 
     # ------------------------------------------------------------------ construction
-    def _make_viewport(self) -> Any:
+    def _make_viewport(self) -> Viewport:
         from app.viewport import Viewport
 
-        vp = Viewport(self.doc.head, getattr(self.doc, "layout", None))
+        vp = Viewport(self.doc.head, self.doc.layout)
         vp.set_document(self.doc, self.library)  # its binding follows the looks and shades applied
         vp.paint_enabled = False
         vp.gl_failed.connect(lambda msg: self.fail(msg))
@@ -238,8 +189,10 @@ class KioskWindow(QWidget):
         self.viewport.update()
 
     def _watch_frame_time(self, _ms: float) -> None:
-        """``engine: auto``: after 5 frames of the physical renderer slower than ``max_frame_ms`` (median),
-        switch to the lightweight engine (when a captured face is configured).
+        """Switch to the lightweight engine when the physical renderer is too slow (``engine: auto``).
+
+        After 5 new frames of the physical renderer whose median is over ``max_frame_ms`` (ms), when a
+        captured face is configured.
         """
         vp = self.viewport
         if self.config.engine != "auto" or self.engine != "physical" or self.face is None:
@@ -328,7 +281,7 @@ class KioskWindow(QWidget):
         side.addWidget(self.toast)
         side.addStretch(1)
         # the head scan's licence (CC BY) asks for its credit wherever it is shown
-        credit = getattr(self.doc.head, "credit", None)
+        credit = self.doc.head.credit
         if credit:
             self.credit_label = QLabel(f"Head: {credit}")
             self.credit_label.setWordWrap(True)
@@ -357,6 +310,7 @@ class KioskWindow(QWidget):
         return run
 
     def fail(self, detail: str) -> None:
+        """Log an error and return to the start screen with the friendly message (``detail`` is kept in ``last_error``)."""
         self.last_error = detail
         log.error("kiosk: %s", detail)
         self.start_message.setText(FRIENDLY)
@@ -402,6 +356,7 @@ class KioskWindow(QWidget):
         return None
 
     def swap_product(self, category: str, step: int) -> None:
+        """The next (step +1) or previous (-1) shade of the library's category on that category's layer."""
         i = self._layer_for(category)
         names = [m.name for m in self.library if m.category == category]
         if i is None or not names:
@@ -414,6 +369,7 @@ class KioskWindow(QWidget):
         self._sync()
 
     def set_light(self, name: str) -> None:
+        """Light the face with the preset ``name`` (a key of ``app.settings.LIGHT_PRESETS``)."""
         p = LIGHT_PRESETS[name]
         lt = self.viewport.lighting
         lt.azimuth, lt.elevation = p["azimuth"], p["elevation"]
@@ -435,6 +391,11 @@ class KioskWindow(QWidget):
             label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
 
     def snapshot(self) -> Path:
+        """Save the view as a PNG in the configured snapshot folder; returns the file.
+
+        Raises:
+            OSError: the photo could not be written.
+        """
         folder = Path(self.config.snapshot_dir)
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / f"sheer-{time.strftime('%Y%m%d-%H%M%S')}-{len(self.snapshots):03d}.png"
@@ -457,9 +418,11 @@ class KioskWindow(QWidget):
         self.showFullScreen()
 
     def show_start(self) -> None:
+        """Show the start screen."""
         self.stack.setCurrentWidget(self.start_page)
 
     def show_main(self) -> None:
+        """Show the try-on screen (and count it as activity)."""
         self.start_message.setText("Try on makeup — touch to start")
         self.stack.setCurrentWidget(self.main_page)
         self.viewport.update()
@@ -479,6 +442,7 @@ class KioskWindow(QWidget):
         return woke
 
     def start_attract(self) -> None:
+        """Idle: turn the head and cycle the looks on the try-on screen (not while the PIN pad is up)."""
         if self.stack.currentWidget() is self.pin_pad:
             return
         self.attract = True
@@ -487,6 +451,7 @@ class KioskWindow(QWidget):
         self.look_timer.start(int(self.config.look_seconds * 1000))
 
     def stop_attract(self) -> None:
+        """End the attract mode (the screen stays as it is)."""
         self.attract = False
         self.spin_timer.stop()
         self.look_timer.stop()
@@ -498,6 +463,7 @@ class KioskWindow(QWidget):
 
     # ------------------------------------------------------------------ the way out
     def request_exit(self) -> None:
+        """Every way out (close, Alt+F4, Esc, Ctrl+Q) ends here: the PIN pad; the right PIN closes the kiosk."""
         self.stop_attract()
         self._before_pin = self.stack.currentWidget()
         self.pin_pad.reset()
@@ -517,6 +483,7 @@ class KioskWindow(QWidget):
         self.stack.setCurrentWidget(before if before is not None and before is not self.pin_pad else self.start_page)
 
     def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802
+        """Refuse to close without the PIN (show the PIN pad); after it, stop the timers and release GL."""
         if not self._allow_close:
             event.ignore()
             self.request_exit()
@@ -533,6 +500,7 @@ class KioskWindow(QWidget):
         event.accept()
 
     def keyPressEvent(self, event: QKeyEvent) -> None:  # noqa: N802
+        """Esc, F4 and Ctrl+Q ask for the PIN; other keys as usual."""
         if event.key() in (Qt.Key.Key_Escape, Qt.Key.Key_F4) or (
                 event.key() == Qt.Key.Key_Q and event.modifiers() & Qt.KeyboardModifier.ControlModifier):
             self.request_exit()
@@ -554,7 +522,7 @@ def run_kiosk(project: str | None = None, config_path: str | None = None, window
         log_dir / "sheer-kiosk.log")))) if os.access(log_dir, os.W_OK) else None)
     app = make_application()
 
-    def hook(exc_type: type[BaseException], exc: BaseException, tb: Any) -> None:
+    def hook(exc_type: type[BaseException], exc: BaseException, tb: TracebackType | None) -> None:
         log.error("uncaught error in the kiosk", exc_info=(exc_type, exc, tb))
         if win is not None:
             win.fail(str(exc))
@@ -567,4 +535,4 @@ def run_kiosk(project: str | None = None, config_path: str | None = None, window
     else:
         win.resize(1280, 800)
         win.show()
-    return int(app.exec())  # type: ignore[attr-defined]
+    return int(app.exec())

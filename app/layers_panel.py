@@ -6,11 +6,11 @@ maximum thickness, material, delete, import/export of the thickness map; a swatc
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
-from PySide6.QtCore import Qt, QTimer, Signal
-from PySide6.QtGui import QColor, QIcon, QPixmap
+from PySide6.QtCore import Qt, QTimer, Signal, SignalInstance
+from PySide6.QtGui import QColor, QDropEvent, QIcon, QPixmap
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
@@ -25,16 +25,23 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+if TYPE_CHECKING:
+    from km.library import Library
+    from km.material import Material
+    from painting.layer import Layer
 
-def material_rgb(material: Any, thickness_um: float | None = None,
+
+def material_rgb(material: Material, thickness_um: float | None = None,
                  background: tuple[float, float, float] | None = None) -> tuple[int, int, int]:
-    """SRGB 0..255 of a km material: its opaque colour (R∞) when ``thickness_um`` is None, else a layer
-    of ``thickness_um`` over ``background`` (linear RGB; black when None). The spectra and colours are
-    ``km``'s (``Material.swatch_rgb``, ``Material.rt``, km's spectral → RGB matrix, ``km.over``).
+    """The sRGB colour (0..255 per channel) of a km material as a swatch shows it.
+
+    Its opaque colour (R∞) when ``thickness_um`` is None, else a layer of ``thickness_um`` µm over
+    ``background`` (linear RGB in [0, 1]; black when None). The spectra and colours are ``km``'s
+    (``Material.swatch_rgb``, ``Material.rt``, km's spectral → RGB matrix, ``km.over``).
     """
     import km
     from km.cache import spectral_rgb_matrix_cached
-    from km.material import encode_srgb
+    from km.srgb import srgb_encode
 
     if thickness_um is None:
         srgb = material.swatch_rgb("opaque")
@@ -47,15 +54,16 @@ def material_rgb(material: Any, thickness_um: float | None = None,
         t_rgb = np.asarray(t, float) @ m
         bg = np.clip(np.asarray(background, float), 0.0, 1.0)
         lin = km.over(np.clip(r_rgb, 0.0, 1.0), np.clip(t_rgb, 0.0, 1.0), bg)
-        srgb = encode_srgb(np.asarray(lin, float))
+        srgb = srgb_encode(np.clip(np.asarray(lin, float), 0.0, 1.0))
     return tuple(int(round(float(c) * 255)) for c in np.clip(srgb, 0.0, 1.0))  # type: ignore[return-value]
 
 
 def colours_ready() -> bool:
-    """Km's spectral → RGB matrix of the materials' grid is at hand without importing colour-science
-    (in km's disk cache, or colour-science is loaded). The first run on a machine makes it in a worker at
-    start-up (app.render_adapter.preload_renderer: colour-science with matplotlib takes seconds); until
-    then the swatches are grey placeholders, so the window never waits for it.
+    """Whether km's spectral → RGB matrix of the materials' grid is at hand without colour-science.
+
+    It is when it is in km's disk cache, or colour-science is loaded. The first run on a machine makes
+    it in a worker at start-up (render.view.preload_renderer: colour-science with matplotlib takes
+    seconds); until then the swatches are grey placeholders, so the window never waits for it.
     """
     import sys
 
@@ -65,7 +73,7 @@ def colours_ready() -> bool:
     return "km.colour" in sys.modules or spectral_rgb_matrix_ready(DEFAULT_GRID.wavelengths)
 
 
-def swatch_of(material: Any) -> tuple[int, int, int] | None:
+def swatch_of(material: Material) -> tuple[int, int, int] | None:
     """The material's opaque colour, or None until km's colour maths is loaded (see colours_ready)."""
     return material_rgb(material) if colours_ready() else None
 
@@ -80,6 +88,12 @@ def swatch_icon(rgb: tuple[int, int, int] | None, size: int = 28) -> QIcon:
 
 
 class LayerList(QListWidget):
+    """The layers as list rows (top layer first) that can be reordered by dragging.
+
+    A drop emits ``moved(from row, to row)`` once the drag has finished; the list itself is rebuilt from
+    the document's answer.
+    """
+
     moved = Signal(int, int)  # (from row, to row)
 
     def __init__(self, parent: QWidget | None = None) -> None:
@@ -88,11 +102,13 @@ class LayerList(QListWidget):
         self.setDefaultDropAction(Qt.DropAction.MoveAction)
         self._drag_row = -1
 
-    def startDrag(self, actions: Any) -> None:
+    def startDrag(self, actions: Qt.DropAction) -> None:  # noqa: N802
+        """Remember the row being dragged."""
         self._drag_row = self.currentRow()
         super().startDrag(actions)
 
-    def dropEvent(self, event: Any) -> None:
+    def dropEvent(self, event: QDropEvent) -> None:  # noqa: N802
+        """Report the move of the dragged row (after Qt has moved the item)."""
         src = self._drag_row
         super().dropEvent(event)
         dst = self.currentRow()
@@ -102,7 +118,11 @@ class LayerList(QListWidget):
 
 
 class LayersPanel(QWidget):
-    """Signals carry *document* indices (0 = bottom layer)."""
+    """The document's layers as a list (top layer first) with their controls.
+
+    The panel holds no truth: every change is a request signal (document indices, 0 = bottom layer) the
+    window turns into a document command; the document's change events then :meth:`refresh` the panel.
+    """
 
     add_requested = Signal(str)
     remove_requested = Signal(int)
@@ -166,12 +186,14 @@ class LayersPanel(QWidget):
             lambda _i: self._emit_current(self.material_requested, self.layer_material.currentText()))
 
     def doc_index(self, row: int) -> int:
+        """The document index (0 = bottom) of list row ``row`` (0 = top); -1 for no row."""
         return -1 if row < 0 else self._count - 1 - row
 
     def current_index(self) -> int:
+        """The document index of the selected layer; -1 when none is selected."""
         return self.doc_index(self.list.currentRow())
 
-    def _emit_current(self, signal: Any, *extra: Any) -> None:
+    def _emit_current(self, signal: SignalInstance, *extra: object) -> None:
         if self._updating:
             return
         i = self.current_index()
@@ -192,7 +214,8 @@ class LayersPanel(QWidget):
         elif toggled:
             self.visibility_requested.emit(i, visible)
 
-    def set_materials(self, library: Any) -> None:
+    def set_materials(self, library: Library) -> None:
+        """Offer ``library``'s materials (with swatches) for new layers and for the selected layer."""
         current = self.material.currentText()
         self._updating = True
         for combo in (self.material, self.layer_material):
@@ -203,8 +226,11 @@ class LayersPanel(QWidget):
             self.material.setCurrentText(current)
         self._updating = False
 
-    def refresh(self, layers: list[Any], library: Any, select: int | None = None) -> None:
-        """Rebuild from the document's layers (bottom first)."""
+    def refresh(self, layers: list[Layer], library: Library, select: int | None = None) -> None:
+        """Rebuild from the document's layers (bottom first), selecting document index ``select``.
+
+        With ``select`` None the selection is kept; it is clamped to the layers there are.
+        """
         keep = self.current_index() if select is None else select
         self._updating = True
         self.list.clear()

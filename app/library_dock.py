@@ -1,17 +1,19 @@
-"""The material library editor: search/filter, property edits (undoable), spectral plots with
-pyqtgraph (legends, units, hover read-out), a thickness slider for R0/T, swatches over black, white and
-the current skin, measurement import with a report of rejected rows, Duncan mixing with a live swatch,
-atomic save. Emits ``material_changed(name)`` so the viewport updates live.
+"""The material library editor, a dock beside the studio's viewport.
+
+Search/filter, property edits (undoable), spectral plots with pyqtgraph (legends, units, hover read-out),
+a thickness slider for R0/T, swatches over black, white and the current skin, measurement import with a
+report of rejected rows, Duncan mixing with a live swatch, atomic save. Emits ``material_changed(name)``
+so the viewport updates live.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from PySide6.QtCore import QStandardPaths, Qt, Signal
-from PySide6.QtGui import QUndoCommand, QUndoStack
+from PySide6.QtGui import QUndoStack
 from PySide6.QtWidgets import (
     QComboBox,
     QDoubleSpinBox,
@@ -30,110 +32,31 @@ from PySide6.QtWidgets import (
 
 from app import dialogs
 from app.layers_panel import colours_ready, material_rgb, swatch_icon, swatch_of
+from app.library_edits import EDITABLE, Add, AddMany, Remove, Rename, SetAttr, duncan_mix
 
-EDITABLE = {"category": str, "thickness_um": float, "max_thickness_um": float, "roughness": float,
-            "ior": float}
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
-
-class _SetAttr(QUndoCommand):
-    def __init__(self, dock: LibraryDock, name: str, attr: str, old: Any, new: Any) -> None:
-        super().__init__(f"{attr} of {name}")
-        self.dock, self.name, self.attr, self.old, self.new = dock, name, attr, old, new
-
-    def _apply(self, value: Any) -> None:
-        lib = self.dock.library
-        lib.add(lib.get(self.name).replace(**{self.attr: value}), replace=True)
-        self.dock.changed(self.name)
-
-    def redo(self) -> None:
-        self._apply(self.new)
-
-    def undo(self) -> None:
-        self._apply(self.old)
-
-
-class _Rename(QUndoCommand):
-    def __init__(self, dock: LibraryDock, old: str, new: str) -> None:
-        super().__init__(f"rename {old}")
-        self.dock, self.old, self.new = dock, old, new
-
-    def redo(self) -> None:
-        self.dock.library.rename(self.old, self.new)
-        self.dock.changed(self.new, renamed_from=self.old)
-
-    def undo(self) -> None:
-        self.dock.library.rename(self.new, self.old)
-        self.dock.changed(self.old, renamed_from=self.new)
-
-
-class _Add(QUndoCommand):
-    def __init__(self, dock: LibraryDock, material: Any) -> None:
-        super().__init__(f"add {material.name}")
-        self.dock, self.material = dock, material
-
-    def redo(self) -> None:
-        self.dock.library.add(self.material)
-        self.dock.changed(self.material.name)
-
-    def undo(self) -> None:
-        self.dock.library.remove(self.material.name)
-        self.dock.changed(None)
-
-
-class _Remove(QUndoCommand):
-    def __init__(self, dock: LibraryDock, material: Any) -> None:
-        super().__init__(f"delete {material.name}")
-        self.dock, self.material = dock, material
-
-    def redo(self) -> None:
-        self.dock.library.remove(self.material.name)
-        self.dock.current = None
-        self.dock.changed(None)
-
-    def undo(self) -> None:
-        self.dock.library.add(self.material)
-        self.dock.changed(self.material.name)
-
-
-class _AddMany(QUndoCommand):
-    def __init__(self, dock: LibraryDock, materials: list[Any], title: str) -> None:
-        super().__init__(title)
-        self.dock, self.materials = dock, materials
-
-    def redo(self) -> None:
-        for m in self.materials:
-            self.dock.library.add(m)
-        self.dock.changed(self.materials[-1].name)
-
-    def undo(self) -> None:
-        for m in self.materials:
-            self.dock.library.remove(m.name)
-        self.dock.changed(None)
-
-
-def duncan_mix(a: Any, b: Any, fraction_b: float, name: str) -> Any:
-    """A new material mixing ``a`` and ``b`` by Duncan's rule: S and K are concentration-weighted sums."""
-    wl = np.asarray(a.wavelengths, float)
-    sb = np.interp(wl, np.asarray(b.wavelengths, float), np.asarray(b.S, float))
-    kb = np.interp(wl, np.asarray(b.wavelengths, float), np.asarray(b.K, float))
-    c = float(np.clip(fraction_b, 0.0, 1.0))
-    try:
-        from km.optics import mix
-
-        S, K = mix([(1.0 - c, np.asarray(a.S, float), np.asarray(a.K, float)), (c, sb, kb)])
-        return a.replace(name=name, S=S, K=K, measurement=None, source="modelled",
-                         provenance=f"Duncan mix: {1 - c:.0%} {a.name} + {c:.0%} {b.name}")
-    except ImportError:
-        pass
-    return a.replace(name=name, S=(1 - c) * np.asarray(a.S, float) + c * sb,
-                     K=(1 - c) * np.asarray(a.K, float) + c * kb, measurement=None, source="modelled",
-                     provenance=f"Duncan mix: {1 - c:.0%} {a.name} + {c:.0%} {b.name}")
-
+    from km.library import Library
+    from km.measurements import ImportResult
 
 class LibraryDock(QWidget):
+    """The material library editor (see the module docstring); every edit is a step of ``undo_stack``.
+
+    Args:
+        library: the library to edit in place (the studio's; layers refer to its materials by name).
+        skin_rgb: the skin's linear RGB in [0, 1], the background of the "over skin" swatch.
+        parent: the parent widget.
+
+    Attributes:
+        in_use: tells whether a material name is used by a layer (set by the window; such a material
+            cannot be deleted).
+    """
+
     material_changed = Signal(object)  # a material name, or None when the set of materials changed
 
-    def __init__(self, library: Any, skin_rgb: tuple[float, float, float], parent: QWidget | None = None) -> None:
+    def __init__(self, library: Library, skin_rgb: tuple[float, float, float],
+                 parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.library = library
         self.skin = skin_rgb
@@ -224,7 +147,7 @@ class LibraryDock(QWidget):
         self.delete_button = QPushButton("Delete")
         self.duplicate_button.clicked.connect(self.duplicate_current)
         self.delete_button.clicked.connect(self.delete_current)
-        self.in_use: Any = lambda name: False  # the window tells which materials its layers use
+        self.in_use: Callable[[str], bool] = lambda name: False  # the window tells which materials its layers use
         self.import_button = QPushButton("Import Measurement…")
         self.undo_button = QPushButton("Undo")
         self.redo_button = QPushButton("Redo")
@@ -271,6 +194,7 @@ class LibraryDock(QWidget):
 
     # ------------------------------------------------------------------ model → view
     def refresh_list(self) -> None:
+        """Rebuild the categories, the filtered list and the mix partners from the library."""
         if self._loading:
             return
         self._loading = True
@@ -295,8 +219,7 @@ class LibraryDock(QWidget):
             self.list.addItem(m.name)
             self.list.item(self.list.count() - 1).setIcon(swatch_icon(swatch_of(m), 16))
         self.mix_with.clear()
-        self.mix_with.addItems(self.library.names() if hasattr(self.library, "names") else
-                               [m.name for m in self.library])
+        self.mix_with.addItems(self.library.names())
         for w in (self.category, self.category_edit, self.mix_with, self.list):
             w.blockSignals(False)
         self._loading = False
@@ -309,6 +232,7 @@ class LibraryDock(QWidget):
             self.select(self.list.currentItem().text())
 
     def select(self, name: str) -> None:
+        """Show material ``name`` (ignored when it is not in the library)."""
         if self._loading or not name or name not in self.library:
             return
         self.current = name
@@ -321,6 +245,7 @@ class LibraryDock(QWidget):
         self.update_views()
 
     def load_fields(self) -> None:
+        """Show the current material's properties in the editing fields."""
         if self.current is None:
             return
         m = self.library.get(self.current)
@@ -357,6 +282,7 @@ class LibraryDock(QWidget):
         self.update_views()
 
     def update_views(self) -> None:
+        """Redraw the current material's swatches and plots at the slider's thickness (µm)."""
         if self.refl_plot is not None:
             self.refl_plot.clear()
             self.coef_plot.clear()
@@ -421,6 +347,7 @@ class LibraryDock(QWidget):
 
     # ------------------------------------------------------------------ edits (undoable)
     def changed(self, name: str | None, renamed_from: str | None = None) -> None:
+        """After an edit of the library (or its undo): show ``name`` and tell the window (``material_changed``)."""
         if name is not None:
             self.current = name
         self.refresh_list()
@@ -430,7 +357,11 @@ class LibraryDock(QWidget):
         if renamed_from:
             self.material_changed.emit(name)
 
-    def edit(self, attr: str, value: Any) -> None:
+    def edit(self, attr: str, value: object) -> None:
+        """Set property ``attr`` (one of :data:`EDITABLE`) of the current material; undoable.
+
+        A value the material refuses (or a default thickness above the maximum) is an error message.
+        """
         if self._loading or self.current is None:
             return
         m = self.library.get(self.current)
@@ -451,7 +382,7 @@ class LibraryDock(QWidget):
             dialogs.error(self, "Material", str(exc))
             self.load_fields()
             return
-        self.undo_stack.push(_SetAttr(self, self.current, attr, old, EDITABLE[attr](value)))
+        self.undo_stack.push(SetAttr(self, self.current, attr, old, EDITABLE[attr](value)))
 
     def scale_spectrum(self, which: str, factor: float) -> None:
         """Multiply the current material's K (absorption) or S (scattering) by ``factor``; undoable."""
@@ -462,7 +393,7 @@ class LibraryDock(QWidget):
             return
         m = self.library.get(self.current)
         old = np.asarray(getattr(m, which), float)
-        self.undo_stack.push(_SetAttr(self, self.current, which, old, old * factor))
+        self.undo_stack.push(SetAttr(self, self.current, which, old, old * factor))
 
     def _rename(self) -> None:
         if self._loading or self.current is None:
@@ -474,27 +405,30 @@ class LibraryDock(QWidget):
             dialogs.error(self, "Rename material", f"A material named '{new}' already exists.")
             self.name_edit.setText(self.current)
             return
-        self.undo_stack.push(_Rename(self, self.current, new))
+        self.undo_stack.push(Rename(self, self.current, new))
 
     def duplicate_current(self) -> None:
+        """Add a copy of the current material ("… copy", numbered when taken); undoable."""
         if self.current is None:
             return
         base = f"{self.current} copy"
         name, n = base, 2
         while name in self.library:
             name, n = f"{base} {n}", n + 1
-        self.undo_stack.push(_Add(self, self.library.get(self.current).replace(name=name)))
+        self.undo_stack.push(Add(self, self.library.get(self.current).replace(name=name)))
 
     def delete_current(self) -> None:
+        """Delete the current material (refused while a layer uses it); undoable."""
         if self.current is None:
             return
         if self.in_use(self.current):
             dialogs.error(self, "Delete material",
                           f"'{self.current}' is used by a layer; change that layer's material first.")
             return
-        self.undo_stack.push(_Remove(self, self.library.get(self.current)))
+        self.undo_stack.push(Remove(self, self.library.get(self.current)))
 
     def create_variant(self) -> None:
+        """Add the Duncan mix of the current material and the chosen partner at the slider's share; undoable."""
         other = self.mix_with.currentText()
         if self.current is None or other not in self.library:
             return
@@ -508,7 +442,7 @@ class LibraryDock(QWidget):
         except ValueError as exc:
             dialogs.error(self, "Shade variant", str(exc))
             return
-        self.undo_stack.push(_Add(self, mixed))
+        self.undo_stack.push(Add(self, mixed))
 
     def _ask_import(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Import measurement", "",
@@ -540,7 +474,7 @@ class LibraryDock(QWidget):
             return False
         return self._finish_import(path, result)
 
-    def _finish_import(self, path: Path, result: Any) -> bool:
+    def _finish_import(self, path: Path, result: ImportResult) -> bool:
         if not result.accepted:
             dialogs.error(self, "Import measurement",
                           f"{Path(path).name}: no material could be imported "
@@ -549,10 +483,9 @@ class LibraryDock(QWidget):
         materials = []
         for m in result.accepted:
             if m.name in self.library:
-                m = m.replace(name=self.library.unique_name(m.name)) if hasattr(self.library, "unique_name") \
-                    else m.replace(name=m.name + " (imported)")
+                m = m.replace(name=self.library.unique_name(m.name))
             materials.append(m)
-        self.undo_stack.push(_AddMany(self, materials, f"import {Path(path).name}"))
+        self.undo_stack.push(AddMany(self, materials, f"import {Path(path).name}"))
         if result.rejected:
             dialogs.info(self, "Import measurement",
                          f"Imported {len(materials)} material(s); {len(result.rejected)} rows or samples "
@@ -560,13 +493,19 @@ class LibraryDock(QWidget):
         return True
 
     def default_save_path(self) -> Path:
+        """Where a library is saved when it has no file of its own (the user's application data folder)."""
         base = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
         return Path(base or ".") / "library.json"
 
     def save(self, path: Path | None = None) -> Path | None:
+        """Save the library atomically: to ``path``, else its own file, else :meth:`default_save_path`.
+
+        The shipped default library is never overwritten (a user copy is saved instead). Returns the file
+        written, or None after showing why it could not be.
+        """
         from core.assets import RESOURCES_DIR
 
-        own = getattr(self.library, "path", None)
+        own = self.library.path
         if own is not None and Path(own).resolve().is_relative_to(RESOURCES_DIR):
             own = None  # the shipped default library is never overwritten: save a user copy
         target = path or own or self.default_save_path()

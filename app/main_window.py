@@ -84,7 +84,7 @@ class StudioWindow(QMainWindow):
         self.selected_layer = 0
         self.doc.subscribe(self._on_doc_event)
 
-        self.viewport = Viewport(self.doc.head, getattr(self.doc, "layout", None))
+        self.viewport = Viewport(self.doc.head, self.doc.layout)
         self.viewport.set_document(self.doc, self.library)  # its binding queues the document's changes
         self.setCentralWidget(self.viewport)
         self.viewport.stroke_begin.connect(self._stroke_begin)
@@ -337,7 +337,7 @@ class StudioWindow(QMainWindow):
         vp.set_overlay(s.overlay)
         vp.environment = s.environment
         self._update_actions()
-        credit = getattr(self.doc.head, "credit", None)
+        credit = self.doc.head.credit
         self.credit_label.setText(f"Head: {credit}" if credit else "")
         self.status.setText(f"brush {s.brush_radius_mm:.1f} mm · strength {s.brush_strength:.2f} · "
                             f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''} · renderer: "
@@ -447,6 +447,7 @@ class StudioWindow(QMainWindow):
             self._update_actions()
 
     def refresh_layers(self) -> None:
+        """Show the document's layers in the panel (selection clamped) and have the viewport reload them."""
         n = len(self.doc.layers)
         self.selected_layer = min(max(self.selected_layer, 0), max(n - 1, 0))
         self.layers_panel.refresh(self.doc.layers, self.library, self.selected_layer)
@@ -483,6 +484,7 @@ class StudioWindow(QMainWindow):
             dialogs.error(self, "Layers", str(exc))
 
     def add_layer(self, material: str) -> None:
+        """Add a layer of library material ``material`` on top (its maximum thickness) and select it."""
         if material not in self.library:
             dialogs.error(self, "Add layer", f"Pick a material from the library first ('{material}' is unknown).")
             return
@@ -492,14 +494,17 @@ class StudioWindow(QMainWindow):
                                                    max_thickness=float(m.max_thickness_um)))
 
     def move_layer(self, src: int, dst: int) -> None:
+        """Move the layer at document index ``src`` to ``dst`` (0 = bottom) and select it."""
         self.selected_layer = dst
         self._layer_cmd(lambda: self.doc.move_layer(src, dst))
 
     def undo(self) -> None:
+        """Undo the last document edit (a stroke or a layer change)."""
         self.doc.undo()
         self._update_actions()
 
     def redo(self) -> None:
+        """Redo the last undone document edit."""
         self.doc.redo()
         self._update_actions()
 
@@ -555,6 +560,7 @@ class StudioWindow(QMainWindow):
 
     # ------------------------------------------------------------------ close
     def closeEvent(self, event: QCloseEvent) -> None:
+        """Offer to save unsaved changes (Cancel keeps the window), then save the settings and layout and release GL."""
         self._stroke_end()
         if not self.files.confirm_close():
             event.ignore()

@@ -1,5 +1,6 @@
-"""The studio's and the kiosk's use of :mod:`project` (the ``.sheer`` format, docs/FORMAT.md) — open, save,
-autosave snapshots and crash recovery — with no Qt (the dialogs are :mod:`app.project_files`).
+"""The studio's and the kiosk's use of :mod:`project`, the ``.sheer`` format (docs/FORMAT.md).
+
+Open, save, autosave snapshots and crash recovery, with no Qt (the dialogs are :mod:`app.project_files`).
 
 - Saving: :func:`snapshot` is ``project_from_document(doc, base=…)`` (the project last opened or saved, so
   its head reference and metadata are kept) plus the studio's view state (key light, ambient,
@@ -46,8 +47,11 @@ def _vec(v: Any) -> list[float]:
 
 
 def view_state(camera: OrbitCamera, lighting: Lighting, environment: str, look: dict[str, Any] | None) -> ViewState:
-    """Lights (directional key light, ambient, optional HDR environment) and camera from the studio's
-    ``OrbitCamera`` / ``Lighting`` / environment name.
+    """The studio's view as a project stores it.
+
+    The lights are the directional key light, the ambient light and the HDR environment (when
+    ``environment`` is not "none"); the camera is a position, a target and a vertical field of view
+    (degrees), with near/far planes at 5 % and 10× its distance (mesh units).
     """
     toward_light = np.asarray(lighting.direction(), dtype=float)
     lights: list[dict[str, Any]] = [
@@ -209,8 +213,11 @@ def resample_layers(doc: Document, opened: Document,
 
 
 def check_compatible(project: Project, opened: Document, doc: Document, resample: bool = False) -> None:
-    """Refuse a project whose maps would not line up with the studio's document (another head's paint
-    layout; another resolution unless ``resample``, see :func:`resample_layers`). Raises ``ProjectError``.
+    """Refuse a project whose maps would not line up with the studio's document.
+
+    Raises:
+        ProjectError: the project was painted on another head (another paint layout), or at another
+            resolution and ``resample`` is False (see :func:`resample_layers`).
     """
     from project.document import layout_record
     from project.errors import ProjectError
@@ -228,9 +235,10 @@ def check_compatible(project: Project, opened: Document, doc: Document, resample
 
 def install_layers(doc: Document, library: Library, project: Project, opened: Document,
                    maps: list[np.ndarray] | None = None) -> None:
-    """Replace the studio document's layers with the opened document's (maps copied bit-exactly, or
-    ``maps``: e.g. :func:`resample_layers`'s); the project's embedded materials the library lacks are
-    added to it. Call :func:`check_compatible` first.
+    """Replace the studio document's layers with the opened document's, and clear the undo history.
+
+    The maps are copied bit-exactly, or taken from ``maps`` (e.g. :func:`resample_layers`'s); the
+    project's embedded materials the library lacks are added to it. Call :func:`check_compatible` first.
     """
     for name in project.materials:
         if name not in library:
@@ -247,9 +255,15 @@ def install_layers(doc: Document, library: Library, project: Project, opened: Do
 
 
 def load_project_into(doc: Document, library: Library, source: Path | Project, resample: bool = False) -> str:
-    """Replace the document's layers with a project's (a path, or a ``Project`` already opened); maps at
-    another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`). Returns the
-    project's name. Raises ``ProjectError`` for a bad file; the document is unchanged then.
+    """Replace the document's layers with a project's (a path, or a ``Project`` already opened).
+
+    Maps at another resolution are refused, or with ``resample`` resampled (:func:`resample_layers`).
+
+    Returns:
+        The project's name.
+
+    Raises:
+        ProjectError: a bad file, or maps that do not fit; the document is unchanged then.
     """
     from project.document import document_from_project
     from project.io import open_project

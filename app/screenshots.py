@@ -1,5 +1,6 @@
-"""``python -m app.screenshots OUT_DIR``: grab real screenshots of the running studio and kiosk (for the
-README). Run under a display (or ``xvfb-run -a -s "-screen 0 1920x1080x24"``).
+"""``python -m app.screenshots OUT_DIR``: real screenshots of the running studio and kiosk, for the README.
+
+Run under a display (or ``xvfb-run -a -s "-screen 0 1920x1080x24"``).
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ def _wait(cond: object, timeout: float = 90.0) -> None:
 
 
 def main(argv: list[str]) -> int:
+    """Write studio_*.png and kiosk_*.png into ``argv[0]`` (default docs/images) and list them; returns 0."""
     out = Path(argv[0] if argv else "docs/images")
     out.mkdir(parents=True, exist_ok=True)
     from PySide6.QtCore import QSettings

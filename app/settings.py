@@ -1,14 +1,21 @@
-"""All UI state in one plain object (after Open3D's GUI examples); widgets set a field and call one
-``apply`` function. Persisted with QSettings (brush, view options, recent files; window layout is
-saved by the window itself).
+"""The studio's settings: all UI state in one plain object (after Open3D's GUI examples), and defaults.
+
+Widgets set a field and call one ``apply`` function. Persisted with QSettings (brush, view options,
+recent files; the window layout is saved by the window itself). No Qt is imported at run time here, so
+the kiosk's configuration and the session use the defaults without loading Qt.
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+if TYPE_CHECKING:
+    from PySide6.QtCore import QSettings
+
+#: The version of the persisted settings' layout; settings of another version are ignored (defaults).
 SETTINGS_SCHEMA_VERSION = 1
+#: The QSettings organisation and application names.
 ORGANISATION, APPLICATION = "Sheer", "Sheer Studio"
 
 #: The thickness maps' resolution (texels per side) for a new document in the studio and the kiosk.
@@ -38,6 +45,26 @@ ENVIRONMENTS: tuple[str, ...] = ("none", "studio", "city", "lobby", "night", "su
 
 @dataclass
 class StudioSettings:
+    """Everything the studio's controls show, in one place (:meth:`clamp` keeps it valid).
+
+    Attributes:
+        brush_radius_mm: brush radius in mm, [0.5, 100].
+        brush_strength: how far a stroke goes towards its target (its opacity), [0.05, 1].
+        brush_hardness: the fraction of the radius painted at full weight, [0, 0.95].
+        brush_mode: "add", "erase" or "smooth".
+        brush_mirror: paint the mirror image about the head's midplane too.
+        render_mode: "fast", "reference" or "lightweight" (the last needs a captured face).
+        debug_view: index into the renderer's debug views (0: the image).
+        light_preset: a key of :data:`LIGHT_PRESETS`.
+        light_azimuth: key light azimuth in degrees.
+        light_elevation: key light elevation in degrees.
+        environment: one of :data:`ENVIRONMENTS` ("none" for no HDR environment).
+        split: the before/after divider's position, [0, 1] of the view's width (0: off).
+        overlay: show the frame-time overlay.
+        autosave_minutes: minutes between autosaves of unsaved work, [0.25, 120].
+        recent_files: the projects opened or saved last, newest first.
+    """
+
     brush_radius_mm: float = 8.0
     brush_strength: float = 0.6
     brush_hardness: float = 0.5
@@ -55,6 +82,7 @@ class StudioSettings:
     recent_files: list[str] = field(default_factory=list)
 
     def clamp(self) -> None:
+        """Bring every field into its range (unknown names become their defaults)."""
         self.brush_radius_mm = min(max(self.brush_radius_mm, 0.5), 100.0)
         self.brush_strength = min(max(self.brush_strength, 0.05), 1.0)
         self.brush_hardness = min(max(self.brush_hardness, 0.0), 0.95)
@@ -70,10 +98,11 @@ class StudioSettings:
         self.autosave_minutes = min(max(self.autosave_minutes, 0.25), 120.0)
 
     def add_recent(self, path: str, limit: int = 8) -> None:
+        """Put ``path`` first in the recent files (once), keeping at most ``limit``."""
         self.recent_files = [path, *[p for p in self.recent_files if p != path]][:limit]
 
 
-def load_settings(qsettings: Any) -> StudioSettings:
+def load_settings(qsettings: QSettings) -> StudioSettings:
     """Read the settings; anything missing, malformed or of another schema version gets its default."""
     s = StudioSettings()
     if qsettings.value("schema_version") not in (SETTINGS_SCHEMA_VERSION, str(SETTINGS_SCHEMA_VERSION)):
@@ -97,7 +126,8 @@ def load_settings(qsettings: Any) -> StudioSettings:
     return s
 
 
-def save_settings(qsettings: Any, s: StudioSettings) -> None:
+def save_settings(qsettings: QSettings, s: StudioSettings) -> None:
+    """Write the settings (with their schema version) to ``qsettings``."""
     qsettings.setValue("schema_version", SETTINGS_SCHEMA_VERSION)
     for k, v in asdict(s).items():
         qsettings.setValue(f"studio/{k}", v)

@@ -12,13 +12,20 @@ from app.settings import DEFAULT_RESOLUTION
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from PySide6.QtWidgets import QApplication
+
     from app.session import Session
     from km.library import Library
 
 log = logging.getLogger("sheer.app")
 
 
-def make_application(argv: list[str] | None = None) -> object:
+def make_application(argv: list[str] | None = None) -> QApplication:
+    """The QApplication (made once, with the viewport's OpenGL surface format as the default).
+
+    Also pins Qt's singletons for Python (:func:`app.qt_compat.pin_singletons`), keeps matplotlib off
+    GUI backends, and sets the organisation, application name and window icon.
+    """
     from PySide6.QtGui import QSurfaceFormat
     from PySide6.QtWidgets import QApplication
 
@@ -87,7 +94,7 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     win.show()
     if project:
         win.open_project(Path(project))
-    return int(app.exec())  # type: ignore[attr-defined]
+    return int(app.exec())
 
 
 def open_session_with_progress(head: str | None, resolution: int, library: Library, look: str = "") -> Session | str:

@@ -1,5 +1,7 @@
-"""Long work off the GUI thread: a QRunnable on the global QThreadPool, progress and Cancel through a
-QProgressDialog, results and errors back on the GUI thread through signals.
+"""Long work off the GUI thread, with a progress dialog and Cancel.
+
+A job runs as a QRunnable on the global QThreadPool; its progress goes to a QProgressDialog whose Cancel
+asks it to stop; its result or error comes back on the GUI thread through signals.
 """
 
 from __future__ import annotations
@@ -30,6 +32,8 @@ class _Signals(QObject):
 
 
 class Task(QRunnable):
+    """A job in the thread pool; ``signals`` carries its progress, result, error or cancellation."""
+
     def __init__(self, job: Job) -> None:
         super().__init__()
         self.job = job
@@ -38,9 +42,11 @@ class Task(QRunnable):
         self.setAutoDelete(False)
 
     def cancel(self) -> None:
+        """Ask the job to stop (it sees ``cancelled()`` become true and raises :class:`Cancelled`)."""
         self._cancel.set()
 
     def run(self) -> None:
+        """Run the job (in a pool thread) and emit its outcome; an internal error is logged, then reported."""
         from core.errors import SheerError
 
         try:
@@ -96,4 +102,5 @@ def run_task(parent: QWidget | None, title: str, job: Job, on_done: Callable[[An
 
 
 def wait_all(timeout_ms: int = 30000) -> bool:
+    """Wait up to ``timeout_ms`` ms for every job in the pool; returns whether they all finished."""
     return QThreadPool.globalInstance().waitForDone(timeout_ms)

@@ -22,6 +22,7 @@ BENCHMARKS: dict[str, str] = {
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer bench NAME [options]`` to the sub-command parsers ``sub``."""
     p = sub.add_parser("bench", help="run a benchmark and print JSON", description=__doc__)
     p.add_argument("name", choices=sorted(BENCHMARKS), help="which benchmark")
     p.add_argument("options", nargs=argparse.REMAINDER, help="the benchmark's own options")
@@ -29,6 +30,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the benchmark ``args.name`` with its own options; returns its exit status.
+
+    Raises:
+        core.errors.SheerError: the benchmark's module is not in this build.
+    """
     from core.errors import SheerError
 
     module_name, func_name = BENCHMARKS[args.name].split(":")

@@ -1,6 +1,7 @@
-"""``sheer bench studio --json``: start-up to first frame, orbit frame rate at 1280×720 (fast mode) and
-dab-to-frame latency, measured on the real studio window (xcb; re-runs itself under ``xvfb-run`` when
-there is no display).
+"""``sheer bench studio --json``: the studio's start-up, orbit frame rate and dab-to-frame latency.
+
+Start-up to first frame, orbit frame rate at 1280×720 (fast mode) and dab-to-frame latency, measured on
+the real studio window (xcb; re-runs itself under ``xvfb-run`` when there is no display).
 
 Every timed series reports its median under the key's plain name and, beside it, its 90th percentile
 (``…_p90``) and its slowest sample (``…_max``): a median alone hides hitches.
@@ -16,7 +17,12 @@ import statistics
 import subprocess
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from app.viewport import Viewport
 
 
 def _process_age_s() -> float:
@@ -29,13 +35,6 @@ def _process_age_s() -> float:
         return max(uptime - start_ticks / os.sysconf("SC_CLK_TCK"), 0.0)
     except (OSError, ValueError, IndexError):
         return 0.0
-
-
-def _spread(values: list[float]) -> tuple[float, float, float]:
-    """(median, 90th percentile, maximum) of a series (linear interpolation between order statistics)."""
-    ordered = sorted(values)
-    p90 = statistics.quantiles(ordered, n=10, method="inclusive")[-1] if len(ordered) > 1 else ordered[0]
-    return statistics.median(ordered), p90, ordered[-1]
 
 
 def main(argv: list[str]) -> int:
@@ -74,6 +73,7 @@ def main(argv: list[str]) -> int:
     from app.main_window import StudioWindow
     from app.session import BACKENDS, Session
     from app.settings import DEFAULT_RESOLUTION
+    from bench.stats import spread
     from core.errors import SheerError
 
     scratch = tempfile.mkdtemp(prefix="sheer-bench-")
@@ -99,9 +99,7 @@ def main(argv: list[str]) -> int:
         QApplication.processEvents()
     size = vp.pixel_size()
     times, paint_ms = _timed_orbit(vp, args.frames)
-    frame_s, frame_p90_s, frame_max_s = _spread(times)
-    orbit_fps = 1.0 / frame_s
-    paint_med, paint_p90, paint_max = _spread(paint_ms)
+    orbit_fps = 1.0 / statistics.median(times)
 
     # dab → frame on screen: the dab (painting), its tiles' KM update and the new frame, finished
     vp.orbit_by(-vp.camera.yaw)
@@ -129,24 +127,17 @@ def main(argv: list[str]) -> int:
             lat.append(time.perf_counter() - t0)
         win._stroke_end()
     layer_res = int(win.doc.layers[-1].thickness.shape[0]) if win.doc.layers else None
-    lat_ms = [round(v * 1000.0, 1) for v in _spread(lat)] if lat else [None] * 3
-    upd_ms = [round(v * 1000.0, 1) for v in _spread(upd)] if upd else [None] * 3
+    dabs: dict[str, float | None] = {}
+    for key, series in (("dab_to_frame_ms", lat), ("dab_update_ms", upd)):
+        dabs.update(spread(key, [s * 1000.0 for s in series], 1) if series
+                    else dict.fromkeys((key, f"{key}_p90", f"{key}_max")))
     result = {
         "startup_to_first_frame_s": round(startup, 3),
         "orbit_fps": round(orbit_fps, 1),
-        "orbit_frame_ms": round(1000.0 / orbit_fps, 2),
-        "orbit_frame_ms_p90": round(frame_p90_s * 1000.0, 2),
-        "orbit_frame_ms_max": round(frame_max_s * 1000.0, 2),
-        "orbit_paintgl_ms": round(paint_med, 1),
-        "orbit_paintgl_ms_p90": round(paint_p90, 1),
-        "orbit_paintgl_ms_max": round(paint_max, 1),
+        **spread("orbit_frame_ms", [t * 1000.0 for t in times], 2),
+        **spread("orbit_paintgl_ms", paint_ms, 1),
         "viewport_px": list(size),
-        "dab_to_frame_ms": lat_ms[0],
-        "dab_to_frame_ms_p90": lat_ms[1],
-        "dab_to_frame_ms_max": lat_ms[2],
-        "dab_update_ms": upd_ms[0],
-        "dab_update_ms_p90": upd_ms[1],
-        "dab_update_ms_max": upd_ms[2],
+        **dabs,
         "paint_resolution": layer_res,
         "render_mode": "fast",
         "load_average_1min": round(os.getloadavg()[0], 2),
@@ -165,10 +156,12 @@ def main(argv: list[str]) -> int:
     return 0
 
 
-def _timed_orbit(vp: Any, frames: int) -> tuple[list[float], list[float]]:
-    """Seconds per orbit step (2° each), each a new frame drawn by the renderer, and the milliseconds of
-    each step spent in the viewport's paintGL (the renderer, finished; the rest is Qt composing the
-    window); the first 3 steps untimed.
+def _timed_orbit(vp: Viewport, frames: int) -> tuple[list[float], list[float]]:
+    """Time ``frames`` orbit steps of 2° each, each a new frame drawn by the renderer.
+
+    Returns:
+        The seconds of each step, and the milliseconds of each step spent in the viewport's paintGL
+        (the renderer, finished; the rest is Qt composing the window). The first 3 steps are untimed.
     """
     from core.errors import SheerError
 
@@ -186,9 +179,11 @@ def _timed_orbit(vp: Any, frames: int) -> tuple[list[float], list[float]]:
     return times, paint
 
 
-def _wait_until(cond: Any, timeout: float) -> None:
-    """Run the event loop until ``cond()`` or ``timeout`` seconds, in 20 ms slices spent inside Qt's event
-    loop (not a Python busy loop, which would hold the GIL the studio's import worker needs).
+def _wait_until(cond: Callable[[], bool], timeout: float) -> None:
+    """Run the event loop until ``cond()`` is true or ``timeout`` seconds have passed.
+
+    In 20 ms slices spent inside Qt's event loop (not a Python busy loop, which would hold the GIL the
+    studio's import worker needs).
     """
     from PySide6.QtCore import QEventLoop, QTimer
 
@@ -199,7 +194,7 @@ def _wait_until(cond: Any, timeout: float) -> None:
         loop.exec()
 
 
-def _draw_frame(vp: Any) -> None:
+def _draw_frame(vp: Viewport) -> None:
     """Repaint the viewport and wait until the frame is drawn and finished on the GPU.
 
     A ``repaint()`` of a window that is not exposed (e.g. just after a resize under a window manager)

@@ -1,5 +1,4 @@
-"""``sheer capture``: turn a flash photograph of a face and its 3D head into a relightable face
-(Paris et al. 2003).
+"""``sheer capture``: a relightable face from a flash photograph of a face and its 3D head (Paris et al. 2003).
 
     sheer capture --head PATH --photo PATH (--camera FILE | --points FILE) [--probe PATH] [--mask PATH]
                   --out FACE_DIR
@@ -24,6 +23,7 @@ import sys
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer capture`` and its options to the sub-command parsers ``sub``."""
     p = sub.add_parser("capture", help="capture a relightable face from a photograph and a head",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head")
@@ -41,6 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``sheer capture`` with the parsed ``args``; returns the exit status (0, or 2 for bad input)."""
     from capture.camera import load_camera, load_points
     from capture.mask import load_mask
     from capture.pipeline import CaptureError, capture, read_photo, write_face

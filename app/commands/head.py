@@ -16,6 +16,7 @@ import argparse
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer head`` and its sub-commands to the sub-command parsers ``sub``."""
     p = sub.add_parser("head", help="head mesh operations (simplify)", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     hsub = p.add_subparsers(dest="head_command", metavar="SUBCOMMAND")
@@ -31,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_simplify(args: argparse.Namespace) -> int:
+    """Run ``sheer head simplify``: write the coarse head (and with ``--face`` the comparison); returns 0."""
     import json
     import sys
     from pathlib import Path
@@ -108,8 +110,8 @@ def _compare(fine: object, coarse: object, face: object, coarse_detail: object, 
     from PIL import Image
 
     from capture.phong import delta_e2000
-    from capture.pipeline import srgb_to_linear
     from core.errors import SheerError
+    from km.srgb import srgb_decode
     from render.lights import Light
     from render.lightweight import LightweightRenderer
 
@@ -137,7 +139,7 @@ def _compare(fine: object, coarse: object, face: object, coarse_detail: object, 
                 lw.release()
     finally:
         ctx.release()
-    a, b = (srgb_to_linear(im / 255.0) for im in images)
+    a, b = (srgb_decode(im / 255.0) for im in images)
     mask = (np.abs(images[0].astype(int) - images[0][0, 0].astype(int)).sum(axis=2) > 6)
     de = delta_e2000(a[mask], b[mask])
     vis = np.zeros(images[0].shape[:2])

@@ -9,6 +9,7 @@ if TYPE_CHECKING:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer kiosk`` and its options to the sub-command parsers ``sub``."""
     p = sub.add_parser("kiosk", help="start the full-screen customer kiosk", description=__doc__)
     p.add_argument("--project", help="project (.sheer) to show")
     p.add_argument("--config", help="kiosk configuration file (default: ~/.config/sheer/kiosk.json)")
@@ -19,6 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Store a PIN or a snapshot folder (``--set-pin``, ``--snapshot-dir``), or run the kiosk; returns the exit status."""
     from pathlib import Path
 
     from core.errors import SheerError

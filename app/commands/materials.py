@@ -15,10 +15,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from km.library import Library
+    from km.material import Material
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer materials`` and its sub-commands to the sub-command parsers ``sub``."""
     p = sub.add_parser("materials", help="list, show, plot and import cosmetic materials",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     msub = p.add_subparsers(dest="materials_command", metavar="SUBCOMMAND")
@@ -64,13 +69,14 @@ def _help(parser: argparse.ArgumentParser) -> int:
     return 0
 
 
-def _library(path: Path | None) -> Any:
+def _library(path: Path | None) -> Library:
     from km.library import Library, default_library
 
     return default_library() if path is None else Library.load(path)
 
 
 def run_list(args: argparse.Namespace) -> int:
+    """Print one line per material (name, category, opaque colour, default thickness in µm, source); returns 0."""
     lib = _library(args.library)
     mats = lib.materials if args.category is None else lib.by_category(args.category)
     if args.category is not None and not mats:
@@ -85,7 +91,7 @@ def run_list(args: argparse.Namespace) -> int:
     return 0
 
 
-def _hex(m: Any) -> str:
+def _hex(m: Material) -> str:
     try:
         return m.swatch_hex()
     except Exception:  # the colour is decoration here: never fail a listing for it
@@ -93,6 +99,7 @@ def _hex(m: Any) -> str:
 
 
 def run_show(args: argparse.Namespace) -> int:
+    """Print a material's properties, provenance and a spectral table (every ``--step-nm`` nm); returns 0."""
     import textwrap
 
     import numpy as np
@@ -145,6 +152,7 @@ def run_show(args: argparse.Namespace) -> int:
 
 
 def run_plot(args: argparse.Namespace) -> int:
+    """Plot a material's spectra to --out (:func:`plot_material`); returns 0."""
     from core.errors import SheerError
 
     if args.out.suffix.lower() != ".png":
@@ -157,9 +165,11 @@ def run_plot(args: argparse.Namespace) -> int:
     return 0
 
 
-def plot_material(m: Any, out: Path) -> None:
-    """Plot R∞, R, Rg (the measurement when there is one), S, K, and R0, T at the default thickness
-    against wavelength, with the swatches, into ``out`` (PNG, written atomically).
+def plot_material(m: Material, out: Path) -> None:
+    """Plot a material's spectra against wavelength, with its swatches, into ``out`` (PNG, written atomically).
+
+    The curves: R∞, R, Rg (the measurement, when there is one), S and K (per mm), and R0, T at the
+    material's default thickness (µm).
     """
     import matplotlib
 
@@ -211,6 +221,11 @@ def plot_material(m: Any, out: Path) -> None:
 
 
 def run_import(args: argparse.Namespace) -> int:
+    """Check a measurement file and report it; with ``--library`` add its materials to that library.
+
+    Returns:
+        0, or 1 when nothing in the file could be imported.
+    """
     from km.library import Library
     from km.measurements import import_file
 
@@ -240,6 +255,7 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    """Write a material's measurement, S and K as a re-importable CSV to --out; returns 0."""
     from core.errors import SheerError
     from km.measurements import export_csv
 

@@ -17,6 +17,7 @@ import sys
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer project`` and its actions to the sub-command parsers ``sub``."""
     p = sub.add_parser("project", help="create, inspect, validate and export .sheer projects", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     cmds = p.add_subparsers(dest="project_command", metavar="ACTION", required=True)
@@ -54,6 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_new(args: argparse.Namespace) -> int:
+    """Write an empty project on a head (optionally with a look painted); returns 0."""
     from pathlib import Path
 
     from core.errors import SheerError
@@ -107,6 +109,7 @@ def _summary(project: object) -> dict:
 
 
 def run_info(args: argparse.Namespace) -> int:
+    """Print what a project holds (text, or JSON with ``--json``); returns 0."""
     from project.io import open_project
 
     summary = _summary(open_project(args.file, verify_head=False))
@@ -129,6 +132,7 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_validate(args: argparse.Namespace) -> int:
+    """Check a project against docs/FORMAT.md; returns 0 when valid, 2 with a one-line reason."""
     from core.errors import SheerError
     from project.io import open_project
 
@@ -145,6 +149,7 @@ def run_validate(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
+    """Write each layer's map (EXR and 16-bit PNG), the materials and a manifest into --out; returns 0."""
     from project.export import export_project
 
     manifest = export_project(args.file, args.out, ora=args.ora)
@@ -153,6 +158,7 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_upgrade(args: argparse.Namespace) -> int:
+    """Rewrite a project from an older Sheer in the current format (keeping ``FILE.v<N>.bak``); returns 0."""
     from project.io import SCHEMA_VERSION, open_project, save_project
 
     project = open_project(args.file)

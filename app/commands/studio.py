@@ -9,6 +9,7 @@ if TYPE_CHECKING:
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    """Add ``sheer studio`` (the default command) to the sub-command parsers ``sub``."""
     p = sub.add_parser("studio", help="start the studio (the default)", description=__doc__)
     p.add_argument("--head", help="head mesh (default: the sample head)")
     p.add_argument("--look", default="natural", help="look to start with (default: natural)")
@@ -19,6 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run the studio until its window closes; returns the exit status."""
     from app.settings import DEFAULT_RESOLUTION
     from app.studio_app import run_studio
 

@@ -39,8 +39,6 @@ def touch(widget: Any, qtbot: Any) -> None:
 
 def drive(kiosk: Any, qtbot: Any, seen: dict[str, Any]) -> None:
     """What a shopper and the administrator do, recorded in ``seen`` (asserted after the event loop)."""
-    from PySide6.QtWidgets import QPushButton
-
     qtbot.waitUntil(lambda: kiosk.windowHandle() is not None and kiosk.windowHandle().isExposed(), timeout=60000)
     screen = kiosk.screen().geometry()
     seen["screen"] = (screen.x(), screen.y(), screen.width(), screen.height())
@@ -56,7 +54,7 @@ def drive(kiosk: Any, qtbot: Any, seen: dict[str, Any]) -> None:
     qtbot.waitUntil(lambda: kiosk.stack.currentWidget() is kiosk.pin_pad, timeout=5000)
     seen["alt_f4_pin_pad"] = kiosk.stack.currentWidget() is kiosk.pin_pad
     seen["alt_f4_visible"] = kiosk.isVisible()
-    touch(next(b for b in kiosk.pin_pad.findChildren(QPushButton) if b.text() == "Cancel"), qtbot)
+    touch(kiosk.pin_pad.cancel_button, qtbot)
     seen["cancel_back_to_start"] = kiosk.stack.currentWidget() is kiosk.start_page
 
     touch(kiosk.start_button, qtbot)
