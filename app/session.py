@@ -66,7 +66,7 @@ class Session:
             library: the material library; None reads the shipped one (:func:`load_library`).
             progress: called with (stage, fraction in [0, 1]) while the document is built and before the
                 look is painted; it may raise (e.g. to cancel), which abandons the session. It is never
-                called once this method has returned (the document keeps no reference to it).
+                called once this method has returned (later lazy bakes of the document report nothing).
 
         Raises:
             core.errors.SheerError: an unreadable head or library, a bad resolution or an unknown look.
