@@ -30,6 +30,7 @@ import numpy as np
 from scipy import ndimage
 
 from core.errors import SheerError
+from km.srgb import srgb_decode, srgb_encode
 
 from .mask import landmark_region, refine_by_skin_colour
 from .phong import (
@@ -99,20 +100,16 @@ class CaptureError(SheerError, ValueError):
     """A capture that cannot proceed (the head is not in the photo, no skin, …)."""
 
 
-def srgb_to_linear(x: np.ndarray) -> np.ndarray:
-    """sRGB-encoded values in [0, 1] → linear (IEC 61966-2-1)."""
-    x = np.asarray(x, dtype=np.float64)
-    return np.where(x <= 0.04045, x / 12.92, ((x + 0.055) / 1.055) ** 2.4)
+def to_uint8(values: np.ndarray) -> np.ndarray:
+    """Values in [0, 1] → uint8 in [0, 255] (rounded to nearest, clipped); the shape is kept."""
+    return np.clip(np.round(np.asarray(values) * 255.0), 0, 255).astype(np.uint8)
 
 
-def linear_to_srgb(x: np.ndarray) -> np.ndarray:
-    """Linear values → sRGB-encoded in [0, 1] (clipped)."""
-    x = np.clip(np.asarray(x, dtype=np.float64), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
-
-
-def to_uint8(srgb: np.ndarray) -> np.ndarray:
-    return np.clip(np.round(np.asarray(srgb) * 255.0), 0, 255).astype(np.uint8)
+def linear_to_srgb8(linear: np.ndarray) -> np.ndarray:
+    """Linear RGB → 8-bit sRGB as a camera stores it: clipped to [0, 1] (the sensor), encoded with
+    :func:`km.srgb.srgb_encode`, rounded to uint8 in [0, 255]; the shape is kept.
+    """
+    return to_uint8(srgb_encode(np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)))
 
 
 def read_photo(path: str | Path) -> np.ndarray:
@@ -126,7 +123,7 @@ def read_photo(path: str | Path) -> np.ndarray:
         raise CaptureError(f"{path}: photo not found") from None
     except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
         raise CaptureError(f"{path}: cannot read the image: {exc}") from None
-    return srgb_to_linear(arr)
+    return srgb_decode(arr)
 
 
 @dataclass
@@ -518,11 +515,11 @@ def report_image(result: CaptureResult) -> np.ndarray:
     m = result.skin_mask
     de[m] = delta_e2000(result.fitted_render[m], photo[m])
     diff = np.repeat(np.clip(de / REPORT_DE_WHITE, 0, 1)[..., None], 3, axis=2)
-    det = to_uint8(linear_to_srgb(np.asarray(result.detail, dtype=np.float64) * 0.5))
+    det = linear_to_srgb8(np.asarray(result.detail, dtype=np.float64) * 0.5)
     tint = ~result.detail_valid
     det[tint] = (0.5 * det[tint] + 0.5 * np.array([255, 0, 255])).astype(np.uint8)
     det = np.asarray(Image.fromarray(det).resize((w, h), Image.Resampling.NEAREST))
-    panels = np.concatenate([to_uint8(linear_to_srgb(photo)), to_uint8(linear_to_srgb(result.fitted_render)),
+    panels = np.concatenate([linear_to_srgb8(photo), linear_to_srgb8(result.fitted_render),
                              to_uint8(diff), det], axis=1)
     mean_de = float(de[m].mean()) if m.any() else 0.0
     # ASCII only: Pillow's built-in font has no Δ, × or ½.
@@ -575,7 +572,7 @@ def face_albedo(face: Face) -> np.ndarray:
     (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip).
     """
     lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
-    return to_uint8(linear_to_srgb(lin))
+    return linear_to_srgb8(lin)
 
 
 def load_face(folder: str | Path) -> Face:

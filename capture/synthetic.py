@@ -23,7 +23,9 @@ import numpy as np
 from .camera import Camera, look_at
 from .mask import landmark_region
 from .phong import Geometry, PhongParams, shade
-from .pipeline import compute_skin_mask, linear_to_srgb, pixel_data, sample_texture, srgb_to_linear, to_uint8
+from km.srgb import srgb_decode
+
+from .pipeline import compute_skin_mask, linear_to_srgb8, pixel_data, sample_texture
 from .probe import synthetic_probe
 
 
@@ -40,11 +42,18 @@ class SyntheticScene:
 
     @property
     def photo_lin(self) -> np.ndarray:
-        return srgb_to_linear(self.photo_srgb8 / 255.0)
+        return srgb_decode(self.photo_srgb8 / 255.0)
 
     @property
     def probe_lin(self) -> np.ndarray:
-        return srgb_to_linear(self.probe_srgb8 / 255.0)
+        return srgb_decode(self.probe_srgb8 / 255.0)
+
+
+def as_photographed(linear: np.ndarray) -> np.ndarray:
+    """Linear RGB as an 8-bit sRGB photograph stores it, decoded again: float64 in [0, 1], clipped like
+    a sensor and quantised to the 256 sRGB code values (:func:`capture.pipeline.linear_to_srgb8`).
+    """
+    return srgb_decode(linear_to_srgb8(linear) / 255.0)
 
 
 def read_env(path: str) -> np.ndarray:
@@ -96,7 +105,7 @@ def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongPara
         params.flash_rgb = flash
         params.ambient_rgb = ambient
     # Ground-truth detail from the albedo (1 on average over the face).
-    alb = srgb_to_linear(np.asarray(head.albedo, dtype=np.float64) / 255.0)  # type: ignore[attr-defined]
+    alb = srgb_decode(np.asarray(head.albedo, dtype=np.float64) / 255.0)  # type: ignore[attr-defined]
     pix = pixel_data(head, cam)
     region = landmark_region(cam, head.metadata.landmarks, (size, size))  # type: ignore[attr-defined]
     face = np.ones(len(pix.rows), dtype=bool) if region is None else region[pix.rows, pix.cols]
@@ -117,11 +126,11 @@ def make_scene(head: object, env: np.ndarray, size: int = 512, params: PhongPara
     img = render(detail)
     # Renormalise so the detail averages exactly 1 over the skin pixels the capture will use (the skin
     # mask it computes from this photograph): "the diffuse colour" is then well defined.
-    skin = compute_skin_mask(head, cam, srgb_to_linear(to_uint8(linear_to_srgb(img)) / 255.0), pix)
+    skin = compute_skin_mask(head, cam, as_photographed(img), pix)
     used = skin[pix.rows, pix.cols]
     detail = (detail / sample_texture(detail, pix.uv)[used].mean(axis=0)).astype(np.float32)
     img = render(detail)
     probe = synthetic_probe(env, cam.R, light, flash, size=probe_size, env_scale=env_scale)
-    return SyntheticScene(camera=cam, photo_srgb8=to_uint8(linear_to_srgb(img)),
-                          probe_srgb8=to_uint8(linear_to_srgb(probe)), params=params, light_dir_world=light,
+    return SyntheticScene(camera=cam, photo_srgb8=linear_to_srgb8(img),
+                          probe_srgb8=linear_to_srgb8(probe), params=params, light_dir_world=light,
                           detail=detail)

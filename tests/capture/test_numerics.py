@@ -66,10 +66,10 @@ def test_probe_light_direction_and_hue() -> None:
 
 def _probe_with(env: np.ndarray, light: np.ndarray, flash: np.ndarray, env_scale: float = 1.0) -> np.ndarray:
     """A synthetic probe (camera = world axes), 8-bit sRGB quantised like a photograph, linear again."""
-    from capture.pipeline import linear_to_srgb, srgb_to_linear, to_uint8
+    from capture.synthetic import as_photographed
 
     img = synthetic_probe(env, np.eye(3), light / np.linalg.norm(light), flash, size=256, env_scale=env_scale)
-    return srgb_to_linear(to_uint8(linear_to_srgb(img)) / 255.0)
+    return as_photographed(img)
 
 
 def test_probe_flash_hue_across_a_horizon_and_ambient_over_the_whole_ball() -> None:

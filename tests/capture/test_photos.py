@@ -32,7 +32,7 @@ def test_photo_capture_and_relight(name: str, gl_ctx: Any, tmp_path: Path) -> No
     from PIL import Image
 
     from capture.camera import load_points
-    from capture.pipeline import Face, capture, linear_to_srgb, read_photo, to_uint8
+    from capture.pipeline import Face, capture, linear_to_srgb8, read_photo
     from core.assets import find_asset
     from painting.head import load_head
     from render.lights import Light
@@ -75,7 +75,7 @@ def test_photo_capture_and_relight(name: str, gl_ctx: Any, tmp_path: Path) -> No
     assert left.shape == (h, w, 3) and not np.array_equal(left, right)
     px = np.array([p["image"] for p in spec["points"]])
     x0, y0, x1, y1 = _crop_box(px, photo.shape)
-    panels = [to_uint8(linear_to_srgb(photo)), to_uint8(linear_to_srgb(result.fitted_render)), left, right]
+    panels = [linear_to_srgb8(photo), linear_to_srgb8(result.fitted_render), left, right]
     tiles = [np.asarray(Image.fromarray(p[y0:y1, x0:x1]).resize((256, 256 * (y1 - y0) // (x1 - x0)),
                                                                    Image.LANCZOS)) for p in panels]
     strip = np.concatenate(tiles, axis=1)

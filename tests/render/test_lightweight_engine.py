@@ -23,9 +23,9 @@ def head() -> Any:
 
 
 def _face(head: Any) -> Face:
-    from capture.pipeline import srgb_to_linear
+    from km.srgb import srgb_decode
 
-    alb = srgb_to_linear(head.albedo / 255.0)
+    alb = srgb_decode(head.albedo / 255.0)
     detail = (alb / alb.reshape(-1, 3).mean(axis=0)).astype(np.float32)
     params = PhongParams(diffuse=np.array([0.6, 0.42, 0.33]), specular=0.2, exponent=24.0, ambient_scale=1.0,
                          flash_rgb=np.ones(3), ambient_rgb=np.full(3, 0.02))
