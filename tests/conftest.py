@@ -46,7 +46,8 @@ def _seed_rng() -> None:
 
 @pytest.fixture(scope="session")
 def _gl_session_ctx() -> Iterator[object]:
-    moderngl = pytest.importorskip("moderngl")
+    import moderngl  # a required dependency: missing, the GL tests fail rather than skip
+
     ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     yield ctx
     ctx.release()

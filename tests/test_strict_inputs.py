@@ -3,8 +3,9 @@ message naming the file, never another exception (and never hang or allocate wit
 
 Loaders covered: material libraries (km.Library), measurement files (km.measurements), head metadata
 sidecars, head meshes and textures (painting.head), photographs and masks (capture), camera files
-(capture.camera), HDR environments (render.lights), looks (painting.looks, when present). Projects have
-their own files (tests/test_project_*.py).
+(capture.camera), HDR environments (render.lights), looks (painting.looks), thickness maps, face
+folders, the kiosk's settings. Projects have their own files (tests/project/). Every loader and the sample
+head are required: a missing one fails its tests, it does not skip them.
 
 Cases a loader does not handle yet are marked ``xfail(strict=True)`` with the reason: they flip to
 failures (so the mark must be removed) as soon as the loader is fixed.
@@ -12,7 +13,6 @@ failures (so the mark must be removed) as soon as the loader is fixed.
 
 from __future__ import annotations
 
-import importlib
 import struct
 import zlib
 from typing import TYPE_CHECKING, Any
@@ -236,13 +236,10 @@ def test_meshes(name: str, tmp_path: Path) -> None:
 
 
 def test_truncated_sample_head(tmp_path: Path) -> None:
-    from core.assets import AssetNotFoundError, find_asset
+    from core.assets import find_asset
     from painting.head import load_mesh_arrays
 
-    try:
-        glb = find_asset("heads/lee-perry-smith/head.glb").read_bytes()
-    except AssetNotFoundError:
-        pytest.skip("sample assets not available")
+    glb = find_asset("heads/lee-perry-smith/head.glb").read_bytes()
     for cut in (20, len(glb) // 3, len(glb) - 7):
         path = tmp_path / f"cut{cut}.glb"
         path.write_bytes(glb[:cut])
@@ -310,30 +307,29 @@ def test_head_texture_over_the_side_cap(tmp_path: Path) -> None:
     raises_clean(lambda: load_head(mesh), "wide.png", "limit")
 
 
-def _capture(name: str) -> Any:
-    try:
-        return importlib.import_module(name)
-    except ImportError:
-        pytest.skip(f"{name} not available")
-
-
 @pytest.mark.parametrize("loader", ["photo", "mask"])
 def test_capture_images_garbage(loader: str, tmp_path: Path) -> None:
+    from capture.mask import load_mask
+    from capture.pipeline import read_photo
+
     path = tmp_path / "x.png"
     path.write_bytes(_noise(64))
     if loader == "photo":
-        raises_clean(lambda: _capture("capture.pipeline").read_photo(path), "x.png")
+        raises_clean(lambda: read_photo(path), "x.png")
     else:
-        raises_clean(lambda: _capture("capture.mask").load_mask(path, (4, 4)), "x.png")
+        raises_clean(lambda: load_mask(path, (4, 4)), "x.png")
 
 
 @pytest.mark.parametrize("loader", ["photo", "mask"])
 def test_capture_images_decompression_bomb(loader: str, tmp_path: Path) -> None:
+    from capture.mask import load_mask
+    from capture.pipeline import read_photo
+
     path = _bomb_png(tmp_path)
     if loader == "photo":
-        raises_clean(lambda: _capture("capture.pipeline").read_photo(path), "bomb.png")
+        raises_clean(lambda: read_photo(path), "bomb.png")
     else:
-        raises_clean(lambda: _capture("capture.mask").load_mask(path, (4, 4)), "bomb.png")
+        raises_clean(lambda: load_mask(path, (4, 4)), "bomb.png")
 
 
 # ------------------------------------------------------------------------------------------- camera files
@@ -350,21 +346,24 @@ CAMERA_CASES = {
 
 @pytest.mark.parametrize("case", sorted(CAMERA_CASES))
 def test_camera_files(case: str, tmp_path: Path) -> None:
-    camera = _capture("capture.camera")
+    from capture import camera
+
     path = tmp_path / "cam.json"
     path.write_bytes(CAMERA_CASES[case])
     raises_clean(lambda: camera.load_camera(path, 64, 64), "cam.json")
 
 
 def test_camera_file_deeply_nested(tmp_path: Path) -> None:
-    camera = _capture("capture.camera")
+    from capture import camera
+
     path = tmp_path / "cam.json"
     path.write_text(DEEP_JSON)
     raises_clean(lambda: camera.load_camera(path, 64, 64), "cam.json")
 
 
 def test_point_files(tmp_path: Path) -> None:
-    camera = _capture("capture.camera")
+    from capture import camera
+
     path = tmp_path / "pts.json"
     path.write_bytes(b'{"points": [{"image": [1, "x"], "mesh": [0, 0, 0]}]}')
     raises_clean(lambda: camera.load_points(path, 64, 64), "pts.json")
@@ -375,7 +374,8 @@ def test_point_files(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("data", [b"\x76\x2f\x31\x01" + bytes(100), b"not an exr", b""])
 def test_environment_exr(data: bytes, tmp_path: Path) -> None:
-    lights = _capture("render.lights")
+    from render import lights
+
     path = tmp_path / "env.exr"
     path.write_bytes(data)
     raises_clean(lambda: lights.read_exr_rgb(path), "env.exr")
@@ -407,7 +407,8 @@ LOOK_MORE = {
 
 @pytest.mark.parametrize("case", sorted(LOOK_CASES))
 def test_look_files(case: str, tmp_path: Path) -> None:
-    looks = _capture("painting.looks")
+    from painting import looks
+
     data, fragment = LOOK_CASES[case]
     path = tmp_path / "look.json"
     path.write_bytes(data)
@@ -416,7 +417,8 @@ def test_look_files(case: str, tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("case", sorted(LOOK_MORE))
 def test_look_files_deep_and_stroke_values(case: str, tmp_path: Path) -> None:
-    looks = _capture("painting.looks")
+    from painting import looks
+
     path = tmp_path / "look.json"
     path.write_bytes(LOOK_MORE[case])
     raises_clean(lambda: looks.load_look(path), "look.json")
@@ -443,14 +445,16 @@ MAP_CASES = {
 
 @pytest.mark.parametrize("name", sorted(MAP_CASES))
 def test_thickness_map_import(name: str, tmp_path: Path) -> None:
-    maps_io = _capture("painting.maps_io")
+    from painting import maps_io
+
     path = tmp_path / name
     path.write_bytes(MAP_CASES[name][0])
     raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64), scale_um=1.0), name)
 
 
 def test_thickness_map_decompression_bomb(tmp_path: Path) -> None:
-    maps_io = _capture("painting.maps_io")
+    from painting import maps_io
+
     path = _bomb_png(tmp_path)
     raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64), scale_um=1.0), "bomb.png")
 
@@ -481,14 +485,16 @@ def _face_json(case: str, version: int) -> bytes:
 
 @pytest.mark.parametrize("case", ["not json", "newer"])
 def test_face_folders(case: str, tmp_path: Path) -> None:
-    pipeline = _capture("capture.pipeline")
+    from capture import pipeline
+
     folder = _face_folder(tmp_path, _face_json(case, pipeline.FACE_SCHEMA_VERSION))
     raises_clean(lambda: pipeline.load_face(folder), "face")
 
 
 @pytest.mark.parametrize("case", ["array", "deep", "no phong", "bad phong"])
 def test_face_folders_malformed_json(case: str, tmp_path: Path) -> None:
-    pipeline = _capture("capture.pipeline")
+    from capture import pipeline
+
     folder = _face_folder(tmp_path, _face_json(case, pipeline.FACE_SCHEMA_VERSION))
     raises_clean(lambda: pipeline.load_face(folder), "face")
 
@@ -499,7 +505,8 @@ def test_face_folders_malformed_json(case: str, tmp_path: Path) -> None:
 @pytest.mark.parametrize("case", ["deep", "nan", "garbage"])
 def test_kiosk_config_falls_back_to_sane_defaults(case: str, tmp_path: Path) -> None:
     """The kiosk's config is read unattended: a broken file must give finite, bounded settings."""
-    kiosk = _capture("app.kiosk")
+    from app import kiosk
+
     path = tmp_path / "kiosk.json"
     path.write_bytes({"deep": DEEP_JSON.encode(), "nan": b'{"idle_seconds": NaN, "look_seconds": Infinity}',
                       "garbage": _noise(100)}[case])
@@ -513,7 +520,8 @@ def test_kiosk_config_falls_back_to_sane_defaults(case: str, tmp_path: Path) -> 
 
 
 def test_thickness_map_exr_too_large_is_refused_from_its_header(tmp_path: Path) -> None:
-    maps_io = _capture("painting.maps_io")
+    from painting import maps_io
+
     path = tmp_path / "wide.exr"
     path.write_bytes(_exr(np.zeros((1, maps_io.MAX_SIDE + 1), np.float32)))
     raises_clean(lambda: maps_io.read_thickness(path, expected_shape=(64, 64)), "wide.exr", "limit")
