@@ -10,6 +10,16 @@ RQ decomposition into K, R, t, then a non-linear refinement of the reprojection 
 skew and the principal point at the image centre unless asked (a photographic camera; it also keeps a
 few hand-picked points from over-fitting) — started from the DLT and from six axis-aligned views, the
 best solution with every point in front of the camera kept.
+
+How well clicked landmarks fix the camera (tests/capture/test_out_of_sample.py, the validation's
+telephoto framing: 2.36 m, 6.4° vertical field, 512²; the sample head's 22 landmarks): clicked to the
+centre of their pixel (±0.5 px) the rotation is 0.32° off, the focal length −22 % (the prior's pull)
+and the capture's flash direction 0.44° off (0.14° with the true camera), s −6.9 %; with 1 px Gaussian
+clicks (five seeds) the rotation is off by 0.6–1.8° and the focal length by −44 to +43 % — the face's
+landmarks are nearly planar and seen almost orthographically, so rotation trades against translation
+and the focal length against the distance — and since the probe gives the flash in camera coordinates,
+the flash is off in the head's coordinates by as much (0.62–1.90°), s by −3 to −15 % and i_s by −4 to
+−12 %. A 25° lens at the same framing roughly halves the rotation error (0.4–1.35° at 1 px).
 """
 
 from __future__ import annotations
