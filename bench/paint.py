@@ -40,9 +40,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from collections.abc import Sequence
+from bench.stats import spread
 
+if TYPE_CHECKING:
     from painting.brush import Brush
     from painting.document import Document
     from painting.layer import Layer
@@ -250,18 +250,6 @@ def measure(resolution: int, library: Any, material: str, dabs: int = 40,
     return doc, layer, runs
 
 
-def spread(key: str, values: Sequence[float], scale: float = 1000.0, digits: int = 3) -> dict[str, float]:
-    """The median of ``values`` × ``scale`` as ``key``, beside its 90th percentile and largest.
-
-    ``key_p90`` is the 90th percentile (linear interpolation), ``key_max`` the largest; each is rounded
-    to ``digits`` decimals (seconds → ms by default).
-    """
-    v = np.asarray(values, dtype=np.float64) * scale
-    return {key: round(float(statistics.median(v.tolist())), digits),
-            f"{key}_p90": round(float(np.percentile(v, 90)), digits),
-            f"{key}_max": round(float(v.max()), digits)}
-
-
 def _sizes(text: str) -> tuple[int, ...]:
     try:
         sizes = tuple(int(t) for t in text.split(","))
@@ -305,7 +293,7 @@ def main(argv: list[str] | None = None) -> int:
         for name in ("dab", "dab_cpu", "dab_cold", "dab_stroke", "dab_fixed", "dab_fixed_cold", "dab_floor",
                      "dab_floor_cold"):
             if name in runs:
-                out.update(spread(f"{name}_ms_{res}", runs[name]))
+                out.update(spread(f"{name}_ms_{res}", [1000 * t for t in runs[name]], digits=3))
         new = runs["new_texels"]
         out[f"dab_new_texels_{res}"] = int(np.median(new))
         out[f"dab_new_texels_{res}_p90"] = int(np.percentile(new, 90))
