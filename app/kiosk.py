@@ -41,7 +41,7 @@ if TYPE_CHECKING:
     from PySide6.QtGui import QMouseEvent
 
     from app.viewport import Viewport
-    from capture.pipeline import Face
+    from capture.face import Face
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -168,7 +168,7 @@ class KioskWindow(QWidget):
             if self.config.engine == "lightweight":
                 log.warning("kiosk: engine 'lightweight' needs face_dir in the configuration; using physical")
             return
-        from capture.pipeline import load_face
+        from capture.face import load_face
 
         try:
             self.face = load_face(self.config.face_dir)

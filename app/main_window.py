@@ -52,7 +52,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from app.session import Session
-    from capture.pipeline import Face
+    from capture.face import Face
     from painting import ChangeEvent, Stroke
 
 log = logging.getLogger("sheer.app")
@@ -403,7 +403,7 @@ class StudioWindow(QMainWindow):
 
     def open_face(self, folder: Path, on_done: Callable[[Face], None] | None = None) -> None:
         """Read a captured face in a worker, then show it in the lightweight mode."""
-        from capture.pipeline import load_face
+        from capture.face import load_face
 
         def done(face: Face) -> None:
             self.viewport.face = face

@@ -38,7 +38,7 @@ if TYPE_CHECKING:
     import moderngl
     from PySide6.QtCore import QEvent
 
-    from capture.pipeline import Face
+    from capture.face import Face
     from km.library import Library
     from painting import Document
     from painting.head import Head

@@ -92,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         robustness = {"starts": args.starts, "max_relative_std": rob["max_relative_std"],
                       "relative_std": rob["relative_std"], "seconds": time.perf_counter() - t1}
 
-    from capture.pipeline import Face
+    from capture.face import Face
 
     face = Face(params=result.params, detail=result.detail, data={})
     ctx = moderngl.create_context(standalone=True, backend="egl", require=450)

@@ -1,4 +1,13 @@
-"""Sheer's face capture (Paris et al. 2003, "Lightweight face relighting"), numpy/scipy only — no Qt, no GL.
+"""Sheer's face capture (Paris et al. 2003, "Lightweight face relighting").
+
+A flash photograph of a face, a head mesh, the photograph's camera and a mirror-ball probe go in; a
+relightable face comes out: the Phong skin parameters and a detail texture in the head's UV space (a
+face folder, :mod:`capture.face`), which the lightweight engine (:mod:`render.lightweight`) draws.
+
+What it may import: :mod:`core`, :mod:`km`, :mod:`painting` and :mod:`project` (the layers below it) and
+numerical and file libraries (numpy, scipy, colour-science, Pillow, OpenEXR, trimesh, pyvista). Never
+:mod:`render` (its sibling), Qt or GL: the capture runs headless, without a GL context — its G-buffers
+come from :mod:`painting.raster`'s CPU rasteriser. pyproject.toml's import-linter contracts check this.
 
 - :mod:`capture.camera`: the photograph's camera (projection matrix, or DLT + refinement from ≥ 6 points).
 - :mod:`capture.raster`: G-buffers in the photo's view and in UV space, on :mod:`painting.raster`'s rasteriser.
@@ -6,7 +15,8 @@
 - :mod:`capture.probe`: mirror-ball light-probe analysis (direction, flash hue, ambient).
 - :mod:`capture.reflectance`: the reflectance map on the Gaussian sphere; the exponent (Eq. 3).
 - :mod:`capture.phong`: the Phong skin model and its fit in CIE Luv.
-- :mod:`capture.pipeline`: the whole capture, the detail texture, face folders.
+- :mod:`capture.pipeline`: the whole capture and the detail texture.
+- :mod:`capture.face`: the face folder (face.json, detail.exr, report.png) written and read back.
 - :mod:`capture.lod`: coarse heads by quadric decimation, detail re-baked.
 - :mod:`capture.synthetic`: synthetic ground truth for validation.
 """

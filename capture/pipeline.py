@@ -2,28 +2,13 @@
 
 Steps (Paris et al. 2003, Fig. 3): rasterise the head as the camera sees it; the skin mask; the light
 from the probe; the reflectance map from the skin pixels; the specular exponent; the Phong fit; the
-detail texture (photograph / shaded model) baked into the head's UV space.
-
-A face folder (``write_face``) holds:
-
-- ``face.json`` — parameters (:class:`capture.phong.PhongParams`), light, camera, residuals, timings,
-  the separation of i_s from the albedo (``specular_separation``) and every number's unit (``units``,
-  where the key's name does not say it);
-- ``detail.exr`` — the detail texture, **float32** RGB in the head's UV space (top row first, the
-  conventions of :mod:`painting.head`), values in [0, 2ⁿ] with n = 3 (the paper's [0, 8] range; we store
-  floats rather than n doubling passes over an 8-bit texture);
-- ``report.png`` — photograph | fitted Phong render | difference (ΔE2000 × 10 as grey), like Fig. 9 |
-  the detail texture (×½) with the texels the photograph did not see tinted magenta, under a caption
-  strip naming each panel and its scale;
-- ``skin_mask.png`` — the skin pixels used.
+detail texture (photograph / shaded model) baked into the head's UV space. :mod:`capture.face` writes
+the result as a face folder and reads it back.
 """
-
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,11 +35,11 @@ from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+    from pathlib import Path
 
     from .camera import Camera
     from .probe import ProbeAnalysis
 
-FACE_SCHEMA_VERSION = 1
 #: The detail texture's range is [0, 2**DETAIL_DOUBLINGS].
 DETAIL_DOUBLINGS = 3
 #: The probe's flash-hue spread above which the capture warns. On 88 synthetic probes (6 environments
@@ -65,35 +50,6 @@ FLASH_HUE_SPREAD_WARN = 0.015
 SHADED_FLOOR = 1e-3
 
 
-#: face.json's ``units``: the unit of every number a key name does not already say (``_deg``, ``_px``,
-#: ``timings_s``). "photograph units": linear sRGB, the sensor saturating at 1.
-FACE_JSON_UNITS: dict[str, str] = {
-    "phong.diffuse_rgb": "linear sRGB reflectance D (the detail texture averages 1 over the skin)",
-    "phong.specular_intensity": "photograph units at the lobe's peak, times the flash colour",
-    "phong.exponent": "dimensionless (Phong exponent s)",
-    "phong.ambient_scale": "dimensionless k, relative to the probe's ambient_rgb",
-    "phong.flash_rgb": "linear sRGB, luminance 1 (the flash's intensity is folded into D and i_s)",
-    "phong.ambient_rgb": "photograph units (the probe's mean radiance, same exposure)",
-    "light_dir_world": "unit vector towards the flash, mesh coordinates",
-    "exponent.s": "dimensionless (the exponent used)", "exponent.s_saturation": "dimensionless (saturation curve)",
-    "exponent.s_eq3": "dimensionless (the paper's Eq. 3)", "exponent.spec_over_diffuse": "dimensionless ratio",
-    "residual.rms_luv_per_pixel": "CIE L*u*v* distance (D65), RMS over skin pixels",
-    "residual.l2_luv": "CIE L*u*v* distance, L2 norm over skin pixels",
-    "residual.evaluations": "model evaluations",
-    "residual.ambient_scale_photo": "dimensionless k (diagnostic)",
-    "residual.reproduction_mean_de2000_skin": "CIEDE2000, mean over skin pixels",
-    "specular_separation.specular_intensity": "as phong.specular_intensity",
-    "specular_separation.specular_intensity_joint_fit": "as phong.specular_intensity",
-    "specular_separation.pixels": "skin pixels",
-    "camera.K": "pixels", "camera.R": "rotation, world to camera", "camera.t": "mesh units",
-    "camera.P": "pixels per mesh unit (3x4 projection)", "camera.width": "pixels", "camera.height": "pixels",
-    "probe.light_dir_camera": "unit vector, camera coordinates (x right, y down, z forward)",
-    "probe.flash_rgb": "linear sRGB, luminance 1", "probe.ambient_rgb": "photograph units",
-    "probe.clipped_fraction": "fraction of the ball's pixels", "probe.flash_hue_spread": "relative (0.01 = 1 %)",
-    "skin_pixels": "pixels", "detail_texture.range": "dimensionless ratio (photograph / shaded model)",
-    "detail_texture.size": "texels (height, width)", "detail_texture.texels_seen": "texels",
-    "timings_s": "seconds", "robustness.relative_std": "std / |mean|, dimensionless",
-}
 
 
 class CaptureError(SheerError, ValueError):
@@ -212,39 +168,6 @@ class CaptureResult:
     ambient_scale_photo: float | None = None
     specular_joint: float | None = None
     specular_separation: DetailSpecular | None = None
-
-    def to_json(self) -> dict[str, Any]:
-        e = self.exponent
-        return {
-            "schema_version": FACE_SCHEMA_VERSION,
-            "units": FACE_JSON_UNITS,
-            "phong": self.params.to_json(),
-            "light_dir_world": self.light_dir_world.tolist(),
-            "exponent": {"s": e.s, "s_saturation": e.s_saturation, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
-                         "alpha_right_deg": e.alpha_right_deg, "spec_over_diffuse": e.spec_over_diffuse},
-            "residual": {"rms_luv_per_pixel": self.fit.rms_luv, "l2_luv": self.fit.l2_luv,
-                         "evaluations": self.fit.evaluations,
-                         "ambient_scale_photo": self.ambient_scale_photo,
-                         "reproduction_mean_de2000_skin": self.reproduction_de2000_skin},
-            "specular_separation": None if self.specular_separation is None else {
-                "specular_intensity": self.specular_separation.specular,
-                "specular_intensity_joint_fit": self.specular_joint,
-                "high_pass_sigma_px": self.specular_separation.sigma_px,
-                "specular_core_radius_px": self.specular_separation.core_radius_px,
-                "pixels": self.specular_separation.pixels},
-            "camera": self.camera.to_json(),
-            "probe": None if self.probe is None else self.probe.to_json(),
-            "skin_pixels": int(self.skin_mask.sum()),
-            "detail_texture": {"file": "detail.exr", "storage": "float32 RGB, UV space, top row first",
-                               "range": [0.0, float(2 ** DETAIL_DOUBLINGS)],
-                               "size": list(self.detail.shape[:2]),
-                               "texels_seen": int(self.detail_valid.sum()),
-                               "unseen_fill": f"seen detail low-passed (sigma 2 mm) at the nearest seen texel "
-                                              f"in 3D, faded to 1 as exp(-d / {UNSEEN_FADE_MM:g} mm)"},
-            "timings_s": self.timings_s,
-            "robustness": self.robustness,
-        }
-
 
 def _log(progress: Callable[[str], None] | None, msg: str) -> None:
     if progress is not None:
@@ -495,107 +418,3 @@ def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndar
     _, (iy, ix) = ndimage.distance_transform_edt(~cov, return_indices=True)
     detail = detail[iy, ix]
     return detail, valid
-
-
-#: The report's difference panel: grey level 255 × ΔE2000 / ``REPORT_DE_WHITE`` (white at and above).
-REPORT_DE_WHITE = 25.5
-
-
-def report_image(result: CaptureResult) -> np.ndarray:
-    """Photograph | fitted Phong render (no detail) | difference (ΔE2000 as grey, white at
-    ``REPORT_DE_WHITE`` and above, skin pixels) | the detail texture in UV space (× ½), with the texels
-    the photograph did not see (filled, see :func:`bake_detail`) tinted magenta; a caption strip above
-    names each panel and its scale. uint8 (H + caption, 4W, 3).
-    """
-    from PIL import Image, ImageDraw, ImageFont
-
-    photo = result.photo_lin
-    h, w = photo.shape[:2]
-    de = np.zeros(photo.shape[:2])
-    m = result.skin_mask
-    de[m] = delta_e2000(result.fitted_render[m], photo[m])
-    diff = np.repeat(np.clip(de / REPORT_DE_WHITE, 0, 1)[..., None], 3, axis=2)
-    det = linear_to_srgb8(np.asarray(result.detail, dtype=np.float64) * 0.5)
-    tint = ~result.detail_valid
-    det[tint] = (0.5 * det[tint] + 0.5 * np.array([255, 0, 255])).astype(np.uint8)
-    det = np.asarray(Image.fromarray(det).resize((w, h), Image.Resampling.NEAREST))
-    panels = np.concatenate([linear_to_srgb8(photo), linear_to_srgb8(result.fitted_render),
-                             to_uint8(diff), det], axis=1)
-    mean_de = float(de[m].mean()) if m.any() else 0.0
-    # ASCII only: Pillow's built-in font has no Δ, × or ½.
-    captions = ["photograph", "fitted Phong, no detail", f"dE2000 0-{REPORT_DE_WHITE:g} (skin mean {mean_de:.1f})",
-                "detail x0.5 (magenta: unseen)"]
-    size = max(8, min(w // 20, 24))
-    strip = Image.new("RGB", (4 * w, size + size // 2), (32, 32, 32))
-    draw = ImageDraw.Draw(strip)
-    font = ImageFont.load_default(size=size)
-    for i, text in enumerate(captions):
-        while len(text) > 4 and draw.textlength(text, font=font) > w - 8:
-            text = text[:-4] + "..."
-        draw.text((i * w + 4, size // 4), text, fill=(230, 230, 230), font=font)
-    return np.concatenate([np.asarray(strip), panels], axis=0)
-
-
-def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None) -> Path:
-    """Write the face folder (see the module docstring); returns the folder."""
-    import OpenEXR
-    from PIL import Image
-
-    from core.atomicio import atomic_write_text
-
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CaptureError(f"{out}: cannot create the output folder: {exc.strerror}") from None
-    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    OpenEXR.File(hdr, {"RGB": np.ascontiguousarray(result.detail, dtype=np.float32)}).write(str(out / "detail.exr"))
-    Image.fromarray(report_image(result)).save(out / "report.png")
-    Image.fromarray((result.skin_mask * 255).astype(np.uint8)).save(out / "skin_mask.png")
-    data = result.to_json()
-    data["head"] = None if head_path is None else str(head_path)
-    atomic_write_text(out / "face.json", json.dumps(data, indent=2))
-    return out
-
-
-@dataclass
-class Face:
-    """A captured face read back from its folder: parameters and detail texture (float32, UV space)."""
-
-    params: PhongParams
-    detail: np.ndarray
-    data: dict[str, Any]
-
-
-def face_albedo(face: Face) -> np.ndarray:
-    """The captured skin albedo for the physical renderer: detail × fitted diffuse colour, as 8-bit sRGB
-    (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip).
-    """
-    lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
-    return linear_to_srgb8(lin)
-
-
-def load_face(folder: str | Path) -> Face:
-    """Read a face folder written by :func:`write_face`."""
-    import OpenEXR
-
-    folder = Path(folder)
-    try:
-        data = json.loads((folder / "face.json").read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise CaptureError(f"{folder}: not a face folder (no face.json)") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
-        raise CaptureError(f"{folder / 'face.json'}: cannot read: {exc}") from None
-    if not isinstance(data, dict):
-        raise CaptureError(f"{folder / 'face.json'}: must be a JSON object")
-    if data.get("schema_version") != FACE_SCHEMA_VERSION:
-        raise CaptureError(f"{folder / 'face.json'}: unsupported schema_version {data.get('schema_version')!r}")
-    try:
-        detail = np.asarray(OpenEXR.File(str(folder / "detail.exr")).channels()["RGB"].pixels, dtype=np.float32)
-    except Exception as exc:  # OpenEXR raises plain exceptions for missing/corrupt files
-        raise CaptureError(f"{folder / 'detail.exr'}: cannot read the detail texture: {exc}") from None
-    try:
-        params = PhongParams.from_json(data["phong"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise CaptureError(f"{folder / 'face.json'}: missing or malformed Phong parameters ({exc!r})") from None
-    return Face(params=params, detail=detail, data=data)

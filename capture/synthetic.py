@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from km.srgb import srgb_decode
+
 from .camera import Camera, look_at
 from .mask import landmark_region
 from .phong import Geometry, PhongParams, shade
-from km.srgb import srgb_decode
-
 from .pipeline import compute_skin_mask, linear_to_srgb8, pixel_data, sample_texture
 from .probe import synthetic_probe
 

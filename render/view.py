@@ -73,7 +73,7 @@ class ViewRenderer:
         layer_index: the document layer the thickness view shows.
         debug_hidden: the thickness view's layer is hidden (the view shows the image instead).
         frames_drawn: frames drawn by an engine (not ring-only redraws).
-        face: a captured face (``capture.pipeline.Face``) for the lightweight mode, or None.
+        face: a captured face (``capture.face.Face``) for the lightweight mode, or None.
         drawn_by: the mode that drew the kept frame.
     """
 
@@ -107,7 +107,7 @@ class ViewRenderer:
 
     # ------------------------------------------------------------------ the lightweight engine
     def set_face(self, face: Any) -> None:
-        """Use ``face`` (``capture.pipeline.Face``, for this head) in the lightweight mode; None removes it."""
+        """Use ``face`` (``capture.face.Face``, for this head) in the lightweight mode; None removes it."""
         if self._lw is not None:
             self._lw.release()
             self._lw = None

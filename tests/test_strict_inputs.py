@@ -485,18 +485,18 @@ def _face_json(case: str, version: int) -> bytes:
 
 @pytest.mark.parametrize("case", ["not json", "newer"])
 def test_face_folders(case: str, tmp_path: Path) -> None:
-    from capture import pipeline
+    from capture import face
 
-    folder = _face_folder(tmp_path, _face_json(case, pipeline.FACE_SCHEMA_VERSION))
-    raises_clean(lambda: pipeline.load_face(folder), "face")
+    folder = _face_folder(tmp_path, _face_json(case, face.FACE_SCHEMA_VERSION))
+    raises_clean(lambda: face.load_face(folder), "face")
 
 
 @pytest.mark.parametrize("case", ["array", "deep", "no phong", "bad phong"])
 def test_face_folders_malformed_json(case: str, tmp_path: Path) -> None:
-    from capture import pipeline
+    from capture import face
 
-    folder = _face_folder(tmp_path, _face_json(case, pipeline.FACE_SCHEMA_VERSION))
-    raises_clean(lambda: pipeline.load_face(folder), "face")
+    folder = _face_folder(tmp_path, _face_json(case, face.FACE_SCHEMA_VERSION))
+    raises_clean(lambda: face.load_face(folder), "face")
 
 
 # ------------------------------------------------------------------------------------------- kiosk settings

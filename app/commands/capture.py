@@ -43,8 +43,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``sheer capture`` with the parsed ``args``; returns the exit status (0, or 2 for bad input)."""
     from capture.camera import load_camera, load_points
+    from capture.face import write_face
     from capture.mask import load_mask
-    from capture.pipeline import CaptureError, capture, read_photo, write_face
+    from capture.pipeline import CaptureError, capture, read_photo
     from capture.probe import analyse_probe
     from painting.head import load_head
 

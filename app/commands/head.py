@@ -50,7 +50,7 @@ def run_simplify(args: argparse.Namespace) -> int:
         raise SheerError("--size must be between 16x16 and 8192x8192 and --frames at least 1")
     face = None
     if args.face:
-        from capture.pipeline import load_face
+        from capture.face import load_face
 
         face = load_face(args.face)
     fine = load_head(args.head)

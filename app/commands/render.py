@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     if args.mode == "lightweight" and not args.face:
         raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
     if args.face:  # issue 7: a captured face (lightweight engine, or its albedo in the physical one)
-        from capture.pipeline import load_face
+        from capture.face import load_face
 
         face = load_face(args.face)
 
@@ -149,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     if face is not None and args.mode != "lightweight":
         import dataclasses
 
-        from capture.pipeline import face_albedo
+        from capture.face import face_albedo
 
         head = dataclasses.replace(head, albedo=face_albedo(face))  # skin albedo = detail × fitted diffuse
         if doc is not None:

@@ -137,8 +137,8 @@ def write_test_face(folder: Any) -> Any:
     import numpy as np
     import OpenEXR
 
+    from capture.face import FACE_SCHEMA_VERSION
     from capture.phong import PhongParams
-    from capture.pipeline import FACE_SCHEMA_VERSION
 
     d = Path(folder)
     d.mkdir(parents=True, exist_ok=True)

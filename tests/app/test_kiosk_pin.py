@@ -113,7 +113,7 @@ def test_slow_physical_frames_fall_back_to_the_lightweight_engine(kiosk: object,
     lightweight engine with the configured captured face."""
     import dataclasses
 
-    from capture.pipeline import load_face
+    from capture.face import load_face
     from tests.app.studio_support import write_test_face
 
     vp = kiosk.viewport

@@ -19,8 +19,8 @@ pytestmark = pytest.mark.gl
 def face_dir(tmp_path: Path) -> Path:
     import OpenEXR
 
+    from capture.face import FACE_SCHEMA_VERSION
     from capture.phong import PhongParams
-    from capture.pipeline import FACE_SCHEMA_VERSION
 
     d = tmp_path / "face"
     d.mkdir()

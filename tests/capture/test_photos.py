@@ -32,7 +32,8 @@ def test_photo_capture_and_relight(name: str, gl_ctx: Any, tmp_path: Path) -> No
     from PIL import Image
 
     from capture.camera import load_points
-    from capture.pipeline import Face, capture, linear_to_srgb8, read_photo
+    from capture.face import Face
+    from capture.pipeline import capture, linear_to_srgb8, read_photo
     from core.assets import find_asset
     from painting.head import load_head
     from render.lights import Light

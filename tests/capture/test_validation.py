@@ -139,7 +139,7 @@ def test_reproduction_and_robustness(synthetic: tuple) -> None:
 
 
 def test_face_folder_round_trip(synthetic: tuple, tmp_path: Path) -> None:
-    from capture.pipeline import load_face, write_face
+    from capture.face import load_face, write_face
 
     _, _, result = synthetic
     out = write_face(result, tmp_path / "face")

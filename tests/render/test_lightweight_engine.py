@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 import pytest
 
+from capture.face import Face
 from capture.phong import PhongParams
-from capture.pipeline import Face
 
 pytestmark = pytest.mark.gl
 SIZE = (320, 180)

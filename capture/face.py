@@ -1,0 +1,221 @@
+"""The face folder: what ``sheer capture`` writes and the lightweight renderer reads.
+
+A face folder (:func:`write_face`) holds:
+
+- ``face.json`` — parameters (:class:`capture.phong.PhongParams`), light, camera, residuals, timings,
+  the separation of i_s from the albedo (``specular_separation``) and every number's unit (``units``,
+  where the key's name does not say it);
+- ``detail.exr`` — the detail texture, **float32** RGB in the head's UV space (top row first, the
+  conventions of :mod:`painting.head`), values in [0, 2ⁿ] with n = 3 (the paper's [0, 8] range; we store
+  floats rather than n doubling passes over an 8-bit texture);
+- ``report.png`` — photograph | fitted Phong render | difference (ΔE2000 × 10 as grey), like Fig. 9 |
+  the detail texture (×½) with the texels the photograph did not see tinted magenta, under a caption
+  strip naming each panel and its scale;
+- ``skin_mask.png`` — the skin pixels used.
+
+:func:`load_face` reads one back as a :class:`Face`; :func:`face_albedo` turns it into an albedo for the
+physical renderer.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .phong import PhongParams, delta_e2000
+from .pipeline import DETAIL_DOUBLINGS, UNSEEN_FADE_MM, CaptureError, linear_to_srgb8, to_uint8
+
+if TYPE_CHECKING:
+    from .pipeline import CaptureResult
+
+#: face.json's ``schema_version``.
+FACE_SCHEMA_VERSION = 1
+
+#: face.json's ``units``: the unit of every number a key name does not already say (``_deg``, ``_px``,
+#: ``timings_s``). "photograph units": linear sRGB, the sensor saturating at 1.
+FACE_JSON_UNITS: dict[str, str] = {
+    "phong.diffuse_rgb": "linear sRGB reflectance D (the detail texture averages 1 over the skin)",
+    "phong.specular_intensity": "photograph units at the lobe's peak, times the flash colour",
+    "phong.exponent": "dimensionless (Phong exponent s)",
+    "phong.ambient_scale": "dimensionless k, relative to the probe's ambient_rgb",
+    "phong.flash_rgb": "linear sRGB, luminance 1 (the flash's intensity is folded into D and i_s)",
+    "phong.ambient_rgb": "photograph units (the probe's mean radiance, same exposure)",
+    "light_dir_world": "unit vector towards the flash, mesh coordinates",
+    "exponent.s": "dimensionless (the exponent used)", "exponent.s_saturation": "dimensionless (saturation curve)",
+    "exponent.s_eq3": "dimensionless (the paper's Eq. 3)", "exponent.spec_over_diffuse": "dimensionless ratio",
+    "residual.rms_luv_per_pixel": "CIE L*u*v* distance (D65), RMS over skin pixels",
+    "residual.l2_luv": "CIE L*u*v* distance, L2 norm over skin pixels",
+    "residual.evaluations": "model evaluations",
+    "residual.ambient_scale_photo": "dimensionless k (diagnostic)",
+    "residual.reproduction_mean_de2000_skin": "CIEDE2000, mean over skin pixels",
+    "specular_separation.specular_intensity": "as phong.specular_intensity",
+    "specular_separation.specular_intensity_joint_fit": "as phong.specular_intensity",
+    "specular_separation.pixels": "skin pixels",
+    "camera.K": "pixels", "camera.R": "rotation, world to camera", "camera.t": "mesh units",
+    "camera.P": "pixels per mesh unit (3x4 projection)", "camera.width": "pixels", "camera.height": "pixels",
+    "probe.light_dir_camera": "unit vector, camera coordinates (x right, y down, z forward)",
+    "probe.flash_rgb": "linear sRGB, luminance 1", "probe.ambient_rgb": "photograph units",
+    "probe.clipped_fraction": "fraction of the ball's pixels", "probe.flash_hue_spread": "relative (0.01 = 1 %)",
+    "skin_pixels": "pixels", "detail_texture.range": "dimensionless ratio (photograph / shaded model)",
+    "detail_texture.size": "texels (height, width)", "detail_texture.texels_seen": "texels",
+    "timings_s": "seconds", "robustness.relative_std": "std / |mean|, dimensionless",
+}
+
+
+def face_json(result: CaptureResult) -> dict[str, Any]:
+    """The contents of ``face.json`` for a capture (JSON types only; the units in ``FACE_JSON_UNITS``)."""
+    e = result.exponent
+    return {
+        "schema_version": FACE_SCHEMA_VERSION,
+        "units": FACE_JSON_UNITS,
+        "phong": result.params.to_json(),
+        "light_dir_world": result.light_dir_world.tolist(),
+        "exponent": {"s": e.s, "s_saturation": e.s_saturation, "s_eq3": e.s_eq3, "alpha_deg": e.alpha_deg, "alpha_left_deg": e.alpha_left_deg,
+                     "alpha_right_deg": e.alpha_right_deg, "spec_over_diffuse": e.spec_over_diffuse},
+        "residual": {"rms_luv_per_pixel": result.fit.rms_luv, "l2_luv": result.fit.l2_luv,
+                     "evaluations": result.fit.evaluations,
+                     "ambient_scale_photo": result.ambient_scale_photo,
+                     "reproduction_mean_de2000_skin": result.reproduction_de2000_skin},
+        "specular_separation": None if result.specular_separation is None else {
+            "specular_intensity": result.specular_separation.specular,
+            "specular_intensity_joint_fit": result.specular_joint,
+            "high_pass_sigma_px": result.specular_separation.sigma_px,
+            "specular_core_radius_px": result.specular_separation.core_radius_px,
+            "pixels": result.specular_separation.pixels},
+        "camera": result.camera.to_json(),
+        "probe": None if result.probe is None else result.probe.to_json(),
+        "skin_pixels": int(result.skin_mask.sum()),
+        "detail_texture": {"file": "detail.exr", "storage": "float32 RGB, UV space, top row first",
+                           "range": [0.0, float(2 ** DETAIL_DOUBLINGS)],
+                           "size": list(result.detail.shape[:2]),
+                           "texels_seen": int(result.detail_valid.sum()),
+                           "unseen_fill": f"seen detail low-passed (sigma 2 mm) at the nearest seen texel "
+                                          f"in 3D, faded to 1 as exp(-d / {UNSEEN_FADE_MM:g} mm)"},
+        "timings_s": result.timings_s,
+        "robustness": result.robustness,
+    }
+
+
+#: The report's difference panel: grey level 255 × ΔE2000 / ``REPORT_DE_WHITE`` (white at and above).
+REPORT_DE_WHITE = 25.5
+
+
+def report_image(result: CaptureResult) -> np.ndarray:
+    """The report image of a capture, uint8 RGB (H + caption, 4W, 3) for an H × W photograph.
+
+    Photograph | fitted Phong render (no detail) | difference (ΔE2000 as grey, white at
+    ``REPORT_DE_WHITE`` and above, skin pixels) | the detail texture in UV space (× ½), with the texels
+    the photograph did not see (filled, see :func:`capture.pipeline.bake_detail`) tinted magenta; a
+    caption strip above names each panel and its scale.
+    """
+    from PIL import Image, ImageDraw, ImageFont
+
+    photo = result.photo_lin
+    h, w = photo.shape[:2]
+    de = np.zeros(photo.shape[:2])
+    m = result.skin_mask
+    de[m] = delta_e2000(result.fitted_render[m], photo[m])
+    diff = np.repeat(np.clip(de / REPORT_DE_WHITE, 0, 1)[..., None], 3, axis=2)
+    det = linear_to_srgb8(np.asarray(result.detail, dtype=np.float64) * 0.5)
+    tint = ~result.detail_valid
+    det[tint] = (0.5 * det[tint] + 0.5 * np.array([255, 0, 255])).astype(np.uint8)
+    det = np.asarray(Image.fromarray(det).resize((w, h), Image.Resampling.NEAREST))
+    panels = np.concatenate([linear_to_srgb8(photo), linear_to_srgb8(result.fitted_render),
+                             to_uint8(diff), det], axis=1)
+    mean_de = float(de[m].mean()) if m.any() else 0.0
+    # ASCII only: Pillow's built-in font has no Δ, × or ½.
+    captions = ["photograph", "fitted Phong, no detail", f"dE2000 0-{REPORT_DE_WHITE:g} (skin mean {mean_de:.1f})",
+                "detail x0.5 (magenta: unseen)"]
+    size = max(8, min(w // 20, 24))
+    strip = Image.new("RGB", (4 * w, size + size // 2), (32, 32, 32))
+    draw = ImageDraw.Draw(strip)
+    font = ImageFont.load_default(size=size)
+    for i, text in enumerate(captions):
+        while len(text) > 4 and draw.textlength(text, font=font) > w - 8:
+            text = text[:-4] + "..."
+        draw.text((i * w + 4, size // 4), text, fill=(230, 230, 230), font=font)
+    return np.concatenate([np.asarray(strip), panels], axis=0)
+
+
+def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None) -> Path:
+    """Write the face folder of ``result`` into ``out_dir`` (created; see the module docstring).
+
+    ``head_path`` is recorded in face.json (``head``). Returns the folder; :class:`CaptureError` when it
+    cannot be created.
+    """
+    import OpenEXR
+    from PIL import Image
+
+    from core.atomicio import atomic_write_text
+
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CaptureError(f"{out}: cannot create the output folder: {exc.strerror}") from None
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(hdr, {"RGB": np.ascontiguousarray(result.detail, dtype=np.float32)}).write(str(out / "detail.exr"))
+    Image.fromarray(report_image(result)).save(out / "report.png")
+    Image.fromarray((result.skin_mask * 255).astype(np.uint8)).save(out / "skin_mask.png")
+    data = face_json(result)
+    data["head"] = None if head_path is None else str(head_path)
+    atomic_write_text(out / "face.json", json.dumps(data, indent=2))
+    return out
+
+
+@dataclass
+class Face:
+    """A captured face read back from its folder.
+
+    Attributes:
+        params: the fitted Phong parameters (linear RGB, photograph units).
+        detail: float32 (H, W, 3) the detail texture in the head's UV space (top row first), [0, 8].
+        data: face.json as read (JSON types).
+    """
+
+    params: PhongParams
+    detail: np.ndarray
+    data: dict[str, Any]
+
+
+def face_albedo(face: Face) -> np.ndarray:
+    """The captured skin albedo for the physical renderer: detail × fitted diffuse colour, as 8-bit sRGB
+    (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip).
+    """
+    lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
+    return linear_to_srgb8(lin)
+
+
+def load_face(folder: str | Path) -> Face:
+    """Read a face folder written by :func:`write_face`.
+
+    Raises :class:`capture.pipeline.CaptureError` naming the file for a missing or unreadable face.json
+    or detail.exr, a schema_version other than ``FACE_SCHEMA_VERSION`` or malformed Phong parameters.
+    """
+    import OpenEXR
+
+    folder = Path(folder)
+    try:
+        data = json.loads((folder / "face.json").read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CaptureError(f"{folder}: not a face folder (no face.json)") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise CaptureError(f"{folder / 'face.json'}: cannot read: {exc}") from None
+    if not isinstance(data, dict):
+        raise CaptureError(f"{folder / 'face.json'}: must be a JSON object")
+    if data.get("schema_version") != FACE_SCHEMA_VERSION:
+        raise CaptureError(f"{folder / 'face.json'}: unsupported schema_version {data.get('schema_version')!r}")
+    try:
+        detail = np.asarray(OpenEXR.File(str(folder / "detail.exr")).channels()["RGB"].pixels, dtype=np.float32)
+    except Exception as exc:  # OpenEXR raises plain exceptions for missing/corrupt files
+        raise CaptureError(f"{folder / 'detail.exr'}: cannot read the detail texture: {exc}") from None
+    try:
+        params = PhongParams.from_json(data["phong"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CaptureError(f"{folder / 'face.json'}: missing or malformed Phong parameters ({exc!r})") from None
+    return Face(params=params, detail=detail, data=data)
+
