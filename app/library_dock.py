@@ -458,7 +458,7 @@ class LibraryDock(QWidget):
         return at once.
         """
         from core.errors import SheerError
-        from km.measurements import import_file
+        from km.measurement_files import import_file
 
         if background:
             from app.workers import run_task

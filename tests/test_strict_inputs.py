@@ -122,7 +122,7 @@ MEASUREMENT_CASES = {
 
 @pytest.mark.parametrize("name", sorted(MEASUREMENT_CASES))
 def test_measurement_files(name: str, tmp_path: Path) -> None:
-    from km.measurements import import_file
+    from km.measurement_files import import_file
 
     path = tmp_path / name
     path.write_bytes(MEASUREMENT_CASES[name])
@@ -137,7 +137,7 @@ def test_measurement_files(name: str, tmp_path: Path) -> None:
 
 
 def test_measurement_rows_with_nan_are_rejected_with_line_numbers(tmp_path: Path) -> None:
-    from km.measurements import import_file
+    from km.measurement_files import import_file
 
     path = tmp_path / "m.csv"
     path.write_text("wavelength,R_inf,R,Rg\n400,nan,0.2,0.0\n500,0.5,0.2,x\n")
@@ -150,12 +150,13 @@ def test_measurement_rows_with_nan_are_rejected_with_line_numbers(tmp_path: Path
 
 
 def test_measurement_size_cap(tmp_path: Path) -> None:
-    from km import measurements
+    from km.measurement_files import import_file
+    from km.measurements import MAX_IMPORT_BYTES
 
     path = tmp_path / "big.csv"
     with open(path, "wb") as fh:
-        fh.truncate(measurements.MAX_IMPORT_BYTES + 10)
-    raises_clean(lambda: measurements.import_file(path, thickness_mm=0.15), "big.csv")
+        fh.truncate(MAX_IMPORT_BYTES + 10)
+    raises_clean(lambda: import_file(path, thickness_mm=0.15), "big.csv")
 
 
 # ------------------------------------------------------------------------------------------- head metadata

@@ -227,7 +227,7 @@ def run_import(args: argparse.Namespace) -> int:
         0, or 1 when nothing in the file could be imported.
     """
     from km.library import Library
-    from km.measurements import import_file
+    from km.measurement_files import import_file
 
     lib = None
     if args.library is not None and args.library.exists():

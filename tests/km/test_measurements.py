@@ -10,7 +10,8 @@ import pytest
 
 import km
 from km.material import Material
-from km.measurements import MeasurementImportError, export_csv, import_file, read_cgats, read_csv
+from km.measurement_files import import_file, read_cgats
+from km.measurements import MeasurementImportError, export_csv, read_csv
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "materials"
 GRID = np.arange(380.0, 781.0, 5.0)
