@@ -24,6 +24,7 @@ from painting.brush import Brush, BrushError
 from painting.history import DEFAULT_BUDGET_BYTES, History, Step
 from painting.layer import ChangeEvent, DocumentError, Layer, as_vec3
 from painting.layout import build_layout
+from painting.maps_io import MAX_THICKNESS_UM
 from painting.stroke import Stroke
 
 if TYPE_CHECKING:
@@ -36,10 +37,6 @@ if TYPE_CHECKING:
     from painting.head import Head
     from painting.hit import Hit
     from painting.layout import CleanReport, UVLayout
-
-#: Largest thickness a layer may hold (µm).
-MAX_THICKNESS_UM = 10_000.0
-
 
 class MaterialLibrary(Protocol):
     """Where a document finds its materials by name (:class:`km.library.Library`, or a stand-in)."""

@@ -51,7 +51,7 @@ SCALE_KEY = "sheer:scale_um"
 UNIT_KEY = "sheer:unit"
 #: Largest side of a map (texels): the largest layer resolution (``painting.atlas.MAX_RESOLUTION``).
 MAX_SIDE = 8192
-#: Largest thickness a map may hold (µm); a layer holds no more (``painting.document.MAX_THICKNESS_UM``).
+#: Largest thickness a map or a layer may hold (µm); the document checks its edits against it too.
 MAX_THICKNESS_UM = 10_000.0
 #: A map file longer than this (bytes) is refused before it is read: an 8192² float32 map is 256 MiB
 #: uncompressed, the same cap as one entry of a project container.
