@@ -95,6 +95,7 @@ class Camera:
         return rasterize(px * scale, d, faces, w, h, w=np.where(z > 1e-9, z, -1.0))
 
     def to_json(self) -> dict[str, Any]:
+        """K, R, t, P (pixels, mesh units) and the size as JSON lists and numbers (face.json's ``camera``)."""
         return {
             "K": self.K.tolist(), "R": self.R.tolist(), "t": self.t.tolist(), "P": self.P.tolist(),
             "width": self.width, "height": self.height,

@@ -183,8 +183,10 @@ class Face:
 
 
 def face_albedo(face: Face) -> np.ndarray:
-    """The captured skin albedo for the physical renderer: detail × fitted diffuse colour, as 8-bit sRGB
-    (H, W, 3) in the head's UV space (values above 1 — the eyes' and teeth's highlights — clip).
+    """The captured skin albedo for the physical renderer, uint8 sRGB (H, W, 3) in the head's UV space.
+
+    Detail × fitted diffuse colour, encoded as 8-bit sRGB (values above 1 — the eyes' and teeth's
+    highlights — clip).
     """
     lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
     return linear_to_srgb8(lin)

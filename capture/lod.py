@@ -1,5 +1,4 @@
-"""Level of detail (Paris et al. 2003, Fig. 13): a coarse head by quadric decimation, and the detail
-texture re-baked onto it.
+"""Level of detail (Paris et al. 2003, Fig. 13): a coarse head, and the detail texture re-baked onto it.
 
 - :func:`simplify_head`: pyvista's (VTK's) quadric decimation to a target triangle count; UVs per
   triangle corner from the fine surface (:func:`uv_faults` finds the triangles where that fails, which
@@ -15,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import ndimage
@@ -24,13 +23,20 @@ from core.errors import SheerError
 
 from .raster import rasterize_uv
 
+if TYPE_CHECKING:
+    from painting.head import Head
+
 
 class SimplifyError(SheerError, ValueError):
     """A simplification request that cannot be met."""
 
 
-def simplify_head(head: Any, faces: int) -> Any:
-    """A coarse copy of ``head`` (a :class:`painting.head.Head`) with about ``faces`` triangles."""
+def simplify_head(head: Head, faces: int) -> Head:
+    """A coarse copy of ``head`` with about ``faces`` triangles (4 ≤ ``faces`` < the head's count).
+
+    The copy has one vertex per triangle corner (UV seams), the welded coarse surface's vertex normals,
+    and the head's metadata and textures. Raises :class:`SimplifyError` for a count out of range.
+    """
     import pyvista as pv
     import trimesh
 
@@ -84,8 +90,9 @@ def simplify_head(head: Any, faces: int) -> Any:
 
 
 def _face_neighbours(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR (start (V+1,), faces) of the faces around each vertex *index*: a UV seam splits vertices,
-    so adjacency through shared indices never crosses a seam.
+    """CSR (start (V+1,), faces) of the faces around each vertex *index*.
+
+    A UV seam splits vertices, so adjacency through shared indices never crosses a seam.
     """
     vf = faces.ravel()
     owner = np.repeat(np.arange(len(faces)), 3)
@@ -94,11 +101,13 @@ def _face_neighbours(faces: np.ndarray, n_vertices: int) -> tuple[np.ndarray, np
     return start, owner[order]
 
 
-def _chart_uvs(fine: Any, corners: np.ndarray) -> np.ndarray:
-    """UVs (T, 3, 2) for coarse triangles (T, 3, 3) taken within one UV chart each: the fine faces
-    reachable from the face nearest the triangle's centroid through shared vertices (so not across a
-    seam), within 1.25× the triangle's circumradius (+ 2 fine edges) of its centroid; each corner takes
-    the UV of its closest point among them (a corner beyond the seam lands on the seam's edge).
+def _chart_uvs(fine: Head, corners: np.ndarray) -> np.ndarray:
+    """UVs (T, 3, 2) for coarse triangles (T, 3, 3) (mesh units) taken within one UV chart each.
+
+    The chart: the fine faces reachable from the face nearest the triangle's centroid through shared
+    vertices (so not across a seam), within 1.25× the triangle's circumradius (+ 2 fine edges) of its
+    centroid; each corner takes the UV of its closest point among them (a corner beyond the seam lands on
+    the seam's edge).
     """
     import trimesh
 
@@ -143,11 +152,13 @@ def _chart_uvs(fine: Any, corners: np.ndarray) -> np.ndarray:
     return uv
 
 
-def uv_faults(fine: Any, coarse: Any, tol: float = 0.05) -> np.ndarray:
-    """Bool (T,): coarse triangles whose UVs misrepresent the fine surface under them — folded (UV
-    winding against the fine's there, relative to the 3D winding) or inconsistent (at the centroid or
-    an edge midpoint, the UV interpolated on the coarse triangle is more than ``tol`` from the fine
-    surface's UV at the closest point: the triangle straddles a seam).
+def uv_faults(fine: Head, coarse: Head, tol: float = 0.05) -> np.ndarray:
+    """Bool (T,), one per coarse triangle: its UVs misrepresent the fine surface under it.
+
+    Folded (UV winding against the fine's there, relative to the 3D winding) or inconsistent (at the
+    centroid or an edge midpoint, the UV interpolated on the coarse triangle is more than ``tol`` — UV
+    units, [0, 1] across the texture — from the fine surface's UV at the closest point: the triangle
+    straddles a seam).
     """
     import trimesh
 
@@ -175,7 +186,7 @@ def uv_faults(fine: Any, coarse: Any, tol: float = 0.05) -> np.ndarray:
     return (winding(t, v, fn) != fine_w) | (err > tol)
 
 
-def _closest_uv(head: Any, points: np.ndarray) -> np.ndarray:
+def _closest_uv(head: Head, points: np.ndarray) -> np.ndarray:
     """The fine head's UV at the closest surface point of each point (N, 3)."""
     import trimesh
 
@@ -185,8 +196,12 @@ def _closest_uv(head: Any, points: np.ndarray) -> np.ndarray:
     return np.einsum("pk,pkc->pc", bary, np.asarray(head.uv)[head.faces[tri]])
 
 
-def rebake_detail(fine: Any, coarse: Any, detail: np.ndarray, size: int | None = None) -> np.ndarray:
-    """The fine head's detail texture (H, W, 3) re-baked into the coarse head's UV layout (size², float32)."""
+def rebake_detail(fine: Head, coarse: Head, detail: np.ndarray, size: int | None = None) -> np.ndarray:
+    """The fine head's detail texture (H, W, 3) re-baked into the coarse head's UV layout.
+
+    Returns float32 (size, size, 3) (``size`` None: the detail's own height), the values sampled from
+    ``detail`` (bilinear), so in its range.
+    """
     import trimesh
 
     from .pipeline import sample_texture
@@ -208,7 +223,7 @@ def rebake_detail(fine: Any, coarse: Any, detail: np.ndarray, size: int | None =
     return out[iy, ix]
 
 
-def write_obj(head: Any, path: str | Path) -> None:
+def write_obj(head: Head, path: str | Path) -> None:
     """Write a head mesh as OBJ with UVs and normals (trimesh), positions in mesh units."""
     import trimesh
 

@@ -101,6 +101,7 @@ class Geometry:
         return cls(n_dot_l=ndl, r_dot_v=rdv)
 
     def subset(self, idx: np.ndarray) -> Geometry:
+        """The geometry of the pixels ``idx`` (an index array, a bool mask or a slice over P)."""
         return Geometry(self.n_dot_l[idx], self.r_dot_v[idx])
 
 
@@ -121,6 +122,7 @@ class PhongParams:
     ambient_rgb: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def to_json(self) -> dict[str, Any]:
+        """The parameters as JSON numbers and lists (face.json's ``phong``; units in capture.face)."""
         return {
             "diffuse_rgb": self.diffuse.tolist(), "specular_intensity": self.specular,
             "exponent": self.exponent, "ambient_scale": self.ambient_scale,
@@ -129,6 +131,7 @@ class PhongParams:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> PhongParams:
+        """The parameters from :meth:`to_json`'s dict; KeyError, TypeError or ValueError if malformed."""
         return cls(diffuse=np.asarray(d["diffuse_rgb"], float), specular=float(d["specular_intensity"]),
                    exponent=float(d["exponent"]), ambient_scale=float(d["ambient_scale"]),
                    flash_rgb=np.asarray(d["flash_rgb"], float), ambient_rgb=np.asarray(d["ambient_rgb"], float))
@@ -145,8 +148,13 @@ def shade(p: PhongParams, geo: Geometry, clip: bool = True) -> np.ndarray:
 
 @dataclass
 class FitResult:
-    """The fitted parameters, the residual (RMS per pixel of the Luv distance, and the paper's L2 norm)
-    and the number of evaluations.
+    """A Phong fit's outcome.
+
+    Attributes:
+        params: the fitted parameters.
+        rms_luv: the residual, RMS over the pixels of the CIE Luv distance (D65, L in 0..100).
+        l2_luv: the paper's residual, the L2 norm of that distance over the pixels.
+        evaluations: model evaluations used.
     """
 
     params: PhongParams
@@ -159,14 +167,17 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
               ambient_rgb: np.ndarray, start: np.ndarray | None = None, start_k: float = 1.0,
               levels: tuple[int, ...] = (16, 4, 1), fit_ambient: bool = False,
               fix_specular: bool = False) -> FitResult:
-    """Fit D (3) and i_s with the ambient scale k fixed at ``start_k``; with ``fit_ambient``, then k
-    alone and D, i_s once more (the paper's order; biased, see the module docstring).
+    """Fit D (3) and i_s in CIE Luv with the ambient scale k fixed at ``start_k``.
+
+    With ``fit_ambient``, then k alone and D, i_s once more (the paper's order; biased, see the module
+    docstring). Bounds: D ∈ [10⁻⁴, 4] per channel, i_s ∈ [0, 10], k ∈ [10⁻³, 10³].
 
     Args:
-        photo_rgb: (P, 3) linear RGB of the skin pixels.
+        photo_rgb: (P, 3) linear RGB of the skin pixels (photograph units, [0, 1]).
         geo: their geometry for the flash.
-        exponent: s, fixed.
-        flash_rgb, ambient_rgb: the probe's measurements.
+        exponent: s, fixed (dimensionless, ≥ 1).
+        flash_rgb: (3,) the probe's flash colour F (linear, luminance 1).
+        ambient_rgb: (3,) the probe's ambient light A (photograph units).
         start: initial (D_r, D_g, D_b, i_s); None = a neutral guess.
         start_k: k (dimensionless, ambient relative to the probe's measurement), or its start value.
         levels: pixel subsampling strides, coarse to fine.
@@ -220,9 +231,11 @@ def fit_phong(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: 
 
 
 def photo_ambient_scale(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams) -> float | None:
-    """The ambient scale k the photograph alone prefers: D and i_s refitted for each k, the Luv cost
-    minimised over log k ∈ [ln 10⁻³, ln 10³] (dimensionless; None without ambient light). A diagnostic
-    — reported beside the k used, never used itself (see the module docstring).
+    """The ambient scale k the photograph alone prefers (dimensionless; None without ambient light).
+
+    D and i_s are refitted for each k and the Luv cost minimised over log k ∈ [ln 10⁻³, ln 10³], on at
+    most ~6,000 pixels. A diagnostic — reported beside the k used, never used itself (see the module
+    docstring).
     """
     if not np.any(np.asarray(params.ambient_rgb) > 0):
         return None
@@ -236,10 +249,12 @@ def photo_ambient_scale(photo_rgb: np.ndarray, geo: Geometry, params: PhongParam
 
 def refine_exponent(photo_rgb: np.ndarray, geo: Geometry, start: PhongParams, support: float = 0.01,
                     f_scale: float = 1.0, max_iter: int = 10) -> tuple[PhongParams, int]:
-    """Refine s jointly with D and i_s (k, F, A fixed) over the specular lobe: a robust (soft-L1, scale
-    ``f_scale`` Luv units) least-squares fit in CIE Luv on the unclipped skin pixels where the lobe
-    max(r·v, 0)^s is at least ``support`` of its peak; the lobe — hence the pixel set — follows s, so the
-    fit is iterated until s moves by less than 0.5 %.
+    """Refine s jointly with D and i_s (k, F, A fixed) over the specular lobe.
+
+    A robust (soft-L1, scale ``f_scale`` Luv units) least-squares fit in CIE Luv on the unclipped skin
+    pixels where the lobe max(r·v, 0)^s is at least ``support`` (a fraction, 0..1) of its peak; the lobe —
+    hence the pixel set — follows s, so the fit is iterated (at most ``max_iter`` times) until s moves by
+    less than 0.5 %. s stays within [1, ``MAX_EXPONENT``].
 
     The saturation-curve estimate (:func:`capture.reflectance.estimate_exponent`) reads s from the
     colour's angular profile alone, which the skin texture's regional variation of chroma biases (synthetic
@@ -284,11 +299,13 @@ def refine_exponent(photo_rgb: np.ndarray, geo: Geometry, start: PhongParams, su
 def robustness(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: np.ndarray,
                ambient_rgb: np.ndarray, starts: int = 200, seed: int = 0,
                max_pixels: int = 6000, fit_ambient: bool = False) -> dict[str, Any]:
-    """Run the fit from ``starts`` random starting points of the four skin parameters (D ∈ U(0.05, 1)³,
-    i_s ∈ U(0, 1); k starts at 1 as in a normal capture, and stays there unless ``fit_ambient``); returns
-    the relative standard deviation (std / |mean|) of each parameter, k included.
+    """The fit's spread over random starts: the relative standard deviation of each parameter.
 
-    Uses at most ``max_pixels`` skin pixels (evenly strided) so 200 starts stay within seconds.
+    The fit runs from ``starts`` random starting points of the four skin parameters (D ∈ U(0.05, 1)³,
+    i_s ∈ U(0, 1), generator seeded with ``seed``; k starts at 1 as in a normal capture, and stays there
+    unless ``fit_ambient``). Returns ``starts``, ``relative_std`` (std / |mean|, dimensionless, per
+    parameter, k included), ``max_relative_std`` and ``mean`` (per parameter). Uses at most
+    ``max_pixels`` skin pixels (evenly strided) so 200 starts stay within seconds.
     """
     rng = np.random.default_rng(seed)
     stride = max(1, len(photo_rgb) // max_pixels)
@@ -335,8 +352,11 @@ class DetailSpecular:
 def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
                          cols: np.ndarray, shape: tuple[int, int],
                          px_per_mm: float | None = None) -> DetailSpecular | None:
-    """i_s refitted with the diffuse term modulated by the low-frequency detail (a departure from the
-    paper, which fits i_s jointly with D on the photograph).
+    """i_s refitted with the diffuse term modulated by the low-frequency detail.
+
+    A departure from the paper, which fits i_s jointly with D on the photograph. ``rows``, ``cols``: the
+    skin pixels' positions in the photograph of ``shape`` (H, W), in the order of ``photo_rgb`` (P, 3,
+    linear) and ``geo``; ``params``: the joint fit (its D, k, A, F and s are used).
 
     Why: the joint fit reads any albedo that is brighter where the lobe is as specular. The sample
     head's skin is (the synthetic truth: 9-10 % brighter than the skin's mean where the lobe is 1-40 % of

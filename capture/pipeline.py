@@ -37,6 +37,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
+    from painting.head import Head
+
     from .camera import Camera
     from .probe import ProbeAnalysis
 
@@ -62,8 +64,9 @@ def to_uint8(values: np.ndarray) -> np.ndarray:
 
 
 def linear_to_srgb8(linear: np.ndarray) -> np.ndarray:
-    """Linear RGB → 8-bit sRGB as a camera stores it: clipped to [0, 1] (the sensor), encoded with
-    :func:`km.srgb.srgb_encode`, rounded to uint8 in [0, 255]; the shape is kept.
+    """Linear RGB → 8-bit sRGB as a camera stores it, uint8 in [0, 255] of the same shape.
+
+    Clipped to [0, 1] (the sensor), encoded with :func:`km.srgb.srgb_encode`, rounded to the nearest code.
     """
     return to_uint8(srgb_encode(np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)))
 
@@ -100,8 +103,11 @@ class PixelData:
     depth: np.ndarray
 
 
-def pixel_data(head: Any, camera: Camera) -> PixelData:
-    """Rasterise the head for the camera and interpolate its attributes per covered pixel."""
+def pixel_data(head: Head, camera: Camera) -> PixelData:
+    """Rasterise the head for the camera and interpolate its attributes per covered pixel.
+
+    :class:`CaptureError` when fewer than 100 pixels are covered (the camera misses the head).
+    """
     gb = camera.gbuffer(head.vertices, head.faces)
     cov = gb.covered
     if cov.sum() < 100:
@@ -124,8 +130,13 @@ def pixel_data(head: Any, camera: Camera) -> PixelData:
                      depth=depth)
 
 
-def compute_skin_mask(head: Any, camera: Camera, photo_lin: np.ndarray, pix: PixelData) -> np.ndarray:
-    """The computed skin mask (see :mod:`capture.mask`), bool (H, W)."""
+def compute_skin_mask(head: Head, camera: Camera, photo_lin: np.ndarray, pix: PixelData) -> np.ndarray:
+    """The computed skin mask (see :mod:`capture.mask`), bool (H, W) for the photograph (H, W, 3).
+
+    The head's pixels facing the camera (n·v > 0.25) inside the landmarks' face region (without
+    landmarks, an ellipse over the middle of the silhouette), refined by the skin-hue model;
+    :class:`CaptureError` when fewer than 200 candidate pixels remain.
+    """
     shape = photo_lin.shape[:2]
     front = np.zeros(shape, dtype=bool)
     facing = np.einsum("pc,pc->p", pix.normals, pix.view) > 0.25
@@ -147,7 +158,18 @@ def compute_skin_mask(head: Any, camera: Camera, photo_lin: np.ndarray, pix: Pix
 
 @dataclass
 class CaptureResult:
-    """Everything the capture found (see the module docstring)."""
+    """Everything the capture found (:func:`capture.face.face_json` names the units).
+
+    Attributes:
+        camera, params, light_dir_world (unit, mesh coordinates), exponent, fit, rmap: what was fitted.
+        detail: float32 (S, S, 3) the detail texture, [0, 8]; detail_valid: bool (S, S) texels seen.
+        skin_mask: bool (H, W) the skin pixels used; photo_lin: the photograph (H, W, 3), linear.
+        fitted_render: (H, W, 3) the fitted Phong model alone; reproduction: Phong × detail, clipped.
+        reproduction_de2000_skin: mean CIEDE2000 photo vs reproduction over the skin pixels used.
+        probe: the probe analysis, or None. timings_s: seconds per step. robustness: see
+        :func:`capture.phong.robustness`, or None. ambient_scale_photo: k the photograph alone prefers
+        (diagnostic). specular_joint: i_s of the joint fit. specular_separation: i_s from the detail.
+    """
 
     camera: Camera
     params: PhongParams
@@ -174,13 +196,13 @@ def _log(progress: Callable[[str], None] | None, msg: str) -> None:
         progress(msg)
 
 
-def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None = None,
+def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None = None,
             mask: np.ndarray | None = None, texture_size: int = 1024,
             progress: Callable[[str], None] | None = None, robustness_starts: int = 0) -> CaptureResult:
     """Run the whole capture.
 
     Args:
-        head: a :class:`painting.head.Head`.
+        head: the head (mesh units; its ``mm_per_unit`` sets the millimetre scales).
         photo_lin: (H, W, 3) linear RGB in [0, 1] (the camera's width/height must match).
         camera: the photograph's camera.
         probe: the light-probe analysis; None = a white flash on the camera's axis and no ambient light.
@@ -267,7 +289,7 @@ def capture(head: Any, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalys
     specular_joint = fit.params.specular
     # Photograph pixels per millimetre on the skin: the focal length over the skin's median depth.
     px_per_mm = float(camera.K[1, 1]) / (float(np.median(pix.depth[pix.rows[sel], pix.cols[sel]]))
-                                          * float(getattr(head, "mm_per_unit", 1.0)))
+                                          * float(head.mm_per_unit))
     sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w), px_per_mm=px_per_mm)
     if sep is not None:
         diffuse_joint = fit.params.diffuse
@@ -335,7 +357,7 @@ def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
 UNSEEN_FADE_MM = 15.0
 
 
-def _texels_per_unit_uv(head: Any) -> float:
+def _texels_per_unit_uv(head: Head) -> float:
     """UV units per mesh unit on the head, median over its triangles (√(UV area / 3D area))."""
     v = np.asarray(head.vertices)[head.faces]
     t = np.asarray(head.uv)[head.faces]
@@ -346,10 +368,14 @@ def _texels_per_unit_uv(head: Any) -> float:
     return float(np.sqrt(np.median(a2[ok] / a3[ok]))) if ok.any() else 1.0
 
 
-def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndarray, rmap: ReflectanceMap,
+def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.ndarray, rmap: ReflectanceMap,
                 size: int) -> tuple[np.ndarray, np.ndarray]:
-    """The detail texture: photograph / shaded model per texel (float32 (size, size, 3), [0, 8]), and
-    the texels seen in the photograph (bool).
+    """The detail texture and the texels the photograph sees.
+
+    Returns the photograph / shaded model per texel, float32 (size, size, 3) in [0, 8] (``size`` texels
+    square, the head's UV space, top row first), and bool (size, size), the texels seen. The shaded
+    model is the reflectance map ``rmap`` at the texel's camera-space normal; ``depth`` is the camera's
+    depth image (:class:`PixelData`), mesh units.
 
     Texels of the head the photograph does not see (its sides and back, under the chin) carry no
     measurement. Each takes the seen detail low-passed (a normalised Gaussian convolution over the
@@ -400,7 +426,7 @@ def bake_detail(head: Any, camera: Camera, photo_lin: np.ndarray, depth: np.ndar
     if unseen.any():
         # The seen detail low-passed (normalised convolution over the seen texels, σ = 2 mm on the
         # skin), read at each unseen texel's nearest seen texel in 3D, faded to 1 with the distance.
-        mm_per_unit = float(getattr(head, "mm_per_unit", 1.0))
+        mm_per_unit = float(head.mm_per_unit)
         sigma = max(1.0, 2.0 / mm_per_unit * size * _texels_per_unit_uv(head))
         wsum = ndimage.gaussian_filter(valid.astype(np.float64), sigma)
         low = np.stack([ndimage.gaussian_filter(detail[..., c] * valid, sigma) for c in range(3)], axis=-1)

@@ -1,16 +1,18 @@
-"""Light-probe analysis (Paris et al. 2003, §4.1): a photograph of a mirror ball taken with the same
-camera and flash as the face.
+"""Light-probe analysis (Paris et al. 2003, §4.1): the flash and the ambient light from a mirror ball.
+
+The probe is a photograph of a mirror ball taken with the same camera and flash as the face.
 
 - The flash's **direction** from the highlight's position on the ball: the paper's (θ_l, φ_l) =
   (2θ_h, 2φ_h) with angles about the viewing axis. We use polar coordinates about the axis (θ the angle
   from it, φ the azimuth in the image), where the reflection is exact: θ_l = 2θ_h and φ_l = φ_h (the
   plane of incidence contains the axis). The ball is treated as seen orthographically (the paper
   measures ~2° of error from that).
-- The flash's **hue** from the unsaturated halo around the saturated highlight (minus the environment
-  seen in the ring, so that only the flash's own light is measured). Its intensity is set to 1 (a
+- The flash's **hue** from the unsaturated halo around the saturated highlight (regressed along rays
+  from the highlight, so that the environment behind the halo cancels). Its intensity is set to 1 (a
   luminance of 1 in the photograph's linear units): intensities are relative to the photograph.
-- The **ambient** light from a ring around the halo (mean linear radiance, hue and intensity), in the
-  photograph's linear units.
+- The **ambient** light: the mean radiance of the whole ball outside the flash's core and halo (the
+  environment's mean radiance, hue and intensity), in the photograph's linear units; see
+  :func:`analyse_probe` for why not the paper's ring around the halo.
 
 Image conventions: x right, y down, top-left pixel centre at (0.5, 0.5); camera coordinates as in
 :mod:`capture.camera` (x right, y down, z forward).
@@ -76,6 +78,7 @@ class ProbeAnalysis:
     flash_hue_spread: float = 0.0
 
     def to_json(self) -> dict[str, Any]:
+        """The analysis as JSON numbers and lists (face.json's ``probe``; the classes image left out)."""
         return {
             "light_dir_camera": self.light_dir_camera.tolist(),
             "theta_deg": self.theta_deg, "phi_deg": self.phi_deg,
@@ -102,8 +105,10 @@ def light_direction_from_highlight(dx: float, dy: float) -> tuple[np.ndarray, fl
 
 
 def _blob_shape(xs: np.ndarray, ys: np.ndarray) -> float:
-    """Elongation of a pixel blob: √(λ_min/λ_max) of the covariance of its pixel centres (1 for a disc,
-    → 0 for a line); 1 for blobs of fewer than 3 pixels.
+    """Elongation of a pixel blob, in (0, 1]: 1 for a disc, → 0 for a line.
+
+    √(λ_min/λ_max) of the covariance of its pixel centres ``xs``, ``ys`` (pixels); 1 for blobs of fewer
+    than 3 pixels.
     """
     if len(xs) < 3:
         return 1.0
@@ -181,9 +186,11 @@ def _find_flash_core(img: np.ndarray, inside: np.ndarray, px: np.ndarray, py: np
 
 def _halo_radius(img: np.ndarray, usable: np.ndarray, dist: np.ndarray, first: float,
                  background_lum: float) -> float | None:
-    """The halo's outer radius (pixels): the radius where the median luminance of 1-pixel annuli
-    around the core has fallen to a tenth of its first excess over ``background_lum`` (at least four
-    annuli out); None when no annulus is usable.
+    """The halo's outer radius in pixels from the core's centre, or None when no annulus is usable.
+
+    The radius where the median luminance of 1-pixel annuli around the core (``dist``: each pixel's
+    distance to it, from ``first`` out; ``usable`` pixels only) has fallen to a tenth of its first
+    excess over ``background_lum`` (at least four annuli out).
     """
     lum = img @ LUMINANCE
     excess0 = None
@@ -206,8 +213,10 @@ def _halo_radius(img: np.ndarray, usable: np.ndarray, dist: np.ndarray, first: f
 
 def _flash_hue(img: np.ndarray, halo: np.ndarray, px: np.ndarray, py: np.ndarray, hx: float, hy: float,
                sectors: int = 16) -> tuple[np.ndarray, float] | None:
-    """The flash's colour from its ``halo`` pixels (unclipped, around the core at (hx, hy)), and the
-    spread of the estimate (the median relative deviation of the sectors used, worst channel).
+    """The flash's colour (linear, luminance 1) from its ``halo`` pixels, and the estimate's spread.
+
+    The halo: unclipped pixels around the core at (hx, hy) (pixels); the spread: the median relative
+    deviation of the sectors used, worst channel (0.01 = 1 %).
 
     Along a ray from the highlight the flash adds F·h(d) (a hue times the halo's radial profile) to an
     environment that varies little along the ray: in each of ``sectors`` angular sectors, each channel is
@@ -275,7 +284,7 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
       the environment count at their clipped value (a lower bound).
 
     Args:
-        image: (H, W, 3) *linear* RGB in [0, 1] (decode sRGB first; see :func:`capture.io.read_photo`).
+        image: (H, W, 3) *linear* RGB in [0, 1] (decode sRGB first; see :func:`capture.pipeline.read_photo`).
         ball: (cx, cy, r) the ball's circle in pixels; None = the circle inscribed in the image (a probe
             photo cropped to the ball).
         saturation_level: a channel at or above this value counts as saturated (sensor clipping).
@@ -332,8 +341,10 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
 
 
 def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """Radiance of an equirectangular environment (H, W, 3) in world directions (..., 3) (Y up;
-    longitude 0 at -Z, increasing towards +X; top row = +Y). Bilinear.
+    """Radiance of an equirectangular environment (H, W, 3) in world directions (..., 3), bilinear.
+
+    Y up; longitude 0 at −Z (the middle column), increasing towards +X; top row = +Y. Returns (..., 3)
+    in the environment's units.
     """
     d = directions / np.linalg.norm(directions, axis=-1, keepdims=True)
     lon = np.arctan2(d[..., 0], -d[..., 2])
@@ -350,8 +361,11 @@ def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
 def synthetic_probe(env: np.ndarray, R: np.ndarray, light_dir_world: np.ndarray, flash_rgb: np.ndarray,
                     size: int = 256, env_scale: float = 1.0, core_deg: float = 0.6, halo_deg: float = 4.0,
                     core_gain: float = 50.0, halo_gain: float = 0.5) -> np.ndarray:
-    """A mirror-ball photograph (linear RGB, clipped to [0, 1], ball inscribed in a size² image) of an HDR
-    environment plus a point light, seen by a camera with world→camera rotation ``R``.
+    """A mirror-ball photograph of an HDR environment plus a point light (the probe's synthetic truth).
+
+    Linear RGB (size, size, 3) clipped to [0, 1], the ball inscribed, seen orthographically by a camera
+    with world→camera rotation ``R``; the environment's radiance times ``env_scale``; the light towards
+    ``light_dir_world`` (unit, world) with colour ``flash_rgb``; angles in degrees.
 
     The light's reflection is a narrow core (``core_deg``, gain ``core_gain`` × flash, saturating the
     sensor) plus a wider halo (``halo_deg``, gain ``halo_gain``) — a real ball is never an ideal mirror.

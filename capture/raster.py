@@ -65,7 +65,8 @@ def rasterize(xy: np.ndarray, depth: np.ndarray, faces: np.ndarray, width: int, 
         depth: float (N,) per-vertex depth, smaller = nearer (linearly interpolated in screen space,
             which is exact for NDC-like depth after the perspective divide, e.g. −1/z).
         faces: int (F, 3) vertex indices.
-        width, height: the image size in pixels.
+        width: the image's width in pixels.
+        height: the image's height in pixels.
         w: optional float (N,) clip-space w (the camera-space depth, > 0 in front of the camera) for
             perspective-correct barycentrics; None for affine ones (orthographic, UV space).
 
@@ -98,9 +99,10 @@ def rasterize(xy: np.ndarray, depth: np.ndarray, faces: np.ndarray, width: int, 
 
 
 def rasterize_uv(uv: np.ndarray, faces: np.ndarray, size: tuple[int, int]) -> GBuffer:
-    """Rasterise the mesh in UV space (texture-space conventions of :mod:`painting.head`: texel row ``i``
-    covers ``v ∈ [i/H, (i+1)/H)``, top row first). ``size`` is (height, width) in texels. Where UV
-    islands overlap, painting's rule decides (the last triangle drawn wins).
+    """Rasterise the mesh in UV space; ``size`` is (height, width) in texels.
+
+    Texture-space conventions of :mod:`painting.head`: texel row ``i`` covers ``v ∈ [i/H, (i+1)/H)``, top
+    row first. Where UV islands overlap, painting's rule decides (the last triangle drawn wins).
     """
     h, w = size
     xy = np.stack([uv[:, 0] * w, uv[:, 1] * h], axis=1)

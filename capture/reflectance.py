@@ -1,5 +1,6 @@
-"""The skin reflectance map on the Gaussian sphere (Paris et al. 2003, §3) and the specular exponent from
-the fastest saturation change around the highlight (§4.2, Eq. 3).
+"""The skin reflectance map on the Gaussian sphere (Paris et al. 2003, §3) and the specular exponent.
+
+The exponent comes from the fastest saturation change around the highlight (§4.2, Eq. 3).
 
 The map is stored on a grid over the orthographic projection of the front hemisphere in camera
 coordinates (x right, y down, z forward; a front-facing normal has n_z < 0): cell (i, j) holds the
@@ -43,6 +44,7 @@ class ReflectanceMap:
 
     @property
     def n(self) -> int:
+        """The grid's cells per side."""
         return int(self.grid.shape[0])
 
     def sample(self, normals_cam: np.ndarray) -> np.ndarray:
@@ -137,8 +139,9 @@ def build_reflectance_map(normals_cam: np.ndarray, colours: np.ndarray, n: int =
 
 
 def eq3_exponent(alpha_rad: float) -> float:
-    """The paper's Eq. 3: the Phong exponent whose ratio cos^s(2α)/cos(α) changes fastest at ``alpha``
-    (radians). For small α it tends to 1/(4α²).
+    """The paper's Eq. 3: the Phong exponent s whose ratio cos^s(2α)/cos(α) changes fastest at α.
+
+    ``alpha_rad``: α in radians, in (0, π/4). For small α, s tends to 1/(4α²).
     """
     z = np.sin(alpha_rad)
     z2 = z * z
@@ -193,17 +196,20 @@ class ExponentEstimate:
 
 
 def saturation_model(alpha: np.ndarray, sat_d: float, ratio: float, s: float) -> np.ndarray:
-    """The saturation of a diffuse colour cos(α)·D plus a white specular ratio·cos^s(2α) (relative to
-    D's largest channel): sat_D / (1 + ratio·cos^s(2α)/cos α) — adding white leaves max − min unchanged
-    and raises max.
+    """The saturation (0..1) of a diffuse colour cos(α)·D plus a white specular ratio·cos^s(2α).
+
+    The ratio is relative to D's largest channel; α (radians) the angle to the highlight's normal; sat_D
+    the diffuse colour's saturation. sat_D / (1 + ratio·cos^s(2α)/cos α): adding white leaves max − min
+    unchanged and raises max.
     """
     return sat_d / (1.0 + ratio * np.clip(np.cos(2 * alpha), 0, None) ** s / np.cos(alpha))
 
 
 def _fit_saturation_curve(alpha: np.ndarray, prof: np.ndarray, weight: np.ndarray, s0: float) -> tuple[float, float]:
-    """Fit :func:`saturation_model` to the measured profile (weighted least squares,
-    ``scipy.optimize.least_squares`` on (sat_D, log ratio, log s), started from Eq. 3's s); returns
-    (s, ratio).
+    """Fit :func:`saturation_model` to the measured profile; returns (s, ratio).
+
+    Weighted least squares (``scipy.optimize.least_squares`` on (sat_D, log ratio, log s)), started
+    from Eq. 3's s (``s0``) and from half and twice it; α in radians.
     """
     from scipy.optimize import least_squares
 
@@ -235,8 +241,9 @@ def estimate_exponent(normals: np.ndarray, view: np.ndarray, light: np.ndarray, 
     Each skin sample lies on the Gaussian sphere at its normal; its angle α to the highlight's normal
     (the half vector of the flash and *its own* view direction, so the perspective's spread of view
     directions does not blur the profile) is measured, and the samples are split into a left and a right
-    half (the sign of (n − h)·``right``, the camera's x axis). On each side the median saturation per
-    0.5° ring of α is the profile — the robust counterpart of reading the reflectance map along the left
+    half (the sign of (n − h)·``right``, the camera's x axis). On each side the robust mean saturation
+    (the paper's: the samples within one standard deviation of the mean) per ``bin_deg`` ring of α is the
+    profile — the robust counterpart of reading the reflectance map along the left
     and right directions, which per-cell noise from the skin's texture makes too rough to differentiate.
     The angle of the fastest saturation rise is found on each side and the two averaged.
 
@@ -249,10 +256,18 @@ def estimate_exponent(normals: np.ndarray, view: np.ndarray, light: np.ndarray, 
     Eq. 3's value on the measured angle is reported beside it.
 
     Args:
-        normals, view: (S, 3) unit normals and unit directions to the camera of the skin samples.
-        light: (3,) unit direction to the flash. colours: (S, 3) linear RGB.
+        normals: (S, 3) unit normals of the skin samples (world).
+        view: (S, 3) their unit directions to the camera (world).
+        light: (3,) unit direction to the flash (world).
+        colours: (S, 3) their linear RGB (photograph units).
         right: (3,) the camera's x axis (world).
+        max_deg: the profile's extent in α, degrees.
+        bin_deg: the profile's ring width, degrees.
+        correct: fit the saturation curve (True) rather than use Eq. 3 alone.
         flash_rgb: the flash colour; the samples are white-balanced to it first (None: white flash).
+
+    Raises:
+        ReflectanceError: too few samples around the highlight, or no highlight.
     """
     # Sensor-saturated samples are white whatever the reflectance: they carry no saturation information.
     unclipped = np.asarray(colours).max(axis=1) < 0.98

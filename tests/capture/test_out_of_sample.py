@@ -58,14 +58,13 @@ from tests.capture import gl_truth
 if TYPE_CHECKING:
     import moderngl
 
+    from capture.camera import Camera
     from painting.head import Head
 
 pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
 #: The validation's targets (README, "Validation on synthetic flash photographs").
 TARGETS = {"light_deg": 2.0, "s": 0.10, "i_s": 0.05, "diffuse_de": 1.0, "reproduction_de": 2.0}
-#: The flash's colour of capture.synthetic (luminance 1).
-FLASH = np.array([1.0, 0.96, 0.88]) / float(np.array([1.0, 0.96, 0.88]) @ np.array([0.2126, 0.7152, 0.0722]))
 SKIN = (0.46, 0.31, 0.245)
 
 
@@ -160,17 +159,22 @@ def _skin_texture(size: int = 512) -> np.ndarray:
     return np.stack([tone * (1 + red), tone, tone * (1 - 0.5 * red)], axis=-1)
 
 
-def _camera(head: Head, kind: str) -> object:
-    """The validation's framing (2.36 m, 6.4° vertical field, 512²) aimed at the face's landmarks."""
+def _camera(head: Head, kind: str) -> Camera:
+    """The validation's camera; for the canonical face its framing (2.36 m, 6.4° vertical field, 512²)
+    aimed at the middle of the face's landmarks.
+    """
     from capture.camera import look_at
+    from capture.synthetic import validation_camera
 
+    if kind != "canonical":
+        return validation_camera()
     lm = np.array(list(head.metadata.landmarks.values()))
-    target = (lm.min(axis=0) + lm.max(axis=0)) / 2 if kind == "canonical" else np.array([0.0, 1.3, 0.0])
+    target = (lm.min(axis=0) + lm.max(axis=0)) / 2
     distance = 2362.5 / head.mm_per_unit
     return look_at(target + np.array([0.0, 0.0, distance]), target, np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)
 
 
-def _clicked_camera(head: Head, camera: object) -> object:
+def _clicked_camera(head: Head, camera: Camera) -> Camera:
     """The camera calibrated from the head's landmarks (gnathion = chin left out) clicked at the centre
     of the pixel each falls in (±0.5 px).
     """
@@ -178,7 +182,7 @@ def _clicked_camera(head: Head, camera: object) -> object:
 
     names = sorted(set(head.metadata.landmarks) - {"gnathion"})
     points3d = np.array([head.metadata.landmarks[n] for n in names])
-    pixels, _ = camera.project(points3d)  # type: ignore[attr-defined]
+    pixels, _ = camera.project(points3d)
     return calibrate(np.floor(pixels) + 0.5, points3d, 512, 512)
 
 
@@ -193,7 +197,14 @@ def _measure(ctx: moderngl.Context, name: str) -> Figures:
     from capture.phong import delta_e2000
     from capture.pipeline import capture
     from capture.probe import analyse_probe, synthetic_probe
-    from capture.synthetic import as_photographed, env_mean_radiance, light_from_camera, read_env
+    from capture.synthetic import (
+        DIM_ROOM,
+        FLASH_RGB,
+        as_photographed,
+        env_mean_radiance,
+        light_from_camera,
+        read_env,
+    )
     from core.assets import find_asset
 
     case = CASES[name]
@@ -201,18 +212,18 @@ def _measure(ctx: moderngl.Context, name: str) -> Figures:
     camera = _camera(head, case.head)
     env = read_env(str(find_asset(f"environments/{case.environment}.exr")))
     mean_radiance = env_mean_radiance(env)
-    scale = 0.04 / float(mean_radiance.mean())  # a dim room, as the validation's
+    scale = DIM_ROOM / float(mean_radiance.mean())
     sh = gl_truth.irradiance_sh(env, scale) if case.ambient == "irradiance" else None
     light = light_from_camera(camera, *case.light_deg)
     # Scale D so that D × the texture's mean over the face is about the case's D (the exact truth is
     # read after the capture over the skin pixels it used).
-    args = dict(specular=case.specular, exponent=case.exponent, light=light, flash=FLASH,
+    args = dict(specular=case.specular, exponent=case.exponent, light=light, flash=FLASH_RGB,
                 ambient=mean_radiance * scale, sh=sh)
     first = gl_truth.render_photo(ctx, head, texture, camera, np.asarray(case.diffuse), supersample=1, **args)
     face = landmark_region(camera, head.metadata.landmarks, (512, 512)) & (first.coverage > 0)
     diffuse = np.asarray(case.diffuse) / first.texture[face].mean(axis=0)
     photo = gl_truth.render_photo(ctx, head, texture, camera, diffuse, **args)
-    probe = as_photographed(synthetic_probe(env, camera.R, light, FLASH, size=256, env_scale=scale))
+    probe = as_photographed(synthetic_probe(env, camera.R, light, FLASH_RGB, size=256, env_scale=scale))
     used_camera = _clicked_camera(head, camera) if case.camera == "clicks" else camera
     result = capture(head, photo.linear, used_camera, probe=analyse_probe(probe), texture_size=512)
     truth = gl_truth.truth_diffuse(diffuse, photo, result.skin_mask)
@@ -298,19 +309,26 @@ def _probe_scan() -> tuple[list[tuple[int, int]], float]:
     """The validation's probe (warehouse, 256² ball) with the flash on a 6° grid within 12° of the lens:
     (the positions refused, the largest light-direction error of the others in degrees).
     """
-    from capture.camera import look_at
     from capture.probe import ProbeError, analyse_probe, synthetic_probe
-    from capture.synthetic import as_photographed, env_mean_radiance, light_from_camera, read_env
+    from capture.synthetic import (
+        DIM_ROOM,
+        FLASH_RGB,
+        as_photographed,
+        env_mean_radiance,
+        light_from_camera,
+        read_env,
+        validation_camera,
+    )
     from core.assets import find_asset
 
-    camera = look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)
+    camera = validation_camera()
     env = read_env(str(find_asset("environments/warehouse.exr")))
-    scale = 0.04 / float(env_mean_radiance(env).mean())
+    scale = DIM_ROOM / float(env_mean_radiance(env).mean())
     refused, worst = [], 0.0
     for up in range(-12, 13, 6):
         for right in range(-12, 13, 6):
             light = light_from_camera(camera, up, right)
-            image = as_photographed(synthetic_probe(env, camera.R, light, FLASH, size=256, env_scale=scale))
+            image = as_photographed(synthetic_probe(env, camera.R, light, FLASH_RGB, size=256, env_scale=scale))
             try:
                 found = camera.R.T @ analyse_probe(image).light_dir_camera
             except ProbeError:

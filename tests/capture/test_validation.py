@@ -181,16 +181,22 @@ def test_night_probe_finds_the_flash_or_says_it_is_ambiguous(level: float) -> No
     # The night's horizon glow lies behind the camera, beside the flash's reflection. At the validation's
     # level it clips only red and the flash (every channel clipped) is found; brighter, it clips white
     # and merges with the flash (taken as is: the light 2.8° off at 3×): a ProbeError, not a guess.
-    from capture.camera import look_at
     from capture.probe import ProbeError, analyse_probe, synthetic_probe
-    from capture.synthetic import as_photographed, env_mean_radiance, light_from_camera, read_env
+    from capture.synthetic import (
+        DIM_ROOM,
+        as_photographed,
+        env_mean_radiance,
+        light_from_camera,
+        read_env,
+        validation_camera,
+    )
     from core.assets import find_asset
 
     env = read_env(str(find_asset("environments/night.exr")))
-    cam = look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)
+    cam = validation_camera()
     light = light_from_camera(cam, 4.0, 3.0)
     img = synthetic_probe(env, cam.R, light, np.ones(3), size=256,
-                          env_scale=level * 0.04 / float(env_mean_radiance(env).mean()))
+                          env_scale=level * DIM_ROOM / float(env_mean_radiance(env).mean()))
     img = as_photographed(img)
     if level == 1.0:
         probe = analyse_probe(img)
