@@ -4,6 +4,8 @@
   for the user (the CLI and the studio show it without a traceback), and
   :class:`~core.errors.AssetNotFoundError`.
 - :mod:`core.atomicio`: atomic file writes (fsync of the file and of its folder, an optional ``.bak``).
+- :mod:`core.files`: :func:`~core.files.read_bounded`, reading a user's file whole, bounded in size, with
+  one set of refusals (missing, a folder, a FIFO or device, too large).
 - :mod:`core.cache`: the cache folder (``$SHEER_CACHE_DIR``, else ``$XDG_CACHE_HOME/sheer``) and
   :func:`~core.cache.save_array`.
 - :mod:`core.lazy`: :func:`~core.lazy.install_lazy`, lazy public names for a package's ``__init__``.

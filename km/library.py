@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from core.errors import SheerError
+from core.files import read_bounded
 from km.material import MAX_NAME_CHARS, Material, MaterialError
 
 FORMAT = "sheer.materials"
@@ -334,24 +335,8 @@ class Library:
     def load(cls, path: str | Path) -> Library:
         """Read a library file (all-or-nothing; see the module docstring)."""
         p = Path(path)
-        source = str(p)
-        try:
-            if p.exists() and not p.is_dir() and not p.is_file():  # a FIFO or device would block or never end
-                raise LibraryError(f"{source}: not a regular file")
-            with open(p, "rb") as fh:
-                size = _file_size(fh)
-                if size is not None and size > MAX_FILE_BYTES:
-                    raise LibraryError(f"{source}: file too large ({size} bytes, at most {MAX_FILE_BYTES})")
-                raw = fh.read(MAX_FILE_BYTES + 1)
-        except FileNotFoundError:
-            raise LibraryError(f"{source}: no such library file") from None
-        except IsADirectoryError:
-            raise LibraryError(f"{source}: is a folder, not a library file") from None
-        except OSError as exc:
-            raise LibraryError(f"{source}: cannot read: {exc.strerror or exc}") from None
-        if len(raw) > MAX_FILE_BYTES:
-            raise LibraryError(f"{source}: file too large (more than {MAX_FILE_BYTES} bytes)")
-        return cls.loads(raw, source=source, path=p)
+        raw = read_bounded(p, MAX_FILE_BYTES, "library file", LibraryError)
+        return cls.loads(raw, source=str(p), path=p)
 
     def save(self, path: str | Path | None = None, *, keep_backup: bool = True) -> Path:
         """Write the library atomically to ``path`` (default: where it was loaded from).
@@ -383,15 +368,6 @@ def _reject_constant(name: str) -> Any:
 def _json_type(value: Any) -> str:
     return {dict: "an object", list: "a list", str: "a string", bool: "a boolean", int: "a number",
             float: "a number", type(None): "null"}.get(type(value), type(value).__name__)
-
-
-def _file_size(fh: Any) -> int | None:
-    import os
-
-    try:
-        return os.fstat(fh.fileno()).st_size
-    except OSError:
-        return None
 
 
 # --------------------------------------------------------------------------------------------------

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from core.errors import SheerError
+from core.files import read_bounded
 from km.material import Material, MaterialError, Measurement
 
 if TYPE_CHECKING:
@@ -111,19 +112,7 @@ def _default_grid() -> np.ndarray:
 
 
 def _read_text(path: Path) -> str:
-    try:
-        if path.exists() and not path.is_dir() and not path.is_file():  # a FIFO or device: never read
-            raise MeasurementImportError(f"{path}: not a regular file")
-        with open(path, "rb") as fh:
-            raw = fh.read(MAX_IMPORT_BYTES + 1)
-    except FileNotFoundError:
-        raise MeasurementImportError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise MeasurementImportError(f"{path}: is a folder, not a measurement file") from None
-    except OSError as exc:
-        raise MeasurementImportError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if len(raw) > MAX_IMPORT_BYTES:
-        raise MeasurementImportError(f"{path}: file too large (more than {MAX_IMPORT_BYTES} bytes)")
+    raw = read_bounded(path, MAX_IMPORT_BYTES, "measurement file", MeasurementImportError)
     if b"\x00" in raw[:4096]:
         raise MeasurementImportError(f"{path}: not a text file")
     for encoding in ("utf-8-sig", "latin-1"):  # X-Rite software writes Latin-1 (°) as often as UTF-8

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from core.errors import SheerError
+from core.files import read_bounded
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Mapping
@@ -252,27 +253,6 @@ def resolve_texture_path(rel: str, mesh_path: Path, sidecar: Path | None = None)
     return beside_mesh
 
 
-def read_file_at_most(path: Path, limit: int, what: str, error: type[SheerError] = HeadError) -> bytes:
-    """The bytes of the file at ``path``, refused unread when longer than ``limit`` bytes.
-
-    Reads a head's files (``limit`` :data:`MAX_HEAD_FILE_BYTES`) and, in :mod:`painting.maps_io`, map
-    files. ``what`` names the file's role in messages ("head mesh", "texture file" …).
-
-    Raises:
-        SheerError: ``error`` (default :class:`HeadError`): the file is missing, unreadable or too large.
-    """
-    try:
-        size = path.stat().st_size
-        if size > limit:
-            raise error(f"{path}: {what} of {size:,} bytes, over the limit of {limit:,}")
-        with open(path, "rb") as fh:
-            return fh.read(limit + 1)[:limit]
-    except FileNotFoundError:
-        raise error(f"{path}: {what} not found") from None
-    except OSError as exc:
-        raise error(f"{path}: cannot read {what}: {exc.strerror or exc}") from None
-
-
 def parse_metadata(blob: bytes, where: str) -> HeadMetadata:
     """The :class:`HeadMetadata` of a sidecar's bytes (UTF-8 JSON); ``where`` names it in messages."""
     try:
@@ -308,7 +288,7 @@ def load_metadata(mesh_path: Path, mesh_vertices: np.ndarray | None = None) -> H
     sidecar = find_sidecar(mesh_path)
     if sidecar is None:
         return default_metadata(mesh_path.stem, mesh_vertices)
-    return parse_metadata(read_file_at_most(sidecar, MAX_HEAD_FILE_BYTES, "head metadata"), str(sidecar))
+    return parse_metadata(read_bounded(sidecar, MAX_HEAD_FILE_BYTES, "head metadata", HeadError), str(sidecar))
 
 
 def decode_texture(blob: bytes, where: str, mode: str) -> np.ndarray:
@@ -337,7 +317,7 @@ def decode_texture(blob: bytes, where: str, mode: str) -> np.ndarray:
 
 def _read_image(path: Path, mode: str) -> np.ndarray:
     """A texture file decoded by :func:`decode_texture`."""
-    return decode_texture(read_file_at_most(path, MAX_HEAD_FILE_BYTES, "texture file"), str(path), mode)
+    return decode_texture(read_bounded(path, MAX_HEAD_FILE_BYTES, "texture file", HeadError), str(path), mode)
 
 
 def _mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -424,7 +404,7 @@ def load_mesh_arrays(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
     """
     if not path.is_file():
         raise HeadError(f"{path}: head mesh not found")
-    blob = read_file_at_most(path, MAX_HEAD_FILE_BYTES, "head mesh")
+    blob = read_bounded(path, MAX_HEAD_FILE_BYTES, "head mesh", HeadError)
     return parse_mesh(blob, path.name, str(path), folder=path.parent, cache=True)
 
 

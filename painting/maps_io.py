@@ -40,7 +40,7 @@ import numpy as np
 
 from core.atomicio import atomic_write_bytes
 from core.errors import SheerError
-from painting.head import read_file_at_most
+from core.files import read_bounded
 
 if TYPE_CHECKING:
     from collections.abc import Iterator, Mapping
@@ -422,7 +422,7 @@ def read_thickness(path: str | Path, expected_shape: tuple[int, int] | None = No
     """
     p = Path(path)
     kind = _suffix(p)
-    data = read_file_at_most(p, MAX_FILE_BYTES, "map file", MapError)
+    data = read_bounded(p, MAX_FILE_BYTES, "map file", MapError)
     if kind == ".exr":
         return check_thickness(decode_exr(data, str(p), expected_shape), str(p), expected_shape)
     counts, text = decode_png(data, str(p), expected_shape, eight_bit=True)
@@ -455,7 +455,7 @@ def write_mask(path: str | Path, mask: np.ndarray) -> None:
 def read_mask(path: str | Path, expected_shape: tuple[int, int] | None = None) -> np.ndarray:
     """Read a mask file as float32 (H, W) in [0, 1] (PNG 8 or 16-bit, white = 1; EXR ``Y``)."""
     p = Path(path)
-    data = read_file_at_most(p, MAX_FILE_BYTES, "map file", MapError)
+    data = read_bounded(p, MAX_FILE_BYTES, "map file", MapError)
     if _suffix(p) == ".exr":
         arr = decode_exr(data, str(p), expected_shape)
     else:

@@ -90,7 +90,7 @@ def test_import_failures(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
     code, out, err = run(capsys, "import", str(bad), "--library", str(lib))
     assert code == 1 and "nothing could be imported" in err and "rejected" in out and not lib.exists()
     code, _, err = run(capsys, "import", str(tmp_path / "missing.csv"))
-    assert code == 2 and err.count("\n") == 1 and "no such file" in err
+    assert code == 2 and err.count("\n") == 1 and "no such measurement file" in err
     code, _, err = run(capsys, "import", str(DATA / "xrite_single.txt"))
     assert code == 2 and "--thickness-mm" in err
     broken = tmp_path / "broken.json"

@@ -111,7 +111,7 @@ def test_csv_unreadable_files(tmp_path: Path, text: str, words: str) -> None:
 
 
 def test_missing_and_binary_files(tmp_path: Path) -> None:
-    with pytest.raises(MeasurementImportError, match="no such file"):
+    with pytest.raises(MeasurementImportError, match="no such measurement file"):
         import_file(tmp_path / "none.csv")
     os.mkfifo(tmp_path / "pipe.csv")
     with pytest.raises(MeasurementImportError, match="not a regular file"):
