@@ -15,7 +15,6 @@ if TYPE_CHECKING:
 
 pin_singletons()
 
-pytest.importorskip("pytestqt")
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
