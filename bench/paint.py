@@ -74,7 +74,7 @@ def _library() -> Any:
         return _StandInLibrary(), "Bench foundation"
 
 
-def _face_path(doc: Any, n: int) -> np.ndarray:
+def _face_path(doc: Document, n: int) -> np.ndarray:
     """``n`` surface points along a Lissajous curve over the face, seen from the front (+Z)."""
     mesh = doc.layout.trimesh()
     head = doc.head
