@@ -2,8 +2,8 @@
 
 The capture fits :func:`capture.phong.shade` on the CPU rasteriser of :mod:`capture.raster`; this module
 draws the synthetic flash photograph on the GPU instead (moderngl on the test session's EGL context):
-its own GLSL Phong, written for this test, per fragment, with the GPU's rasteriser, perspective-correct
-interpolation and float32 arithmetic, the detail texture fetched by the GPU's trilinear filtering, and
+its own GLSL Phong, written for this test, per fragment (the vertex stage is the renderer's pass-through
+``mesh.vert``), with the GPU's rasteriser, perspective-correct interpolation and float32 arithmetic, the detail texture fetched by the GPU's trilinear filtering, and
 ``supersample``² samples averaged per photograph pixel (a sensor integrates over its pixel: silhouette
 and highlight edges come out partial, unlike the CPU model's one sample at the pixel centre), then
 clipped and quantised to 8-bit sRGB like a camera.
@@ -40,25 +40,10 @@ if TYPE_CHECKING:
     from capture.camera import Camera
     from painting.head import Head
 
-VERTEX = """
-#version 330
-uniform mat4 u_clip_from_world;
-in vec3 in_position;
-in vec3 in_normal;
-in vec2 in_uv;
-out vec3 v_position;
-out vec3 v_normal;
-out vec2 v_uv;
-void main() {
-    v_position = in_position;
-    v_normal = in_normal;
-    v_uv = in_uv;
-    gl_Position = u_clip_from_world * vec4(in_position, 1.0);
-}
-"""
-
+#: The shading, written for this test (the vertex stage is the renderer's pass-through ``mesh.vert``:
+#: world position, normal and UV out, ``u_view_proj`` the clip matrix).
 FRAGMENT = """
-#version 330
+#version 450 core
 uniform sampler2D u_texture;
 uniform vec3 u_camera_centre;
 uniform vec3 u_light;
@@ -69,7 +54,7 @@ uniform float u_specular;
 uniform float u_exponent;
 uniform bool u_use_sh;
 uniform vec3 u_sh[9];
-in vec3 v_position;
+in vec3 v_pos;
 in vec3 v_normal;
 in vec2 v_uv;
 layout(location = 0) out vec4 out_colour;
@@ -87,7 +72,7 @@ vec3 irradiance_over_pi(vec3 n) {
 
 void main() {
     vec3 n = normalize(v_normal);
-    vec3 v = normalize(u_camera_centre - v_position);
+    vec3 v = normalize(u_camera_centre - v_pos);
     float ndl = dot(n, u_light);
     vec3 r = 2.0 * ndl * n - u_light;
     float lobe = ndl > 0.0 ? pow(max(dot(r, v), 0.0), u_exponent) : 0.0;
@@ -180,7 +165,9 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
     tex = ctx.texture((tex_img.shape[1], tex_img.shape[0]), 3, tex_img.tobytes(), dtype="f4")
     tex.build_mipmaps()
     tex.filter = (ctx.LINEAR_MIPMAP_LINEAR, ctx.LINEAR)
-    prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+    from render.shaders import ShaderLibrary
+
+    prog = ctx.program(vertex_shader=ShaderLibrary().source("mesh.vert"), fragment_shader=FRAGMENT)
     buffers = [ctx.buffer(np.asarray(a, dtype="f4").tobytes()) for a in (head.vertices, head.normals, uv)]
     index = ctx.buffer(np.asarray(head.faces, dtype="u4").tobytes())
     vao = ctx.vertex_array(prog, [(buffers[0], "3f", "in_position"), (buffers[1], "3f", "in_normal"),
@@ -192,7 +179,7 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
     try:
         depths = camera.to_camera(head.vertices)[:, 2]
         near, far = 0.5 * float(depths.min()), 2.0 * float(depths.max())
-        prog["u_clip_from_world"].write(clip_from_world(camera, supersample, near, far).T.astype("f4").tobytes())
+        prog["u_view_proj"].write(clip_from_world(camera, supersample, near, far).T.astype("f4").tobytes())
         prog["u_camera_centre"].value = tuple(float(x) for x in camera.centre)
         prog["u_light"].value = tuple(float(x) for x in np.asarray(light) / np.linalg.norm(light))
         prog["u_diffuse"].value = tuple(float(x) for x in diffuse)

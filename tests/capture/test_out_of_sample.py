@@ -52,7 +52,27 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
+from capture.camera import calibrate, look_at
+from capture.lod import simplify_head
+from capture.mask import landmark_region
+from capture.phong import PhongParams, delta_e2000
+from capture.pipeline import capture
+from capture.probe import ProbeError, analyse_probe, synthetic_probe
+from capture.synthetic import (
+    DIM_ROOM,
+    FLASH_RGB,
+    as_photographed,
+    env_mean_radiance,
+    light_from_camera,
+    make_scene,
+    read_env,
+    validation_camera,
+)
+from core.assets import find_asset
+from km.srgb import srgb_decode
+from painting.head import load_head
 from tests.capture import gl_truth
 
 if TYPE_CHECKING:
@@ -128,11 +148,6 @@ class Figures(NamedTuple):
 
 def _head(kind: str) -> tuple[Head, np.ndarray]:
     """The head and its texture (linear, float (H, W, 3), ~1 on the face)."""
-    from capture.lod import simplify_head
-    from core.assets import find_asset
-    from km.srgb import srgb_decode
-    from painting.head import load_head
-
     if kind == "canonical":
         return load_head(find_asset("heads/canonical-face/canonical_face_model.obj")), _skin_texture()
     head = load_head()
@@ -146,8 +161,6 @@ def _skin_texture(size: int = 512) -> np.ndarray:
     """A procedural skin texture (linear, mean 1): regional tone (σ 40 texels, 8 %), redness (σ 25, 4 %),
     blotches (σ 5, 4 %) and pores (σ 1, 3 %), seeded.
     """
-    from scipy import ndimage
-
     rng = np.random.default_rng(7)
 
     def field(sigma: float, amplitude: float) -> np.ndarray:
@@ -163,9 +176,6 @@ def _camera(head: Head, kind: str) -> Camera:
     """The validation's camera; for the canonical face its framing (2.36 m, 6.4° vertical field, 512²)
     aimed at the middle of the face's landmarks.
     """
-    from capture.camera import look_at
-    from capture.synthetic import validation_camera
-
     if kind != "canonical":
         return validation_camera()
     lm = np.array(list(head.metadata.landmarks.values()))
@@ -178,35 +188,15 @@ def _clicked_camera(head: Head, camera: Camera) -> Camera:
     """The camera calibrated from the head's landmarks (gnathion = chin left out) clicked at the centre
     of the pixel each falls in (±0.5 px).
     """
-    from capture.camera import calibrate
-
     names = sorted(set(head.metadata.landmarks) - {"gnathion"})
     points3d = np.array([head.metadata.landmarks[n] for n in names])
     pixels, _ = camera.project(points3d)
     return calibrate(np.floor(pixels) + 0.5, points3d, 512, 512)
 
 
+@cache
 def measure(ctx: moderngl.Context, name: str) -> Figures:
     """Draw case ``name`` on the GPU, capture it on the CPU, compare (cached per case)."""
-    return _measure(ctx, name)
-
-
-@cache
-def _measure(ctx: moderngl.Context, name: str) -> Figures:
-    from capture.mask import landmark_region
-    from capture.phong import delta_e2000
-    from capture.pipeline import capture
-    from capture.probe import analyse_probe, synthetic_probe
-    from capture.synthetic import (
-        DIM_ROOM,
-        FLASH_RGB,
-        as_photographed,
-        env_mean_radiance,
-        light_from_camera,
-        read_env,
-    )
-    from core.assets import find_asset
-
     case = CASES[name]
     head, texture = _head(case.head)
     camera = _camera(head, case.head)
@@ -290,13 +280,6 @@ def test_the_readmes_other_exponents(environment: str, exponent: float, readme: 
     """README: "Other exponents: 12 → 12.2 (studio) …; 40 → 38.1 (city, sunset)" (the validation's CPU
     photograph, s changed). Measured 12.20 and 38.13 (warehouse 12.41, sunset 38.07).
     """
-    from capture.phong import PhongParams
-    from capture.pipeline import capture
-    from capture.probe import analyse_probe
-    from capture.synthetic import make_scene, read_env
-    from core.assets import find_asset
-    from painting.head import load_head
-
     head = load_head()
     params = PhongParams(diffuse=np.array(SKIN), specular=0.18, exponent=exponent, ambient_scale=1.0)
     scene = make_scene(head, read_env(str(find_asset(f"environments/{environment}.exr"))), params=params)
@@ -309,18 +292,6 @@ def _probe_scan() -> tuple[list[tuple[int, int]], float]:
     """The validation's probe (warehouse, 256² ball) with the flash on a 6° grid within 12° of the lens:
     (the positions refused, the largest light-direction error of the others in degrees).
     """
-    from capture.probe import ProbeError, analyse_probe, synthetic_probe
-    from capture.synthetic import (
-        DIM_ROOM,
-        FLASH_RGB,
-        as_photographed,
-        env_mean_radiance,
-        light_from_camera,
-        read_env,
-        validation_camera,
-    )
-    from core.assets import find_asset
-
     camera = validation_camera()
     env = read_env(str(find_asset("environments/warehouse.exr")))
     scale = DIM_ROOM / float(env_mean_radiance(env).mean())
