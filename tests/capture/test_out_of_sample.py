@@ -81,7 +81,7 @@ if TYPE_CHECKING:
     from capture.camera import Camera
     from painting.head import Head
 
-pytestmark = [pytest.mark.slow, pytest.mark.gl]
+pytestmark = pytest.mark.slow
 
 #: The validation's targets (README, "Validation on synthetic flash photographs").
 TARGETS = {"light_deg": 2.0, "s": 0.10, "i_s": 0.05, "diffuse_de": 1.0, "reproduction_de": 2.0}
