@@ -1,5 +1,6 @@
-"""Sheer's data files: shaders (``shaders/*.glsl``), the default material library (``materials/``), the
-built-in looks (``looks/``), head sidecars (``heads/``), the project schema and icons.
+"""Sheer's data files; data only, no code lives here.
 
-Data only: no code lives here. Find a file with :func:`core.assets.resource_path`.
+Shaders (``shaders/*.glsl``), the default material library (``materials/``), the built-in looks
+(``looks/``), head sidecars (``heads/``), the project schema and icons. Find a file with
+:func:`core.assets.resource_path`.
 """
