@@ -25,8 +25,8 @@ from km.measurements import (
     _invert_onto_grid,
     _parse_float,
     _read_text,
+    _sample_thickness,
     _saunderson,
-    _thickness,
     read_csv,
 )
 
@@ -109,13 +109,9 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
     if np.any(np.diff(wl_all) <= 0):
         raise MeasurementImportError(f"{source}: the data format repeats a spectral field")
 
-    if thickness_mm is not None:
-        d_mm = _thickness(thickness_mm, "--thickness-mm")
-    elif "D_MM" in keywords or "SAMPLE_THICKNESS_MM" in keywords:
-        d_mm = _thickness(keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")), f"{source}: keyword D_MM")
-    else:
-        raise MeasurementImportError(f"{source}: the sample thickness D is not given: add a 'D_MM 0.15' keyword "
-                                     "or pass --thickness-mm")
+    d_mm = _sample_thickness(thickness_mm, keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")),
+                             f"{source}: keyword D_MM",
+                             f"{source}: the sample thickness D is not given: add a 'D_MM 0.15' keyword")
     saunderson = _saunderson({k.lower(): v for k, v in keywords.items()}, source)
 
     # rows -> spectra, grouped by material and role

@@ -258,6 +258,19 @@ def _thickness(value: Any, where: str) -> float:
     return d
 
 
+def _sample_thickness(given: float | None, found: Any, where: str, missing: str) -> float:
+    """The thickness D (mm, in (0, 100]) of the R sample.
+
+    ``given`` (the ``--thickness-mm`` option) wins over ``found`` (the file's own value, or None); ``where``
+    names the file's field in messages, ``missing`` says how to give D when neither is there.
+    """
+    if given is not None:
+        return _thickness(given, "--thickness-mm")
+    if found is not None:
+        return _thickness(found, where)
+    raise MeasurementImportError(f"{missing} or pass --thickness-mm")
+
+
 def _saunderson(meta: dict[str, str], where: str) -> tuple[float, float] | None:
     k1, k2 = meta.get("saunderson_k1"), meta.get("saunderson_k2")
     if k1 is None and k2 is None:
@@ -338,13 +351,8 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     if ignored:
         result.notes.append(f"ignored column{'s' if len(ignored) > 1 else ''} {', '.join(ignored)}")
 
-    if thickness_mm is not None:
-        d_mm = _thickness(thickness_mm, "--thickness-mm")
-    elif "d_mm" in meta or "d" in meta:
-        d_mm = _thickness(meta.get("d_mm", meta.get("d")), f"{source}: header D_mm")
-    else:
-        raise MeasurementImportError(f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' "
-                                     "header line or pass --thickness-mm")
+    d_mm = _sample_thickness(thickness_mm, meta.get("d_mm", meta.get("d")), f"{source}: header D_mm",
+                             f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' header line")
     saunderson = _saunderson(meta, source)
 
     rows: list[tuple[str, float, float, float, float]] = []
