@@ -41,11 +41,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--step-nm", type=float, default=20.0, help="wavelength step of the table (nm, default 20)")
     q.set_defaults(func=run_show)
 
-    q = msub.add_parser("plot", help="plot a material's spectra to a PNG file")
-    q.add_argument("name", help="material name (case-insensitive)")
-    q.add_argument("--out", type=Path, required=True, help="output PNG file")
-    q.add_argument("--library", type=Path, help=lib_help)
-    q.set_defaults(func=run_plot)
+    for command, what, out, func in (("plot", "plot a material's spectra to a PNG file", "PNG", run_plot),
+                                     ("export", "write a material's measurement, S and K as CSV (re-importable)",
+                                      "CSV", run_export)):
+        q = msub.add_parser(command, help=what)
+        q.add_argument("name", help="material name (case-insensitive)")
+        q.add_argument("--out", type=Path, required=True, help=f"output {out} file")
+        q.add_argument("--library", type=Path, help=lib_help)
+        q.set_defaults(func=func)
 
     q = msub.add_parser("import", help="import a measurement (CSV or X-Rite/CGATS) into a library")
     q.add_argument("file", type=Path, help="CSV (wavelength, R_inf, R, Rg) or X-Rite/CGATS spectral file")
@@ -56,12 +59,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--category", help="material category (default: from the file, else 'other')")
     q.add_argument("--replace", action="store_true", help="replace materials of the same name")
     q.set_defaults(func=run_import)
-
-    q = msub.add_parser("export", help="write a material's measurement, S and K as CSV (re-importable)")
-    q.add_argument("name", help="material name (case-insensitive)")
-    q.add_argument("--out", type=Path, required=True, help="output CSV file")
-    q.add_argument("--library", type=Path, help=lib_help)
-    q.set_defaults(func=run_export)
 
 
 def _help(parser: argparse.ArgumentParser) -> int:
