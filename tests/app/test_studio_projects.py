@@ -160,6 +160,23 @@ def _project_on_retouched_head(window: Any, tmp_path: Path, seed: int) -> tuple[
     return maps, mesh, path
 
 
+def _project_on_moved_head(window: Any, tmp_path: Path, seed: int, retouch: bool = False
+                           ) -> tuple[list[Any], Path, Path]:
+    """A project saved with the maps painted from ``seed`` on a copy of the head, whose folder is then
+    moved (and its albedo retouched if ``retouch``), and the window painted on (``seed + 1``): (saved maps,
+    the project, the moved mesh)."""
+    maps = _paint(window, seed)
+    mesh = _head_copy(tmp_path / "head")
+    path = _project_on(window, mesh, tmp_path / "moved.sheer")
+    shutil.move(str(mesh.parent), str(tmp_path / "elsewhere"))
+    moved = tmp_path / "elsewhere" / mesh.name
+    if retouch:
+        with (moved.parent / "albedo.jpg").open("ab") as fh:
+            fh.write(b"retouched")
+    _paint(window, seed + 1)
+    return maps, path, moved
+
+
 def test_changed_head_offers_relink_and_opens_with_use_it_anyway(window: Any, driver: DialogDriver,
                                                                   tmp_path: Path) -> None:
     from project.heads import sha256_file
@@ -190,12 +207,7 @@ def test_missing_head_locate_head(window: Any, driver: DialogDriver, tmp_path: P
                                   monkeypatch: pytest.MonkeyPatch) -> None:
     from app import project_files
 
-    maps = _paint(window, 6)
-    mesh = _head_copy(tmp_path / "head")
-    path = _project_on(window, mesh, tmp_path / "moved.sheer")
-    shutil.move(str(mesh.parent), str(tmp_path / "elsewhere"))
-    moved = tmp_path / "elsewhere" / mesh.name
-    _paint(window, 7)
+    maps, path, moved = _project_on_moved_head(window, tmp_path, 6)
     driver.answer("Locate head…")
     located: list[str] = []
 
@@ -222,14 +234,7 @@ def test_located_head_that_changed_then_use_it_anyway(window: Any, driver: Dialo
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     from app import project_files
 
-    maps = _paint(window, 12)
-    mesh = _head_copy(tmp_path / "head")
-    path = _project_on(window, mesh, tmp_path / "moved.sheer")
-    shutil.move(str(mesh.parent), str(tmp_path / "elsewhere"))
-    moved = tmp_path / "elsewhere" / mesh.name
-    with (moved.parent / "albedo.jpg").open("ab") as fh:
-        fh.write(b"retouched")
-    _paint(window, 13)
+    maps, path, moved = _project_on_moved_head(window, tmp_path, 12, retouch=True)
     driver.answer("Locate head…", "Use it anyway")
     monkeypatch.setattr(project_files.QFileDialog, "getOpenFileName", lambda *a, **k: (str(moved), ""))
     assert window.files.open_project(path)
