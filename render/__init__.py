@@ -71,7 +71,9 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
   lighting.glsl's uniforms.
 - shader includes: ``common.glsl`` (sRGB, tone map, constants), ``lighting.glsl`` (lights, PCF
   shadows from the atlas, SH irradiance), ``specular.glsl`` (Beckmann / Schlick / Kelemen),
-  ``km.glsl`` (KM layer and stacking); vertex shaders ``mesh.vert`` (world space), ``uvspace.vert``
+  ``km.glsl`` (KM layer and stacking), ``head_vertex.glsl`` (the head's vertex attributes and world-space
+  varyings), ``irradiance_targets.glsl`` (the irradiance cache's targets), ``lightweight.glsl`` (the
+  lightweight face's specialisation defaults); vertex shaders ``mesh.vert`` (world space), ``uvspace.vert``
   (the mesh unwrapped into its UV space), ``fullscreen.vert`` (a full-screen triangle).
 """
 

@@ -1,12 +1,8 @@
 #version 450 core
 // The benchmark's baseline: albedo texture, one Lambert light, no post-processing.
 #include "common.glsl"
-in vec3 v_pos;
-in vec3 v_normal;
-in vec4 v_tangent;
+in vec3 v_normal;  // from mesh.vert
 in vec2 v_uv;
-in vec2 v_uv_paint;
-in float v_depth;
 uniform sampler2D u_albedo;
 uniform vec3 u_light_dir;
 out vec4 o_colour;

@@ -3,8 +3,7 @@
 // the irradiance E from every light (PCF-shadowed) and the environment (SH), with the normal map.
 // Lights are fixed to the head, so this is recomputed only when a light or the environment changes;
 // frames then fetch E instead of shading lights and shadows per pixel.
-// o_irr: rgb = E (display units), a = shadow visibility of light 0. o_vis0: lights 1-4; o_vis1.rgb:
-// lights 5-7, o_vis1.a = 1 where covered (the padding's coverage; the clear leaves 0 elsewhere).
+// Outputs: E and the shadow visibility of every light, in the cache's targets (irradiance_targets.glsl).
 // Defines (specialised per light rig, see TextureIrradiance.program): NLIGHTS, SHADOWED and
 // POINT_LIGHTS (bit i: light i casts shadows / is a point light), ENV (1: SH environment).
 #ifndef NLIGHTS
@@ -16,15 +15,13 @@
 #endif
 #include "common.glsl"
 #include "lighting.glsl"
+#include "irradiance_targets.glsl"
 in vec3 v_pos;
 in vec3 v_normal;
 in vec4 v_tangent;
 in vec2 v_uv;
 uniform sampler2D u_normal_map;
 uniform float u_normal_strength;
-layout(location = 0) out vec4 o_irr;
-layout(location = 1) out vec4 o_vis0;
-layout(location = 2) out vec4 o_vis1;
 
 void main() {
     vec3 Ng = normalize(v_normal);

@@ -6,23 +6,14 @@
 // are applied as in the physical renderer: out = E (R_top + a T^2 / (1 - R_bottom a)).
 // Specialised at compile time (llvmpipe runs every instruction of a fragment shader, taken or not):
 // LW_NLIGHTS (0..8), LW_SHADOWS (0 off, 1 per pixel, 2 per vertex: folded into v_e0/v_s0), LW_ENV,
-// LW_MAKEUP (0/1).
-#ifndef LW_NLIGHTS
-#define LW_NLIGHTS 1
-#endif
-#ifndef LW_SHADOWS
-#define LW_SHADOWS 1
-#endif
-#ifndef LW_MAKEUP
-#define LW_MAKEUP 0
-#endif
+// LW_MAKEUP (0/1); defaults in lightweight.glsl.
+#include "lightweight.glsl"
 #include "common.glsl"
 #include "lighting.glsl"
 in vec2 v_uv;
 in vec3 v_e0;
 in vec3 v_s0;
 #if LW_NLIGHTS > 0 && LW_SHADOWS == 1
-#define LW_PAIRS ((LW_NLIGHTS + 1) / 2)
 in vec4 v_ls[LW_PAIRS];
 in vec4 v_lpos[LW_NLIGHTS];
 #endif

@@ -3,16 +3,9 @@
 // i.e. Phong evaluated at the vertices and interpolated). Per light, the vertex passes n·l and the
 // specular term (point-light falloff folded in) and, with shadows, its light-space position (normal
 // offset applied here); the fragment shader only fetches the detail texture and one shadow-map
-// comparison per light. Specialised with LW_NLIGHTS, LW_SHADOWS (0 off, 1 per pixel, 2 per vertex), LW_ENV.
-#ifndef LW_NLIGHTS
-#define LW_NLIGHTS 1
-#endif
-#ifndef LW_SHADOWS
-#define LW_SHADOWS 1
-#endif
-#ifndef LW_ENV
-#define LW_ENV 0
-#endif
+// comparison per light. Specialised with LW_NLIGHTS, LW_SHADOWS (0 off, 1 per pixel, 2 per vertex), LW_ENV
+// (defaults in lightweight.glsl).
+#include "lightweight.glsl"
 #include "common.glsl"
 #include "lighting.glsl"
 in vec3 in_position;
@@ -26,7 +19,6 @@ out vec2 v_uv;
 out vec3 v_e0;                 // irradiance of the ambient (+ environment) and of unshadowed lights
 out vec3 v_s0;                 // specular of unshadowed lights
 #if LW_NLIGHTS > 0 && LW_SHADOWS == 1
-#define LW_PAIRS ((LW_NLIGHTS + 1) / 2)
 out vec4 v_ls[LW_PAIRS];       // per light: n·l x falloff, (r·v)^s x falloff (two lights per vec4)
 out vec4 v_lpos[LW_NLIGHTS];   // light clip-space position (normal offset applied)
 #endif
