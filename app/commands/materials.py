@@ -18,6 +18,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from km.library import Library
     from km.material import Material
 
@@ -154,12 +156,7 @@ def run_plot(args: argparse.Namespace) -> int:
 
     if args.out.suffix.lower() != ".png":
         raise SheerError(f"--out must name a .png file (got {args.out})")
-    if not args.out.parent.exists() and str(args.out.parent):
-        raise SheerError(f"{args.out.parent}: no such folder")
-    m = _library(args.library).get(args.name)
-    plot_material(m, args.out)
-    print(f"wrote {args.out}")
-    return 0
+    return _write_material(args, plot_material)
 
 
 def plot_material(m: Material, out: Path) -> None:
@@ -253,12 +250,21 @@ def run_import(args: argparse.Namespace) -> int:
 
 def run_export(args: argparse.Namespace) -> int:
     """Write a material's measurement, S and K as a re-importable CSV to --out; returns 0."""
-    from core.errors import SheerError
     from km.measurements import export_csv
+
+    return _write_material(args, export_csv)
+
+
+def _write_material(args: argparse.Namespace, write: Callable[[Material, Path], object]) -> int:
+    """Write material ``args.name`` of ``args.library`` to ``args.out`` with ``write``; returns 0.
+
+    Raises:
+        SheerError: the folder of ``args.out`` does not exist, or the library has no such material.
+    """
+    from core.errors import SheerError
 
     if not args.out.parent.exists() and str(args.out.parent):
         raise SheerError(f"{args.out.parent}: no such folder")
-    m = _library(args.library).get(args.name)
-    export_csv(m, args.out)
+    write(_library(args.library).get(args.name), args.out)
     print(f"wrote {args.out}")
     return 0
