@@ -8,6 +8,8 @@
   one set of refusals (missing, a folder, a FIFO or device, too large).
 - :mod:`core.cache`: the cache folder (``$SHEER_CACHE_DIR``, else ``$XDG_CACHE_HOME/sheer``) and
   :func:`~core.cache.save_array`.
+- :mod:`core.migrations`: :class:`~core.migrations.Migrations`, upgrading a parsed JSON document
+  through registered per-version steps (on a copy; a failing step is the format's own error).
 - :mod:`core.lazy`: :func:`~core.lazy.install_lazy`, lazy public names for a package's ``__init__``.
 - :mod:`core.assets`: where Sheer's files are (:func:`~core.assets.resource_path` in the ``resources``
   data package, :func:`~core.assets.find_asset` on the sample assets' search path) and the assets'

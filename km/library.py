@@ -9,27 +9,29 @@ Loading is all-or-nothing: the whole file is parsed, migrated and validated befo
 :class:`Library` is returned, and any problem raises :class:`LibraryError` naming the file and the
 field (``default.json: materials[3].S[12]: negative (-0.5)``).
 
-Schema versions: files written by an older Sheer are upgraded in memory by the migrations registered
-in :data:`MIGRATIONS` (one function per version step, ``v -> v + 1``, registered with
-:func:`register_migration`); a file from a newer Sheer is refused. Saving is atomic
+Schema versions: files written by an older Sheer are upgraded in memory by the steps registered in
+:data:`MIGRATIONS` (a :class:`core.migrations.Migrations`: one function per version step, ``v -> v + 1``,
+registered with ``@MIGRATIONS.register(v)``); a file from a newer Sheer is refused. Saving is atomic
 (:mod:`core.atomicio`): a failed save never damages the file, and the previous file is kept as
 ``FILE.bak``.
 """
 
 from __future__ import annotations
 
-import copy
 import difflib
 import functools
 import json
 import re
-from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from core.errors import SheerError
 from core.files import read_bounded
+from core.migrations import Migrations
 from km.material import MAX_NAME_CHARS, Material, MaterialError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator
 
 FORMAT = "sheer.materials"
 #: The schema version this Sheer writes.
@@ -41,35 +43,21 @@ MAX_MATERIALS = 5000
 
 _NUMBER_LIST_RE = re.compile(r"\[(\s*\n[-+0-9.eE,\s]*?)\]")
 
-Migration = Callable[[dict[str, Any]], dict[str, Any]]
-#: ``from_version -> function(data) -> data at from_version + 1``.
-MIGRATIONS: dict[int, Migration] = {}
-
 
 class LibraryError(SheerError, ValueError):
     """A library file or operation that cannot be done; the message names the file and field."""
 
 
-def register_migration(from_version: int) -> Callable[[Migration], Migration]:
-    """Register ``func(data) -> data`` (a decorator) as the upgrade of a library dict from ``from_version``.
-
-    It upgrades to ``from_version + 1``; it may modify and return its argument (a private copy).
-    """
-
-    def decorate(func: Migration) -> Migration:
-        if from_version in MIGRATIONS:
-            raise ValueError(f"a migration from schema version {from_version} is already registered")
-        MIGRATIONS[from_version] = func
-        return func
-
-    return decorate
+#: ``from_version -> step(data) -> data at from_version + 1``.
+MIGRATIONS = Migrations(LibraryError)
 
 
 def migrate(data: dict[str, Any], *, source: str = "library") -> dict[str, Any]:
     """Bring a parsed library dict up to :data:`SCHEMA_VERSION` (a new dict; the input is untouched).
 
     Raises:
-        LibraryError: a missing, invalid, unknown or newer version.
+        LibraryError: a missing, invalid, unknown or newer version; a missing or failing step (the
+            message names the file and the step).
     """
     if not isinstance(data, dict):
         raise LibraryError(f"{source}: the top level must be a JSON object, got {_json_type(data)}")
@@ -83,20 +71,7 @@ def migrate(data: dict[str, Any], *, source: str = "library") -> dict[str, Any]:
                            f"({SCHEMA_VERSION}); update Sheer to open it")
     if version < 1:
         raise LibraryError(f"{source}: schema_version: unknown version {version}")
-    out = copy.deepcopy(data)
-    while version < SCHEMA_VERSION:
-        step = MIGRATIONS.get(version)
-        if step is None:
-            raise LibraryError(f"{source}: schema_version: no migration from version {version}")
-        try:
-            out = step(out)
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
-            raise LibraryError(f"{source}: migration from schema version {version} failed: {exc}") from None
-        if not isinstance(out, dict):
-            raise LibraryError(f"{source}: migration from schema version {version} did not return an object")
-        version += 1
-        out["schema_version"] = version
-    return out
+    return MIGRATIONS.upgrade(data, version=version, target=SCHEMA_VERSION, source=source)
 
 
 class Library:

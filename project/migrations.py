@@ -1,10 +1,11 @@
 """Migrations of ``project.json`` from older ``schema_version``s, registered one step at a time.
 
-A migration is a function ``(data: dict) -> dict`` registered with ``@migration(n)``; it turns a
-version-``n`` document into a version-``n + 1`` one. :func:`migrate` applies the steps in order on a
-deep copy (so a failure leaves the caller's data untouched: the roll-back), checks that each step
-produced the next version, and raises :class:`MigrationError` naming the failing step. A version newer
-than :data:`SCHEMA_VERSION` raises :class:`ProjectVersionError` saying so.
+A migration is a function ``(data: dict) -> dict`` registered with ``@MIGRATIONS.register(n)`` (a
+:class:`core.migrations.Migrations`); it turns a version-``n`` document into a version-``n + 1`` one.
+:func:`migrate` applies the steps in order on a deep copy (so a failure leaves the caller's data
+untouched: the roll-back), checks that each step produced the next version, and raises
+:class:`MigrationError` naming the failing step. A version newer than :data:`SCHEMA_VERSION` raises
+:class:`ProjectVersionError` saying so.
 
 The original *file* is backed up when a migrated project is first saved over it (``<file>.v<n>.bak``,
 see :func:`project.io.save_project`); opening never writes.
@@ -19,32 +20,24 @@ Version history (see ``docs/FORMAT.md``):
 
 from __future__ import annotations
 
-import copy
-from collections.abc import Callable
 from pathlib import PurePosixPath
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from core.migrations import Migrations
 from project.errors import MigrationError, ProjectVersionError
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+
+    from core.migrations import Step
 
 #: The version this Sheer writes.
 SCHEMA_VERSION = 2
 #: The oldest version it can migrate from.
 OLDEST_SCHEMA_VERSION = 1
 
-Migration = Callable[[dict[str, Any]], dict[str, Any]]
-MIGRATIONS: dict[int, Migration] = {}
-
-
-def migration(from_version: int) -> Callable[[Migration], Migration]:
-    """Register ``func`` as the step ``from_version`` → ``from_version + 1``."""
-
-    def register(func: Migration) -> Migration:
-        if from_version in MIGRATIONS:
-            raise RuntimeError(f"two migrations from schema_version {from_version}")
-        MIGRATIONS[from_version] = func
-        return func
-
-    return register
+#: ``from_version -> step(data) -> data at from_version + 1``.
+MIGRATIONS = Migrations(MigrationError)
 
 
 def check_version(version: Any, source: str) -> int:
@@ -61,37 +54,23 @@ def check_version(version: Any, source: str) -> int:
 
 
 def migrate(data: dict[str, Any], source: str,
-            registry: dict[int, Migration] | None = None,
+            registry: Mapping[int, Step] | None = None,
             target: int = SCHEMA_VERSION) -> tuple[dict[str, Any], list[int]]:
     """Bring ``data`` to ``target`` version; returns (new data, versions migrated from).
 
     ``data`` itself is never modified. ``registry`` defaults to :data:`MIGRATIONS` (tests pass their
     own).
+
+    Raises:
+        ProjectVersionError: the version is not a number, newer than this Sheer or older than any.
+        MigrationError: ``data`` is not an object; a missing or failing step (named in the message).
     """
-    steps = MIGRATIONS if registry is None else registry
+    steps = MIGRATIONS if registry is None else Migrations(MigrationError, registry)
     if not isinstance(data, dict):
         raise MigrationError(f"{source}: project.json must be a JSON object")
     version = check_version(data.get("schema_version"), source)
-    current = data
-    applied: list[int] = []
-    while version < target:
-        step = steps.get(version)
-        if step is None:
-            raise MigrationError(f"{source}: no migration from schema_version {version} to {version + 1}")
-        try:
-            result = step(copy.deepcopy(current))
-        except MigrationError:
-            raise
-        except Exception as exc:  # a step that fails on odd data: roll back (the input is untouched)
-            raise MigrationError(f"{source}: migration from schema_version {version} to {version + 1} "
-                                 f"failed ({type(exc).__name__}: {exc}); the file is unchanged") from None
-        if not isinstance(result, dict) or result.get("schema_version") != version + 1:
-            raise MigrationError(f"{source}: migration from schema_version {version} did not produce "
-                                 f"version {version + 1}")
-        applied.append(version)
-        current = result
-        version += 1
-    return (current if applied else copy.deepcopy(data)), applied
+    out = steps.upgrade(data, version=version, target=target, source=source)
+    return out, list(range(version, target))
 
 
 def _require(data: dict[str, Any], key: str, kind: type | tuple[type, ...]) -> Any:
@@ -103,7 +82,7 @@ def _require(data: dict[str, Any], key: str, kind: type | tuple[type, ...]) -> A
     return value
 
 
-@migration(1)
+@MIGRATIONS.register(1)
 def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
     """Draft → 2: head object, per-layer resolution/opacity/encoding/scale, format fields."""
     head = _require(data, "head", str)

@@ -20,6 +20,7 @@ import km
 import km.library as library_mod
 from core.assets import resource_path
 from core.errors import SheerError
+from core.migrations import Migrations
 from km.library import Library, LibraryError
 from km.material import Material, Measurement
 
@@ -201,23 +202,25 @@ def test_save_keeps_a_backup(lib: Library, tmp_path: Path) -> None:
 def test_migrations_run_step_by_step(lib: Library, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     # pretend this Sheer writes version 3 and files of version 1 named the library "title"
     monkeypatch.setattr(library_mod, "SCHEMA_VERSION", 3)
-    monkeypatch.setattr(library_mod, "MIGRATIONS", {})
+    monkeypatch.setattr(library_mod, "MIGRATIONS", Migrations(LibraryError))
     calls: list[int] = []
 
-    @library_mod.register_migration(1)
+    @library_mod.MIGRATIONS.register(1)
     def v1_to_v2(data: dict) -> dict:
         calls.append(1)
         data["name"] = data.pop("title")
+        data["schema_version"] = 2
         return data
 
-    @library_mod.register_migration(2)
+    @library_mod.MIGRATIONS.register(2)
     def v2_to_v3(data: dict) -> dict:
         calls.append(2)
         data["name"] = data["name"].upper()
+        data["schema_version"] = 3
         return data
 
     with pytest.raises(ValueError, match="already registered"):
-        library_mod.register_migration(1)(v1_to_v2)
+        library_mod.MIGRATIONS.register(1)(v1_to_v2)
     old = _good(lib)
     old["schema_version"] = 1
     old["title"] = old.pop("name")
@@ -231,12 +234,12 @@ def test_migrations_run_step_by_step(lib: Library, tmp_path: Path, monkeypatch: 
     # a migration that fails names the step; a missing step is refused
     old["title"] = 5
     path.write_text(json.dumps({k: v for k, v in old.items() if k != "title"}))
-    with pytest.raises(LibraryError, match=r"old.json: migration from schema version 1 failed"):
+    with pytest.raises(LibraryError, match=r"old.json: migration from schema_version 1 to 2 failed \(KeyError: 'title'\)"):
         Library.load(path)
-    monkeypatch.setattr(library_mod, "MIGRATIONS", {1: v1_to_v2})
+    monkeypatch.setattr(library_mod, "MIGRATIONS", Migrations(LibraryError, {1: v1_to_v2}))
     old["title"] = "t"
     path.write_text(json.dumps(old))
-    with pytest.raises(LibraryError, match="no migration from version 2"):
+    with pytest.raises(LibraryError, match="old.json: no migration from schema_version 2 to 3"):
         Library.load(path)
 
 
