@@ -97,19 +97,24 @@ class ProjectFiles(QObject):
         self.changed.emit()
 
     # ------------------------------------------------------------------ new
-    def new_project(self) -> None:
-        """File → New: the bare look on the same head, untitled and unmodified."""
+    def new_project(self, look: str = "bare") -> None:
+        """File → New: a built-in look on the same head, untitled and unmodified, with no undo step.
+
+        Args:
+            look: the built-in look to start from (``resources/looks/<look>.json``); File → New uses
+                the bare one.
+        """
         from core.errors import SheerError
 
         try:
-            self.session.apply_look("bare")
+            self.session.apply_look(look)
         except SheerError as exc:
             dialogs.error(self._window, "New project", str(exc))
             return
         self.autosaver.close()
         self.autosaver.project_path = None
         self.path, self.name = None, "Untitled"
-        self.project, self.look_record = None, {"name": "bare", "tags": []}
+        self.project, self.look_record = None, {"name": look, "tags": []}
         self._set_saved_state(False)
 
     # ------------------------------------------------------------------ open

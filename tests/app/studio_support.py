@@ -128,6 +128,19 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     win.deleteLater()
 
 
+def reset_studio(win: Any, look: str = "natural") -> None:
+    """Bring a module's shared studio window back to the state it opened in, for a test that must not see
+    what the tests before it left: File → New on the built-in ``look`` (untitled, unmodified, no undo
+    step), no captured face (the lightweight mode then asks for one), the fast mode and the head framed
+    (the F key)."""
+    # no menu item closes a captured face: the window is put back as it was before one was opened
+    win.viewport.face = None
+    win.face_path = None
+    win.files.new_project(look)
+    win.set_render_mode("fast")
+    win.viewport.frame_head()
+
+
 def write_test_face(folder: Any) -> Any:
     """A small captured-face folder (``face.json`` + ``detail.exr``, as ``sheer capture`` writes) for the
     sample head: fitted Phong parameters and a detail texture with a visible pattern."""

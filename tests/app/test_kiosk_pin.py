@@ -3,6 +3,7 @@ exits), looks and product swaps, snapshots, attract mode, a friendly screen on e
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -13,31 +14,74 @@ from app.qt_compat import pin_singletons
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
+    from app.kiosk import KioskWindow
+    from app.kiosk_config import KioskConfig
+
 pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
-@pytest.fixture(scope="module")
-def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
+@contextlib.contextmanager
+def open_kiosk(qapp: object, folder: Path) -> Iterator[KioskWindow]:
+    """An 800×600 kiosk window (PIN 2468, snapshots under ``folder``), shown; closed with the PIN's
+    permission on exit if a test has not closed it."""
+    from pytestqt.qtbot import QtBot
+
     from app.kiosk import KioskWindow
     from app.kiosk_config import KioskConfig, hash_pin
 
-    folder = tmp_path_factory.mktemp("kiosk")
     # 512²: fast; the resolution is not what these tests are about
     cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
                       fullscreen=False, resolution=512)
     win = KioskWindow(cfg)
     win.resize(800, 600)
     win.show()
+    QtBot(qapp).waitUntil(lambda: win.isVisible(), timeout=5000)
+    try:
+        yield win
+    finally:
+        if win.isVisible():
+            win._allow_close = True
+            win.close()
+        win.deleteLater()
+
+
+@pytest.fixture(scope="module")
+def shared_kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[KioskWindow, KioskConfig]]:
+    """One kiosk for the module (a window costs seconds), its try-on screen drawn once (the viewport's
+    renderer is up), and the configuration it opened with."""
     from pytestqt.qtbot import QtBot
 
-    QtBot(qapp).waitUntil(lambda: win.isVisible(), timeout=5000)
-    yield win
-    if win.isVisible():
-        win._allow_close = True
-        win.close()
-    win.deleteLater()
+    with open_kiosk(qapp, tmp_path_factory.mktemp("kiosk")) as win:
+        win.show_main()
+        QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0, timeout=60000)
+        yield win, win.config
+
+
+@pytest.fixture
+def kiosk(shared_kiosk: tuple[KioskWindow, KioskConfig]) -> KioskWindow:
+    """The module's kiosk as it opened, whatever the tests before left in it: its own configuration, the
+    physical engine with no captured face, the natural look, no before/after split, attract mode off, no
+    error recorded, the start screen."""
+    win, config = shared_kiosk
+    assert win.isVisible(), "a test closed the module's kiosk (a test that exits needs its own kiosk)"
+    win.config = config
+    win.stop_attract()
+    win.face = None
+    win.use_engine("physical")
+    win.set_look("natural")
+    win.split.setValue(0)
+    win.last_error = None
+    win.show_start()
+    return win
+
+
+@pytest.fixture
+def own_kiosk(qapp: object, tmp_path: Path) -> Iterator[KioskWindow]:
+    """A kiosk of its own, for a test that exits it."""
+    with open_kiosk(qapp, tmp_path) as win:
+        yield win
 
 
 def test_pin_is_stored_hashed() -> None:
@@ -64,7 +108,8 @@ def test_looks_products_and_snapshot(kiosk: object, qtbot: object) -> None:
 
 
 def test_the_head_scan_is_credited_on_screen(kiosk: object) -> None:
-    """CC BY 3.0: the scan's credit is shown beside the face."""
+    """CC BY 3.0: the scan's credit is shown beside the face (on the try-on screen)."""
+    kiosk.show_main()
     assert "Lee Perry-Smith" in kiosk.credit_label.text() and kiosk.credit_label.isVisibleTo(kiosk)
 
 
@@ -181,8 +226,10 @@ def test_project_at_another_resolution_is_resampled(kiosk: object, tmp_path: Pat
     assert kiosk.doc.layers[0].thickness.shape == (want, want) and kiosk.doc.layers[0].thickness.max() > 0
 
 
-def test_pin_guard(kiosk: object, qtbot: object) -> None:
+def test_pin_guard(own_kiosk: KioskWindow, qtbot: object) -> None:
     from PySide6.QtCore import Qt
+
+    kiosk = own_kiosk
 
     kiosk.close()  # window-manager close / Alt+F4
     assert kiosk.isVisible() and kiosk.stack.currentWidget() is kiosk.pin_pad

@@ -11,7 +11,7 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import DialogDriver, open_studio_window
+from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -30,6 +30,8 @@ def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[t
 
 @pytest.fixture
 def window(studio: tuple[object, DialogDriver]) -> object:
+    """The module's window as it opened (see ``reset_studio``), whatever the tests before left in it."""
+    reset_studio(studio[0])
     return studio[0]
 
 
@@ -311,10 +313,15 @@ def test_reorder_layers(window: object) -> None:
 
 
 def test_edit_material_updates_the_viewport(window: object, qtbot: object) -> None:
+    from PySide6.QtWidgets import QApplication
+
     lip = next(lay for lay in window.doc.layers if lay.name == "Lipstick")
     window.layers_panel.list.setCurrentRow(0)
     dock = window.library_dock
     dock.select(lip.material)
+    # the material's editor, shown the first time a material is selected, grows the window (and the
+    # viewport): the layout settles before the first grab, so that both grabs have the same size
+    QApplication.processEvents()
     qtbot.waitUntil(lambda: not window.viewport.pending_changes, timeout=5000)
     before = grab(window).astype(int)
     k_before = np.array(window.library.get(lip.material).K)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import pytest
@@ -36,14 +38,31 @@ def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return {"dir": d}
 
 
-def test_capture_writes_face_folder(inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+class Captured(NamedTuple):
+    """One run of ``sheer capture``: its exit status, what it wrote on stderr and its output folder."""
+
+    rc: int
+    err: str
+    out: Path
+
+
+@pytest.fixture(scope="module")
+def captured(inputs: dict[str, Path]) -> Captured:
+    """``sheer capture`` run once on the synthetic scene (photo, camera and probe; 256² texture) for the
+    tests that read its face folder."""
     from app.cli import main
 
     d = inputs["dir"]
     out = d / "face"
-    rc = main(["capture", "--photo", str(d / "photo.png"), "--camera", str(d / "camera.json"),
-               "--probe", str(d / "probe.png"), "--texture-size", "256", "--out", str(out)])
-    err = capsys.readouterr().err
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        rc = main(["capture", "--photo", str(d / "photo.png"), "--camera", str(d / "camera.json"),
+                   "--probe", str(d / "probe.png"), "--texture-size", "256", "--out", str(out)])
+    return Captured(rc, err.getvalue(), out)
+
+
+def test_capture_writes_face_folder(captured: Captured) -> None:
+    rc, err, out = captured
     assert rc == 0, err
     assert "Phong fit" in err and "reproduction" in err
     for name in ("face.json", "detail.exr", "report.png", "skin_mask.png"):
@@ -67,10 +86,11 @@ def _numbers(x: object, path: str = "") -> list[str]:
     return [path] if isinstance(x, (int, float)) or (isinstance(x, list) and x) else []
 
 
-def test_every_number_in_face_json_has_a_unit(inputs: dict[str, Path]) -> None:
+def test_every_number_in_face_json_has_a_unit(captured: Captured) -> None:
     # A key names its unit (…_deg, …_px, timings_s…) or face.json's "units" gives it (for the path or
     # an enclosing object's path).
-    data = json.loads((inputs["dir"] / "face" / "face.json").read_text())
+    assert captured.rc == 0, captured.err
+    data = json.loads((captured.out / "face.json").read_text())
     units = data["units"]
     suffixes = ("_deg", "_px", "_s", "schema_version", "starts")
 
