@@ -161,7 +161,8 @@ class StudioWindow(QMainWindow):
     def _build_actions(self) -> None:
         menus = {name: self.menuBar().addMenu(f"&{name}") for name in MENU_ORDER}
         handlers = {
-            "file.new": self.files.new_project, "file.open": self.files.open_project,
+            "file.new": lambda: self.files.offer_to_save() and self.files.new_project(),
+            "file.open": lambda: self.files.offer_to_save() and self.files.open_project(),
             "file.save": self.files.save_project, "file.save_as": lambda: self.files.save_project(ask=True),
             "file.export_maps": self.exports.ask_export_maps,
             "file.export_maps_exr": lambda: self.exports.ask_export_maps("exr"),
@@ -220,7 +221,8 @@ class StudioWindow(QMainWindow):
         self.recent_menu.clear()
         for p in self.settings.recent_files:
             act = self.recent_menu.addAction(p)
-            act.triggered.connect(lambda _c=False, path=p: self.files.open_project(Path(path), background=True))
+            act.triggered.connect(lambda _c=False, path=p: self.files.offer_to_save()
+                                  and self.files.open_project(Path(path), background=True))
 
     def _build_toolbars(self) -> None:
         tb = QToolBar("Brush")
@@ -562,7 +564,7 @@ class StudioWindow(QMainWindow):
     def closeEvent(self, event: QCloseEvent) -> None:
         """Offer to save unsaved changes (Cancel keeps the window), then save the settings and layout and release GL."""
         self._stroke_end()
-        if not self.files.confirm_close():
+        if not self.files.offer_to_save():
             event.ignore()
             return
         self.files.close()

@@ -366,11 +366,15 @@ class ProjectFiles(QObject):
         info.path.unlink(missing_ok=True)
 
     # ------------------------------------------------------------------ close
-    def confirm_close(self) -> bool:
-        """Before the window closes: offer to save unsaved changes.
+    def offer_to_save(self) -> bool:
+        """Offer to save unsaved changes before the document is closed or replaced.
+
+        Asked when the window closes and before File → New, File → Open and a recent file, so no painted
+        work is dropped without asking.
 
         Returns:
-            False when the user cancelled (or chose Save and the save did not happen).
+            False when the user cancelled (or chose Save and the save did not happen): leave things as
+            they are.
         """
         if self._window.isWindowModified() and self.doc.layers:
             answer = dialogs.ask(self._window, "Unsaved changes", f"Save the changes to {self.name}?",

@@ -379,3 +379,35 @@ def test_recovery_offer_restores_the_autosave_of_a_killed_session(window: Any, d
     assert not recovery.exists()
     window.files.offer_recovery()  # nothing left to offer
     assert len(driver.questions()) == 2
+
+
+def test_file_new_offers_to_save_unsaved_work_first(window: Any, driver: DialogDriver, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    from app import project_files
+
+    maps = _paint(window, 21)
+    window.setWindowModified(True)
+    new = window.actions_by_id["file.new"]
+    driver.answer("Cancel")
+    new.trigger()
+    asked = driver.questions()
+    assert [(q.title, q.clicked) for q in asked] == [("Unsaved changes", "Cancel")]
+    for got, want in zip(_state(window)[1], maps, strict=True):
+        assert np.array_equal(got, want)
+    assert window.isWindowModified()
+    # Save: the work goes to a file first, then File -> New starts the bare look
+    target = tmp_path / "kept.sheer"
+    monkeypatch.setattr(project_files.QFileDialog, "getSaveFileName", lambda *a, **k: (str(target), ""))
+    driver.answer("Save")
+    new.trigger()
+    assert [q.clicked for q in driver.questions()] == ["Cancel", "Save"]
+    assert target.is_file() and window.files.name == "Untitled" and not window.isWindowModified()
+    from project.io import open_project
+
+    saved = open_project(target)
+    for layer, want in zip(saved.layers, maps, strict=True):
+        assert np.array_equal(layer.thickness, want)
+    # File -> Open asks nothing of an unmodified window (the open is then cancelled in its file dialog)
+    monkeypatch.setattr(project_files.QFileDialog, "getOpenFileName", lambda *a, **k: ("", ""))
+    window.actions_by_id["file.open"].trigger()
+    assert len(driver.questions()) == 2
