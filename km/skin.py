@@ -187,8 +187,11 @@ def _tissue(grid: WavelengthGrid) -> dict[str, FloatArray]:
 
 @dataclass(frozen=True)
 class SkinParams:
-    """One skin's parameters (fractions and a scale, all unit 1; see the module docstring and
-    :data:`PARAM_RANGES`). Constructing one outside the ranges raises :class:`SkinError`."""
+    """One skin's parameters: fractions and a scale, all unit 1.
+
+    See the module docstring and :data:`PARAM_RANGES`; constructing one outside the ranges raises
+    :class:`SkinError`.
+    """
 
     melanin: float
     blood: float
@@ -373,8 +376,9 @@ def fit_skin(target_lab: ArrayLike | None = None, *, linear_rgb: ArrayLike | Non
         rgb = np.asarray(linear_rgb, dtype=np.float64)
         if rgb.shape != (3,) or not np.isfinite(rgb).all() or (rgb < 0).any():
             raise SkinError(f"a linear RGB colour must be three finite numbers ≥ 0, got {rgb.tolist()}")
-        target_lab = linear_rgb_to_lab(rgb)
-    target = _check_lab(target_lab)
+        target = _check_lab(linear_rgb_to_lab(rgb))
+    else:
+        target = _check_lab(target_lab)
     SkinParams(0.01, 0.01, oxygenation)  # validates the oxygenation
     x_table, lab_table = _fit_table(grid, float(oxygenation))
     lo = np.log([PARAM_RANGES[k][0] for k in _FIT_NAMES])
