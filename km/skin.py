@@ -378,6 +378,7 @@ def fit_skin(target_lab: ArrayLike | None = None, *, linear_rgb: ArrayLike | Non
             raise SkinError(f"a linear RGB colour must be three finite numbers ≥ 0, got {rgb.tolist()}")
         target = _check_lab(linear_rgb_to_lab(rgb))
     else:
+        assert target_lab is not None
         target = _check_lab(target_lab)
     SkinParams(0.01, 0.01, oxygenation)  # validates the oxygenation
     x_table, lab_table = _fit_table(grid, float(oxygenation))
