@@ -94,82 +94,22 @@ def export_maps(doc: Document, folder: str | Path, progress: Progress = lambda f
 
 
 def baked_albedo(doc: Document, library: Library) -> np.ndarray:
-    """The made-up albedo at the head texture's resolution, uint8 sRGB, under neutral (white) light.
+    """The made-up albedo, uint8 sRGB under neutral light (see :func:`catalogue.glb.baked_albedo`)."""
+    from catalogue.glb import baked_albedo as bake
 
-    The cosmetic stack is evaluated by the renderer's own texture-space KM pass (``render.KMTextureSpace``,
-    spectral, on a standalone GL context) into R_top, T and R_bottom, and combined with the skin's albedo
-    ρ as the renderer's "unlit" view does: R_top + ρ·T² / (1 − R_bottom·ρ). The maps are evaluated at the
-    document's resolution; the skin's own detail above that resolution is kept.
-    """
-    import moderngl
-    from PIL import Image
-
-    from km.srgb import srgb_decode, srgb_encode
-    from render import KMTextureSpace, ShaderLibrary
-    from render.binding import layer_inputs
-
-    head = doc.head
-    albedo = head.albedo if head.albedo is not None else np.full((512, 512, 3), 200, np.uint8)
-    inputs = layer_inputs(doc, library)
-    if not any(inp.visible for inp in inputs):
-        return np.ascontiguousarray(albedo[..., :3])
-    ctx = moderngl.create_context(standalone=True, backend="egl")
-    try:
-        km = KMTextureSpace(ctx, ShaderLibrary(), dtype="f4")
-        try:
-            km.set_layers(inputs)
-            r_top, trans, r_bot = km.read()
-        finally:
-            km.release()
-    finally:
-        ctx.release()
-    res = r_top.shape[0]
-    hi = srgb_decode(albedo[..., :3].astype(np.float32) / 255.0)
-    small = srgb_decode(np.asarray(Image.fromarray(np.ascontiguousarray(albedo[..., :3]))
-                                   .resize((res, res), Image.BILINEAR)).astype(np.float32) / 255.0)
-    # what the makeup does to the skin at the maps' resolution: a gain (through it) and an offset (its own
-    # reflection), applied to the full-resolution skin so its detail stays
-    gain = trans * trans / np.maximum(1.0 - r_bot * small, 1e-4)
-    size = albedo.shape[1], albedo.shape[0]
-
-    def up(a: np.ndarray) -> np.ndarray:
-        return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(a[..., k], np.float32))
-                                    .resize(size, Image.BILINEAR)) for k in range(3)], axis=-1)
-
-    out = np.clip(up(r_top) + hi * up(gain), 0.0, 1.0)
-    return np.round(srgb_encode(out.astype(np.float64)) * 255.0).astype(np.uint8)  # float64, as km encodes
+    return bake(doc, library)
 
 
 def export_gltf(doc: Document, library: Library, path: str | Path, progress: Progress = lambda f, m: None,
                 cancelled: IsCancelled = lambda: False) -> Path:
-    """The head as glTF (.gltf) or binary glTF (.glb) with the baked made-up albedo."""
-    import trimesh
-    from PIL import Image
+    """The head as glTF (.gltf) or binary glTF (.glb) with the baked made-up albedo (:mod:`catalogue.glb`)."""
+    from catalogue.glb import write_gltf
 
-    path = Path(path)
-    if path.suffix.lower() not in (".glb", ".gltf"):
-        raise SheerError(f"{path}: the file name must end in .glb or .gltf")
     progress(0.1, "baking the makeup into the albedo")
-    tex = baked_albedo(doc, library)
     _check_cancel(cancelled)
-    progress(0.6, "writing the mesh")
-    head = doc.head
-    material = trimesh.visual.material.PBRMaterial(
-        name="sheer_madeup_skin", baseColorTexture=Image.fromarray(tex), metallicFactor=0.0, roughnessFactor=0.6)
-    visual = trimesh.visual.TextureVisuals(uv=head.uv, material=material)
-    mesh = trimesh.Trimesh(head.vertices, head.faces, vertex_normals=head.normals, visual=visual, process=False)
-    scene = trimesh.Scene(mesh)
-    scene.metadata["credit"] = head.credit
-    data = scene.export(file_type=path.suffix.lower()[1:])
-    from core.atomicio import atomic_write_bytes
-
-    if isinstance(data, dict):  # .gltf: several files
-        for name, blob in data.items():
-            atomic_write_bytes(path.parent / (path.name if name == "model.gltf" else name), blob)
-    else:
-        atomic_write_bytes(path, data)
+    write_gltf(doc, library, path)
     progress(1.0, "done")
-    return path
+    return Path(path)
 
 
 def render_image(head: Head, layers: list[LayerInput], camera: OrbitCamera, lighting: Lighting,

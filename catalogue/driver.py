@@ -1,0 +1,279 @@
+"""The Dask driver: a catalogue's jobs on an embedded ``LocalCluster`` or an existing Dask cluster.
+
+:func:`run_catalogue` checks the output folder, expands the spec, skips what is already rendered (names
+carry content hashes), and submits runs of jobs (:func:`catalogue.jobs.chunks`) to Dask distributed:
+by default a ``LocalCluster`` of worker *processes* with one thread each (each owns one headless GL context
+and its caches, :mod:`catalogue.worker`), or the scheduler at ``scheduler`` (workers started with
+``dask worker``). A worker that dies has its tasks rescheduled by Dask, and a rescheduled run skips the
+images already written. A job that fails is submitted once more on its own, then recorded in
+``failed.json``. At the end: ``manifest.json`` and ``manifest.csv`` (every output with its parameters, hash
+and timing) and a contact sheet per product and view (:mod:`catalogue.sheets`), all written atomically.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import os
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from catalogue.errors import CatalogueError
+from catalogue.jobs import chunks, expand, renderer_version
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    from catalogue.jobs import Job
+    from catalogue.spec import Spec
+
+#: ``on_progress(done, total, rendered, failed)``: outputs finished (including those already there), all
+#: outputs, rendered by this run, failed for good.
+Progress = Callable[[int, int, int, int], None]
+MANIFEST_SCHEMA_VERSION = 1
+CSV_FIELDS = ("file", "kind", "hash", "status", "head", "look", "product", "light", "view", "yaw", "pitch",
+              "width", "height", "mode", "seconds", "worker")
+
+
+@dataclass
+class RunResult:
+    """What a run did.
+
+    Attributes:
+        total: outputs in the catalogue. rendered: written by this run. skipped: already there.
+        failed: the failed jobs' records (as in ``failed.json``). seconds: wall-clock time of the run.
+        manifest: the manifest's path. dashboard: the Dask dashboard's URL, if there was one.
+        cancelled: the run was cancelled before it finished.
+    """
+
+    total: int = 0
+    rendered: int = 0
+    skipped: int = 0
+    failed: list[dict[str, Any]] = field(default_factory=list)
+    seconds: float = 0.0
+    manifest: Path | None = None
+    dashboard: str | None = None
+    cancelled: bool = False
+
+
+def check_output(out: str | Path) -> Path:
+    """Create the output folder if needed and prove it writable with a real (atomic) write.
+
+    Raises:
+        CatalogueError: a file in the way, no permission, a full or read-only disk (one line, named).
+    """
+    from core.atomicio import atomic_write_bytes
+
+    folder = Path(out).absolute()
+    if folder.exists() and not folder.is_dir():
+        raise CatalogueError(f"{out}: not a folder (a file is in the way)")
+    probe = folder / ".sheer-write-test"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(probe, b"\0" * 65536)  # a PNG's worth: a nearly full disk shows now
+        probe.unlink()
+    except OSError as exc:
+        raise CatalogueError(f"{out}: cannot write the catalogue here: {exc.strerror or exc}") from None
+    return folder
+
+
+@contextlib.contextmanager
+def dask_client(workers: int | None = None, scheduler: str | None = None) -> Iterator[Any]:
+    """A Dask ``Client``: on the scheduler at ``scheduler``, else on a new ``LocalCluster`` of processes.
+
+    Args:
+        workers: worker processes of the local cluster (default: the machine's cores), one thread each.
+        scheduler: e.g. ``tcp://host:8786``.
+
+    Raises:
+        CatalogueError: the scheduler cannot be reached.
+    """
+    import importlib.util
+
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except OSError as exc:
+            raise CatalogueError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = workers or os.cpu_count() or 1
+    dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
+    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=dashboard, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        yield client
+
+
+def dashboard_link(client: Any) -> str | None:
+    """The Dask dashboard's URL, when the scheduler serves one."""
+    try:
+        if "dashboard" in client.scheduler_info().get("services", {}):
+            return str(client.dashboard_link)
+    except Exception:
+        return None
+    return None
+
+
+def run_catalogue(spec: Spec, out: str | Path, *, jobs: list[Job] | None = None, workers: int | None = None,
+                  scheduler: str | None = None, client: Any = None, force: bool = False,
+                  on_progress: Progress | None = None, on_dashboard: Callable[[str], None] | None = None,
+                  cancelled: Callable[[], bool] | None = None) -> RunResult:
+    """Render every job of ``spec`` into ``out`` that is not there yet (see the module docstring).
+
+    Args:
+        spec: the checked spec (:func:`catalogue.spec.load_spec`).
+        out: the output folder (created).
+        jobs: the expansion of ``spec`` if already made.
+        workers: local worker processes (ignored with ``scheduler`` or ``client``).
+        scheduler: a Dask scheduler address to run on instead of a local cluster.
+        client: an existing ``distributed.Client`` (tests and benchmarks reuse one cluster).
+        force: render everything again.
+        on_progress: called as outputs finish.
+        on_dashboard: called with the dashboard URL once connected, if there is one.
+        cancelled: polled; True stops the run (what is written stays; the manifest lists it).
+
+    Returns:
+        What the run did; failures are in ``failed`` (and ``failed.json``), never raised.
+    """
+    t0 = time.time()
+    folder = check_output(out)
+    jobs = expand(spec) if jobs is None else jobs
+    result = RunResult(total=len(jobs))
+    todo = [j for j in jobs if force or not (folder / j.out).exists()]
+    result.skipped = len(jobs) - len(todo)
+    records: dict[str, dict[str, Any]] = {}
+    failed: dict[str, dict[str, Any]] = {}
+    if on_progress is not None:
+        on_progress(result.skipped, len(jobs), 0, 0)
+    if todo:
+        if client is not None:
+            _run_jobs(client, todo, folder, t0 if force else None, result, records, failed, on_progress,
+                      on_dashboard, cancelled)
+        else:
+            with dask_client(workers, scheduler) as own:
+                _run_jobs(own, todo, folder, t0 if force else None, result, records, failed, on_progress,
+                          on_dashboard, cancelled)
+    result.failed = list(failed.values())
+    result.rendered = sum(1 for r in records.values() if r["status"] in ("rendered", "exists"))
+    _write_outputs(spec, folder, jobs, records, result)
+    result.seconds = time.time() - t0
+    return result
+
+
+def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | None, result: RunResult,
+              records: dict[str, dict[str, Any]], failed: dict[str, dict[str, Any]], on_progress: Progress | None,
+              on_dashboard: Callable[[str], None] | None, cancelled: Callable[[], bool] | None) -> None:
+    """Submit ``todo`` in chunks, retry each failure once on its own, fill ``records`` and ``failed``."""
+    from distributed import as_completed
+
+    from catalogue.worker import render_chunk
+
+    result.dashboard = dashboard_link(client)
+    if result.dashboard and on_dashboard is not None:
+        on_dashboard(result.dashboard)
+    n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+    by_key = {j.key: j for j in todo}
+    attempts: dict[str, int] = dict.fromkeys(by_key, 0)
+    run_id = uuid.uuid4().hex[:8]
+    pending: dict[Any, list[Job]] = {}
+
+    def submit(chunk: list[Job]) -> Any:
+        for j in chunk:
+            attempts[j.key] += 1
+        fut = client.submit(render_chunk, chunk, str(folder), force_before, pure=False,
+                            key=f"sheer-catalogue-{run_id}-{uuid.uuid4().hex[:12]}")
+        pending[fut] = chunk
+        return fut
+
+    queue = as_completed([submit(c) for c in chunks(todo, n_workers)])
+    done = result.skipped
+    for fut in queue:
+        chunk = pending.pop(fut)
+        try:
+            outcomes = fut.result()
+        except Exception as exc:  # the task itself died (e.g. KilledWorker after repeated worker deaths)
+            reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+            outcomes = [{"key": j.key, "out": j.out, "status": "failed", "seconds": None, "error": reason,
+                         "worker": None} for j in chunk]
+        for res in outcomes:
+            job = by_key[res["key"]]
+            if res["status"] == "failed" and attempts[job.key] < 2:
+                queue.add(submit([job]))  # retried once, on its own (maybe on another worker)
+                continue
+            if res["status"] == "failed":
+                failed[job.key] = {"file": job.out, "hash": job.key, **job.params(), "error": res["error"],
+                                   "attempts": attempts[job.key], "worker": res["worker"]}
+            records[job.key] = res
+            done += 1
+        if on_progress is not None:
+            on_progress(done, result.total, sum(r["status"] == "rendered" for r in records.values()), len(failed))
+        if cancelled is not None and cancelled():
+            result.cancelled = True
+            client.cancel(list(pending))
+            break
+
+
+def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], records: dict[str, dict[str, Any]],
+                   result: RunResult) -> None:
+    """manifest.json, manifest.csv, failed.json (or its removal) and the contact sheets, atomically."""
+    import csv
+    import io
+
+    from catalogue.sheets import write_contact_sheets
+    from core.atomicio import atomic_write_text
+
+    old = _previous_manifest(folder)
+    images = []
+    for job in jobs:
+        rec = records.get(job.key)
+        prev = old.get(job.key, {})
+        if rec is None:  # there before the run (or never reached: cancelled)
+            exists = (folder / job.out).exists()
+            status = "skipped" if exists else ("cancelled" if result.cancelled else "missing")
+            seconds, worker = prev.get("seconds"), prev.get("worker")
+        elif rec["status"] == "exists":  # written by this run before its worker died; the rerun kept it
+            status, seconds, worker = "rendered", None, None
+        else:
+            status, seconds, worker = rec["status"], rec["seconds"], rec["worker"]
+        images.append({"file": job.out, "hash": job.key, **job.params(), "status": status, "seconds": seconds,
+                       "worker": worker})
+    manifest = {"schema_version": MANIFEST_SCHEMA_VERSION, "name": spec.name, "spec": str(spec.path.absolute()),
+                "renderer_version": renderer_version(), "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                "total": len(jobs), "rendered": result.rendered, "skipped": result.skipped,
+                "failed": len(result.failed), "images": images}
+    try:
+        atomic_write_text(folder / "manifest.json", json.dumps(manifest, indent=1))
+        buf = io.StringIO()
+        writer = csv.DictWriter(buf, fieldnames=CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(images)
+        atomic_write_text(folder / "manifest.csv", buf.getvalue())
+        failed_path = folder / "failed.json"
+        if result.failed:
+            atomic_write_text(failed_path, json.dumps({"failed": result.failed}, indent=1))
+        else:
+            failed_path.unlink(missing_ok=True)
+        if spec.contact_sheets:
+            write_contact_sheets(folder, jobs, only_if_changed=result.rendered == 0 and not result.failed)
+    except OSError as exc:
+        raise CatalogueError(f"{folder}: cannot write the manifest: {exc.strerror or exc}") from None
+    result.manifest = folder / "manifest.json"
+
+
+def _previous_manifest(folder: Path) -> dict[str, dict[str, Any]]:
+    """The previous run's manifest entries by hash (for the timings of skipped images), or {}."""
+    try:
+        data = json.loads((folder / "manifest.json").read_text(encoding="utf-8"))
+        return {e["hash"]: e for e in data.get("images", []) if isinstance(e, dict) and "hash" in e}
+    except (OSError, ValueError, TypeError, AttributeError):
+        return {}
