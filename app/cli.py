@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.kiosk",
     "app.commands.materials",
     "app.commands.render",
+    "app.commands.catalogue",
     "app.commands.project",
     "app.commands.capture",
     "app.commands.head",
