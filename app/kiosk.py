@@ -496,7 +496,7 @@ class KioskWindow(QWidget):
         from app.workers import wait_all
 
         wait_all(20000)
-        self.viewport.release_gl()
+        self.viewport.shutdown()
         event.accept()
 
     def keyPressEvent(self, event: QKeyEvent) -> None:  # noqa: N802

@@ -575,5 +575,5 @@ class StudioWindow(QMainWindow):
         from app.workers import wait_all
 
         wait_all(20000)
-        self.viewport.release_gl()
+        self.viewport.shutdown()
         event.accept()

@@ -1,4 +1,11 @@
-"""The 3D viewport: a QOpenGLWidget running the real renderer through moderngl, at full resolution.
+"""The 3D viewport: a QOpenGLWindow running the real renderer through moderngl.
+
+The GL surface is a ``QOpenGLWindow`` embedded with ``QWidget.createWindowContainer``: it draws straight
+to its own native window and swaps it, so a frame does not pay ``QOpenGLWidget``'s extra composition of
+the whole top-level window (≈ 20–25 ms a frame on llvmpipe at 1280×720 in a 1980×920 studio, measured by
+``sheer bench studio``: frame interval minus paintGL). :class:`Viewport` is the QWidget the windows lay
+out; its surface forwards input to it, and it draws the frame-time overlay and notices over the frame
+with a ``QPainter`` (widgets cannot be stacked over a native window).
 
 The renderer is ``render.Renderer`` inside :class:`render.view.ViewRenderer` (kept frame, brush ring,
 before/after split, lightweight mode).
@@ -16,6 +23,11 @@ before/after split, lightweight mode).
   the key light. Hovering shows the brush ring on the surface (a ring-only redraw reuses the last frame).
   Tablet pressure is read from ``QTabletEvent`` and applied to the mouse events Qt synthesises from it.
 - Picking reads the depth of the last frame the renderer drew (the current view).
+- Progressive refinement (:mod:`render.progressive`): while the user orbits, pans, zooms, moves the key
+  light or paints (every such input calls :meth:`Viewport.note_input`), frames are *interactive*: fast
+  mode at the internal scale that holds the frame budget (:attr:`Viewport.refine`), upscaled. When input
+  stops for :data:`SETTLE_MS`, the view *settles*: one full-resolution frame in fast mode, then, in the
+  reference mode, the reference frame. A dab's tiles are flushed before every frame, interactive or not.
 """
 
 from __future__ import annotations
@@ -25,10 +37,10 @@ import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from PySide6.QtCore import QPointF, Qt, Signal
-from PySide6.QtGui import QMouseEvent, QSurfaceFormat, QTabletEvent, QWheelEvent
-from PySide6.QtOpenGLWidgets import QOpenGLWidget
-from PySide6.QtWidgets import QLabel, QWidget
+from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, QTimer, Signal
+from PySide6.QtGui import QColor, QMouseEvent, QPainter, QSurfaceFormat, QTabletEvent, QWheelEvent
+from PySide6.QtOpenGL import QOpenGLWindow
+from PySide6.QtWidgets import QApplication, QVBoxLayout, QWidget
 
 from app.camera import Lighting, OrbitCamera
 
@@ -36,7 +48,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     import moderngl
-    from PySide6.QtCore import QEvent
+    from PySide6.QtGui import QImage, QOpenGLContext
 
     from capture.face import Face
     from km.library import Library
@@ -47,6 +59,11 @@ if TYPE_CHECKING:
     from render.view import ViewRenderer
 
 _PRELOAD: dict[str, Any] = {"task": None, "waiting": []}
+
+#: Quiet time after the last input before the view settles to its full-resolution frame (ms). Long
+#: enough that the pauses between a hand's mouse events (≤ ~50 ms) do not settle mid-drag, short enough
+#: that the full frame (≈ 60–70 ms here) is on screen within 300 ms of the hand stopping.
+SETTLE_MS = 120
 
 
 def renderer_modules_loaded() -> bool:
@@ -97,9 +114,98 @@ def default_surface_format() -> QSurfaceFormat:
     return fmt
 
 
-class Viewport(QOpenGLWidget):
-    """The studio's (and the kiosk's) 3D view of a document's head and layers."""
+class _Caption:
+    """A line of text drawn over the frame (the overlay, a notice): its text, colours and visibility."""
 
+    def __init__(self, colour: str, background: QColor) -> None:
+        self._text = ""
+        self._visible = False
+        self.colour = QColor(colour)
+        self.background = background
+
+    def text(self) -> str:
+        """The caption's text."""
+        return self._text
+
+    def setText(self, text: str) -> None:  # (the QLabel API it replaces)
+        """Set the text."""
+        self._text = text
+
+    def isVisible(self) -> bool:
+        """Whether it is drawn over the frame."""
+        return self._visible
+
+    def setVisible(self, on: bool) -> None:
+        """Show or hide it."""
+        self._visible = bool(on)
+
+    def draw(self, painter: QPainter, x: float, y: float, bottom: bool = False) -> None:
+        """Draw the caption's box with its top-left (or bottom-left if ``bottom``) corner at (x, y) px."""
+        lines = self._text.split("\n")
+        fm = painter.fontMetrics()
+        w = max(fm.horizontalAdvance(line) for line in lines) + 8
+        h = fm.height() * len(lines) + 6
+        top = y - h if bottom else y
+        painter.fillRect(QRectF(x, top, w, h), self.background)
+        painter.setPen(self.colour)
+        for i, line in enumerate(lines):
+            painter.drawText(QPointF(x + 4, top + 3 + fm.ascent() + i * fm.height()), line)
+
+
+class _Surface(QOpenGLWindow):
+    """The viewport's GL window: paints through the :class:`Viewport` and hands it every input event."""
+
+    def __init__(self, view: Viewport) -> None:
+        super().__init__(QOpenGLWindow.UpdateBehavior.NoPartialUpdate)
+        self.view = view
+        self.setFormat(default_surface_format())
+        # keyboard focus stays with the studio's widgets (their shortcuts), the view takes it on a click
+        self.setFlag(Qt.WindowType.WindowDoesNotAcceptFocus, True)
+
+    def initializeGL(self) -> None:
+        """The view's GL set-up."""
+        self.view.initializeGL()
+
+    def paintGL(self) -> None:
+        """The view's frame."""
+        self.view.paintGL()
+
+    def paintOverGL(self) -> None:
+        """The view's captions over the frame."""
+        self.view.paint_captions(self)
+
+    def mousePressEvent(self, event: QMouseEvent) -> None:
+        """To the view (which takes the keyboard focus)."""
+        self.view.setFocus(Qt.FocusReason.MouseFocusReason)
+        self.view.mousePressEvent(event)
+
+    def mouseMoveEvent(self, event: QMouseEvent) -> None:
+        """To the view."""
+        self.view.mouseMoveEvent(event)
+
+    def mouseReleaseEvent(self, event: QMouseEvent) -> None:
+        """To the view."""
+        self.view.mouseReleaseEvent(event)
+
+    def wheelEvent(self, event: QWheelEvent) -> None:
+        """To the view."""
+        self.view.wheelEvent(event)
+
+    def tabletEvent(self, event: QTabletEvent) -> None:
+        """To the view."""
+        self.view.tabletEvent(event)
+
+    def event(self, event: QEvent) -> bool:
+        """The pointer leaving the window reaches the view too (it hides the brush ring)."""
+        if event.type() == QEvent.Type.Leave:
+            self.view.leaveEvent(event)
+        return super().event(event)
+
+
+class Viewport(QWidget):
+    """The studio's (and the kiosk's) 3D view of a document's head and layers (see the module docstring)."""
+
+    frameSwapped = Signal()  # (QOpenGLWidget's name: a frame is on screen)
     stroke_begin = Signal(object, float)
     stroke_move = Signal(object, float)
     stroke_end = Signal()
@@ -109,8 +215,17 @@ class Viewport(QOpenGLWidget):
     renderer_ready = Signal()
 
     def __init__(self, head: Head, layout: UVLayout | None = None, parent: QWidget | None = None) -> None:
+        from render.progressive import AdaptiveScale
+
         super().__init__(parent)
-        self.setFormat(default_surface_format())
+        self.surface = _Surface(self)
+        self.surface.frameSwapped.connect(self.frameSwapped)
+        self.container: QWidget | None = QWidget.createWindowContainer(self.surface, self)
+        self._shut = False  # the GL window was deleted (shutdown)
+        self.container.setFocusPolicy(Qt.FocusPolicy.NoFocus)
+        box = QVBoxLayout(self)
+        box.setContentsMargins(0, 0, 0, 0)
+        box.addWidget(self.container)
         self.setMouseTracking(True)
         self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
         self.setMinimumSize(200, 150)
@@ -141,18 +256,92 @@ class Viewport(QOpenGLWidget):
         self._tablet = False
         self.frame_ms = 0.0
         self.render_ms = 0.0  # the last frame the renderer drew (not a ring-only redraw), finished
+        self.flush_ms = 0.0  # the last paintGL's share spent pushing document changes (dirty tiles' KM)
         self.frames = 0  # paintGL calls that drew the head (full frames and ring-only redraws)
         self.renderer_frames = 0  # frames the renderer drew
         self.first_frame_time: float | None = None
         self.gl_error_at_release: str | None = None
         self.full_quality_ready = False
-        self.overlay = QLabel(self)
-        self.overlay.setStyleSheet("color: #e8e8e8; background: rgba(0,0,0,120); padding: 3px;")
-        self.overlay.move(6, 6)
-        self.overlay.hide()
-        self.notice = QLabel(self)
-        self.notice.setStyleSheet("color: #ffe9a8; background: rgba(0,0,0,150); padding: 4px;")
-        self.notice.hide()
+        #: progressive refinement: the interactive frames' scale, and where the view is in settling
+        #: ("interactive" while input goes on, "settle" for the full fast frame, "final" once settled)
+        self.refine = AdaptiveScale()
+        self.stage = "final"
+        self.settled_frames = 0  # full-resolution frames drawn after input stopped (settle + final)
+        self.last_frame_interactive = False  # the last frame paintGL drew was an interactive one
+        self.last_input_time: float | None = None  # perf_counter of the last input (bench: settle time)
+        self._settle_timer = QTimer(self)
+        self._settle_timer.setSingleShot(True)
+        self._settle_timer.setInterval(SETTLE_MS)
+        self._settle_timer.timeout.connect(self._settle)
+        self.overlay = _Caption("#e8e8e8", QColor(0, 0, 0, 120))
+        self.notice = _Caption("#ffe9a8", QColor(0, 0, 0, 150))
+
+    # ------------------------------------------------------------------ the GL surface
+    def makeCurrent(self) -> None:  # (QOpenGLWidget's API)
+        """Make the surface's GL context current."""
+        if not self._shut:
+            self.surface.makeCurrent()
+
+    def doneCurrent(self) -> None:
+        """Release the surface's GL context."""
+        if not self._shut:
+            self.surface.doneCurrent()
+
+    def context(self) -> QOpenGLContext | None:
+        """The surface's GL context (None before it is shown)."""
+        return self.surface.context()
+
+    def defaultFramebufferObject(self) -> int:
+        """The surface's framebuffer (0: the window's own)."""
+        return int(self.surface.defaultFramebufferObject())
+
+    def grabFramebuffer(self) -> QImage:  # (QOpenGLWidget's API)
+        """The view as an image: a frame drawn for it (without the captions) and read back.
+
+        ``QOpenGLWindow.grabFramebuffer`` only reads the back buffer, which a swap leaves undefined, so the
+        frame is drawn again first (the kept frame makes that a copy unless the view changed).
+        """
+        from PySide6.QtGui import QImage
+
+        if self._shut or not self.surface.isValid():
+            return QImage()
+        self.surface.makeCurrent()
+        try:
+            self.paintGL()
+            return self.surface.grabFramebuffer()
+        finally:
+            self.surface.doneCurrent()
+
+    def update(self) -> None:  # type: ignore[override]
+        """Ask for a frame (Qt coalesces requests into one per pass of the event loop)."""
+        if not self._shut:
+            self.surface.update()
+
+    def repaint(self) -> None:  # type: ignore[override]
+        """Draw a frame now, if the surface is on screen (else at its next exposure)."""
+        if self._shut:
+            return
+        if self.surface.isExposed():
+            QApplication.sendEvent(self.surface, QEvent(QEvent.Type.UpdateRequest))
+        else:
+            self.surface.update()
+
+    def devicePixelRatioF(self) -> float:
+        """Device pixels per logical pixel of the surface."""
+        return float(self.surface.devicePixelRatio())
+
+    def paint_captions(self, device: _Surface) -> None:
+        """The overlay (top left) and the notice (bottom left) over the frame just drawn."""
+        if not (self.overlay.isVisible() or self.notice.isVisible()):
+            return
+        painter = QPainter(device)
+        try:
+            if self.overlay.isVisible():
+                self.overlay.draw(painter, 6, 6)
+            if self.notice.isVisible():
+                self.notice.draw(painter, 6, self.height() - 6, bottom=True)
+        finally:
+            painter.end()
 
     # ------------------------------------------------------------------ GL life cycle
     def initializeGL(self) -> None:
@@ -207,6 +396,24 @@ class Viewport(QOpenGLWidget):
                 self.ctx.release()
             self.ctx = None
             self.doneCurrent()
+
+    def shutdown(self) -> None:
+        """Release GL and delete the GL window now (the window closing for good).
+
+        A ``QOpenGLWindow`` left for Python's finaliser is destroyed after Qt's platform integration and
+        crashes the process at exit; deleting it while the application runs is clean. The view draws
+        nothing afterwards.
+        """
+        import shiboken6
+
+        self.release_gl()
+        if self._shut:
+            return
+        self._shut = True
+        self._settle_timer.stop()
+        container, self.container = self.container, None
+        if container is not None and shiboken6.isValid(container):
+            shiboken6.delete(container)  # deletes the embedded surface with it
 
     def pixel_size(self) -> tuple[int, int]:
         """The widget's size in device pixels (the size frames are rendered at)."""
@@ -268,6 +475,7 @@ class Viewport(QOpenGLWidget):
 
         t0 = time.perf_counter()
         self.apply_layer_changes()
+        self.flush_ms = (time.perf_counter() - t0) * 1000.0  # the document's changes (KM of dirty tiles)
         self.renderer.environment = self.environment
         self.renderer.layer_index = self.debug_layer_index
         ring = None
@@ -277,9 +485,13 @@ class Viewport(QOpenGLWidget):
         if self.renderer.face is not self.face:
             self.renderer.set_face(self.face)
         mode = self.mode if (self.mode != "lightweight" or self.face is not None) else "fast"
+        interactive = self.stage == "interactive" and self.debug == 0
+        frame_mode = "fast" if self.stage == "settle" and mode == "reference" else mode
+        scale = self.refine.scale
         try:
             drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting.key_light(),
-                                        split=self.split, debug=self.debug, mode=mode, ring=ring)
+                                        split=self.split, debug=self.debug, mode=frame_mode, ring=ring,
+                                        interactive=interactive, scale=scale)
         except Exception as exc:  # never a traceback: say so once; another mode falls back to fast
             import logging
 
@@ -298,26 +510,61 @@ class Viewport(QOpenGLWidget):
         self.frame_ms = (time.perf_counter() - t0) * 1000.0
         if drew:
             self.render_ms = self.frame_ms
+            if interactive and self.renderer.scale < 1.0:
+                self.refine.update(self.frame_ms, self.renderer.scale)
+            elif not interactive:
+                self.settled_frames += 1
+        self.last_frame_interactive = interactive and drew
+        if self.stage == "settle":  # the full fast frame is drawn: the reference frame (if any) next
+            self.stage = "final"
+            if mode == "reference":
+                QTimer.singleShot(0, self.update)
         self.frames += 1
         self.renderer_frames += int(drew)
         if self.first_frame_time is None:
             self.first_frame_time = time.perf_counter()
         self._show_notice(self.renderer.debug_hidden)
         if self.overlay.isVisible():
-            self.overlay.setText(f"{self.frame_ms:5.1f} ms  ({1000.0 / max(self.frame_ms, 1e-3):4.0f} fps)  "
-                                 f"{self.renderer.name} {mode}{'' if drew else ' (ring only)'}")
-            self.overlay.adjustSize()
+            self.overlay.setText(self.overlay_text(drew, frame_mode))
         self.frame_drawn.emit(self.frame_ms)
+
+    def overlay_text(self, drew: bool, mode: str) -> str:
+        """The frame-time overlay's text: the frame's time, interactive or settled, scale and budget."""
+        r = self.refine
+        kind = "ring only" if not drew else (
+            f"interactive {self.renderer.scale if self.renderer else 1.0:.2f}×" if self.last_frame_interactive
+            else "settled 1.00×")
+        text = (f"{self.frame_ms:5.1f} ms ({1000.0 / max(self.frame_ms, 1e-3):4.0f} fps)  {mode} · {kind}\n"
+                f"budget {r.budget_ms:.0f} ms · scale cap {r.max_scale:.2f}")
+        if r.over_budget:
+            text += f"\nover budget at the smallest scale ({r.min_scale:.2f}): the frame cannot be cheaper"
+        return text
+
+    # ------------------------------------------------------------------ progressive refinement
+    @property
+    def settled(self) -> bool:
+        """Input has stopped and the last frame drawn is the full-resolution frame of the current mode."""
+        return self.stage == "final" and not self.last_frame_interactive and not self._settle_timer.isActive()
+
+    def note_input(self) -> None:
+        """An input that changes the view or the makeup: draw interactive frames until it stops."""
+        self.last_input_time = time.perf_counter()
+        self.stage = "interactive"
+        self._settle_timer.start()
+        self.update()
+
+    def _settle(self) -> None:
+        """Input stopped: the full-resolution frame next (then the reference one in that mode)."""
+        if self._drag == "paint":  # the pen rests on the head mid-stroke: keep the stroke's frames cheap
+            self._settle_timer.start()
+            return
+        self.stage = "settle"
+        self.update()
 
     def _show_notice(self, hidden: bool) -> None:
         if hidden:
-            text = "Thickness view: the selected layer is hidden (show it to see its thickness)"
-            if self.notice.text() != text:
-                self.notice.setText(text)
-                self.notice.adjustSize()
-            self.notice.move(6, max(self.height() - self.notice.height() - 6, 0))
-        if self.notice.isVisible() != hidden:
-            self.notice.setVisible(hidden)
+            self.notice.setText("Thickness view: the selected layer is hidden (show it to see its thickness)")
+        self.notice.setVisible(hidden)
 
     # ------------------------------------------------------------------ inputs from the window
     def refresh(self) -> None:
@@ -377,6 +624,7 @@ class Viewport(QOpenGLWidget):
             if hit is not None:
                 self._drag = "paint"
                 self._ring = hit
+                self.note_input()
                 self.stroke_begin.emit(hit, self._pressure_now())
             else:
                 self._drag = "orbit"
@@ -396,19 +644,23 @@ class Viewport(QOpenGLWidget):
         self._last = pos
         if self._drag == "orbit":
             self.camera.orbit(-dx * 0.4, dy * 0.4)
+            self.note_input()
         elif self._drag == "pan":
             h = max(self.height(), 1)
             self.camera.pan(dx / h, dy / h)
+            self.note_input()
         elif self._drag == "light":
             az = self.lighting.azimuth + dx * 0.5
             el = float(np.clip(self.lighting.elevation - dy * 0.5, -80.0, 85.0))
             self.lighting.azimuth = (az + 180.0) % 360.0 - 180.0
             self.lighting.elevation = el
+            self.note_input()
             self.light_moved.emit(self.lighting.azimuth, el)
         elif self._drag == "paint":
             hit = self.pick(pos)
             if hit is not None:
                 self._ring = hit
+                self.note_input()
                 self.stroke_move.emit(hit, self._pressure_now())
         elif self.paint_enabled:
             # hovering moves the brush ring: quick frames while the mouse moves, a full one when it rests
@@ -422,9 +674,12 @@ class Viewport(QOpenGLWidget):
 
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:
         """End the drag (a stroke ends here)."""
-        if self._drag == "paint":
-            self.stroke_end.emit()
+        was = self._drag
         self._drag = None
+        if was == "paint":
+            self.stroke_end.emit()
+        if was is not None and self.stage == "interactive":
+            self._settle_timer.start()  # settle once the hand has been still for SETTLE_MS
         self.update()
 
     def leaveEvent(self, event: QEvent) -> None:
@@ -436,9 +691,9 @@ class Viewport(QOpenGLWidget):
         """Zoom: each notch scales the camera distance by 0.9 (in) or 1/0.9 (out)."""
         steps = event.angleDelta().y() / 120.0
         self.camera.zoom(math.pow(0.9, steps))
-        self.update()
+        self.note_input()
 
     def orbit_by(self, dyaw: float, dpitch: float = 0.0) -> None:
-        """Turn the view (the kiosk's attract mode, the benchmark)."""
+        """Turn the view (the kiosk's attract mode): an input like a drag (interactive frames, then settle)."""
         self.camera.orbit(dyaw, dpitch)
-        self.update()
+        self.note_input()

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bench.stats import spread
+from bench.stats import de2000_srgb8, spread
 from painting.tiles import TILE
 
 if TYPE_CHECKING:
@@ -134,12 +134,7 @@ def floor_shaders(folder: str | Path) -> ShaderLibrary:
 
 def mean_de2000(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> float:
     """Mean ΔE2000 between two uint8 sRGB images over ``mask`` (km's colour maths)."""
-    from km.colour import delta_e2000, linear_rgb_to_lab
-    from km.srgb import srgb_decode
-
-    la = linear_rgb_to_lab(srgb_decode(a[mask].astype(np.float64) / 255.0))
-    lb = linear_rgb_to_lab(srgb_decode(b[mask].astype(np.float64) / 255.0))
-    return float(np.mean(delta_e2000(la, lb)))
+    return float(np.mean(de2000_srgb8(a, b, mask)))
 
 
 def _size(text: str) -> tuple[int, int]:

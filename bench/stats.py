@@ -25,3 +25,13 @@ def spread(key: str, values: Sequence[float], digits: int = 2) -> dict[str, floa
     arr = np.asarray(values, dtype=np.float64)
     return {key: round(float(np.median(arr)), digits), f"{key}_p90": round(float(np.percentile(arr, 90)), digits),
             f"{key}_max": round(float(arr.max()), digits)}
+
+
+def de2000_srgb8(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """ΔE2000 between two uint8 sRGB images (H, W, 3) at the pixels of ``mask`` (bool (H, W)), km's maths."""
+    from km.colour import delta_e2000, linear_rgb_to_lab
+    from km.srgb import srgb_decode
+
+    la = linear_rgb_to_lab(srgb_decode(a[mask].astype(np.float64) / 255.0))
+    lb = linear_rgb_to_lab(srgb_decode(b[mask].astype(np.float64) / 255.0))
+    return np.asarray(delta_e2000(la, lb), np.float64)

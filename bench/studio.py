@@ -10,17 +10,21 @@ Every timed series reports its median under the key's plain name and, beside it,
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import shutil
-import statistics
 import subprocess
 import sys
 import time
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+
+    from PySide6.QtCore import QEvent, Qt
 
     from app.viewport import Viewport
 
@@ -47,8 +51,8 @@ def main(argv: list[str]) -> int:
     t_start = time.perf_counter() - _process_age_s()
     p = argparse.ArgumentParser(prog="sheer bench studio", description=__doc__)
     p.add_argument("--json", action="store_true", help="print one JSON object (the only format)")
-    p.add_argument("--frames", type=int, default=40, help="orbit frames to time")
-    p.add_argument("--dabs", type=int, default=20, help="dabs to time")
+    p.add_argument("--orbit-seconds", type=float, default=3.0, help="length of the orbit drag (s)")
+    p.add_argument("--dab-seconds", type=float, default=1.5, help="length of the painting drag (s)")
     p.add_argument("--resolution", type=int, default=None,
                    help="paint resolution (texels; default: the studio's, app.settings.DEFAULT_RESOLUTION)")
     args = p.parse_args(argv)
@@ -63,7 +67,6 @@ def main(argv: list[str]) -> int:
 
     import tempfile
 
-    import numpy as np
     from PySide6.QtCore import QPointF, QSettings
     from PySide6.QtWidgets import QApplication
 
@@ -90,7 +93,7 @@ def main(argv: list[str]) -> int:
         raise SheerError("bench studio: the viewport drew no frame within 120 s")
     startup = vp.first_frame_time - t_start
 
-    # orbit at 1280×720 in fast mode: each timed frame is a new view drawn by render.Renderer, finished
+    # orbit at 1280×720 in fast mode, driven by real input events (a right-button drag)
     win.settings.render_mode = "fast"
     win.apply()
     vp.setFixedSize(1280, 720)
@@ -98,57 +101,71 @@ def main(argv: list[str]) -> int:
     for _ in range(20):
         QApplication.processEvents()
     size = vp.pixel_size()
-    times, paint_ms = _timed_orbit(vp, args.frames)
-    orbit_fps = 1.0 / statistics.median(times)
+    probe = _PresentProbe(vp)
+    _wait_until(lambda: vp.settled, 10.0)
+    orbit = _drag(vp, probe, "orbit", args.orbit_seconds, step_px=5)
+    settle = _settle_time(vp, probe, orbit["last_event"])
 
-    # dab → frame on screen: the dab (painting), its tiles' KM update and the new frame, finished
+    # the same pose, interactive and settled: how far the interactive frame is from the full one
+    de_mean, de_p95, inter_scale = _interactive_vs_settled(vp)
+
+    # dab → frame on screen: a real left-button drag on the face, each move a dab
     vp.orbit_by(-vp.camera.yaw)
-    _draw_frame(vp)
-    cx, cy = size[0] // 2, size[1] // 2
-    dpr = vp.devicePixelRatioF()
-    hit = vp.pick(QPointF(cx / dpr, cy / dpr))
+    _wait_until(lambda: vp.settled, 10.0)
     win.add_layer(next(iter(win.library)).name)
     _draw_frame(vp)  # the new layer's full evaluation is not a dab
-    lat, upd = [], []
-    if hit is not None:
-        win._stroke_begin(hit, 1.0)
-        _draw_frame(vp)
-        for i in range(args.dabs):
-            t0 = time.perf_counter()
-            p = vp.pick(QPointF((cx + 2 * i) / dpr, cy / dpr))
-            win._stroke_move(p if p is not None else np.asarray(hit), 1.0)
-            # the dab's share: painting + the texture-space KM of its tiles (what the resolution changes)
-            vp.makeCurrent()
-            vp.apply_layer_changes()
-            vp.ctx.finish()
-            vp.doneCurrent()
-            upd.append(time.perf_counter() - t0)
-            _draw_frame(vp)
-            lat.append(time.perf_counter() - t0)
-        win._stroke_end()
+    _wait_until(lambda: vp.settled, 10.0)
+    cx, cy = vp.width() / 2, vp.height() / 2
+    if vp.pick(QPointF(cx - 60, cy)) is None:
+        raise SheerError("bench studio: the stroke's start is not on the face")
+    paint = _drag(vp, probe, "paint", args.dab_seconds, step_px=2, start=(cx - 60, cy))
+    _wait_until(lambda: vp.settled, 10.0)
     layer_res = int(win.doc.layers[-1].thickness.shape[0]) if win.doc.layers else None
     dabs: dict[str, float | None] = {}
-    for key, series in (("dab_to_frame_ms", lat), ("dab_update_ms", upd)):
-        dabs.update(spread(key, [s * 1000.0 for s in series], 1) if series
-                    else dict.fromkeys((key, f"{key}_p90", f"{key}_max")))
+    for key, series in (("dab_to_frame_ms", paint["latencies_ms"]), ("dab_update_ms", paint["update_ms"])):
+        dabs.update(spread(key, series, 1) if series else dict.fromkeys((key, f"{key}_p90", f"{key}_max")))
     result = {
         "startup_to_first_frame_s": round(startup, 3),
-        "orbit_fps": round(orbit_fps, 1),
-        **spread("orbit_frame_ms", [t * 1000.0 for t in times], 2),
-        **spread("orbit_paintgl_ms", paint_ms, 1),
+        "orbit_fps": round(orbit["fps"], 1),
+        **spread("orbit_frame_ms", orbit["intervals_ms"], 2),
+        **spread("orbit_paintgl_ms", orbit["paint_ms"], 1),
+        "orbit_frames_presented": orbit["presented"],
+        "orbit_input_events": orbit["events"],
+        "orbit_event_deliveries": orbit["deliveries"],
+        "orbit_interactive_scale": float(np.median(orbit["scales"])) if orbit["scales"] else None,
+        "settle_ms": round(settle, 1),
+        "interactive_vs_settled_de2000": round(de_mean, 3),
+        "interactive_vs_settled_de2000_p95": round(de_p95, 3),
+        "interactive_scale_compared": inter_scale,
         "viewport_px": list(size),
         **dabs,
+        **spread("dab_frame_paintgl_ms", paint["paint_ms"], 1),
+        **spread("dab_frame_flush_ms", paint["flush_ms"], 1),
+        "first_dab_ms": None if paint["first_ms"] is None else round(paint["first_ms"], 1),
+        "dabs_presented": len(paint["latencies_ms"]),
         "paint_resolution": layer_res,
         "render_mode": "fast",
+        "interactive_budget_ms": vp.refine.budget_ms,
+        "interactive_scale_cap": vp.refine.max_scale,
         "load_average_1min": round(os.getloadavg()[0], 2),
         "cpus": os.cpu_count(),
         "renderer_frames": vp.renderer_frames,
-        "note": "every timed frame is drawn by render.Renderer at the viewport's full size (no preview, no "
-                "reduced resolution) and finished on the GPU (ctx.finish) before the clock stops; "
-                "orbit_paintgl_ms is the viewport's share of an orbit step (the rest: Qt, window composition); "
-                "dab_update_ms is a dab's share of dab_to_frame_ms (painting + texture-space KM of its tiles)",
+        "note": "input is real Qt mouse events delivered to the window (QTest on its QWindow) on a fixed "
+                "100 Hz schedule (moves overdue behind a frame coalesced into one, as X11 compresses motion); a frame counts when it is presented (QOpenGLWidget.frameSwapped, after the "
+                "window's composition and swap). orbit_fps = frames presented / orbit time; orbit_frame_ms = "
+                "intervals between presented frames; orbit_paintgl_ms = the viewport's paintGL per orbit "
+                "frame (the rest: Qt, composition); dab_to_frame_ms = from a dab's scheduled event time to "
+                "the presentation of the first frame containing it; first_dab_ms = the session's first dab "
+                "(the stroke's press) to its frame; settle_ms = from the last input event to the "
+                "full-resolution frame presented; interactive_vs_settled_de2000 = mean ΔE2000 over skin "
+                "pixels of one pose drawn interactive (scale: interactive_scale_compared) and settled; "
+                "dab_update_ms = the handling of one (coalesced) move event: pick + painting the dabs; "
+                "dab_frame_paintgl_ms = paintGL of a frame while painting, dab_frame_flush_ms its share pushing "
+                "the dirty tiles to the GPU (texture-space KM)",
         "backends": dict(BACKENDS),
-        "targets": {"startup_to_first_frame_s": 3.0, "orbit_fps": 15.0, "dab_to_frame_ms": 100.0},
+        "targets": {"startup_to_first_frame_s": 3.0, "orbit_fps": 24.0, "dab_to_frame_ms": 60.0,
+                    "dab_to_frame_ms_max": 120.0, "settle_ms": 300.0, "interactive_vs_settled_de2000": 2.0,
+                    "first_dab_ms": "≤ 2 × dab_to_frame_ms"},
     }
     win.setWindowModified(False)  # the bench's strokes are not kept: close without the save question
     win.close()
@@ -156,27 +173,137 @@ def main(argv: list[str]) -> int:
     return 0
 
 
-def _timed_orbit(vp: Viewport, frames: int) -> tuple[list[float], list[float]]:
-    """Time ``frames`` orbit steps of 2° each, each a new frame drawn by the renderer.
+class _PresentProbe:
+    """Every new frame the viewport presents: (time, frame number, interactive, scale, paintGL ms, flush ms).
 
-    Returns:
-        The seconds of each step, and the milliseconds of each step spent in the viewport's paintGL
-        (the renderer, finished; the rest is Qt composing the window). The first 3 steps are untimed.
+    A frame is presented when ``QOpenGLWidget.frameSwapped`` fires (after the window's composition and
+    swap) and the viewport's paintGL ran since the last one.
     """
+
+    def __init__(self, vp: Viewport) -> None:
+        self.vp = vp
+        self.presents: list[tuple[float, int, bool, float, float, float]] = []
+        self._last_frame = vp.frames
+        vp.frameSwapped.connect(self._swapped)
+
+    def _swapped(self) -> None:
+        vp = self.vp
+        if vp.frames == self._last_frame:
+            return  # a composition without a new frame of ours
+        self._last_frame = vp.frames
+        scale = vp.renderer.scale if vp.renderer is not None else 1.0
+        self.presents.append((time.perf_counter(), vp.frames, vp.last_frame_interactive, scale, vp.frame_ms,
+                              vp.flush_ms))
+
+
+def _send_mouse(vp: Viewport, kind: QEvent.Type, x: float, y: float, button: Qt.MouseButton,
+                held: Qt.MouseButton) -> None:
+    """Deliver one mouse event at viewport position (``x``, ``y``) to the viewport's top-level window.
+
+    Sent to the ``QWindow`` (not the widget): Qt's own dispatch finds the widget under the pointer, or the
+    one holding the mouse grab during a drag, exactly as for an event from the window system.
+    """
+    from PySide6.QtCore import QPoint, QPointF, Qt
+    from PySide6.QtGui import QMouseEvent
+    from PySide6.QtWidgets import QApplication
+
+    window = vp.window().windowHandle()
+    local = QPointF(vp.mapTo(vp.window(), QPoint(int(round(x)), int(round(y)))))
+    event = QMouseEvent(kind, local, QPointF(window.mapToGlobal(local.toPoint())), button, held,
+                        Qt.KeyboardModifier.NoModifier)
+    QApplication.sendEvent(window, event)
+
+
+def _drag(vp: Viewport, probe: _PresentProbe, kind: str, seconds: float, step_px: int,
+          start: tuple[float, float] | None = None, rate_hz: float = 100.0) -> dict[str, Any]:
+    """A drag of real mouse events delivered to the window on a fixed schedule; what reached the screen.
+
+    ``kind`` is ``"orbit"`` (right button) or ``"paint"`` (left button on the face: each move a dab).
+    Moves are due every 1/``rate_hz`` s. When a frame delays the loop, the overdue moves are coalesced into
+    one event at the newest position, as X11 (and Qt's xcb plugin) compresses queued pointer motion; each
+    keeps its scheduled time, so a latency includes the wait behind the frame in progress, as a hand feels it.
+    """
+    from PySide6.QtCore import QEvent, Qt
+    from PySide6.QtWidgets import QApplication
+
+    button = Qt.MouseButton.RightButton if kind == "orbit" else Qt.MouseButton.LeftButton
+    none = Qt.MouseButton.NoButton
+    x, y = start if start is not None else (vp.width() / 2, vp.height() / 2)
+    n_events = int(seconds * rate_hz)
+    period = 1.0 / rate_hz
+    first_present = len(probe.presents)
+    events: list[tuple[float, int]] = []  # (scheduled time, the viewport's frame counter when delivered)
+    update_ms: list[float] = []
+    frames_at_press = vp.frames
+    t_press = time.perf_counter()
+    _send_mouse(vp, QEvent.Type.MouseButtonPress, x, y, button, button)
+    t0 = time.perf_counter()
+    k = 0
+    while k < n_events:
+        now = time.perf_counter()
+        due = [t0 + i * period for i in range(k, n_events) if t0 + i * period <= now]
+        if due:
+            x += step_px * len(due)
+            t_in = time.perf_counter()
+            _send_mouse(vp, QEvent.Type.MouseMove, x, y, none, button)
+            update_ms.append((time.perf_counter() - t_in) * 1000.0)
+            events += [(t, vp.frames) for t in due]
+            k += len(due)
+        QApplication.processEvents()
+    t_end = t0 + (n_events - 1) * period
+    last_frames = events[-1][1] if events else vp.frames
+    _wait_until(lambda: len(probe.presents) > first_present and probe.presents[-1][1] > last_frames, 5.0)
+    presents = probe.presents[first_present:]
+    _send_mouse(vp, QEvent.Type.MouseButtonRelease, x, y, button, none)
+    during = [p for p in presents if p[0] <= t_end + 0.001]
+    times = [p[0] for p in during]
+    intervals = [(b - a) * 1000.0 for a, b in itertools.pairwise(times)]
+    lat = []
+    for t_sched, frames_before in events:
+        shown = next((p for p in presents if p[1] > frames_before), None)
+        if shown is not None:
+            lat.append((shown[0] - t_sched) * 1000.0)
+    first_ms = None
+    if kind == "paint":
+        shown = next((p for p in presents if p[1] > frames_at_press), None)
+        first_ms = None if shown is None else (shown[0] - t_press) * 1000.0
+    fps = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 2 else 0.0
+    return {"fps": fps, "intervals_ms": intervals or [0.0], "presented": len(during), "events": n_events,
+            "deliveries": len(update_ms), "paint_ms": [p[4] for p in during] or [0.0],
+            "flush_ms": [p[5] for p in during] or [0.0],
+            "scales": [p[3] for p in during if p[2]], "latencies_ms": lat,
+            "update_ms": update_ms if kind == "paint" else [], "first_ms": first_ms, "last_event": t_end}
+
+
+def _settle_time(vp: Viewport, probe: _PresentProbe, t_last: float) -> float:
+    """Milliseconds from the last input event (``t_last``, perf_counter) to the full frame presented."""
     from core.errors import SheerError
 
-    times, paint = [], []
-    for i in range(frames + 3):
-        t0 = time.perf_counter()
-        before = vp.renderer_frames
-        vp.orbit_by(2.0)
-        _draw_frame(vp)
-        if vp.renderer_frames != before + 1:
-            raise SheerError("bench studio: an orbit step did not draw a new frame")
-        if i >= 3:
-            times.append(time.perf_counter() - t0)
-            paint.append(vp.render_ms)
-    return times, paint
+    n = len([p for p in probe.presents if p[0] <= t_last])
+    _wait_until(lambda: vp.settled and any(not p[2] for p in probe.presents[n:]), 5.0)
+    settled = next((p for p in probe.presents[n:] if not p[2]), None)
+    if settled is None:
+        raise SheerError("bench studio: the view did not settle within 5 s of the last input")
+    return (settled[0] - t_last) * 1000.0
+
+
+def _interactive_vs_settled(vp: Viewport) -> tuple[float, float, float]:
+    """Mean and 95th percentile ΔE2000 over skin pixels of one pose, settled vs interactive; the scale."""
+    from app.qt_compat import qimage_to_rgb
+    from bench.stats import de2000_srgb8
+
+    settled = qimage_to_rgb(vp.grabFramebuffer())
+    vp.makeCurrent()
+    skin = vp.renderer.r.skin_pixel_mask()
+    vp.doneCurrent()
+    vp.note_input()  # the same pose, drawn as an interactive frame
+    interactive = qimage_to_rgb(vp.grabFramebuffer())
+    scale = float(vp.renderer.scale)
+    _wait_until(lambda: vp.settled, 5.0)
+    if skin.shape != settled.shape[:2] or not skin.any():
+        return float("nan"), float("nan"), scale
+    de = de2000_srgb8(settled, interactive, skin)
+    return float(np.mean(de)), float(np.percentile(de, 95)), scale
 
 
 def _wait_until(cond: Callable[[], bool], timeout: float) -> None:

@@ -32,6 +32,10 @@ if TYPE_CHECKING:
     from painting.layout import UVLayout
     from render.km_pass import LayerInput
 
+#: Frame target sets kept (by size): the interactive and the full-resolution frame, and one more for a
+#: resize or a scale change in between.
+KEPT_TARGET_SIZES = 3
+
 # texture units of the lit pass
 _U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 24, 25
 
@@ -84,6 +88,7 @@ class Renderer:
         self._baseline: moderngl.Program | None = None
         self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
         self._targets: dict[str, Any] = {}  # textures and framebuffers by name (see _ensure_targets)
+        self._target_sets: dict[tuple[int, int], dict[str, Any]] = {}  # by size, least recently used first
         self._size: tuple[int, int] = (0, 0)
         self.last = FrameInfo()
 
@@ -106,13 +111,26 @@ class Renderer:
 
     # -- targets ----------------------------------------------------------------------------------
     def _ensure_targets(self, size: tuple[int, int]) -> None:
-        """The frame's targets at ``size`` (made again only when the size changes)."""
+        """The frame's targets at ``size``, kept for the last :data:`KEPT_TARGET_SIZES` sizes.
+
+        Progressive refinement alternates between an interactive (reduced) size and the full one: both
+        sets stay, so neither is made again each time the view settles or starts moving.
+        """
         if size == self._size:
             return
-        old = list(self._targets.values())
-        self._targets = frame_targets(self.ctx, size)  # binds the new G-buffer: the old ones are free to go
-        for obj in old:
-            obj.release()
+        sets = self._target_sets
+        if size in sets:
+            sets[size] = sets.pop(size)  # most recent last
+        else:
+            sets[size] = frame_targets(self.ctx, size)
+            while len(sets) > KEPT_TARGET_SIZES:
+                old_size = next(iter(sets))
+                old = sets.pop(old_size)
+                sets[size]["gbuffer"].use()  # never leave a freed framebuffer bound
+                for obj in old.values():
+                    obj.release()
+        self._targets = sets[size]
+        self._targets["gbuffer"].use()
         self._size = size
 
     # -- programs ---------------------------------------------------------------------------------
@@ -449,13 +467,15 @@ class Renderer:
 
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
-        objs: list[Any] = [*self._frame_programs.values(), *self._composites.values(), *self._targets.values()]
+        objs: list[Any] = [*self._frame_programs.values(), *self._composites.values(),
+                           *(o for t in self._target_sets.values() for o in t.values())]
         if self._baseline is not None:
             objs.append(self._baseline)
         from render.glutil import release_all
 
         release_all(self.ctx, objs)
-        self._frame_programs, self._targets = {}, {}
+        self._frame_programs, self._targets, self._target_sets = {}, {}, {}
+        self._size = (0, 0)
         self.sss.release()
         self._composites = {}
         self.km.release()

@@ -75,6 +75,8 @@ class ViewRenderer:
         frames_drawn: frames drawn by an engine (not ring-only redraws).
         face: a captured face (``capture.face.Face``) for the lightweight mode, or None.
         drawn_by: the mode that drew the kept frame.
+        interactive: the kept frame is an interactive one (see :meth:`render`).
+        scale: the kept frame's internal scale, (0, 1] (1: full resolution).
     """
 
     name = "render.Renderer"
@@ -91,10 +93,12 @@ class ViewRenderer:
         self.copy_prog = self.r.shaders.program(ctx, "frame_copy.vert", "frame_copy.frag")
         self.copy_vao = ctx.vertex_array(self.copy_prog, [])
         self._frame: moderngl.Framebuffer | None = None  # the made-up frame (colour) + the mesh's depth
+        self._low: moderngl.Framebuffer | None = None  # an interactive frame at its reduced size
+        self._low_before: moderngl.Framebuffer | None = None  # its bare twin for the split
         self._before: moderngl.Framebuffer | None = None  # the bare skin, for the before/after split
         self._before_lw: moderngl.Framebuffer | None = None  # its colour with a depth buffer (lightweight)
         self._scene_key: Hashable = None
-        self._depth_key: Hashable = None  # the scene whose mesh depth _frame holds
+        self._depth_key: Hashable = None  # the view (size, camera) whose mesh depth _frame holds
         self._blit_ok = True
         self._env: str | None = None
         self.environment = "none"
@@ -104,6 +108,8 @@ class ViewRenderer:
         self.face: Any = None
         self._lw: LightweightRenderer | None = None  # the lightweight engine, created on first use
         self.drawn_by = ""
+        self.interactive = False  # the kept frame is an interactive one (reduced scale, fast mode)
+        self.scale = 1.0  # the kept frame's internal scale (1.0: full resolution)
 
     # ------------------------------------------------------------------ the lightweight engine
     def set_face(self, face: Any) -> None:
@@ -171,7 +177,8 @@ class ViewRenderer:
         return self._frame, self._before if split else None
 
     def render(self, fbo: moderngl.Framebuffer, size: tuple[int, int], camera: OrbitCamera, key_light: Light, *,
-               split: float = 0.0, debug: int = 0, mode: str = "fast", ring: BrushRing | None = None) -> bool:
+               split: float = 0.0, debug: int = 0, mode: str = "fast", ring: BrushRing | None = None,
+               interactive: bool = False, scale: float = 1.0) -> bool:
         """Draw the view into ``fbo``.
 
         Args:
@@ -183,27 +190,40 @@ class ViewRenderer:
             debug: an index into :func:`debug_views` (0 = the image).
             mode: one of :data:`RENDER_MODES`.
             ring: the brush ring to draw over the frame, or None.
+            interactive: an interactive frame (progressive refinement, :mod:`render.progressive`): the
+                physical renderer draws in fast mode at ``scale`` of ``size`` and the frame is upscaled
+                (bilinear) to ``size``; the lightweight engine, cheap enough, always draws at full size.
+            scale: the interactive frame's internal scale, in (0, 1]; ignored for a full frame.
 
         Returns:
             True when an engine drew a new frame, False when the kept frame was reused (only the ring moved).
         """
+        from render.progressive import scaled_size
+
         w, h = size
         # bind the target first: creating a framebuffer makes moderngl re-bind the one it last knew, which
         # may be the widget's previous one (Qt replaces it on a resize): GL_INVALID_OPERATION
         fbo.use()
         frame, before = self._targets((w, h), split > 0.0)
-        key = (w, h, float(camera.yaw), float(camera.pitch), float(camera.distance),
-               tuple(np.asarray(camera.target, float).tolist()), float(camera.fov_y),
-               dataclasses.astuple(key_light), self.environment, float(split), int(debug), mode,
-               self.layer_index, self.r.km.version)
+        low_size = scaled_size((w, h), scale) if interactive and mode != "lightweight" else (w, h)
+        reduced = low_size != (w, h)
+        view_key = (w, h, float(camera.yaw), float(camera.pitch), float(camera.distance),
+                    tuple(np.asarray(camera.target, float).tolist()), float(camera.fov_y))
+        key = (*view_key, dataclasses.astuple(key_light), self.environment, float(split), int(debug),
+               "fast" if reduced else mode, low_size, self.layer_index, self.r.km.version)
         fresh = key != self._scene_key
         if fresh:
-            self._sync(camera, key_light, debug, mode)
+            self._sync(camera, key_light, debug, "fast" if reduced else mode)
             if mode == "lightweight":
                 self._draw_lightweight(frame, before)
+            elif reduced:
+                self._draw_reduced(before is not None, low_size)
             else:
                 self._draw_physical(frame, before)
+                self._depth_key = None  # the renderer cleared the frame's depth
             self.drawn_by = mode
+            self.interactive = bool(interactive)
+            self.scale = low_size[1] / h if reduced else 1.0
             self._scene_key = key
             self.frames_drawn += 1
         fbo.use()
@@ -211,16 +231,9 @@ class ViewRenderer:
         ctx.viewport = (0, 0, w, h)
         ctx.scissor = None
         ctx.disable(ctx.DEPTH_TEST | ctx.BLEND)
-        if before is not None:
-            self._draw_quad(frame.color_attachments[0], 1.0)
-            self._draw_quad(before.color_attachments[0], float(split) * 2.0 - 1.0)
-            ctx.scissor = (max(int(split * w) - 1, 0), 0, 2, h)
-            fbo.clear(1.0, 1.0, 1.0, 1.0)
-            ctx.scissor = None
-        else:
-            self._copy_frame(fbo, frame)
+        self._show(fbo, frame, before, split)
         if ring is not None:
-            self._draw_ring(fbo, frame, camera, ring)
+            self._draw_ring(fbo, frame, camera, ring, view_key)
         return fresh
 
     def _draw_physical(self, frame: moderngl.Framebuffer, before: moderngl.Framebuffer | None) -> None:
@@ -233,6 +246,35 @@ class ViewRenderer:
             finally:
                 s.makeup = True
         self.r.render(frame, (0, 0, *frame.size))
+
+    def _draw_reduced(self, before: bool, low_size: tuple[int, int]) -> None:
+        """An interactive frame: the physical renderer at ``low_size`` into the interactive targets.
+
+        The renderer never reads outside its own targets, which are exactly ``low_size``; the frame is
+        upscaled (bilinear) when it is drawn into the view (:meth:`_show`), so an interactive frame costs
+        one full-resolution pass, not an upscale and a copy. The kept full frame and its depth (the
+        ring's) are left as they are.
+        """
+        low, low_before = self._low_targets(low_size, before)
+        self._draw_physical(low, low_before)
+
+    def _low_targets(self, size: tuple[int, int], split: bool) -> tuple[moderngl.Framebuffer,
+                                                                           moderngl.Framebuffer | None]:
+        """The interactive frame's colour targets at ``size`` (and the bare one if ``split``)."""
+        from render.glutil import release_all
+
+        if self._low is not None and self._low.size != size:
+            release_all(self.ctx, [o for fb in (self._low, self._low_before) if fb is not None
+                                   for o in (*fb.color_attachments, fb)])
+            self._low = self._low_before = None
+        for name in ("_low", "_low_before") if split else ("_low",):
+            if getattr(self, name) is None:
+                tex = self.ctx.texture(size, 4)
+                tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+                tex.repeat_x = tex.repeat_y = False
+                setattr(self, name, self.ctx.framebuffer([tex]))
+        assert self._low is not None
+        return self._low, self._low_before if split else None
 
     def _draw_lightweight(self, frame: moderngl.Framebuffer, before: moderngl.Framebuffer | None) -> None:
         """The kept frame, and the bare one for the split, by the lightweight engine."""
@@ -254,6 +296,23 @@ class ViewRenderer:
             self._before_lw = self.ctx.framebuffer(before.color_attachments, self.ctx.depth_renderbuffer(before.size))
         return self._before_lw
 
+    def _show(self, fbo: moderngl.Framebuffer, frame: moderngl.Framebuffer, before: moderngl.Framebuffer | None,
+              split: float) -> None:
+        """The kept frame (upscaled if interactive), and the bare one left of the split, into ``fbo``."""
+        w, h = frame.size
+        if self.scale < 1.0 and self._low is not None:
+            frame, before = self._low, self._low_before if before is not None else None
+        if before is not None:
+            self._draw_quad(frame.color_attachments[0], 1.0)
+            self._draw_quad(before.color_attachments[0], float(split) * 2.0 - 1.0)
+            self.ctx.scissor = (max(int(split * w) - 1, 0), 0, 2, h)
+            fbo.clear(1.0, 1.0, 1.0, 1.0)
+            self.ctx.scissor = None
+        elif frame.size != (w, h):
+            self._draw_quad(frame.color_attachments[0], 1.0)  # bilinear upscale of an interactive frame
+        else:
+            self._copy_frame(fbo, frame)
+
     def _copy_frame(self, fbo: moderngl.Framebuffer, frame: moderngl.Framebuffer) -> None:
         """The kept frame into ``fbo``.
 
@@ -270,13 +329,17 @@ class ViewRenderer:
         self._draw_quad(frame.color_attachments[0], 1.0)
 
     def _draw_ring(self, fbo: moderngl.Framebuffer, frame: moderngl.Framebuffer, camera: OrbitCamera,
-                   ring: BrushRing) -> None:
-        """The brush ring against the mesh's depth (drawn into the kept frame once per scene)."""
+                   ring: BrushRing, view_key: Hashable) -> None:
+        """The brush ring against the mesh's depth (drawn into the kept frame once per view).
+
+        The depth depends on the view (size and camera) only: painting, which changes every frame but not
+        the view, reuses it.
+        """
         w, h = frame.size
         view_proj, view = camera.view_projection(w / max(h, 1)), camera.view()
-        if self._depth_key != self._scene_key:
+        if self._depth_key != view_key:
             self.ring.draw_depth(frame, view_proj, view)
-            self._depth_key = self._scene_key
+            self._depth_key = view_key
             fbo.use()
             self.ctx.viewport = (0, 0, w, h)
         self.ring.draw(fbo, frame.depth_attachment, ring, view_proj, view)
@@ -297,8 +360,14 @@ class ViewRenderer:
         A lightweight frame is picked from its own depth (``camera``: the frame's camera).
         """
         if self.drawn_by != "lightweight" or self._frame is None or camera is None:
-            p = self.r.pick(x, y)
-            return None if p is None else np.asarray(p, float)
+            if self._frame is None or self.scale == 1.0:
+                p = self.r.pick(x, y)
+                return None if p is None else np.asarray(p, float)
+            # an interactive frame: the renderer's depth is at its reduced size (pixel centres mapped)
+            (fw, fh), (lw, lh) = self._frame.size, self.r.last.size
+            xl, yl = (x + 0.5) * lw / fw - 0.5, (y + 0.5) * lh / fh - 0.5
+            z = self.r.depth_at(min(max(int(round(xl)), 0), lw - 1), min(max(int(round(yl)), 0), lh - 1))
+            return None if z is None else np.asarray(self.r.unproject(xl, yl, z), float)
         from painting.hit import pixel_to_ndc, unproject
         from render.glutil import read_depth
 
@@ -322,13 +391,13 @@ class ViewRenderer:
         from render.glutil import release_all
 
         objs: list[Any] = []
-        for fb in (self._frame, self._before):
+        for fb in (self._frame, self._before, self._low, self._low_before):
             if fb is not None:
                 objs += [*fb.color_attachments, *([fb.depth_attachment] if fb.depth_attachment else []), fb]
         if self._before_lw is not None:
             objs += [self._before_lw.depth_attachment, self._before_lw]
         release_all(self.ctx, objs)
-        self._frame = self._before = self._before_lw = None
+        self._frame = self._before = self._before_lw = self._low = self._low_before = None
         self._scene_key = self._depth_key = None
 
     def release(self) -> None:

@@ -90,8 +90,15 @@ def test_viewport_runs_the_real_renderer_at_full_size(window: object, qtbot: obj
     drawn = vp.renderer_frames
     draw(vp, qtbot)
     assert vp.renderer_frames > drawn, "an orbit step must draw a new frame"
+    # while the view moves the frame is interactive (reduced internal size); once input stops it
+    # settles to the full-size frame
+    assert vp.last_frame_interactive
+    w, h = vp.pixel_size()
+    assert tuple(vp.renderer.r.last.size) < (w, h), "an interactive frame runs at a reduced size"
+    qtbot.waitUntil(lambda: vp.settled, timeout=5000)
     assert tuple(vp.renderer.r.last.size) == vp.pixel_size()
     vp.orbit_by(-3.0)
+    qtbot.waitUntil(lambda: vp.settled, timeout=5000)
 
 
 def test_swatches_are_kms_colours(window: object) -> None:
