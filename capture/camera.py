@@ -94,6 +94,27 @@ class Camera:
             d = np.where(z > 1e-9, -1.0 / z, np.inf)
         return rasterize(px * scale, d, faces, w, h, w=np.where(z > 1e-9, z, -1.0))
 
+    def clip_from_world(self, near: float, far: float, scale: float = 1.0) -> np.ndarray:
+        """The OpenGL clip-space matrix (4, 4) of this camera for an image ``scale`` times its size.
+
+        Pixel (x, y) = (K·x_cam)[:2] / z, x right, y down, pixel j covering [j, j + 1); GL's window has x
+        right, y up: x_ndc = 2x/W − 1, y_ndc = 1 − 2y/H, with w_clip = z (mesh units) and the depth range
+        [``near``, ``far``] (mesh units, 0 < near < far) mapped to [−1, 1]. An image drawn with it and read
+        back bottom row first, then flipped, lines up with the photograph pixel for pixel.
+        """
+        k = np.diag([scale, scale, 1.0]) @ self.K
+        w, h = self.width * scale, self.height * scale
+        proj = np.array([
+            [2 * k[0, 0] / w, 2 * k[0, 1] / w, 2 * k[0, 2] / w - 1, 0.0],
+            [0.0, -2 * k[1, 1] / h, 1 - 2 * k[1, 2] / h, 0.0],
+            [0.0, 0.0, (far + near) / (far - near), -2 * far * near / (far - near)],
+            [0.0, 0.0, 1.0, 0.0],
+        ])
+        rt = np.eye(4)
+        rt[:3, :3] = self.R
+        rt[:3, 3] = self.t
+        return proj @ rt
+
     def to_json(self) -> dict[str, Any]:
         """K, R, t, P (pixels, mesh units) and the size as JSON lists and numbers (face.json's ``camera``)."""
         return {

@@ -247,55 +247,6 @@ def photo_ambient_scale(photo_rgb: np.ndarray, geo: Geometry, params: PhongParam
     return float(res.params.ambient_scale)
 
 
-def refine_exponent(photo_rgb: np.ndarray, geo: Geometry, start: PhongParams, support: float = 0.01,
-                    f_scale: float = 1.0, max_iter: int = 10) -> tuple[PhongParams, int]:
-    """Refine s jointly with D and i_s (k, F, A fixed) over the specular lobe.
-
-    A robust (soft-L1, scale ``f_scale`` Luv units) least-squares fit in CIE Luv on the unclipped skin
-    pixels where the lobe max(r·v, 0)^s is at least ``support`` (a fraction, 0..1) of its peak; the lobe —
-    hence the pixel set — follows s, so the fit is iterated (at most ``max_iter`` times) until s moves by
-    less than 0.5 %. s stays within [1, ``MAX_EXPONENT``].
-
-    The saturation-curve estimate (:func:`capture.reflectance.estimate_exponent`) reads s from the
-    colour's angular profile alone, which the skin texture's regional variation of chroma biases (synthetic
-    truth 12: 17.6); here luminance and chroma of every pixel of the lobe weigh in, and the robust loss
-    keeps the texture's outlying pixels (pores, blotches) from deciding it. Returns the refined parameters
-    and the number of window iterations.
-    """
-    target = linear_rgb_to_luv(np.clip(photo_rgb, 0, 1))
-    unclipped = np.asarray(photo_rgb).max(axis=1) < 0.98
-    rdv = np.clip(geo.r_dot_v, 0.0, 1.0)
-    s = float(start.exponent)
-    x = np.r_[np.clip(start.diffuse, 1e-3, 3.9), np.clip(start.specular, 1e-3, 9.9)]
-    lb = np.array([1e-4, 1e-4, 1e-4, 0.0, 0.0])
-    ub = np.array([4.0, 4.0, 4.0, 10.0, np.log(MAX_EXPONENT)])
-
-    def make(p: np.ndarray) -> PhongParams:
-        return PhongParams(diffuse=p[:3].copy(), specular=float(p[3]), exponent=float(np.exp(p[4])),
-                           ambient_scale=start.ambient_scale, flash_rgb=start.flash_rgb,
-                           ambient_rgb=start.ambient_rgb)
-
-    def resid(p: np.ndarray, g: Geometry, tgt: np.ndarray) -> np.ndarray:
-        return (linear_rgb_to_luv(shade(make(p), g)) - tgt).ravel()
-
-    iterations = 0
-    while iterations < max_iter:
-        sel = unclipped & (geo.n_dot_l > 0) & (rdv ** s >= support)
-        if sel.sum() < 50:
-            break
-        iterations += 1
-        p0 = np.clip(np.r_[x, np.log(max(s, 1.0))], lb + 1e-9, ub - 1e-9)
-        r = least_squares(resid, p0, args=(geo.subset(sel), target[sel]), bounds=(lb, ub), loss="soft_l1",
-                          f_scale=f_scale, x_scale="jac")
-        x = r.x[:4]
-        s_new = float(np.exp(r.x[4]))
-        done = abs(s_new / s - 1) < 0.005
-        s = s_new
-        if done:
-            break
-    return make(np.r_[x, np.log(s)]), iterations
-
-
 def robustness(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb: np.ndarray,
                ambient_rgb: np.ndarray, starts: int = 200, seed: int = 0,
                max_pixels: int = 6000, fit_ambient: bool = False) -> dict[str, Any]:
@@ -325,97 +276,136 @@ def robustness(photo_rgb: np.ndarray, geo: Geometry, exponent: float, flash_rgb:
             "max_relative_std": float(rel.max()), "mean": dict(zip(names, a.mean(axis=0).tolist()))}
 
 
-#: The high-pass scale of :func:`specular_from_detail` on the skin (mm): the skin's regional albedo
-#: variation (nose, cheeks, forehead: tens of mm) drops out, its pores (under 1 mm) stay as noise.
-DETAIL_HIGH_PASS_MM = 3.5
-#: ... and at most this fraction of the specular core's equivalent radius (the core: pixels where the
-#: lobe is at least half its peak), so the lobe's own curvature stays in the high-passed photograph.
-LOBE_SCALE_FRACTION = 0.5
+#: The high-pass scale of :func:`specular_from_detail`, photograph pixels. The narrowest Gaussian whose
+#: variance (4 px²) is 50 times a pixel's own (a photograph integrates over its pixel, a box of variance
+#: 1/12 px²; the model samples the pixel's centre and is corrected for the box to second order): the
+#: filter then sees what the sensor saw, and every albedo variation broader than it — on the skin, all
+#: but the pores — drops out of the fit. Measured on the GPU-drawn photographs of
+#: tests/capture/test_out_of_sample.py, the exponent moves as σ narrows the way the texture bias says
+#: it should (s 8: 7.07 at 3 px, 7.43 at 2, 8.01 at 1) while the 1,143-triangle head's interpolated
+#: normals leave the fit below 1.5 px (16 → 20.2 at 1 px).
+LOBE_HIGH_PASS_PX = 2.0
 
 
 @dataclass
 class DetailSpecular:
-    """The specular intensity separated from the skin's albedo variation (:func:`specular_from_detail`).
+    """The specular lobe separated from the skin's albedo variation (:func:`specular_from_detail`).
 
     Attributes:
         specular: i_s (photograph units, like :attr:`PhongParams.specular`).
+        exponent: s (dimensionless; the given one when the exponent was not fitted).
         sigma_px: the high-pass scale used (pixels). core_radius_px: the specular core's equivalent
-        radius (pixels). pixels: the skin pixels used.
+        radius (pixels, at the exponent found). pixels: the skin pixels used.
     """
 
     specular: float
+    exponent: float
     sigma_px: float
     core_radius_px: float
     pixels: int
 
 
+def _pixel_box_lobe(lobe: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int],
+                    interior: np.ndarray) -> np.ndarray:
+    """The lobe averaged over each pixel's square, to second order: S + ∇²S / 24 (∇² the 5-point
+    Laplacian on the pixel grid; a unit box has variance 1/12 per axis). Only at ``interior`` pixels
+    (all four neighbours on the skin); the others keep their centre value.
+    """
+    from scipy import ndimage
+
+    img = np.zeros(shape)
+    img[rows, cols] = lobe
+    lap = ndimage.laplace(img)[rows, cols]
+    return np.where(interior, lobe + lap / 24.0, lobe)
+
+
 def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
-                         cols: np.ndarray, shape: tuple[int, int],
-                         px_per_mm: float | None = None) -> DetailSpecular | None:
-    """i_s refitted with the diffuse term modulated by the low-frequency detail.
+                         cols: np.ndarray, shape: tuple[int, int], fit_exponent: bool = True,
+                         sigma_px: float = LOBE_HIGH_PASS_PX) -> DetailSpecular | None:
+    """The specular lobe (i_s, and s with ``fit_exponent``) fitted on the high-passed photograph.
 
-    A departure from the paper, which fits i_s jointly with D on the photograph. ``rows``, ``cols``: the
-    skin pixels' positions in the photograph of ``shape`` (H, W), in the order of ``photo_rgb`` (P, 3,
-    linear) and ``geo``; ``params``: the joint fit (its D, k, A, F and s are used).
+    A departure from the paper, which reads s from the saturation around the highlight and fits i_s
+    jointly with D. ``rows``, ``cols``: the skin pixels' positions in the photograph of ``shape`` (H, W),
+    in the order of ``photo_rgb`` (P, 3, linear) and ``geo``; ``params``: a first fit (its D, k, A, F are
+    used, and its s when the exponent is not fitted).
 
-    Why: the joint fit reads any albedo that is brighter where the lobe is as specular. The sample
-    head's skin is (the synthetic truth: 9-10 % brighter than the skin's mean where the lobe is 1-40 % of
-    its peak, 3-5 % under its core), and the joint fit gives i_s = 0.22 for a true 0.18 in every
-    environment; on an untextured photograph it gives 0.18 exactly.
+    Why: both read albedo that varies where the lobe falls as part of the lobe. The skin's texture —
+    darker and redder towards the face's edges, blotches, a brighter nose — has variation at every
+    scale, and wherever the lobe falls (it moves with the flash, the exponent and the head) some of it
+    correlates with the lobe: on GPU-drawn photographs the paper's estimates missed s by −14 to +19 %
+    and i_s by up to +22 %, and were exact on an untextured skin. Knowing the texture to 3 mm would
+    suffice (measured with the drawn texture given to the fit: s 8 → 7.82, 24 → 24.15); it cannot be
+    read under the lobe from one photograph (where the flash is reflected the skin's own colour is
+    unknown, and the skin's redness varies along the same direction in colour as the flash's
+    desaturation — per pixel the two are 100:1 ill-conditioned).
 
     How: per pixel, with D·L = D ⊙ (k·A + F·max(n·l, 0)) the fitted diffuse shading, the photograph is
-    ``D·L ⊙ m + i_s·S·F`` with m the detail (S = max(r·v, 0)^s the lobe). Alternating "m = low-pass of
-    (photo − i_s·S·F) / D·L; refit i_s with the diffuse term modulated by m" converges to the least-squares
-    i_s of the high-passed equation, computed here directly (linear RGB, weighted back to photograph
-    units): i_s = Σ w·HP(r)·HP(q) / Σ w·HP(q)², r = photo / D·L, q = S·F / D·L, w = (D·L)², HP = x minus its
-    normalised Gaussian average over the unclipped lit skin pixels in the image. The albedo's variation
-    broader than σ drops out; the lobe's core, curved at the scale of its own size, stays. σ =
-    ``DETAIL_HIGH_PASS_MM`` on the skin (``px_per_mm``: photograph pixels per millimetre there), at most
-    ``LOBE_SCALE_FRACTION`` × the core's equivalent radius, at least 1 px (without ``px_per_mm``, that
-    fraction of the radius alone).
-
-    Measured on the synthetic truth (true i_s 0.18; 0.5 mm per pixel, so σ = 7 px): with s 24 (core
-    radius 18 px) i_s is within 5 % for σ from 1 to 10 px (0.183 at 1, 0.173 at 3-5, 0.176 at 7, 0.185
-    at 10; 0.20 at 15, where the brighter albedo around the core is broad enough to pass); with s 12
-    (radius 25 px) 0.174-0.178 at 2-6 px, 0.184 at 8, 0.191 at 10; with s 40 (radius 15 px) 0.172-0.176
-    at 3-8 px. The bias thus follows a scale on the skin, not the lobe's size.
+    ``D·L ⊙ m + i_s·S·F`` with m the albedo's detail and S = max(r·v, 0)^s the lobe averaged over the
+    pixel (:func:`_pixel_box_lobe`). Dividing by D·L and high-passing at σ = ``sigma_px`` removes m's
+    variation broader than σ (HP(x) = x minus its normalised Gaussian average over the unclipped lit
+    skin pixels): HP(r) = i_s·HP(q) + noise, r = photo / D·L, q = S·F / D·L. The lobe's curvature at the
+    scale of a few pixels — shaped by the head's normals, which no albedo follows — stays. For each s
+    the least-squares i_s is closed-form (weights w = (D·L)², back to photograph units); s minimises
+    the residual over log s ∈ [0, ln ``MAX_EXPONENT``]: a 48-point grid, then a bounded Brent search
+    around the best point (the cost can have more than one dip: the grid is what keeps it global).
 
     Returns None when the lobe has no core on unclipped skin (fewer than 20 pixels at half its peak).
     """
     from scipy import ndimage
 
     photo = np.asarray(photo_rgb, dtype=np.float64)
+    sigma = max(0.5, float(sigma_px))
+    # Work on the skin's bounding box (plus the filter's reach), not the whole photograph.
+    pad = int(np.ceil(4 * sigma)) + 1
+    rows, cols = rows - rows.min() + pad, cols - cols.min() + pad
+    shape = (int(rows.max()) + 1 + pad, int(cols.max()) + 1 + pad)
     ndl = np.clip(geo.n_dot_l, 0.0, None)
-    lobe = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None) ** params.exponent, 0.0)
+    rdv = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None), 0.0)
     dl = params.diffuse[None, :] * (params.ambient_scale * params.ambient_rgb[None, :]
                                     + params.flash_rgb[None, :] * ndl[:, None])
     ok = (photo.max(axis=1) < 0.98) & (geo.n_dot_l > 0) & (dl.min(axis=1) > 1e-6)
-    core = ok & (lobe >= 0.5)
-    if core.sum() < 20:
-        return None
-    radius = float(np.sqrt(core.sum() / np.pi))
-    sigma = LOBE_SCALE_FRACTION * radius
-    if px_per_mm is not None and px_per_mm > 0:
-        sigma = min(sigma, DETAIL_HIGH_PASS_MM * px_per_mm)
-    sigma = max(1.0, sigma)
-    r = np.where(ok[:, None], photo / np.maximum(dl, 1e-6), 0.0)
-    q = np.where(ok[:, None], lobe[:, None] * params.flash_rgb[None, :] / np.maximum(dl, 1e-6), 0.0)
+    on_skin = np.zeros(shape, dtype=bool)
+    on_skin[rows, cols] = True
+    interior = ndimage.binary_erosion(on_skin)[rows, cols]
     weight = np.zeros(shape)
     weight[rows[ok], cols[ok]] = 1.0
-    wsum = ndimage.gaussian_filter(weight, sigma)[rows, cols]
+    wsum = np.maximum(ndimage.gaussian_filter(weight, sigma)[rows, cols], 1e-12)
+    img = np.zeros(shape)
 
     def high_pass(x: np.ndarray) -> np.ndarray:
         out = np.empty_like(x)
         for c in range(x.shape[1]):
-            img = np.zeros(shape)
-            img[rows, cols] = x[:, c]
-            out[:, c] = x[:, c] - ndimage.gaussian_filter(img, sigma)[rows, cols] / np.maximum(wsum, 1e-12)
+            img[:] = 0.0
+            img[rows[ok], cols[ok]] = x[ok, c]
+            out[:, c] = x[:, c] - ndimage.gaussian_filter(img, sigma)[rows, cols] / wsum
         return out
 
-    hr, hq = high_pass(r), high_pass(q)
+    inv_dl = np.where(ok[:, None], 1.0 / np.maximum(dl, 1e-6), 0.0)
+    hr = high_pass(photo * inv_dl)
     w = np.where(ok[:, None], dl ** 2, 0.0)
-    den = float((w * hq * hq).sum())
-    if den <= 0:
+
+    def solve(s: float) -> tuple[float, float]:
+        """(the weighted residual, the least-squares i_s) for the exponent s."""
+        lobe = _pixel_box_lobe(rdv ** s, rows, cols, shape, interior)
+        hq = high_pass(lobe[:, None] * params.flash_rgb[None, :] * inv_dl)
+        den = float((w * hq * hq).sum())
+        if den <= 0:
+            return np.inf, 0.0
+        i_s = float((w * hr * hq).sum()) / den
+        res = hr - i_s * hq
+        return float((w * res * res).sum()), i_s
+
+    s = float(params.exponent)
+    if fit_exponent:
+        grid = np.linspace(0.0, np.log(MAX_EXPONENT), 48)
+        costs = [solve(float(np.exp(g)))[0] for g in grid]
+        best = int(np.argmin(costs))
+        lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
+        s = float(np.exp(minimize_scalar(lambda g: solve(float(np.exp(g)))[0], bounds=(lo, hi),
+                                         method="bounded", options={"xatol": 1e-4}).x))
+    core = ok & (rdv ** s >= 0.5)
+    if core.sum() < 20:
         return None
-    return DetailSpecular(specular=max(0.0, float((w * hr * hq).sum()) / den), sigma_px=sigma,
-                          core_radius_px=radius, pixels=int(ok.sum()))
+    _, i_s = solve(s)
+    return DetailSpecular(specular=max(0.0, i_s), exponent=s, sigma_px=sigma,
+                          core_radius_px=float(np.sqrt(core.sum() / np.pi)), pixels=int(ok.sum()))

@@ -26,7 +26,6 @@ from .phong import (
     delta_e2000,
     fit_phong,
     photo_ambient_scale,
-    refine_exponent,
     shade,
     specular_from_detail,
 )
@@ -277,31 +276,23 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     # Phong fit.
     t = time.perf_counter()
     fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
-    # Refine s jointly with D and i_s over the specular lobe (robust Luv fit), then refit with it.
-    refined, _ = refine_exponent(colours, geo, fit.params)
-    _log(progress, f"specular exponent refined over the lobe: s = {refined.exponent:.1f} "
-                   f"(saturation curve: {exp_est.s:.1f})")
-    exp_est = replace(exp_est, s=refined.exponent, s_saturation=exp_est.s)
-    fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb,
-                    start=np.r_[refined.diffuse, refined.specular])
-    # i_s separated from the skin's albedo variation under the lobe (the joint fit reads brighter skin
-    # there as specular), then D refitted with it (see :func:`capture.phong.specular_from_detail`).
+    # The lobe (s and i_s) fitted on the photograph high-passed at a few pixels, where the skin's albedo
+    # variation no longer follows the lobe (the paper's saturation estimate and joint fit read it as
+    # part of the lobe), then D refitted with both fixed (see :func:`capture.phong.specular_from_detail`).
     specular_joint = fit.params.specular
-    # Photograph pixels per millimetre on the skin: the focal length over the skin's median depth.
-    px_per_mm = float(camera.K[1, 1]) / (float(np.median(pix.depth[pix.rows[sel], pix.cols[sel]]))
-                                          * float(head.mm_per_unit))
-    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w), px_per_mm=px_per_mm)
+    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w))
     if sep is not None:
         diffuse_joint = fit.params.diffuse
-        fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb,
+        fit = fit_phong(colours, geo, sep.exponent, flash_rgb, ambient_rgb,
                         start=np.r_[fit.params.diffuse, sep.specular], fix_specular=True)
-        _log(progress, f"specular intensity with the diffuse term modulated by the low-frequency detail: "
-                       f"i_s = {sep.specular:.4f} (joint fit {specular_joint:.4f}; high-pass σ = {sep.sigma_px:.1f} px, "
-                       f"the specular core's radius {sep.core_radius_px:.1f} px); D refitted, moved by ΔE2000 "
-                       f"{float(delta_e2000(fit.params.diffuse, diffuse_joint)):.2f}")
+        exp_est = replace(exp_est, s=sep.exponent, s_saturation=exp_est.s)
+        _log(progress, f"specular lobe on the photograph high-passed at σ = {sep.sigma_px:.1f} px: s = {sep.exponent:.2f} "
+                       f"(saturation curve {exp_est.s_saturation:.2f}), i_s = {sep.specular:.4f} (joint fit "
+                       f"{specular_joint:.4f}; the specular core's radius {sep.core_radius_px:.1f} px); D refitted, "
+                       f"moved by ΔE2000 {float(delta_e2000(fit.params.diffuse, diffuse_joint)):.2f}")
     else:
-        _log(progress, "warning: the specular lobe has no unclipped core on the skin: i_s from the joint fit "
-                       "(it reads albedo brighter under the lobe as specular)")
+        _log(progress, "warning: the specular lobe has no unclipped core on the skin: s from the saturation curve "
+                       "and i_s from the joint fit (both read albedo that varies under the lobe as specular)")
     p = fit.params
     k_photo = photo_ambient_scale(colours, geo, p)
     timings["phong_fit"] = time.perf_counter() - t

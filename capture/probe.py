@@ -33,15 +33,19 @@ LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
 #: A clipped spot larger than this times the area of its inscribed disc is not the flash's reflection
-#: alone. Measured on synthetic probes (6 environments × 8 rotations × 2 flash positions × 1 and 3× the
-#: environment's level): the flash alone 0.88–1.11 (small spots are rounded up by pixels), merged with
-#: the night's horizon glow 1.25 and 2.71 (the light 2.8° and 1.4° off if taken as is). Out of sample
-#: (tests/capture/test_out_of_sample.py) it refuses a lone flash: with the flash on a 2° grid within 12°
-#: of the lens, 12–17 of 169 positions per environment are an "ambiguous highlight" (among them the
-#: flash on the lens's axis); in the warehouse all 16 are a 12-pixel core centred on a pixel corner, a
-#: 4 × 4 square less its corners, whose inscribed disc (distance transform between pixel centres) has a
-#: radius of √2 px: 1.91 × its area.
+#: alone. The inscribed radius is the largest distance from a spot pixel's centre to the nearest pixel
+#: centre outside it (a Euclidean distance transform) plus half a pixel: the distance between centres
+#: falls short of the radius of the disc a digitised spot stands for by half a pixel to half a diagonal
+#: (0.71 px), a tolerance that matters only for small spots. Without it the flash on the lens's axis —
+#: a 12-pixel spot on a pixel corner, a 4 × 4 square less its corners — measured 1.91 and was refused;
+#: now 1.04. Measured on synthetic probes (6 environments × 8 rotations × 2 flash positions × 1 and 3×
+#: the environment's level): the flash alone 0.88–1.11, merged with the night's horizon glow 1.25 and
+#: 2.71 (the light 2.8° and 1.4° off if taken as is). 1.2 sits between the two.
 MERGED_FULLNESS = 1.2
+#: A spot whose inscribed radius (pixels, with the half pixel) is below this — at most about 4 px across
+#: — has no measurable shape: whether a partly covered pixel at its rim clips decides its axis ratio and
+#: its fullness, so the shape tests leave it alone (a rival spot is still refused).
+MIN_SHAPE_RADIUS_PX = 2.0
 
 
 class ProbeError(SheerError, ValueError):
@@ -65,6 +69,7 @@ class ProbeAnalysis:
             light is then a lower bound).
         flash_hue_spread: the flash hue's spread between the halo's sectors (median relative deviation,
             worst channel; see :func:`_flash_hue`).
+        reflectance: the ball's reflectance the ambient light was divided by (0..1; 1 = a perfect mirror).
     """
 
     light_dir_camera: np.ndarray
@@ -76,6 +81,7 @@ class ProbeAnalysis:
     classes: np.ndarray
     clipped_fraction: float = 0.0
     flash_hue_spread: float = 0.0
+    reflectance: float = 1.0
 
     def to_json(self) -> dict[str, Any]:
         """The analysis as JSON numbers and lists (face.json's ``probe``; the classes image left out)."""
@@ -85,6 +91,7 @@ class ProbeAnalysis:
             "highlight_px": list(self.highlight_px),
             "flash_rgb": self.flash_rgb.tolist(), "ambient_rgb": self.ambient_rgb.tolist(),
             "clipped_fraction": self.clipped_fraction, "flash_hue_spread": self.flash_hue_spread,
+            "reflectance": self.reflectance,
         }
 
 
@@ -166,9 +173,17 @@ def _find_flash_core(img: np.ndarray, inside: np.ndarray, px: np.ndarray, py: np
             f"({cyx[o, 1] + 0.5:.1f}, {cyx[o, 0] + 0.5:.1f}) px ({theta_b[o]:.1f}°); the flash cannot be "
             f"told from a lamp of the environment — retake the probe with less exposure or with the ball "
             f"turned so that no lamp reflects near the flash")
+    rim = inside & ~ndimage.binary_erosion(inside)
+    if np.any(core & ndimage.binary_dilation(rim)):
+        raise ProbeError(
+            f"{source}: ambiguous highlight: the saturated spot nearest the ball's centre, at {where} "
+            f"({int(core.sum())} px), touches the ball's rim, so its centre is unknown — is the ball circle "
+            f"right, the probe cropped to the ball?")
     elong = _blob_shape(xs + 0.5, ys + 0.5)
-    inscribed = float(ndimage.distance_transform_edt(np.pad(core, 1)).max())
+    inscribed = float(ndimage.distance_transform_edt(np.pad(core, 1)).max()) + 0.5
     fullness = float(core.sum()) / (np.pi * inscribed ** 2)
+    if inscribed < MIN_SHAPE_RADIUS_PX:
+        return core
     if fullness > MERGED_FULLNESS:
         raise ProbeError(
             f"{source}: ambiguous highlight: the saturated spot nearest the ball's centre, at {where} "
@@ -258,7 +273,7 @@ def _flash_hue(img: np.ndarray, halo: np.ndarray, px: np.ndarray, py: np.ndarray
 
 def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = None,
                   saturation_level: float = 0.98, max_flash_deg: float = 20.0,
-                  source: str = "probe") -> ProbeAnalysis:
+                  source: str = "probe", reflectance: float = 1.0) -> ProbeAnalysis:
     """Analyse a mirror-ball photograph.
 
     - **The flash's core**: the connected pixels whose *every* channel clips (a flash many times brighter
@@ -290,7 +305,14 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
         saturation_level: a channel at or above this value counts as saturated (sensor clipping).
         max_flash_deg: the flash's highest angle from the camera axis (degrees).
         source: names the input in error messages.
+        reflectance: the ball's reflectance, 0 < reflectance ≤ 1 (dimensionless; default 1, a perfect
+            mirror, as the synthetic probes). A chrome ball reflects about 0.5–0.7 of the light: the
+            environment it shows is that much darker than the room, so the ambient light is the ball's
+            mean divided by it. The flash's direction and hue do not depend on it (its intensity is
+            set to 1 whatever the ball shows).
     """
+    if not (np.isfinite(reflectance) and 0.0 < reflectance <= 1.0):
+        raise ProbeError(f"{source}: the ball's reflectance must be in (0, 1], got {reflectance!r}")
     img = np.asarray(image, dtype=np.float64)
     if img.ndim != 3 or img.shape[2] != 3:
         raise ProbeError(f"{source}: expected an RGB image")
@@ -330,14 +352,15 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
                          f"cannot measure the flash's hue")
     flash, spread = measured
     env = inside & (dist > max(ring_in, halo_r or 0.0))
-    ambient = img[env].mean(axis=0)
+    ambient = img[env].mean(axis=0) / reflectance
     classes = np.zeros((h, w), dtype=np.uint8)
     classes[env] = 3
     classes[halo] = 2
     classes[core] = 1
     return ProbeAnalysis(light_dir_camera=d, theta_deg=theta, phi_deg=phi, highlight_px=(hx, hy),
                          flash_rgb=flash, ambient_rgb=ambient, classes=classes,
-                         clipped_fraction=float(clipped[env].mean()), flash_hue_spread=spread)
+                         clipped_fraction=float(clipped[env].mean()), flash_hue_spread=spread,
+                         reflectance=float(reflectance))
 
 
 def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -358,9 +381,63 @@ def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
     return out
 
 
+def _ball_reflections(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The reflected viewing directions (..., 3) (camera coordinates) of an orthographic mirror ball at
+    normalised ball coordinates ``dx``, ``dy`` (radius 1), and whether each point is on the ball."""
+    dx, dy = np.broadcast_arrays(dx, dy)
+    rr = dx ** 2 + dy ** 2
+    nz = -np.sqrt(np.clip(1 - rr, 0, 1))
+    n = np.stack([dx, dy, nz], axis=-1)
+    view = np.array([0.0, 0.0, 1.0])
+    return view - 2 * (n @ view)[..., None] * n, rr < 1.0
+
+
+def probe_environment(env: np.ndarray, R: np.ndarray, size: int = 256, env_scale: float = 1.0) -> np.ndarray:
+    """A mirror ball (inscribed in a ``size``² image) reflecting an equirectangular environment, seen
+    orthographically by a camera with world→camera rotation ``R``: linear RGB (size, size, 3), the
+    environment's units × ``env_scale``, unclipped, 0 off the ball (pixel centres sampled).
+    """
+    c = (np.arange(size) + 0.5 - size / 2) / (size / 2)
+    refl, inside = _ball_reflections(c[None, :], c[:, None])
+    out = equirect_lookup(env, refl @ R) * env_scale  # R^T applied to row vectors
+    out[~inside] = 0.0
+    return out
+
+
+def flash_reflection(size: int, R: np.ndarray, light_dir_world: np.ndarray, core_deg: float = 0.6,
+                     halo_deg: float = 4.0, core_gain: float = 50.0, halo_gain: float = 0.5,
+                     supersample: int = 1) -> np.ndarray:
+    """The flash's reflection in a ``size``² mirror-ball image (see :func:`probe_environment`), float
+    (size, size) in units of the flash's colour: a narrow core (Gaussian of ``core_deg`` in the reflected
+    direction, gain ``core_gain``) plus a wide halo (``halo_deg``, ``halo_gain``). With ``supersample``
+    > 1 the core is averaged over ``supersample``² points per pixel near the spot (a sensor integrates
+    its pixel: the spot's rim pixels are partly covered); elsewhere, and for the halo, pixel centres.
+    """
+    lc = R @ (np.asarray(light_dir_world, dtype=float) / np.linalg.norm(light_dir_world))
+    c = (np.arange(size) + 0.5 - size / 2) / (size / 2)
+    refl, inside = _ball_reflections(c[None, :], c[:, None])
+    ang = np.degrees(np.arccos(np.clip(refl @ lc, -1, 1)))
+    halo = halo_gain * np.exp(-0.5 * (ang / halo_deg) ** 2)
+    core = core_gain * np.exp(-0.5 * (ang / core_deg) ** 2)
+    if supersample > 1:
+        # Near the spot: 5 σ of the core plus 4 pixels (a pixel spans 2/r radians of reflected
+        # direction at the ball's centre, more towards its rim).
+        near = inside & (ang < 5 * core_deg + np.degrees(8.0 / size) / np.sqrt(np.clip(1 - c[None, :] ** 2
+                                                                                   - c[:, None] ** 2, 1e-6, 1)))
+        yy, xx = np.nonzero(near)
+        sub = (np.arange(supersample) + 0.5) / supersample
+        sx = ((xx[:, None, None] + sub[None, None, :]) - size / 2) / (size / 2)
+        sy = ((yy[:, None, None] + sub[None, :, None]) - size / 2) / (size / 2)
+        sx, sy = np.broadcast_arrays(sx, sy)
+        r_sub, in_sub = _ball_reflections(sx, sy)
+        a_sub = np.degrees(np.arccos(np.clip(r_sub @ lc, -1, 1)))
+        core[yy, xx] = np.where(in_sub, core_gain * np.exp(-0.5 * (a_sub / core_deg) ** 2), 0.0).mean(axis=(1, 2))
+    return np.where(inside, core + halo, 0.0)
+
+
 def synthetic_probe(env: np.ndarray, R: np.ndarray, light_dir_world: np.ndarray, flash_rgb: np.ndarray,
                     size: int = 256, env_scale: float = 1.0, core_deg: float = 0.6, halo_deg: float = 4.0,
-                    core_gain: float = 50.0, halo_gain: float = 0.5) -> np.ndarray:
+                    core_gain: float = 50.0, halo_gain: float = 0.5, supersample: int = 1) -> np.ndarray:
     """A mirror-ball photograph of an HDR environment plus a point light (the probe's synthetic truth).
 
     Linear RGB (size, size, 3) clipped to [0, 1], the ball inscribed, seen orthographically by a camera
@@ -368,22 +445,9 @@ def synthetic_probe(env: np.ndarray, R: np.ndarray, light_dir_world: np.ndarray,
     ``light_dir_world`` (unit, world) with colour ``flash_rgb``; angles in degrees.
 
     The light's reflection is a narrow core (``core_deg``, gain ``core_gain`` × flash, saturating the
-    sensor) plus a wider halo (``halo_deg``, gain ``halo_gain``) — a real ball is never an ideal mirror.
+    sensor) plus a wider halo (``halo_deg``, gain ``halo_gain``) — a real ball is never an ideal mirror;
+    ``supersample``: see :func:`flash_reflection`.
     """
-    yy, xx = np.mgrid[0:size, 0:size]
-    dx = (xx + 0.5 - size / 2) / (size / 2)
-    dy = (yy + 0.5 - size / 2) / (size / 2)
-    rr = dx ** 2 + dy ** 2
-    inside = rr < 1.0
-    nz = -np.sqrt(np.clip(1 - rr, 0, 1))
-    n = np.stack([dx, dy, nz], axis=-1)
-    view = np.array([0.0, 0.0, 1.0])
-    refl = view - 2 * (n @ view)[..., None] * n  # camera coordinates
-    world = refl @ R  # R^T applied to row vectors
-    out = equirect_lookup(env, world) * env_scale
-    lc = R @ (np.asarray(light_dir_world, dtype=float) / np.linalg.norm(light_dir_world))
-    ang = np.degrees(np.arccos(np.clip(refl @ lc, -1, 1)))
-    lobe = core_gain * np.exp(-0.5 * (ang / core_deg) ** 2) + halo_gain * np.exp(-0.5 * (ang / halo_deg) ** 2)
-    out = out + lobe[..., None] * np.asarray(flash_rgb)[None, None, :]
-    out[~inside] = 0.0
+    lobe = flash_reflection(size, R, light_dir_world, core_deg, halo_deg, core_gain, halo_gain, supersample)
+    out = probe_environment(env, R, size, env_scale) + lobe[..., None] * np.asarray(flash_rgb)[None, None, :]
     return np.clip(out, 0.0, 1.0)

@@ -182,8 +182,9 @@ class ExponentEstimate:
         alpha_deg: the measured angle of fastest saturation change (mean of left and right), degrees.
         alpha_left_deg, alpha_right_deg: the two measurements.
         spec_over_diffuse: the peak specular / diffuse ratio of the fitted saturation curve.
-        s_saturation: when the capture refined s in the Luv fit (:func:`capture.phong.refine_exponent`),
-            the saturation-curve value it started from; None otherwise.
+        s_saturation: when the capture fitted s on the high-passed photograph
+            (:func:`capture.phong.specular_from_detail`), the saturation-curve value it started from; None
+            otherwise.
     """
 
     s: float

@@ -105,27 +105,6 @@ class GpuPhoto:
         return srgb_decode(self.srgb8 / 255.0)
 
 
-def clip_from_world(camera: Camera, scale: float, near: float, far: float) -> np.ndarray:
-    """The OpenGL clip-space matrix (4, 4) of a capture camera for an image ``scale`` times its size.
-
-    Capture's pixel (x, y) = (K·x_cam)[:2] / z, x right, y down, pixel j covering [j, j + 1); GL's window
-    x right, y up: x_ndc = 2x/W − 1, y_ndc = 1 − 2y/H, with w_clip = z (mesh units) and the depth range
-    [near, far] (mesh units) mapped to [−1, 1].
-    """
-    k = np.diag([scale, scale, 1.0]) @ camera.K
-    w, h = camera.width * scale, camera.height * scale
-    proj = np.array([
-        [2 * k[0, 0] / w, 2 * k[0, 1] / w, 2 * k[0, 2] / w - 1, 0.0],
-        [0.0, -2 * k[1, 1] / h, 1 - 2 * k[1, 2] / h, 0.0],
-        [0.0, 0.0, (far + near) / (far - near), -2 * far * near / (far - near)],
-        [0.0, 0.0, 1.0, 0.0],
-    ])
-    rt = np.eye(4)
-    rt[:3, :3] = camera.R
-    rt[:3, 3] = camera.t
-    return proj @ rt
-
-
 def irradiance_sh(env: np.ndarray, scale: float) -> np.ndarray:
     """Irradiance SH coefficients (9, 3) of an equirectangular environment (H, W, 3) in capture's
     convention (:func:`capture.probe.equirect_lookup`: row 0 = +Y, longitude 0 at −Z, increasing towards
@@ -179,7 +158,7 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
     try:
         depths = camera.to_camera(head.vertices)[:, 2]
         near, far = 0.5 * float(depths.min()), 2.0 * float(depths.max())
-        prog["u_view_proj"].write(clip_from_world(camera, supersample, near, far).T.astype("f4").tobytes())
+        prog["u_view_proj"].write(camera.clip_from_world(near, far, supersample).T.astype("f4").tobytes())
         prog["u_camera_centre"].value = tuple(float(x) for x in camera.centre)
         prog["u_light"].value = tuple(float(x) for x in np.asarray(light) / np.linalg.norm(light))
         prog["u_diffuse"].value = tuple(float(x) for x in diffuse)

@@ -176,11 +176,15 @@ def test_unseen_texels_are_filled_smoothly_from_their_3d_neighbours(synthetic: t
     assert float(np.median(np.abs(y[unseen] - 1.0))) < 0.1
 
 
-@pytest.mark.parametrize("level", [1.0, 3.0, 10.0])
-def test_night_probe_finds_the_flash_or_says_it_is_ambiguous(level: float) -> None:
+@pytest.mark.parametrize(("level", "worst_deg"), [(1.0, 1.0), (3.0, 2.8), (10.0, None)])
+def test_night_probe_finds_the_flash_or_says_it_is_ambiguous(level: float, worst_deg: float | None) -> None:
     # The night's horizon glow lies behind the camera, beside the flash's reflection. At the validation's
-    # level it clips only red and the flash (every channel clipped) is found; brighter, it clips white
-    # and merges with the flash (taken as is: the light 2.8° off at 3×): a ProbeError, not a guess.
+    # level it clips only red and the flash (every channel clipped) is found; at 3× it clips white and
+    # merges with the flash into a round 53-pixel spot that no shape test tells from a flash's own
+    # (1.00× its inscribed disc; a digitised disc of that size measures up to 1.45): taken as is, the
+    # light is 2.76° off — the probe's limit, measured here (issue 14 asks to refuse only what is
+    # truly ambiguous: the flash on the lens's axis was refused as merged). At 10× the clipped region
+    # is centred 30° off the axis: a ProbeError, not a guess.
     from capture.probe import ProbeError, analyse_probe, synthetic_probe
     from capture.synthetic import (
         DIM_ROOM,
@@ -198,9 +202,9 @@ def test_night_probe_finds_the_flash_or_says_it_is_ambiguous(level: float) -> No
     img = synthetic_probe(env, cam.R, light, np.ones(3), size=256,
                           env_scale=level * DIM_ROOM / float(env_mean_radiance(env).mean()))
     img = as_photographed(img)
-    if level == 1.0:
+    if worst_deg is not None:
         probe = analyse_probe(img)
-        assert np.degrees(np.arccos(np.clip(cam.R.T @ probe.light_dir_camera @ light, -1, 1))) < 1.0
+        assert np.degrees(np.arccos(np.clip(cam.R.T @ probe.light_dir_camera @ light, -1, 1))) < worst_deg
     else:
         with pytest.raises(ProbeError, match="ambiguous"):
             analyse_probe(img, source="night.png")
