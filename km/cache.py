@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from core.cache import cache_dir, save_array
+from core.cache import cache_dir, entry_exists, load_array, save_array
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -44,7 +44,7 @@ def _matrix_path(wl: np.ndarray, illuminant: str, cat: str) -> Path:
     h = hashlib.sha256()
     h.update(np.ascontiguousarray(wl, dtype="<f8").tobytes())
     h.update(f"|{illuminant}|{cat}|colour-science {version}|v{_MATRIX_CACHE_VERSION}".encode())
-    return cache_dir("colour") / f"rgb-{h.hexdigest()[:32]}.npy"
+    return cache_dir("colour") / f"rgb-{h.hexdigest()[:32]}.cache"
 
 
 def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> bool:
@@ -54,7 +54,7 @@ def spectral_rgb_matrix_ready(wavelengths: ArrayLike, illuminant: str = "D65", c
     """
     wl = np.asarray(wavelengths, dtype=np.float64)
     memo = (wl.tobytes(), illuminant, cat, os.environ.get("SHEER_CACHE_DIR", ""))
-    return memo in _IN_MEMORY or _matrix_path(wl, illuminant, cat).is_file()
+    return memo in _IN_MEMORY or entry_exists(_matrix_path(wl, illuminant, cat))
 
 
 def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", cat: str = "CAT02") -> np.ndarray:
@@ -70,18 +70,15 @@ def spectral_rgb_matrix_cached(wavelengths: ArrayLike, illuminant: str = "D65", 
     if hit is not None:
         return hit
     path = _matrix_path(wl, illuminant, cat)
-    try:
-        m = np.load(path, allow_pickle=False)
-        if m.shape == (wl.size, 3) and m.dtype == np.float64 and np.all(np.isfinite(m)):
-            m.setflags(write=False)
-            _IN_MEMORY[memo] = m
-            return m
-    except (OSError, ValueError, EOFError):
-        pass
+    m = load_array(path, _MATRIX_CACHE_VERSION)
+    if m is not None and m.shape == (wl.size, 3) and m.dtype == np.float64 and np.all(np.isfinite(m)):
+        m.setflags(write=False)
+        _IN_MEMORY[memo] = m
+        return m
     from km.colour import spectral_rgb_matrix
 
     m = np.array(spectral_rgb_matrix(wl, illuminant, cat), dtype=np.float64)
-    save_array(path, m)
+    save_array(path, m, _MATRIX_CACHE_VERSION)
     m.setflags(write=False)
     _IN_MEMORY[memo] = m
     return m

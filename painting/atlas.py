@@ -13,9 +13,6 @@ Pipeline::
 
 from __future__ import annotations
 
-import contextlib
-import os
-import shutil
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -87,18 +84,19 @@ class Atlas:
     def index(self) -> TexelIndex:
         """The texel spatial index (:class:`painting.spatial.TexelIndex`), built on first use.
 
-        Kept on disk beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s).
+        Kept in the cache beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s).
         """
         if self._index is None:
-            folder = (None if self._cache_path is None
-                      else self._cache_path.with_name(f"{self._cache_path.name}.index-v{_INDEX_CACHE_VERSION}"))
+            from core.cache import cache_dir as core_cache_dir
+
+            entry = (None if self._cache_path is None  # the cache's "index" kind, named after the bake
+                     else core_cache_dir("index") / f"{self._cache_path.stem}-i{_INDEX_CACHE_VERSION}.cache")
             count = int(np.count_nonzero(self.coverage))
-            index = TexelIndex.load(folder, count) if folder is not None else None
+            index = TexelIndex.load(entry, count, _INDEX_CACHE_VERSION) if entry is not None else None
             if index is None:
                 index = TexelIndex.build(self)
-                if folder is not None:
-                    shutil.rmtree(folder, ignore_errors=True)  # a damaged copy, if any
-                    index.save(folder)
+                if entry is not None:
+                    index.save(entry, _INDEX_CACHE_VERSION)
             self._index = index
         return self._index
 
@@ -167,15 +165,12 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
     """
     res = check_resolution(resolution)
     report = progress or (lambda stage, fraction: None)
-    path = cache_dir() / f"{layout.key}-{res}-p{padding}-v{_CACHE_VERSION}"
-    if cache and res >= 512 and path.is_dir():
-        try:
-            atlas = _load_cached(path, layout.mm_per_unit)
-            atlas._cache_path = path
-            report("bake", 1.0)
-            return atlas
-        except Exception:  # a truncated or stale cache: bake again, and write it anew
-            shutil.rmtree(path, ignore_errors=True)
+    path = cache_dir() / f"{layout.key}-{res}-p{padding}-v{_CACHE_VERSION}.cache"
+    cached = _load_cached(path, layout.mm_per_unit, res, padding) if cache and res >= 512 else None
+    if cached is not None:
+        cached._cache_path = path
+        report("bake", 1.0)
+        return cached
     report("bake", 0.0)
     tri = layout.uv[layout.faces] * float(res)
     face, bary = rasterize(tri, res, res, conservative=True)
@@ -222,10 +217,8 @@ def bake(layout: UVLayout, resolution: int, padding: int = DEFAULT_PADDING,
                   padded=padded, pad_dst=pad_dst, pad_src=pad_src, padding=padding, texel_mm=texel_mm,
                   mm_per_unit=layout.mm_per_unit)
     report("bake", 1.0)
-    if cache and res >= 512:
-        _save_cached(path, atlas)
-        if path.is_dir():
-            atlas._cache_path = path
+    if cache and res >= 512 and _save_cached(path, atlas):
+        atlas._cache_path = path
     return atlas
 
 
@@ -274,63 +267,34 @@ def _texel_size_mm(position: np.ndarray, covered: np.ndarray, mm_per_unit: float
 _FIELDS = ("position", "normal", "face", "chart", "coverage", "padded", "pad_dst", "pad_src")
 
 
-#: The atlas cache keeps its newest files within this many bytes.
-CACHE_LIMIT_BYTES = 3 * 1024**3
+def _save_cached(path: Path, atlas: Atlas) -> bool:
+    """Write ``atlas`` to the cache entry ``path`` (:func:`core.cache.save_arrays`); whether it was kept.
 
-
-def _save_cached(path: Path, atlas: Atlas) -> None:
-    """Write ``atlas`` as a folder of ``.npy`` files, made atomically (a sibling folder renamed into place).
-
-    No zip: reading a 2048² bake from a ``.npz`` spent half its second on decompressing nothing and
-    checking CRCs.
+    The cache's one policy decides the rest: atomic, checked on reading, evicted least recently used.
     """
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        if path.exists():
-            return
-        tmp.mkdir(parents=True, exist_ok=True)
-        np.save(tmp / "meta.npy", np.array([atlas.resolution, atlas.padding, atlas.texel_mm], dtype=np.float64))
-        for k in _FIELDS:
-            np.save(tmp / f"{k}.npy", getattr(atlas, k), allow_pickle=False)
-        os.replace(tmp, path)
-        _prune_cache(path.parent, keep=path)
-    except OSError:
-        pass  # the cache is an optimisation only
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+    from core.cache import save_arrays
+
+    meta = np.array([atlas.resolution, atlas.padding, atlas.texel_mm], dtype=np.float64)
+    return save_arrays(path, {"meta": meta, **{k: getattr(atlas, k) for k in _FIELDS}}, _CACHE_VERSION)
 
 
-def _folder_bytes(folder: Path) -> int:
-    return sum(f.stat().st_size for f in folder.glob("*.npy"))
+def _load_cached(path: Path, mm_per_unit: float, res: int, padding: int) -> Atlas | None:
+    """The bake cached at ``path`` for ``res`` and ``padding``, or None (absent, damaged or inconsistent)."""
+    from core.cache import load_arrays
 
-
-def _prune_cache(folder: Path, keep: Path) -> None:
-    """Delete the oldest cached atlases beyond :data:`CACHE_LIMIT_BYTES` (never ``keep``).
-
-    Each goes with its spatial index.
-    """
-    bakes = sorted((d for d in folder.glob(f"*-v{_CACHE_VERSION}") if d.is_dir()),
-                   key=lambda d: d.stat().st_mtime, reverse=True)
-    total = 0
-    for d in bakes:
-        total += _folder_bytes(d)
-        if total > CACHE_LIMIT_BYTES and d != keep:
-            shutil.rmtree(d, ignore_errors=True)
-            for index in folder.glob(f"{d.name}.index-v*"):
-                shutil.rmtree(index, ignore_errors=True)
-
-
-def _load_cached(path: Path, mm_per_unit: float) -> Atlas:
-    with contextlib.suppress(OSError):
-        os.utime(path)  # most recently used: pruned last
-    meta = np.load(path / "meta.npy", allow_pickle=False)
-    values = {k: np.load(path / f"{k}.npy", allow_pickle=False) for k in _FIELDS}
-    res = int(meta[0])
+    values = load_arrays(path, _CACHE_VERSION)
+    if values is None or any(k not in values for k in ("meta", *_FIELDS)):
+        return None
+    meta = values.pop("meta")
+    if meta.shape != (3,) or int(meta[0]) != res or int(meta[1]) != padding:
+        return None
     for k in ("position", "normal"):
         if values[k].shape != (res, res, 3):
-            raise ValueError(f"cached {k} has shape {values[k].shape}")
+            return None
     for k in ("face", "chart", "coverage", "padded"):
         if values[k].shape != (res, res):
-            raise ValueError(f"cached {k} has shape {values[k].shape}")
-    return Atlas(resolution=res, padding=int(meta[1]), texel_mm=float(meta[2]), mm_per_unit=mm_per_unit, **values)
+            return None
+    return Atlas(resolution=res, padding=padding, texel_mm=float(meta[2]), mm_per_unit=mm_per_unit,
+                 position=values["position"], normal=values["normal"], face=values["face"], chart=values["chart"],
+                 coverage=values["coverage"], padded=values["padded"], pad_dst=values["pad_dst"],
+                 pad_src=values["pad_src"])

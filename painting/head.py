@@ -424,18 +424,17 @@ def _mesh_cache_path(blob: bytes) -> Path:
     from core.cache import cache_dir
 
     digest = hashlib.sha256(blob).hexdigest()[:32]
-    return cache_dir("mesh") / f"{digest}-v{_MESH_CACHE_VERSION}.npz"
+    return cache_dir("mesh") / f"{digest}-v{_MESH_CACHE_VERSION}.cache"
 
 
 def _load_mesh_cache(cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
     """The cached (vertices, faces, uv, normals), or None when absent or not well-formed."""
-    if not cache.is_file():
+    from core.cache import load_arrays
+
+    data = load_arrays(cache, _MESH_CACHE_VERSION)  # None when absent or damaged (then deleted)
+    if data is None or any(k not in data for k in _MESH_FIELDS):
         return None
-    try:
-        with np.load(cache, allow_pickle=False) as data:
-            v, f, uv, n = (np.asarray(data[k]) for k in _MESH_FIELDS)
-    except Exception:  # a truncated or stale cache file: load the mesh again
-        return None
+    v, f, uv, n = (data[k] for k in _MESH_FIELDS)
     ok = (v.dtype == np.float64 and v.ndim == 2 and v.shape[1:] == (3,) and f.dtype == np.int64
           and f.ndim == 2 and f.shape[1:] == (3,) and 0 < len(f) <= MAX_FACES and uv.dtype == np.float64
           and uv.shape == (len(v), 2) and n.dtype == np.float64 and n.shape == v.shape)
@@ -443,17 +442,10 @@ def _load_mesh_cache(cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
 
 
 def _save_mesh_cache(cache: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
-    """Store (vertices, faces, uv, normals) at ``cache``, atomically; a failure to write is ignored."""
-    from core.atomicio import atomic_write_bytes
+    """Store (vertices, faces, uv, normals) at ``cache`` (:func:`core.cache.save_arrays`; failures ignored)."""
+    from core.cache import save_arrays
 
-    vertices, faces, uv, normals = arrays
-    try:
-        cache.parent.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        np.savez(buf, vertices=vertices, faces=faces, uv=uv, normals=normals)
-        atomic_write_bytes(cache, buf.getvalue())
-    except OSError:
-        pass  # the cache is an optimisation only
+    save_arrays(cache, dict(zip(_MESH_FIELDS, arrays)), _MESH_CACHE_VERSION)
 
 
 def _assemble(path: Path, arrays: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], meta: HeadMetadata,

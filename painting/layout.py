@@ -17,7 +17,6 @@ What :func:`clean_mesh` and :func:`check_uvs` find is cached on disk per mesh (t
 from __future__ import annotations
 
 import hashlib
-import io
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -356,39 +355,36 @@ def _prep_cache_path(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray, ch
         a = np.ascontiguousarray(arr, dtype=dtype)
         h.update(str(a.shape).encode())
         h.update(a.tobytes())
-    return cache_dir("layout") / f"{h.hexdigest()[:32]}-c{int(check_resolution)}-v{_PREP_CACHE_VERSION}.npz"
+    return cache_dir("layout") / f"{h.hexdigest()[:32]}-c{int(check_resolution)}-v{_PREP_CACHE_VERSION}.cache"
 
 
 def _save_prep(path: Path, faces: np.ndarray, face_index: np.ndarray, normals: np.ndarray, clean: CleanReport,
                check: UVCheck, chart: np.ndarray, utilisation: float) -> None:
-    from core.atomicio import atomic_write_bytes
+    from core.cache import save_arrays
 
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        flipped = clean.flipped if clean.flipped is not None else np.zeros(len(faces), dtype=bool)
-        np.savez(buf, faces=faces, face_index=face_index, normals=normals, chart=chart, flipped=flipped,
-                 utilisation=float(utilisation), watertight=bool(clean.watertight), valid=bool(check.valid),
-                 reason=np.array(check.reason), clean_ints=np.array([getattr(clean, k) for k in _CLEAN_INTS]),
-                 check_ints=np.array([getattr(check, k) for k in _CHECK_INTS]))
-        atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass  # the cache is an optimisation only
+    flipped = clean.flipped if clean.flipped is not None else np.zeros(len(faces), dtype=bool)
+    save_arrays(path, {"faces": faces, "face_index": face_index, "normals": normals, "chart": chart,
+                       "flipped": flipped, "utilisation": float(utilisation), "watertight": bool(clean.watertight),
+                       "valid": bool(check.valid), "reason": np.array(check.reason),
+                       "clean_ints": np.array([getattr(clean, k) for k in _CLEAN_INTS]),
+                       "check_ints": np.array([getattr(check, k) for k in _CHECK_INTS])}, _PREP_CACHE_VERSION)
 
 
 def _load_prep(path: Path) -> tuple[Any, ...] | None:
     """The cached (faces, face_index, normals, clean, check, chart, utilisation), or None."""
-    if not path.is_file():
+    from core.cache import load_arrays
+
+    d = load_arrays(path, _PREP_CACHE_VERSION)  # None when absent or damaged (then deleted)
+    if d is None:
         return None
     try:
-        with np.load(path, allow_pickle=False) as d:
-            faces, face_index, normals = d["faces"], d["face_index"], d["normals"]
-            chart, flipped = d["chart"], d["flipped"]
-            ci, ki = [int(x) for x in d["clean_ints"]], [int(x) for x in d["check_ints"]]
-            clean = CleanReport(**dict(zip(_CLEAN_INTS, ci)), watertight=bool(d["watertight"]), flipped=flipped)
-            check = UVCheck(valid=bool(d["valid"]), reason=str(d["reason"]), **dict(zip(_CHECK_INTS, ki)))
-            utilisation = float(d["utilisation"])
-    except Exception:  # a truncated or stale cache file: compute again
+        faces, face_index, normals = d["faces"], d["face_index"], d["normals"]
+        chart, flipped = d["chart"], d["flipped"]
+        ci, ki = [int(x) for x in d["clean_ints"]], [int(x) for x in d["check_ints"]]
+        clean = CleanReport(**dict(zip(_CLEAN_INTS, ci)), watertight=bool(d["watertight"]), flipped=flipped)
+        check = UVCheck(valid=bool(d["valid"]), reason=str(d["reason"]), **dict(zip(_CHECK_INTS, ki)))
+        utilisation = float(d["utilisation"])
+    except (KeyError, TypeError, ValueError):  # an entry of another layout (same version): compute again
         return None
     n = len(face_index)
     ok = (faces.dtype == np.int64 and faces.shape == (n, 3) and face_index.dtype == np.int64

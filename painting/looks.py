@@ -206,36 +206,26 @@ def _ray_cache(doc: Document) -> tuple[Path, dict[bytes, np.ndarray]] | None:
         return None
     key = doc.layout.key
     if key not in _RAY_CACHES:
-        from painting.atlas import cache_dir
+        from core.cache import cache_dir, load_arrays
 
-        path = cache_dir().parent / "looks" / f"{key}-v{_RAY_CACHE_VERSION}.npz"
+        path = cache_dir("looks") / f"{key}-v{_RAY_CACHE_VERSION}.cache"
         entries: dict[bytes, np.ndarray] = {}
-        try:
-            with np.load(path, allow_pickle=False) as data:
-                origins, points = data["origins"], data["points"]
-            if (origins.dtype == np.float64 and points.dtype == np.float64 and origins.ndim == 2
-                    and origins.shape[1:] == (3,) and points.shape == origins.shape):
-                entries = {o.tobytes(): pt for o, pt in zip(origins, points)}
-        except Exception:  # absent, truncated or stale: start empty
-            entries = {}
+        data = load_arrays(path, _RAY_CACHE_VERSION) or {}  # absent or damaged (then deleted): start empty
+        origins, points = data.get("origins"), data.get("points")
+        if (origins is not None and points is not None and origins.dtype == np.float64
+                and points.dtype == np.float64 and origins.ndim == 2 and origins.shape[1:] == (3,)
+                and points.shape == origins.shape):
+            entries = {o.tobytes(): pt for o, pt in zip(origins, points)}
         _RAY_CACHES[key] = (path, entries)
     return _RAY_CACHES[key]
 
 
 def _save_ray_cache(path: Path, entries: dict[bytes, np.ndarray]) -> None:
-    import io
+    from core.cache import save_arrays
 
-    from core.atomicio import atomic_write_bytes
-
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        origins = np.array([np.frombuffer(k, dtype=np.float64) for k in entries], dtype=np.float64).reshape(-1, 3)
-        points = np.array(list(entries.values()), dtype=np.float64).reshape(-1, 3)
-        np.savez(buf, origins=origins, points=points)
-        atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass  # the cache is an optimisation only
+    origins = np.array([np.frombuffer(k, dtype=np.float64) for k in entries], dtype=np.float64).reshape(-1, 3)
+    points = np.array(list(entries.values()), dtype=np.float64).reshape(-1, 3)
+    save_arrays(path, {"origins": origins, "points": points}, _RAY_CACHE_VERSION)
 
 
 #: Bump when a look's painted maps change for the same strokes (the painting code's own source is part
@@ -286,17 +276,18 @@ def _maps_cache_path(doc: Document, look: Look, points: list[list[list[np.ndarra
                 h.update(np.ascontiguousarray(p, dtype="<f8").tobytes())
     from core.cache import cache_dir
 
-    return cache_dir("looks") / f"maps-{h.hexdigest()[:32]}-v{_MAPS_CACHE_VERSION}.npz"
+    return cache_dir("looks") / f"maps-{h.hexdigest()[:32]}-v{_MAPS_CACHE_VERSION}.cache"
 
 
 def _load_maps(path: Path | None, count: int, shape: tuple[int, int]) -> list[np.ndarray] | None:
     if path is None:
         return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            maps = [data[f"layer{i}"] for i in range(count)]
-    except Exception:  # absent, truncated or stale: paint instead
+    from core.cache import load_arrays
+
+    data = load_arrays(path, _MAPS_CACHE_VERSION)  # None when absent or damaged (then deleted)
+    if data is None or any(f"layer{i}" not in data for i in range(count)):
         return None
+    maps = [data[f"layer{i}"] for i in range(count)]
     for m in maps:
         if m.shape != shape or m.dtype != np.float32 or not np.all(np.isfinite(m)) or m.min(initial=0.0) < 0:
             return None
@@ -304,18 +295,9 @@ def _load_maps(path: Path | None, count: int, shape: tuple[int, int]) -> list[np
 
 
 def _save_maps(path: Path, maps: list[np.ndarray]) -> None:
-    import io
+    from core.cache import save_arrays
 
-    from core.atomicio import atomic_write_bytes
-
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        buf = io.BytesIO()
-        arrays: dict[str, Any] = {f"layer{i}": m for i, m in enumerate(maps)}  # (not "allow_pickle")
-        np.savez_compressed(buf, **arrays)
-        atomic_write_bytes(path, buf.getvalue())
-    except OSError:
-        pass  # the cache is an optimisation only
+    save_arrays(path, {f"layer{i}": m for i, m in enumerate(maps)}, _MAPS_CACHE_VERSION, compress=True)
 
 
 def apply_look(doc: Document, look: Look | str, clear: bool = True) -> list[Layer]:

@@ -10,8 +10,6 @@ Units: mesh units throughout.
 
 from __future__ import annotations
 
-import os
-import shutil
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -99,39 +97,29 @@ class TexelIndex:
     #: arrays written by :meth:`save` (``meta``: origin x, y, z, cell, dims x, y, z)
     _SAVED = ("cell_start", "pn", "flat", "tile", "has_pad")
 
-    def save(self, folder: Path) -> None:
-        """Write the index as ``.npy`` files into ``folder``.
+    def save(self, path: Path, version: int | str = 0) -> bool:
+        """Write the index to the cache entry ``path`` (:func:`core.cache.save_arrays`); whether it was kept.
 
-        Made atomically: a sibling folder renamed into place; an existing folder is left as it is.
         Failing to write is not an error: the index is a cache (it takes about 2 s to build at 2048²,
         0.1 s to read).
         """
-        tmp = folder.with_name(f".{folder.name}.{os.getpid()}.tmp")
-        try:
-            if folder.exists():
-                return
-            tmp.mkdir(parents=True, exist_ok=True)
-            np.save(tmp / "meta.npy", np.array([*self.origin, self.cell, *self.dims], dtype=np.float64))
-            for name in self._SAVED:
-                np.save(tmp / f"{name}.npy", getattr(self, name), allow_pickle=False)
-            os.replace(tmp, folder)
-        except OSError:
-            pass
-        finally:
-            if tmp.exists():
-                shutil.rmtree(tmp, ignore_errors=True)
+        from core.cache import save_arrays
+
+        meta = np.array([*self.origin, self.cell, *self.dims], dtype=np.float64)
+        return save_arrays(path, {"meta": meta, **{name: getattr(self, name) for name in self._SAVED}}, version)
 
     @classmethod
-    def load(cls, folder: Path, count: int) -> TexelIndex | None:
-        """An index written by :meth:`save`, or None if ``folder`` is missing, unreadable or inconsistent.
+    def load(cls, path: Path, count: int, version: int | str = 0) -> TexelIndex | None:
+        """An index written by :meth:`save`, or None if ``path`` is missing, damaged or inconsistent.
 
         ``count``: the number of covered texels it must hold.
         """
-        try:
-            meta = np.load(folder / "meta.npy", allow_pickle=False)
-            arrays = {name: np.load(folder / f"{name}.npy", allow_pickle=False) for name in cls._SAVED}
-        except (OSError, ValueError, EOFError):
+        from core.cache import load_arrays
+
+        arrays = load_arrays(path, version)
+        if arrays is None or any(k not in arrays for k in ("meta", *cls._SAVED)):
             return None
+        meta = arrays.pop("meta")
         if meta.shape != (7,) or not np.all(np.isfinite(meta)):
             return None
         dims = tuple(int(v) for v in meta[4:])

@@ -70,16 +70,12 @@ class TextureIrradiance:
         Kept on disk per mesh footprint (``uv_key``) and size: scipy's distance transform plus the
         read-back take about 0.6 s of a start-up.
         """
-        from core.cache import cache_dir, save_array
+        from core.cache import cache_dir, load_array, save_array
 
         n = self.size
-        path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.npy"
-        idx = None
-        try:
-            idx = np.load(path, allow_pickle=False)
-            if idx.shape != (n, n, 2) or idx.dtype != np.int32 or idx.min() < 0 or idx.max() >= n:
-                idx = None
-        except (OSError, ValueError, EOFError):
+        path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.cache"
+        idx = load_array(path, 1)  # None when absent or damaged (then deleted, with a log line)
+        if idx is not None and (idx.shape != (n, n, 2) or idx.dtype != np.int32 or idx.min() < 0 or idx.max() >= n):
             idx = None
         if idx is None:
             from scipy.ndimage import distance_transform_edt
@@ -91,7 +87,7 @@ class TextureIrradiance:
             else:
                 iy, ix = np.mgrid[0:n, 0:n]
             idx = np.ascontiguousarray(np.stack([ix, iy], axis=-1).astype(np.int32))
-            save_array(path, idx)
+            save_array(path, idx, 1)
         index = self.ctx.texture((n, n), 2, idx.tobytes(), dtype="i4")
         index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
         return index

@@ -129,32 +129,38 @@ def test_bake_is_conservative_on_the_surface_and_padded() -> None:
 
 
 def test_bake_cache_round_trip(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from core.cache import load_arrays, save_arrays
+    from painting.atlas import _CACHE_VERSION
+
     monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
     layout = sample_layout()
     first = bake(layout, 512, cache=True)
-    folders = [d for d in (tmp_path / "atlas").iterdir() if d.is_dir() and ".index" not in d.name]
-    assert len(folders) == 1 and (folders[0] / "position.npy").is_file()
+    entries = list((tmp_path / "atlas").iterdir())
+    assert len(entries) == 1 and entries[0].is_file() and entries[0].suffix == ".cache"
     second = bake(layout, 512, cache=True)
     for name in ("position", "normal", "face", "chart", "coverage", "padded", "pad_dst", "pad_src"):
         assert np.array_equal(getattr(first, name), getattr(second, name))
     assert (second.resolution, second.padding, second.texel_mm) == (first.resolution, first.padding, first.texel_mm)
-    (folders[0] / "position.npy").write_bytes(b"broken")  # a damaged cache is ignored, baked and written again
+    entries[0].write_bytes(b"broken")  # a damaged cache is ignored, baked and written again
     third = bake(layout, 512, cache=True)
     assert np.array_equal(third.position, first.position)
-    assert np.array_equal(np.load(folders[0] / "position.npy"), first.position)
-    np.save(folders[0] / "position.npy", np.zeros((4, 4, 3), np.float32))  # the wrong shape: baked again
+    stored = load_arrays(entries[0], _CACHE_VERSION)
+    assert stored is not None and np.array_equal(stored["position"], first.position)
+    stored["position"] = np.zeros((4, 4, 3), np.float32)  # well-formed, the wrong shape: baked again
+    save_arrays(entries[0], stored, _CACHE_VERSION)
     assert np.array_equal(bake(layout, 512, cache=True).position, first.position)
 
 
 def test_spatial_index_is_kept_beside_the_bake(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """The texel index of a cached bake is written once and read back equal; a damaged copy is rebuilt."""
-    import shutil
+    from core.cache import load_arrays
+    from painting.atlas import _INDEX_CACHE_VERSION
 
     monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
     layout = sample_layout()
     built = bake(layout, 512, cache=True).index
-    folders = list((tmp_path / "atlas").glob("*.index-v*"))
-    assert len(folders) == 1 and (folders[0] / "pn.npy").is_file()
+    entries = list((tmp_path / "index").iterdir())
+    assert len(entries) == 1 and entries[0].is_file()
     read = bake(layout, 512, cache=True).index
     for name in ("cell_start", "pn", "flat", "tile", "has_pad", "x", "nz", "origin"):
         assert np.array_equal(getattr(read, name), getattr(built, name)), name
@@ -162,12 +168,13 @@ def test_spatial_index_is_kept_beside_the_bake(tmp_path: Path, monkeypatch: pyte
     # the same dab through either index
     p = built.point(len(built) // 2).astype(np.float64)
     assert np.array_equal(read.query_sphere(p, 0.2), built.query_sphere(p, 0.2))
-    (folders[0] / "pn.npy").write_bytes(b"broken")
+    entries[0].write_bytes(b"broken")
     again = bake(layout, 512, cache=True).index
     assert np.array_equal(again.pn, built.pn)
-    assert np.array_equal(np.load(folders[0] / "pn.npy"), built.pn)  # written anew
-    shutil.rmtree(folders[0])
-    (folders[0]).mkdir()  # an empty folder: inconsistent, rebuilt and written anew
+    stored = load_arrays(entries[0], _INDEX_CACHE_VERSION)
+    assert stored is not None and np.array_equal(stored["pn"], built.pn)  # written anew
+    entries[0].unlink()
+    entries[0].mkdir()  # a folder where the entry should be: not readable, rebuilt (not written over it)
     assert np.array_equal(bake(layout, 512, cache=True).index.flat, built.flat)
 
 

@@ -271,7 +271,7 @@ def test_a_look_from_the_cache_equals_a_look_painted(tmp_path: Path, monkeypatch
     monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
     first = Document.from_head(resolution=256)
     apply_look(first, "evening")
-    files = list((tmp_path / "looks").glob("maps-*.npz"))
+    files = list((tmp_path / "looks").glob("maps-*.cache"))
     assert len(files) == 1
     second = Document.from_head(resolution=256)
     apply_look(second, "evening")

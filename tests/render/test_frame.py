@@ -309,7 +309,7 @@ def test_irradiance_padding_index_is_cached_on_disk(gl_ctx: Any, doc: Any, tmp_p
     monkeypatch.setenv("SHEER_CACHE_DIR", str(tmp_path))
     images = []
     for damage in (None, None, b"broken"):
-        files = list((tmp_path / "render").glob("pad-index-*.npy"))
+        files = list((tmp_path / "render").glob("pad-index-*.cache"))
         if damage is not None:
             files[0].write_bytes(damage)
         r = Renderer(gl_ctx, doc.head, layout=doc.layout)
@@ -317,6 +317,6 @@ def test_irradiance_padding_index_is_cached_on_disk(gl_ctx: Any, doc: Any, tmp_p
         r.lights = [Light.directional(35.0, 25.0, 1.5)]
         images.append(r.render_image((160, 120), linear=True))
         r.release()
-        assert len(list((tmp_path / "render").glob("pad-index-*.npy"))) == 1
+        assert len(list((tmp_path / "render").glob("pad-index-*.cache"))) == 1
     np.testing.assert_array_equal(images[1], images[0])
     np.testing.assert_array_equal(images[2], images[0])
