@@ -164,8 +164,7 @@ def run_catalogue(spec: Spec, out: str | Path, *, jobs: list[Job] | None = None,
                 _run_jobs(own, todo, folder, t0 if force else None, result, records, failed, on_progress,
                           on_dashboard, cancelled)
     result.failed = list(failed.values())
-    result.rendered = sum(1 for r in records.values() if r["status"] in ("rendered", "exists"))
-    _write_outputs(spec, folder, jobs, records, result)
+    _write_outputs(spec, folder, jobs, {j.out for j in todo}, records, result)
     result.seconds = time.time() - t0
     return result
 
@@ -182,14 +181,14 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
     if result.dashboard and on_dashboard is not None:
         on_dashboard(result.dashboard)
     n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
-    by_key = {j.key: j for j in todo}
-    attempts: dict[str, int] = dict.fromkeys(by_key, 0)
+    by_out = {j.out: j for j in todo}
+    attempts: dict[str, int] = dict.fromkeys(by_out, 0)
     run_id = uuid.uuid4().hex[:8]
     pending: dict[Any, list[Job]] = {}
 
     def submit(chunk: list[Job]) -> Any:
         for j in chunk:
-            attempts[j.key] += 1
+            attempts[j.out] += 1
         fut = client.submit(render_chunk, chunk, str(folder), force_before, pure=False,
                             key=f"sheer-catalogue-{run_id}-{uuid.uuid4().hex[:12]}")
         pending[fut] = chunk
@@ -206,14 +205,14 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
             outcomes = [{"key": j.key, "out": j.out, "status": "failed", "seconds": None, "error": reason,
                          "worker": None} for j in chunk]
         for res in outcomes:
-            job = by_key[res["key"]]
-            if res["status"] == "failed" and attempts[job.key] < 2:
+            job = by_out[res["out"]]
+            if res["status"] == "failed" and attempts[job.out] < 2:
                 queue.add(submit([job]))  # retried once, on its own (maybe on another worker)
                 continue
             if res["status"] == "failed":
-                failed[job.key] = {"file": job.out, "hash": job.key, **job.params(), "error": res["error"],
-                                   "attempts": attempts[job.key], "worker": res["worker"]}
-            records[job.key] = res
+                failed[job.out] = {"file": job.out, "hash": job.key, **job.params(), "error": res["error"],
+                                   "attempts": attempts[job.out], "worker": res["worker"]}
+            records[job.out] = res
             done += 1
         if on_progress is not None:
             on_progress(done, result.total, sum(r["status"] == "rendered" for r in records.values()), len(failed))
@@ -223,9 +222,12 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
             break
 
 
-def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], records: dict[str, dict[str, Any]],
+def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], records: dict[str, dict[str, Any]],
                    result: RunResult) -> None:
-    """manifest.json, manifest.csv, failed.json (or its removal) and the contact sheets, atomically."""
+    """manifest.json, manifest.csv, failed.json (or its removal) and the contact sheets, atomically.
+
+    Sets ``result.rendered``: the outputs this run wrote (``todo`` are those it set out to write).
+    """
     import csv
     import io
 
@@ -235,18 +237,21 @@ def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], records: dict[str,
     old = _previous_manifest(folder)
     images = []
     for job in jobs:
-        rec = records.get(job.key)
-        prev = old.get(job.key, {})
-        if rec is None:  # there before the run (or never reached: cancelled)
+        rec = records.get(job.out)
+        prev = old.get(job.out, {}) if old.get(job.out, {}).get("hash") == job.key else {}
+        if rec is None:  # there before the run, or never reported (cancelled)
             exists = (folder / job.out).exists()
             status = "skipped" if exists else ("cancelled" if result.cancelled else "missing")
             seconds, worker = prev.get("seconds"), prev.get("worker")
+            if exists and job.out in todo:  # written by a task still running when the run was cancelled
+                status, seconds, worker = "rendered", None, None
         elif rec["status"] == "exists":  # written by this run before its worker died; the rerun kept it
             status, seconds, worker = "rendered", None, None
         else:
             status, seconds, worker = rec["status"], rec["seconds"], rec["worker"]
         images.append({"file": job.out, "hash": job.key, **job.params(), "status": status, "seconds": seconds,
                        "worker": worker})
+    result.rendered = sum(e["status"] == "rendered" for e in images)
     manifest = {"schema_version": MANIFEST_SCHEMA_VERSION, "name": spec.name, "spec": str(spec.path.absolute()),
                 "renderer_version": renderer_version(), "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                 "total": len(jobs), "rendered": result.rendered, "skipped": result.skipped,
@@ -271,9 +276,9 @@ def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], records: dict[str,
 
 
 def _previous_manifest(folder: Path) -> dict[str, dict[str, Any]]:
-    """The previous run's manifest entries by hash (for the timings of skipped images), or {}."""
+    """The previous run's manifest entries by file (for the timings of skipped images), or {}."""
     try:
         data = json.loads((folder / "manifest.json").read_text(encoding="utf-8"))
-        return {e["hash"]: e for e in data.get("images", []) if isinstance(e, dict) and "hash" in e}
+        return {e["file"]: e for e in data.get("images", []) if isinstance(e, dict) and "file" in e}
     except (OSError, ValueError, TypeError, AttributeError):
         return {}

@@ -265,7 +265,7 @@ def expand(spec: Spec) -> list[Job]:
             raise CatalogueError(f"{spec.path}: naming: two different images would be written to {job.out!r} "
                                  "(add the axis that differs, e.g. {view} or {light}, to the pattern)")
         seen[job.out] = job
-    return list({j.key: j for j in jobs}.values())  # identical jobs (same hash) rendered once
+    return list(seen.values())  # one job per output (two labels for the same pixels stay two files)
 
 
 def _project_head_hash(look: LookSource) -> str:

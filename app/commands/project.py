@@ -4,7 +4,8 @@
 - ``info FILE [--json]``: what the project holds (does not need the head).
 - ``validate FILE``: every check of ``docs/FORMAT.md``; exit 0 when valid, 2 with a one-line reason.
 - ``export FILE --out DIR [--ora]``: each layer's map as EXR float32 (exact) and 16-bit PNG, the
-  materials, and ``manifest.json``; ``--ora`` adds ``layers.ora`` (OpenRaster, for GIMP and Krita).
+  materials, and ``manifest.json``; ``--ora`` adds ``layers.ora`` (OpenRaster, for GIMP and Krita);
+  ``--gltf OUT.glb`` writes the made-up head as glTF/GLB (the makeup baked into the albedo).
 - ``upgrade FILE``: rewrite a project from an older Sheer in the current format (the original is
   kept as ``FILE.v<N>.bak``).
 """
@@ -43,9 +44,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     val.add_argument("file")
     val.set_defaults(func=run_validate)
 
-    exp = cmds.add_parser("export", help="write the layer maps and a manifest into a folder")
+    exp = cmds.add_parser("export", help="write the layer maps and a manifest into a folder, or the made-up head as glTF")
     exp.add_argument("file")
-    exp.add_argument("--out", required=True, help="output folder (created)")
+    exp.add_argument("--out", help="output folder (created) for the layer maps")
+    exp.add_argument("--gltf", metavar="OUT.glb", help="write the head with the makeup baked into its albedo (.glb/.gltf)")
     exp.add_argument("--ora", action="store_true", help="also write layers.ora (OpenRaster)")
     exp.set_defaults(func=run_export)
 
@@ -149,7 +151,24 @@ def run_validate(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    """Write each layer's map (EXR and 16-bit PNG), the materials and a manifest into --out; returns 0."""
+    """Write each layer's map (EXR and 16-bit PNG), the materials and a manifest into --out; returns 0.
+
+    With ``--gltf OUT.glb`` the made-up head is written as glTF (:mod:`catalogue.glb`, as the studio's
+    File → Export glTF does).
+    """
+    from core.errors import SheerError
+
+    if not args.out and not args.gltf:
+        raise SheerError("give --out DIR (the layer maps) and/or --gltf OUT.glb (the made-up head)")
+    if args.gltf:
+        from catalogue.glb import write_gltf
+        from project.document import document_from_project
+        from project.io import open_project
+
+        write_gltf(document_from_project(open_project(args.file)), None, args.gltf)
+        print(f"wrote {args.gltf}")
+    if not args.out:
+        return 0
     from project.export import export_project
 
     manifest = export_project(args.file, args.out, ora=args.ora)
