@@ -1,13 +1,28 @@
 """``sheer render``: render a head wearing a look or a project to a PNG, headless (standalone EGL).
 
 Without ``--head`` the sample head from the assets is used; without ``--look``/``--project`` the face is
-bare. Lights: ``--light AZ,EL[,INTENSITY]`` (degrees; azimuth 0 = from the front, positive from the
-subject's left; elevation positive from above), repeatable, up to 8; default a three-light portrait rig.
+bare. Lights: ``--light AZ,EL[,INTENSITY[,#RRGGBB]]`` (degrees; azimuth 0 = from the front, positive from
+the subject's left; elevation positive from above; the colour as sRGB hex, made luminance 1 so the
+intensity keeps its meaning), repeatable, up to 8; ``--light-color #RRGGBB`` colours the lights that
+give none; default a three-light portrait rig. Values may start with a minus sign (``--light -12,5,1``).
+
+A captured face (``--face FACE_DIR``, a folder written by ``sheer capture``) is drawn by the lightweight
+engine by default, from the capture's own camera (the photograph's framing and size), in the
+photograph's units: a light of intensity 1 is the captured flash, exposure 1 shows the photograph's
+values. ``--light from-capture`` is the captured flash itself (its direction, colour and intensity 1);
+the ambient light the capture measured is always part of the face. ``--camera FILE`` takes any 3×4
+projection matrix (JSON ``{"P": …}``, pixels ← mesh units, as ``sheer capture --camera``) and
+``--yaw``/``--pitch`` an orbit camera instead.
+
+Defaults: intensity 1.2 and exposure 0.85 for the physical modes (display units: a white Lambert surface
+facing a light of intensity 1 shows 1.0 before exposure); intensity 1 and exposure 1 for the lightweight
+engine (photograph units).
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -16,10 +31,13 @@ if TYPE_CHECKING:
     import moderngl
     import numpy as np
 
+    from capture.camera import Camera
+    from capture.face import Face
     from km.library import Library
     from painting import Document
     from painting.head import Head
-    from render import Renderer
+    from render import Light, Renderer
+    from render.camera import OrbitCamera
 
 MAX_SIZE = 8192
 
@@ -34,39 +52,85 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _light(text: str) -> tuple[float, float, float]:
+#: ``--light``'s value that reuses the captured flash (needs ``--face``).
+FROM_CAPTURE = "from-capture"
+
+
+def _colour(text: str) -> tuple[float, float, float]:
+    """An sRGB hex colour ``#RRGGBB`` → linear RGB (3,) of luminance 1 (Rec. 709 weights)."""
+    import re
+
+    from km.srgb import srgb_decode
+
+    if not re.fullmatch(r"#?[0-9a-fA-F]{6}", text):
+        raise argparse.ArgumentTypeError(f"a colour must look like #RRGGBB (sRGB hex), got {text!r}")
+    h = text.lstrip("#")
+    lin = [float(srgb_decode(int(h[i:i + 2], 16) / 255.0)) for i in (0, 2, 4)]
+    lum = 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+    if lum <= 0:
+        raise argparse.ArgumentTypeError(f"a light's colour must not be black, got {text!r}")
+    return (lin[0] / lum, lin[1] / lum, lin[2] / lum)
+
+
+def _light(text: str) -> tuple[float, float, float | None, tuple[float, float, float] | None] | str:
+    """``AZ,EL[,INTENSITY[,#RRGGBB]]`` → (az, el, intensity or None, colour or None), or ``from-capture``."""
     import math
 
+    if text == FROM_CAPTURE:
+        return text
+    parts = text.split(",")
+    colour = None
+    if len(parts) == 4:
+        colour = _colour(parts.pop())
     try:
-        vals = [float(v) for v in text.split(",")]
+        vals = [float(v) for v in parts]
     except ValueError:
         vals = []
     if len(vals) not in (2, 3) or not all(math.isfinite(v) for v in vals):
-        raise argparse.ArgumentTypeError(f"light must be AZ,EL[,INTENSITY] in degrees, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"light must be AZ,EL[,INTENSITY[,#RRGGBB]] in degrees, or {FROM_CAPTURE}, got {text!r}")
     if len(vals) == 3 and vals[2] < 0:
         raise argparse.ArgumentTypeError(f"light intensity must be ≥ 0, got {text!r}")
-    return (vals[0], vals[1], vals[2] if len(vals) == 3 else 1.2)
+    return (vals[0], vals[1], vals[2] if len(vals) == 3 else None, colour)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the ``render`` command to ``sheer``'s sub-commands."""
-    p = sub.add_parser("render", help="render a made-up face to a PNG (no display needed)", description=__doc__)
-    p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head")
+    p = sub.add_parser("render", help="render a made-up face to a PNG (no display needed)", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    # Option values may start with a minus sign: "--light -12,5,1" (argparse takes only plain negative
+    # numbers as values, and this command has no option that looks like one).
+    p._negative_number_matcher = re.compile(r"^-\.?\d")  # type: ignore[attr-defined]
+    p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head, or "
+                                                 "the head a --face was captured on")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--project", metavar="FILE", help="a .sheer project to render")
     src.add_argument("--look", metavar="NAME", help="a built-in look (bare, natural, evening, red-lip) or a look JSON")
-    p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH", help="image size (default 1280x720)")
-    p.add_argument("--mode", choices=("fast", "reference", "off", "lightweight"), default="fast",
-                   help="subsurface scattering, or the lightweight engine for a captured face (needs --face)")
+    p.add_argument("--size", type=_size, metavar="WxH",
+                   help="image size in pixels (default 1280x720; with the capture's camera or --camera, the "
+                        "photograph's size — another size must keep its aspect ratio)")
+    p.add_argument("--mode", choices=("fast", "reference", "off", "lightweight"),
+                   help="subsurface scattering, or the lightweight engine for a captured face (needs --face; the "
+                        "default with --face, else fast)")
     p.add_argument("--face", metavar="FACE_DIR",
-                   help="a face folder written by 'sheer capture': rendered by --mode lightweight, or its "
-                        "captured albedo (detail × fitted diffuse) used by the other modes")
-    p.add_argument("--light", type=_light, action="append", metavar="AZ,EL[,INTENSITY]", help="a directional light")
+                   help="a face folder written by 'sheer capture': drawn by the lightweight engine from the "
+                        "capture's camera, or its captured albedo (detail × fitted diffuse) used by the other modes")
+    p.add_argument("--light", type=_light, action="append", metavar="AZ,EL[,INTENSITY[,#RRGGBB]]",
+                   help="a directional light (degrees; intensity default 1.2 in display units, 1 = the captured "
+                        f"flash with --mode lightweight); '{FROM_CAPTURE}': the captured flash (direction, colour, "
+                        "intensity 1)")
+    p.add_argument("--light-color", "--light-colour", type=_colour, metavar="#RRGGBB",
+                   help="the colour (sRGB hex) of every --light that gives none (default white)")
+    p.add_argument("--camera", metavar="FILE",
+                   help="a 3×4 projection matrix JSON {\"P\": [[…], […], […]]} (pixels ← mesh units, as 'sheer "
+                        "capture --camera'); the image is the size it was made for, or --size")
     p.add_argument("--env", metavar="NAME", help="HDR environment (e.g. studio, city) or an EXR path")
     p.add_argument("--env-intensity", type=float, default=0.3, metavar="E", help="mean irradiance of --env")
-    p.add_argument("--yaw", type=float, default=0.0, metavar="DEG", help="camera yaw (positive: subject's left)")
-    p.add_argument("--pitch", type=float, default=0.0, metavar="DEG", help="camera pitch")
-    p.add_argument("--exposure", type=float, default=0.85, help="exposure multiplier")
+    p.add_argument("--yaw", type=float, metavar="DEG",
+                   help="orbit camera yaw in degrees (positive: subject's left; default 0) instead of the capture's camera")
+    p.add_argument("--pitch", type=float, metavar="DEG", help="orbit camera pitch in degrees (default 0)")
+    p.add_argument("--exposure", type=float,
+                   help="exposure multiplier (default 0.85; 1 with --mode lightweight: the photograph's units)")
     p.add_argument("--debug-view", default="none",
                    choices=("none", "albedo", "thickness", "r_top", "transmittance", "irradiance", "unlit"))
     p.add_argument("--debug-layer", type=int, default=0, help="layer index for --debug-view thickness")
@@ -105,17 +169,26 @@ def run(args: argparse.Namespace) -> int:
 
     out = _check_output(args.out)
     for name in ("yaw", "pitch", "exposure", "env_intensity"):
-        if not math.isfinite(getattr(args, name)):
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):
             raise SheerError(f"--{name.replace('_', '-')} must be a finite number")
     if args.light and len(args.light) > 8:
         raise SheerError(f"at most 8 --light options, got {len(args.light)}")
-    face = None
-    if args.mode == "lightweight" and not args.face:
+    mode = args.mode or ("lightweight" if args.face else "fast")
+    if mode == "lightweight" and not args.face:
         raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
+    if args.light and FROM_CAPTURE in args.light and not args.face:
+        raise SheerError(f"--light {FROM_CAPTURE} needs --face FACE_DIR (the capture whose flash to reuse)")
+    face = None
     if args.face:  # issue 7: a captured face (lightweight engine, or its albedo in the physical one)
         from capture.face import load_face
 
         face = load_face(args.face)
+    lightweight = mode == "lightweight"
+    exposure = args.exposure if args.exposure is not None else (1.0 if lightweight else 0.85)
+    head_path = args.head if args.head or face is None else _captured_head_path(face)
+    photo_camera = _photo_camera(args, face)
+    size = _image_size(args.size, photo_camera)
 
     from painting.head import load_head
 
@@ -124,14 +197,14 @@ def run(args: argparse.Namespace) -> int:
         from project.document import document_from_project
         from project.io import open_project
 
-        doc = document_from_project(open_project(args.project, head_path=args.head), head_path=args.head)
+        doc = document_from_project(open_project(args.project, head_path=head_path), head_path=head_path)
         head = doc.head
     elif args.look and args.look != "bare":
         from painting import Document
         from painting.looks import apply_look, load_look
 
         look = load_look(args.look)  # unknown look: a clear error before the slow head set-up
-        head = load_head(args.head)
+        head = load_head(head_path)
         _check_head(head)
         lib = _library()
         for lay in look.layers:
@@ -143,10 +216,10 @@ def run(args: argparse.Namespace) -> int:
             from painting.looks import load_look
 
             load_look("bare")
-        head = load_head(args.head)
+        head = load_head(head_path)
         _check_head(head)
 
-    if face is not None and args.mode != "lightweight":
+    if face is not None and not lightweight:
         import dataclasses
 
         from capture.face import face_albedo
@@ -154,13 +227,13 @@ def run(args: argparse.Namespace) -> int:
         head = dataclasses.replace(head, albedo=face_albedo(face))  # skin albedo = detail × fitted diffuse
         if doc is not None:
             doc.head = head
-        face = None
 
     import moderngl
     from PIL import Image
 
-    from render import DocumentBinding, Light, Renderer
+    from render import DocumentBinding, Renderer
 
+    lights = _lights(args.light, args.light_color, face, 1.0 if lightweight else 1.2)
     try:
         ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     except Exception as exc:
@@ -172,7 +245,7 @@ def run(args: argparse.Namespace) -> int:
             if binding is not None:
                 binding.flush()
             s = renderer.settings
-            s.exposure, s.debug_view = args.exposure, args.debug_view
+            s.exposure, s.debug_view = exposure, args.debug_view
             if args.debug_view == "thickness":  # --debug-layer is a document layer; the renderer's is a slot
                 from render.view import debug_slot
 
@@ -185,17 +258,20 @@ def run(args: argparse.Namespace) -> int:
                     raise SheerError(f"--debug-layer {args.debug_layer}: layer "
                                      f"'{renderer.km.layers[args.debug_layer].name}' is hidden or transparent")
                 s.debug_layer = slot
-            if face is None:
-                s.mode = args.mode
-            renderer.camera.yaw, renderer.camera.pitch = args.yaw, args.pitch
-            if args.light:
-                renderer.lights = [Light.directional(az, el, inten) for az, el, inten in args.light]
+            if not lightweight:
+                s.mode = mode
+            if photo_camera is not None:
+                renderer.camera = _projection_camera(photo_camera, head.vertices, size)
+            else:
+                renderer.camera.yaw, renderer.camera.pitch = args.yaw or 0.0, args.pitch or 0.0
+            if lights is not None:
+                renderer.lights = lights
             if args.env:
                 renderer.set_environment(args.env, args.env_intensity)
-            if face is None:
-                image = renderer.render_image(args.size)
+            if not lightweight:
+                image = renderer.render_image(size)
             else:
-                image = _render_lightweight(ctx, head, face, renderer, doc, args)
+                image = _render_lightweight(ctx, head, face, renderer, doc, exposure, size)
         finally:
             if binding is not None:
                 binding.close()
@@ -209,12 +285,166 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise SheerError(f"{out}: cannot write the image: {exc.strerror or exc}") from None
-    print(f"wrote {out} ({args.size[0]}×{args.size[1]}, {args.mode})", file=sys.stderr)
+    print(f"wrote {out} ({size[0]}×{size[1]}, {mode})", file=sys.stderr)
     return 0
 
 
+def _captured_head_path(face: Face) -> str | None:
+    """The head a face was captured on (face.json's ``head``) when that file still exists, else None."""
+    from pathlib import Path
+
+    recorded = face.data.get("head")
+    return recorded if isinstance(recorded, str) and Path(recorded).is_file() else None
+
+
+def _photo_camera(args: argparse.Namespace, face: Face | None) -> Camera | None:
+    """The pinhole camera to render from, or None for the orbit camera.
+
+    ``--camera FILE``, else the capture's (``--face``, unless an orbit camera is asked for with
+    ``--yaw``/``--pitch``), else None.
+    """
+    import numpy as np
+
+    from capture.camera import Camera, CameraError, load_camera
+    from core.errors import SheerError
+
+    if args.camera:
+        if args.yaw is not None or args.pitch is not None:
+            raise SheerError("--camera and --yaw/--pitch exclude each other (a projection matrix fixes the view)")
+        data = _read_camera_size(args.camera)
+        if data is None and args.size is None:
+            raise SheerError(f"{args.camera}: give the image size with --size WxH (or 'width' and 'height' in "
+                             f"the file): a projection matrix is in the pixels of one image size")
+        w, h = data or args.size
+        return load_camera(args.camera, w, h)
+    if face is None or args.yaw is not None or args.pitch is not None:
+        return None
+    cam = face.data.get("camera")
+    if not isinstance(cam, dict):
+        return None  # a face folder without a camera (written by hand): the orbit camera
+    try:
+        return Camera(K=np.asarray(cam["K"], float), R=np.asarray(cam["R"], float), t=np.asarray(cam["t"], float),
+                      width=int(cam["width"]), height=int(cam["height"]))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise CameraError(f"{args.face}/face.json: malformed 'camera' ({exc!r})") from None
+
+
+def _read_camera_size(path: str) -> tuple[int, int] | None:
+    """The ``width`` and ``height`` (pixels) a projection-matrix JSON names, or None when it names none."""
+    import json
+    from pathlib import Path
+
+    from capture.camera import CameraError
+
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise CameraError(f"{path}: file not found") from None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        raise CameraError(f"{path}: cannot read JSON: {exc}") from None
+    if not isinstance(data, dict) or "width" not in data or "height" not in data:
+        return None
+    w, h = data["width"], data["height"]
+    if not (isinstance(w, int) and isinstance(h, int) and 1 <= w <= MAX_SIZE and 1 <= h <= MAX_SIZE):
+        raise CameraError(f"{path}: 'width' and 'height' must be whole numbers of pixels from 1 to {MAX_SIZE}")
+    return w, h
+
+
+def _image_size(size: tuple[int, int] | None, camera: Camera | None) -> tuple[int, int]:
+    """The image size (pixels): ``--size``, else the camera's, else 1280×720.
+
+    A size other than the camera's must keep its aspect ratio (within half a pixel).
+    """
+    from core.errors import SheerError
+
+    if camera is None:
+        return size or (1280, 720)
+    if size is None:
+        return camera.width, camera.height
+    if abs(size[0] * camera.height / camera.width - size[1]) > 0.5:
+        raise SheerError(f"--size {size[0]}x{size[1]}: the camera is for {camera.width}x{camera.height}; keep its "
+                         f"aspect ratio (e.g. {size[0]}x{round(size[0] * camera.height / camera.width)})")
+    return size
+
+
+def _lights(specs: list[object] | None, colour: tuple[float, float, float] | None, face: Face | None,
+            intensity: float) -> list[Light] | None:
+    """The ``--light`` options as lights (None: the renderer's defaults); ``intensity`` where none is given."""
+    from render import Light
+
+    if not specs:
+        return None
+    out = []
+    for spec in specs:
+        if spec == FROM_CAPTURE:
+            out.append(_captured_flash(face))
+            continue
+        az, el, inten, col = spec  # type: ignore[misc]
+        out.append(Light.directional(az, el, intensity if inten is None else inten,
+                                     col or colour or (1.0, 1.0, 1.0)))
+    return out
+
+
+def _captured_flash(face: Face | None) -> Light:
+    """The captured flash as a light.
+
+    face.json's ``light_dir_world`` (head space), ``phong.flash_rgb`` (luminance 1) and intensity 1 (the
+    photograph's units).
+    """
+    import numpy as np
+
+    from core.errors import SheerError
+    from render import Light
+
+    assert face is not None
+    d = np.asarray(face.data.get("light_dir_world", []), dtype=float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-9:
+        raise SheerError(f"--light {FROM_CAPTURE}: the face folder has no usable 'light_dir_world'")
+    return Light("directional", tuple(float(x) for x in d / np.linalg.norm(d)),  # type: ignore[arg-type]
+                 tuple(float(x) for x in face.params.flash_rgb), 1.0, True)  # type: ignore[arg-type]
+
+
+def _projection_camera(camera: Camera, vertices: np.ndarray, size: tuple[int, int]) -> OrbitCamera:
+    """An orbit camera that renders exactly what the pinhole ``camera`` sees, at ``size`` (same aspect).
+
+    Its view is the camera's [R | t] turned to GL's eye space (y up, looking along −z) and its projection
+    :meth:`capture.camera.Camera.clip_from_world` (the image scaled to ``size``), depth range from the
+    head's vertices; eye, target, distance and vertical field of view follow, for what reads them.
+    """
+    import math
+
+    import numpy as np
+
+    from render.camera import OrbitCamera
+
+    scale = size[0] / camera.width
+    depths = camera.to_camera(np.asarray(vertices))[:, 2]
+    near, far = max(1e-3, 0.5 * float(depths.min())), 2.0 * float(depths.max())
+    flip = np.diag([1.0, -1.0, -1.0, 1.0])
+    view = flip.copy()
+    view[:3, :3] = flip[:3, :3] @ camera.R
+    view[:3, 3] = flip[:3, :3] @ camera.t
+    proj = camera.clip_from_world(near, far, scale) @ np.linalg.inv(view)
+    centre = np.asarray(vertices).mean(axis=0)
+
+    class ProjectionCamera(OrbitCamera):
+        def eye(self) -> np.ndarray:
+            return camera.centre
+
+        def view(self) -> np.ndarray:
+            return view
+
+        def projection(self, aspect: float) -> np.ndarray:
+            return proj
+
+    cam = ProjectionCamera(fov_y=math.degrees(2 * math.atan(camera.height / (2 * float(camera.K[1, 1])))),
+                           target=centre, near=near, far=far)
+    cam.distance = float(np.linalg.norm(camera.centre - centre))
+    return cam
+
+
 def _render_lightweight(ctx: moderngl.Context, head: Head, face: object, renderer: Renderer,
-                        doc: Document | None, args: argparse.Namespace) -> np.ndarray:
+                        doc: Document | None, exposure: float, size: tuple[int, int]) -> np.ndarray:
     """The captured ``face`` drawn by the lightweight engine (render/lightweight.py), uint8 (H, W, 3).
 
     Same camera, lights and environment as ``renderer``, and its texture-space KM outputs as the makeup
@@ -227,9 +457,9 @@ def _render_lightweight(ctx: moderngl.Context, head: Head, face: object, rendere
         lw.camera = renderer.camera
         lw.lights = list(renderer.lights)
         lw.environment = renderer.environment
-        lw.exposure = args.exposure
+        lw.exposure = exposure
         lw.makeup = renderer.km if doc is not None else None
-        return lw.render_image(args.size)
+        return lw.render_image(size)
     finally:
         lw.release()
 
