@@ -45,13 +45,14 @@ class PopulationRanges:
     """Ranges the population is sampled over (melanin and blood log-uniform, the others uniform).
 
     Defaults: light (ITA° > 70) to very dark (ITA° < −70) skins of the model, blood 0.3–4 %,
-    oxygenation 60–90 %, scattering 0.7–1.5.
+    oxygenation 60–90 %, scattering 0.7–1.5, pheomelanin 10–60 % of the melanin.
     """
 
     melanin: tuple[float, float] = (0.005, 0.40)
     blood: tuple[float, float] = (0.003, 0.04)
     oxygenation: tuple[float, float] = (0.6, 0.9)
     scattering: tuple[float, float] = (0.7, 1.5)
+    pheomelanin: tuple[float, float] = (0.1, 0.6)
 
 
 def sample_skins(n: int, seed: int = 0, ranges: PopulationRanges | None = None) -> dict[str, FloatArray]:
@@ -61,13 +62,14 @@ def sample_skins(n: int, seed: int = 0, ranges: PopulationRanges | None = None) 
     if not 1 <= n <= 1_000_000:
         raise ShadeError(f"the population must hold 1 to 1,000,000 skins, got {n}")
     r = ranges or PopulationRanges()
-    u = qmc.Halton(d=4, scramble=True, seed=seed).random(n)
+    u = qmc.Halton(d=5, scramble=True, seed=seed).random(n)
     log_range = [(math.log(lo), math.log(hi)) for lo, hi in (r.melanin, r.blood)]
     return {
         "melanin": np.exp(log_range[0][0] + u[:, 0] * (log_range[0][1] - log_range[0][0])),
         "blood": np.exp(log_range[1][0] + u[:, 1] * (log_range[1][1] - log_range[1][0])),
         "oxygenation": r.oxygenation[0] + u[:, 2] * (r.oxygenation[1] - r.oxygenation[0]),
         "scattering": r.scattering[0] + u[:, 3] * (r.scattering[1] - r.scattering[0]),
+        "pheomelanin": r.pheomelanin[0] + u[:, 4] * (r.pheomelanin[1] - r.pheomelanin[0]),
     }
 
 
@@ -211,7 +213,7 @@ def coverage(bank: ShadeBank, n: int = 1000, *, seed: int = 0, illuminant: str =
         raise ShadeError(f"the poorly-served threshold must be a positive ΔE2000, got {threshold}")
     params = sample_skins(n, seed, ranges)
     skins = skin_reflectance(params["melanin"], params["blood"], params["oxygenation"], params["scattering"],
-                             bank.grid)
+                             bank.grid, params["pheomelanin"])
     t, de = best_thickness(bank, skins, skins, illuminant)
     best = np.argmin(de, axis=1)
     rows = np.arange(n)

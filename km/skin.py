@@ -1,6 +1,6 @@
 """A biophysical two-layer skin reflectance model, evaluated with the project's Kubelka–Munk optics.
 
-The skin is an **epidermis** (melanin, no blood) of fixed thickness over a semi-infinite **dermis**
+The skin is an **epidermis** (melanin — a blend of eumelanin and pheomelanin — no blood) of fixed thickness over a semi-infinite **dermis**
 (blood, partly oxygenated), the structure of the two-layer models of the skin-optics literature
 (Donner & Jensen 2006, "A spectral BSSRDF for shading human skin", EGSR). Each layer's absorption and
 reduced scattering coefficients come from the published spectra below; they are turned into KM
@@ -16,12 +16,14 @@ parameter    unit  meaning
 melanin      1     volume fraction of melanosomes in the epidermis (Jacques 1998: light skin
                    1.3–6.3 %, moderately pigmented 11–16 %, darkly pigmented 18–43 %)
 blood        1     volume fraction of whole blood in the dermis
-oxygenation  1     fraction of the haemoglobin that is oxygenated (fixed in fits, default 0.75)
+oxygenation  1     fraction of the haemoglobin that is oxygenated (held in fits, default 0.75)
 scattering   1     scale of the reduced scattering coefficient of both layers (1 = Jacques 1998)
+pheomelanin  1     fraction of the melanin that is pheomelanin (the rest eumelanin; default 0.3)
 ============ ===== ================================================================================
 
-:func:`fit_skin` fits melanin, blood and scattering to a measured colour (three numbers, three
-unknowns) and says how far the closest model colour is (ΔE2000) and whether the colour lies outside
+:func:`fit_skin` fits melanin, blood, scattering and the pheomelanin fraction to a measured colour
+(three numbers for four unknowns: weak priors towards scattering 1 and pheomelanin 0.3 pick one
+solution) and says how far the closest model colour is (ΔE2000) and whether the colour lies outside
 what the model can produce. Units: wavelengths in nm, μa and μs′ per mm (the published cm⁻¹ values
 divided by 10), thicknesses in mm.
 """
@@ -37,7 +39,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from core.errors import SheerError
-from km.colour import delta_e2000, linear_rgb_to_lab, spectrum_to_xyz, xyz_to_lab
+from km.colour import delta_e2000, linear_rgb_to_lab, spectral_xyz_matrix, spectrum_to_xyz, xyz_to_lab
 from km.optics import layer_rt, over, saunderson
 from km.spectra import DEFAULT_GRID, WavelengthGrid
 
@@ -55,10 +57,15 @@ FloatArray = NDArray[np.float64]
 # Constants, each with its source and unit
 # --------------------------------------------------------------------------------------------------
 
-#: μa of the inside of a melanosome, per cm, is MELANIN_A · λ[nm] ^ −MELANIN_EXPONENT
-#: (S. L. Jacques, "Skin optics", Oregon Medical Laser Center News, 1998: μa.mel = 6.6·10¹¹ λ⁻³·³³ cm⁻¹).
+#: μa of the inside of a melanosome (eumelanin), per cm, is MELANIN_A · λ[nm] ^ −MELANIN_EXPONENT
+#: (S. L. Jacques, "Skin optics", Oregon Medical Laser Center News, 1998: μa.mel = 6.6·10¹¹ λ⁻³·³³ cm⁻¹;
+#: Donner & Jensen 2006 use the same for eumelanin, 6.6·10¹⁰ λ⁻³·³³ per mm).
 MELANIN_A_PER_CM = 6.6e11
 MELANIN_EXPONENT = 3.33
+#: Pheomelanin, per cm: 2.9·10¹⁵ λ[nm]⁻⁴·⁷⁵ (Donner & Jensen 2006: 2.9·10¹⁴ λ⁻⁴·⁷⁵ per mm). Steeper than
+#: eumelanin: it absorbs the blue as strongly but the red less, so the skin it colours is yellower.
+PHEOMELANIN_A_PER_CM = 2.9e15
+PHEOMELANIN_EXPONENT = 4.75
 #: μa of bloodless, melanin-free tissue, per cm: 0.244 + 85.3 exp(−(λ − 154 nm)/66.2 nm) (Jacques 1998, ibid.).
 BASELINE_A_PER_CM, BASELINE_B_PER_CM, BASELINE_L0_NM, BASELINE_W_NM = 0.244, 85.3, 154.0, 66.2
 #: Reduced scattering of the dermis, per cm: Mie 2·10⁵ λ⁻¹·⁵ + Rayleigh 2·10¹² λ⁻⁴ (λ in nm; Jacques 1998,
@@ -78,6 +85,9 @@ EPIDERMIS_MM = 0.06
 SKIN_IOR = 1.4
 #: Default blood oxygenation, fraction (a mix of arterial ≈ 0.97 and venous ≈ 0.6 blood; Jacques 1998 uses 0.75).
 DEFAULT_OXYGENATION = 0.75
+#: Default (and the fits' prior) pheomelanin fraction of the melanin: a model choice between the
+#: eumelanin-dominated dark skins and the pheomelanin-rich light ones (Donner & Jensen 2006 fit 0–1).
+DEFAULT_PHEOMELANIN = 0.3
 #: Diffusion → Kubelka–Munk: K = 2 μa, S = ¾ μs′ (van Gemert & Star 1987, "Relations between the Kubelka-Munk
 #: and the transport equation models for anisotropic scattering", Lasers Life Sci. 1: 287–298), with their
 #: −¼ μa term in S dropped: it assumes μs′ ≫ μa, and it would make S negative in the blue for dark epidermis.
@@ -92,6 +102,7 @@ PARAM_RANGES: dict[str, tuple[float, float]] = {
     "blood": (0.001, 0.08),       # 0.1–8 % (Donner & Jensen 2006 fit 0.2–7 %)
     "oxygenation": (0.0, 1.0),
     "scattering": (0.4, 2.5),     # the spread of μs′ between people and body sites (Jacques 2013 review)
+    "pheomelanin": (0.0, 1.0),
 }
 #: A fit whose closest model colour is further than this (ΔE2000) is reported as out of the model's gamut.
 GAMUT_DE2000 = 1.0
@@ -168,10 +179,11 @@ def haemoglobin_absorption(grid: WavelengthGrid = DEFAULT_GRID) -> tuple[FloatAr
 
 @functools.lru_cache(maxsize=8)
 def _tissue(grid: WavelengthGrid) -> dict[str, FloatArray]:
-    """The wavelength-only spectra (per mm) on ``grid``: melanin, baseline, μs′, oxy- and deoxy-blood."""
+    """The wavelength-only spectra (per mm) on ``grid``: melanins, baseline, μs′, oxy- and deoxy-blood."""
     wl = grid.wavelengths
     out = {
-        "melanin": MELANIN_A_PER_CM * wl ** -MELANIN_EXPONENT * _CM_TO_MM,
+        "eumelanin": MELANIN_A_PER_CM * wl ** -MELANIN_EXPONENT * _CM_TO_MM,
+        "pheomelanin": PHEOMELANIN_A_PER_CM * wl ** -PHEOMELANIN_EXPONENT * _CM_TO_MM,
         "baseline": (BASELINE_A_PER_CM + BASELINE_B_PER_CM * np.exp(-(wl - BASELINE_L0_NM) / BASELINE_W_NM))
         * _CM_TO_MM,
         "musp": (MIE_PER_CM * wl ** -MIE_EXPONENT + RAYLEIGH_PER_CM * wl ** -RAYLEIGH_EXPONENT) * _CM_TO_MM,
@@ -197,6 +209,7 @@ class SkinParams:
     blood: float
     oxygenation: float = DEFAULT_OXYGENATION
     scattering: float = 1.0
+    pheomelanin: float = DEFAULT_PHEOMELANIN
 
     def __post_init__(self) -> None:
         for name, (lo, hi) in PARAM_RANGES.items():
@@ -207,16 +220,17 @@ class SkinParams:
     def to_json(self) -> dict[str, float]:
         """The parameters by name (JSON-ready)."""
         return {"melanin": self.melanin, "blood": self.blood, "oxygenation": self.oxygenation,
-                "scattering": self.scattering}
+                "scattering": self.scattering, "pheomelanin": self.pheomelanin}
 
     def reflectance(self, grid: WavelengthGrid = DEFAULT_GRID) -> FloatArray:
         """Diffuse reflectance of this skin on ``grid`` (fractions in [0, 1], ``len(grid)`` values)."""
-        return skin_reflectance(self.melanin, self.blood, self.oxygenation, self.scattering, grid)
+        return skin_reflectance(self.melanin, self.blood, self.oxygenation, self.scattering, grid,
+                                self.pheomelanin)
 
 
 def skin_coefficients(melanin: ArrayLike, blood: ArrayLike, oxygenation: ArrayLike = DEFAULT_OXYGENATION,
-                      scattering: ArrayLike = 1.0, grid: WavelengthGrid = DEFAULT_GRID
-                      ) -> dict[str, FloatArray]:
+                      scattering: ArrayLike = 1.0, grid: WavelengthGrid = DEFAULT_GRID,
+                      pheomelanin: ArrayLike = DEFAULT_PHEOMELANIN) -> dict[str, FloatArray]:
     """μa and μs′ (per mm) of the epidermis and the dermis, broadcast over the parameters.
 
     ============ ===== ===============================================================
@@ -226,27 +240,30 @@ def skin_coefficients(melanin: ArrayLike, blood: ArrayLike, oxygenation: ArrayLi
     blood        1     [0, 1] dermal blood volume fraction
     oxygenation  1     [0, 1] haemoglobin oxygen saturation
     scattering   1     > 0, scale of μs′
+    pheomelanin  1     [0, 1] pheomelanin fraction of the melanin
     ============ ===== ===============================================================
 
     Returns ``{"mua_epidermis", "mua_dermis", "musp"}``, each ``(*broadcast shape, len(grid))`` per mm.
     Values outside the domain give values outside physics (no check here: :class:`SkinParams` checks).
     """
     t = _tissue(grid)
-    m, b, o, s = (np.asarray(v, dtype=np.float64)[..., None] for v in (melanin, blood, oxygenation, scattering))
-    mua_e = m * t["melanin"] + (1.0 - m) * t["baseline"]
+    m, b, o, s, p = (np.asarray(v, dtype=np.float64)[..., None]
+                     for v in (melanin, blood, oxygenation, scattering, pheomelanin))
+    mua_e = m * ((1.0 - p) * t["eumelanin"] + p * t["pheomelanin"]) + (1.0 - m) * t["baseline"]
     mua_d = b * (o * t["oxy"] + (1.0 - o) * t["deoxy"]) + (1.0 - b) * t["baseline"]
     return {"mua_epidermis": mua_e, "mua_dermis": mua_d, "musp": s * t["musp"]}
 
 
 def skin_reflectance(melanin: ArrayLike, blood: ArrayLike, oxygenation: ArrayLike = DEFAULT_OXYGENATION,
-                     scattering: ArrayLike = 1.0, grid: WavelengthGrid = DEFAULT_GRID) -> FloatArray:
+                     scattering: ArrayLike = 1.0, grid: WavelengthGrid = DEFAULT_GRID,
+                     pheomelanin: ArrayLike = DEFAULT_PHEOMELANIN) -> FloatArray:
     """Diffuse reflectance of the two-layer skin (fractions in [0, 1]), broadcast over the parameters.
 
     Arguments as :func:`skin_coefficients`; returns ``(*broadcast shape, len(grid))``. Epidermis of
     :data:`EPIDERMIS_MM` over an opaque dermis, KM (Eq. 1–4 of Huang et al. 2013 via :mod:`km.optics`),
     then the air–skin surface (Saunderson, k1 = 0, k2 = :data:`SURFACE_K2`).
     """
-    c = skin_coefficients(melanin, blood, oxygenation, scattering, grid)
+    c = skin_coefficients(melanin, blood, oxygenation, scattering, grid, pheomelanin)
     S = KM_S_PER_MUSP * c["musp"]
     R_e, T_e = layer_rt(S, KM_K_PER_MUA * c["mua_epidermis"], EPIDERMIS_MM)
     R_d, _ = layer_rt(S, KM_K_PER_MUA * c["mua_dermis"], np.inf)
@@ -282,8 +299,8 @@ def hue_degrees(lab: ArrayLike) -> FloatArray:
 # Fitting
 # --------------------------------------------------------------------------------------------------
 
-#: the fitted parameters (oxygenation is held) and how each is searched (log scale)
-_FIT_NAMES = ("melanin", "blood", "scattering")
+#: the fitted parameters (oxygenation is held); the first three are searched on a log scale
+_FIT_NAMES = ("melanin", "blood", "scattering", "pheomelanin")
 
 
 @dataclass(frozen=True)
@@ -319,27 +336,33 @@ class SkinFit:
                 "reflectance": [round(float(r), 6) for r in self.reflectance]}
 
 
-#: Weight of the prior that prefers scattering = 1 (Lab units per unit of ln scattering). Lab cannot always
-#: separate melanin from scattering: some colours are made by two parameter sets (metamers of the model,
-#: with different spectra). The prior picks the one nearest to the average scattering; it costs a fitted
-#: colour at most ~0.01 ΔE.
+#: Weights of the priors (Lab units per unit of ln scattering, and per unit of pheomelanin fraction). Lab
+#: cannot separate four parameters (and not always melanin from scattering): many colours are made by
+#: several parameter sets (metamers of the model, with different spectra). The priors pick the one
+#: nearest to scattering 1 and pheomelanin :data:`DEFAULT_PHEOMELANIN`; they cost a fitted colour ~0.01 ΔE.
 SCATTERING_PRIOR = 0.05
+PHEOMELANIN_PRIOR = 0.05
+
+
+def _x_to_params(x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """(melanin, blood, scattering, pheomelanin) from the search variables (..., 4)."""
+    return np.exp(x[..., 0]), np.exp(x[..., 1]), np.exp(x[..., 2]), x[..., 3]
 
 
 @functools.lru_cache(maxsize=8)
 def _fit_table(grid: WavelengthGrid, oxygenation: float) -> tuple[FloatArray, FloatArray]:
-    """A coarse table of (log parameters (n, 3), Lab under D65 (n, 3)) to start the fits from.
+    """A coarse table of (search variables (n, 4), Lab under D65 (n, 3)) to start the fits from.
 
-    The scattering axis holds 1 exactly (ln 1 = 0), so starts on the prior's centre are always offered.
+    The scattering and pheomelanin axes hold the priors' centres exactly, so starts on them are offered.
     """
     lo_s, hi_s = (math.log(v) for v in PARAM_RANGES["scattering"])
-    axes = [np.linspace(math.log(PARAM_RANGES["melanin"][0]), math.log(PARAM_RANGES["melanin"][1]), 28),
-            np.linspace(math.log(PARAM_RANGES["blood"][0]), math.log(PARAM_RANGES["blood"][1]), 12),
-            np.concatenate([np.linspace(lo_s, 0.0, 4), np.linspace(0.0, hi_s, 5)[1:]])]
-    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    lab = lab_of(skin_reflectance(np.exp(x[:, 0]), np.exp(x[:, 1]), oxygenation, np.exp(x[:, 2]), grid),
-                 "D65", grid)
-    return x, lab
+    axes = [np.linspace(math.log(PARAM_RANGES["melanin"][0]), math.log(PARAM_RANGES["melanin"][1]), 24),
+            np.linspace(math.log(PARAM_RANGES["blood"][0]), math.log(PARAM_RANGES["blood"][1]), 10),
+            np.concatenate([np.linspace(lo_s, 0.0, 3), np.linspace(0.0, hi_s, 4)[1:]]),
+            np.array([0.0, DEFAULT_PHEOMELANIN, 0.65, 1.0])]
+    x = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 4)
+    m, b, s, p = _x_to_params(x)
+    return x, lab_of(skin_reflectance(m, b, oxygenation, s, grid, p), "D65", grid)
 
 
 def _check_lab(target_lab: ArrayLike) -> FloatArray:
@@ -351,22 +374,22 @@ def _check_lab(target_lab: ArrayLike) -> FloatArray:
 
 def fit_skin(target_lab: ArrayLike | None = None, *, linear_rgb: ArrayLike | None = None,
              oxygenation: float = DEFAULT_OXYGENATION, grid: WavelengthGrid = DEFAULT_GRID) -> SkinFit:
-    """Fit melanin, blood and scattering so that the model's colour under D65 is the given colour.
+    """Fit melanin, blood, scattering and pheomelanin so that the model's colour under D65 is the given one.
 
     ============ ===== ===============================================================
     argument     unit  domain
     ============ ===== ===============================================================
     target_lab   1     CIELAB (L* in [0, 100]) relative to D65, or
-    linear_rgb   1     linear sRGB (D65 white = (1, 1, 1)), each channel finite ≥ 0
+    linear_rgb   1     linear sRGB (D65 white = (1, 1, 1)), finite (< 0: outside sRGB)
     oxygenation  1     [0, 1], held fixed
     ============ ===== ===============================================================
 
-    Least squares (scipy's trust-region reflective, the parameters on a log scale within
-    :data:`PARAM_RANGES`) on the Lab difference plus a weak prior towards scattering = 1
-    (:data:`SCATTERING_PRIOR`), started from the nearest entries of a coarse table (two overall, two
-    with scattering = 1); the lowest cost wins. A colour the model can produce is fitted to ΔE2000 ≈ 0;
-    one it cannot is reported with ``out_of_gamut`` and the closest colour. Raises :class:`SkinError`
-    for malformed input.
+    Least squares (scipy's trust-region reflective, melanin, blood and scattering on a log scale,
+    all within :data:`PARAM_RANGES`) on the Lab difference plus the weak priors
+    (:data:`SCATTERING_PRIOR`, :data:`PHEOMELANIN_PRIOR`), started from the nearest entries of a
+    coarse table (two overall, two on the priors' centres); the lowest cost wins. A colour the model
+    can produce is fitted to ΔE2000 ≈ 0; one it cannot is reported with ``out_of_gamut`` and the
+    closest colour. Raises :class:`SkinError` for malformed input.
     """
     from scipy.optimize import least_squares
 
@@ -374,35 +397,46 @@ def fit_skin(target_lab: ArrayLike | None = None, *, linear_rgb: ArrayLike | Non
         raise SkinError("fit_skin: give exactly one of a Lab colour or a linear RGB colour")
     if linear_rgb is not None:
         rgb = np.asarray(linear_rgb, dtype=np.float64)
-        if rgb.shape != (3,) or not np.isfinite(rgb).all() or (rgb < 0).any():
-            raise SkinError(f"a linear RGB colour must be three finite numbers ≥ 0, got {rgb.tolist()}")
+        if rgb.shape != (3,) or not np.isfinite(rgb).all():
+            raise SkinError(f"a linear RGB colour must be three finite numbers, got {rgb.tolist()}")
         target = _check_lab(linear_rgb_to_lab(rgb))
     else:
         assert target_lab is not None
         target = _check_lab(target_lab)
     SkinParams(0.01, 0.01, oxygenation)  # validates the oxygenation
     x_table, lab_table = _fit_table(grid, float(oxygenation))
-    lo = np.log([PARAM_RANGES[k][0] for k in _FIT_NAMES])
-    hi = np.log([PARAM_RANGES[k][1] for k in _FIT_NAMES])
+    lo = np.array([*np.log([PARAM_RANGES[k][0] for k in _FIT_NAMES[:3]]), PARAM_RANGES["pheomelanin"][0]])
+    hi = np.array([*np.log([PARAM_RANGES[k][1] for k in _FIT_NAMES[:3]]), PARAM_RANGES["pheomelanin"][1]])
+
+    to_xyz = spectral_xyz_matrix(grid, "D65")  # the matrix lab_of uses, looked up once (called ~400 times)
+
+    prior = np.diag([0.0, 0.0, SCATTERING_PRIOR, PHEOMELANIN_PRIOR])[2:]
+
+    def colour(x: FloatArray) -> FloatArray:  # x (..., 4) → Lab (..., 3)
+        m, b, s, p = _x_to_params(x)
+        return xyz_to_lab(skin_reflectance(m, b, oxygenation, s, grid, p) @ to_xyz, "D65")
 
     def residual(x: FloatArray) -> FloatArray:
-        lab = lab_of(skin_reflectance(math.exp(x[0]), math.exp(x[1]), oxygenation, math.exp(x[2]), grid),
-                     "D65", grid)
-        return np.append(lab - target, SCATTERING_PRIOR * x[2])
+        return np.concatenate([colour(x) - target, prior @ (x - [0.0, 0.0, 0.0, DEFAULT_PHEOMELANIN])])
+
+    def jacobian(x: FloatArray) -> FloatArray:
+        # forward differences, the four steps evaluated in one vectorised call (the model broadcasts)
+        step = 1e-6 * np.where(x + 1e-6 <= hi, 1.0, -1.0)
+        lab = colour(np.vstack([x, x + np.diag(step)]))
+        return np.vstack([((lab[1:] - lab[0]) / step[:, None]).T, prior])
 
     dist = np.sum((lab_table - target) ** 2, axis=1)
-    on_prior = np.flatnonzero(x_table[:, 2] == 0.0)
+    on_prior = np.flatnonzero((x_table[:, 2] == 0.0) & (x_table[:, 3] == DEFAULT_PHEOMELANIN))
     starts = [*np.argsort(dist)[:2], *on_prior[np.argsort(dist[on_prior])[:2]]]
     best = None
     for i in dict.fromkeys(int(j) for j in starts):
-        sol = least_squares(residual, x_table[i], bounds=(lo, hi), method="trf", xtol=1e-12, ftol=1e-12,
-                            gtol=1e-12, max_nfev=200)
+        sol = least_squares(residual, x_table[i], jac=jacobian, bounds=(lo, hi), method="trf", xtol=1e-9,
+                            ftol=1e-9, gtol=1e-9, max_nfev=300)
         if best is None or sol.cost < best.cost:
             best = sol
     assert best is not None
-    x = np.clip(best.x, lo, hi)
-    params = SkinParams(melanin=float(np.exp(x[0])), blood=float(np.exp(x[1])), oxygenation=float(oxygenation),
-                        scattering=float(np.exp(x[2])))
+    m, b, s, p = (float(v) for v in _x_to_params(np.clip(best.x, lo, hi)))
+    params = SkinParams(melanin=m, blood=b, oxygenation=float(oxygenation), scattering=s, pheomelanin=p)
     refl = params.reflectance(grid)
     lab = lab_of(refl, "D65", grid)
     de = float(delta_e2000(lab, target))
