@@ -28,10 +28,12 @@ from PySide6.QtWidgets import (
 )
 
 from app.actions import KIOSK_ACTIONS
-from app.kiosk_config import KioskConfig, check_pin, require_pin
+from app.kiosk_config import KioskConfig, require_pin
+from app.pin_lock import PinGuard
 from app.pin_pad import PinPad, big_button
 from app.session import Session
 from app.settings import LIGHT_PRESETS
+from core.cache import PrivateCache
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -102,6 +104,8 @@ class KioskWindow(QWidget):
         self.attract = False
         self.last_error: str | None = None
         self.snapshots: list[Path] = []
+        # a shopper's session (try-on screen → start screen) writes its cache entries here, removed after
+        self.private_cache = PrivateCache()
         self.session = session if session is not None else Session.open(resolution=config.resolution)
         self.library = self.session.library
         self.doc = self.session.document
@@ -117,8 +121,8 @@ class KioskWindow(QWidget):
         self.stack = QStackedWidget()
         self.start_page = self._build_start()
         self.main_page = self._build_main()
-        self.pin_pad = PinPad()
-        self.pin_pad.entered.connect(self._pin_entered)
+        self.pin_pad = PinPad(PinGuard.for_config(config))  # the lockout's state beside the config file
+        self.pin_pad.accepted.connect(self._pin_accepted)
         self.pin_pad.cancelled.connect(self._pin_cancelled)
         for page in (self.start_page, self.main_page, self.pin_pad):
             self.stack.addWidget(page)
@@ -418,11 +422,13 @@ class KioskWindow(QWidget):
         self.showFullScreen()
 
     def show_start(self) -> None:
-        """Show the start screen."""
+        """Show the start screen (the shopper's session ends: its private cache is removed)."""
         self.stack.setCurrentWidget(self.start_page)
+        self.private_cache.close()
 
     def show_main(self) -> None:
-        """Show the try-on screen (and count it as activity)."""
+        """Show the try-on screen (and count it as activity); a shopper's session uses a private cache."""
+        self.private_cache.open()
         self.start_message.setText("Try on makeup — touch to start")
         self.stack.setCurrentWidget(self.main_page)
         self.viewport.update()
@@ -469,14 +475,10 @@ class KioskWindow(QWidget):
         self.pin_pad.reset()
         self.stack.setCurrentWidget(self.pin_pad)
 
-    def _pin_entered(self, pin: str) -> None:
-        if check_pin(pin, self.config.pin_hash):
-            log.info("kiosk: exit with the administrator PIN")
-            self._allow_close = True
-            self.close()
-        else:
-            log.warning("kiosk: wrong PIN")
-            self.pin_pad.reset("Wrong PIN")
+    def _pin_accepted(self) -> None:  # (a wrong PIN is logged and shown by the pad's guard)
+        log.info("kiosk: exit with the administrator PIN")
+        self._allow_close = True
+        self.close()
 
     def _pin_cancelled(self) -> None:
         before = getattr(self, "_before_pin", None)
@@ -496,6 +498,7 @@ class KioskWindow(QWidget):
         from app.workers import wait_all
 
         wait_all(20000)
+        self.private_cache.close()
         self.viewport.shutdown()
         event.accept()
 

@@ -14,7 +14,7 @@ import logging
 import math
 import os
 import secrets
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from app.settings import DEFAULT_RESOLUTION
@@ -62,6 +62,8 @@ class KioskConfig:
         face_dir: a captured face folder written by ``sheer capture`` ("" for none).
         max_frame_ms: the slowest physical frame "auto" accepts, in ms, in [10, 10000].
         resolution: texels per side of the thickness maps (a multiple of 64 in [64, 8192]).
+        source: the file this configuration was read from (None when made in memory); not saved. The
+            PIN lockout's state is kept beside it (:mod:`app.pin_lock`).
     """
 
     pin_hash: str = ""
@@ -73,6 +75,7 @@ class KioskConfig:
     face_dir: str = ""
     max_frame_ms: float = 250.0
     resolution: int = DEFAULT_RESOLUTION
+    source: Path | None = field(default=None, repr=False, compare=False)
 
     @staticmethod
     def default_path() -> Path:
@@ -93,11 +96,11 @@ class KioskConfig:
         ``sheer kiosk --set-pin`` stores one); out-of-range numbers are clamped.
         """
         path = path or cls.default_path()
-        cfg = cls()
+        cfg = cls(source=path)
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
             if isinstance(data, dict):
-                for k in asdict(cfg):
+                for k in cfg._persisted():
                     value = data.get(k)
                     if isinstance(value, float) and not math.isfinite(value):
                         continue  # NaN/inf would defeat the clamping below
@@ -133,8 +136,14 @@ class KioskConfig:
 
         path = path or self.default_path()
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(path, json.dumps(asdict(self), indent=2))
+        atomic_write_text(path, json.dumps(self._persisted(), indent=2))
         return path
+
+    def _persisted(self) -> dict[str, object]:
+        """The fields written to the file (all but :attr:`source`)."""
+        data = asdict(self)
+        data.pop("source")
+        return data
 
 
 #: What a kiosk without a PIN says (one line, naming the command that sets one).

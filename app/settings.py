@@ -7,6 +7,7 @@ the kiosk's configuration and the session use the defaults without loading Qt.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
@@ -63,6 +64,8 @@ class StudioSettings:
         overlay: show the frame-time overlay.
         autosave_minutes: minutes between autosaves of unsaved work, [0.25, 120].
         recent_files: the projects opened or saved last, newest first.
+        cache_max_mb: the cache folder's size cap in MiB, [0, 1048576]; 0: automatic (10 % of the free
+            space, at most 2 GiB). ``SHEER_CACHE_MAX_MB`` overrides it (see :mod:`core.cache`).
     """
 
     brush_radius_mm: float = 8.0
@@ -80,6 +83,7 @@ class StudioSettings:
     overlay: bool = False
     autosave_minutes: float = 3.0
     recent_files: list[str] = field(default_factory=list)
+    cache_max_mb: float = 0.0
 
     def clamp(self) -> None:
         """Bring every field into its range (unknown names become their defaults)."""
@@ -96,16 +100,30 @@ class StudioSettings:
             self.environment = "none"
         self.split = min(max(self.split, 0.0), 1.0)
         self.autosave_minutes = min(max(self.autosave_minutes, 0.25), 120.0)
+        if not math.isfinite(self.cache_max_mb) or self.cache_max_mb < 0:
+            self.cache_max_mb = 0.0  # (automatic)
+        self.cache_max_mb = min(self.cache_max_mb, 1024.0 * 1024.0)
 
     def add_recent(self, path: str, limit: int = 8) -> None:
         """Put ``path`` first in the recent files (once), keeping at most ``limit``."""
         self.recent_files = [path, *[p for p in self.recent_files if p != path]][:limit]
 
 
+def apply_cache_cap(s: StudioSettings) -> None:
+    """Give the cache policy the settings' cap (:func:`core.cache.set_configured_max_mb`)."""
+    from core.cache import set_configured_max_mb
+
+    set_configured_max_mb(s.cache_max_mb or None)
+
+
 def load_settings(qsettings: QSettings) -> StudioSettings:
-    """Read the settings; anything missing, malformed or of another schema version gets its default."""
+    """Read the settings; anything missing, malformed or of another schema version gets its default.
+
+    The cache cap they hold is applied to :mod:`core.cache` as they are read (:func:`apply_cache_cap`).
+    """
     s = StudioSettings()
     if qsettings.value("schema_version") not in (SETTINGS_SCHEMA_VERSION, str(SETTINGS_SCHEMA_VERSION)):
+        apply_cache_cap(s)
         return s
     for f in fields(s):
         raw = qsettings.value(f"studio/{f.name}")
@@ -123,6 +141,7 @@ def load_settings(qsettings: QSettings) -> StudioSettings:
             continue
         setattr(s, f.name, value)
     s.clamp()
+    apply_cache_cap(s)
     return s
 
 

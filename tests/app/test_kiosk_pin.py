@@ -124,6 +124,23 @@ def test_attract_mode_and_touch_returns_to_start(kiosk: object, qtbot: object) -
     assert kiosk.stack.currentWidget() is kiosk.start_page
 
 
+def test_a_shoppers_session_writes_its_cache_privately_and_removes_it(kiosk: KioskWindow) -> None:
+    """From the try-on screen until the start screen, cache writes go to a private folder (0700, outside
+    the shared cache), removed when the session ends or the kiosk closes."""
+    import numpy as np
+
+    from core.cache import cache_dir, cache_root, save_array, shared_root
+
+    kiosk.show_main()
+    private = cache_root()
+    assert kiosk.private_cache.is_open and private == kiosk.private_cache.root and private != shared_root()
+    entry = cache_dir("atlas") / "from-the-shoppers-face.cache"
+    assert save_array(entry, np.ones(4)) and entry.is_relative_to(private)
+    kiosk.show_start()
+    assert not kiosk.private_cache.is_open and not private.exists() and cache_root() == shared_root()
+    assert not (shared_root() / "atlas" / "from-the-shoppers-face.cache").exists()
+
+
 def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
     from app.kiosk import FRIENDLY
 
