@@ -118,13 +118,15 @@ def _surface_k2(n: float) -> float:
     Judd (1942): ``r_i = 1 − (1 − r_e)/n²``, with the external diffuse reflectance ``r_e`` the
     cosine-weighted hemispherical mean of Fresnel's reflectance (unpolarised), integrated numerically.
     """
-    theta = np.linspace(0.0, math.pi / 2, 2001)[:-1] + math.pi / 4000  # midpoints
+    steps = 2000
+    h = (math.pi / 2) / steps
+    theta = (np.arange(steps) + 0.5) * h  # midpoints
     cos_i = np.cos(theta)
     sin_t = np.sin(theta) / n
     cos_t = np.sqrt(1.0 - sin_t**2)
     rs = ((cos_i - n * cos_t) / (cos_i + n * cos_t)) ** 2
     rp = ((n * cos_i - cos_t) / (n * cos_i + cos_t)) ** 2
-    r_e = float(np.sum(0.5 * (rs + rp) * 2.0 * np.sin(theta) * cos_i) * (math.pi / 2000))
+    r_e = float(np.sum(0.5 * (rs + rp) * 2.0 * np.sin(theta) * cos_i) * h)
     return 1.0 - (1.0 - r_e) / n**2
 
 
