@@ -98,8 +98,9 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
+        _probe(scheduler)
         try:
-            client = Client(scheduler, timeout="10s")
+            client = Client(scheduler, timeout="20s")
         except OSError as exc:
             raise CatalogueError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
         try:
@@ -112,6 +113,23 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=dashboard, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
+
+
+def _probe(address: str) -> None:
+    """Fail at once, with the reason, when nothing listens at a ``tcp://host:port`` scheduler address."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(address if "://" in address else f"tcp://{address}")
+    if parts.scheme != "tcp":
+        return  # other transports (tls, inproc, ucx): Dask's own connection error says what went wrong
+    try:
+        port = parts.port or 8786
+        with socket.create_connection((parts.hostname or "127.0.0.1", port), timeout=5):
+            pass
+    except (OSError, ValueError) as exc:
+        reason = getattr(exc, "strerror", None) or str(exc)
+        raise CatalogueError(f"cannot reach the Dask scheduler at {address}: {reason}") from None
 
 
 def dashboard_link(client: Any) -> str | None:

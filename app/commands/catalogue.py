@@ -47,9 +47,9 @@ class ProgressBar:
     Hand-written: distributed's own ``progress`` shows neither rate nor ETA, and tqdm is not a dependency.
     """
 
-    def __init__(self, stream: TextIO = sys.stderr, width: int = 30) -> None:
-        self.stream, self.width = stream, width
-        self.tty = stream.isatty()
+    def __init__(self, stream: TextIO | None = None, width: int = 30) -> None:
+        self.stream, self.width = stream or sys.stderr, width
+        self.tty = self.stream.isatty()
         self.t0 = time.monotonic()
         self.first: tuple[float, int] | None = None  # (time, rendered) when the first output came
         self.last_tenth = -1
