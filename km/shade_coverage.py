@@ -36,6 +36,8 @@ FloatArray = NDArray[np.float64]
 POORLY_SERVED_DE2000 = 2.0
 #: Two poorly served skins closer than this in CIELAB (ΔE*ab) are in the same gap.
 GAP_RADIUS_LAB = 6.0
+#: Concentrations below this are left out of a suggested recipe (which is then scored as named).
+RECIPE_MIN = 0.005
 #: Most gap skins the mixture is optimised on (a seeded subsample beyond that; the result is scored on all).
 GAP_SAMPLE = 48
 
@@ -193,13 +195,13 @@ def suggest_gap_shade(bank: ShadeBank, skins: FloatArray, lab: FloatArray, best_
     sol = minimize(lambda z: cost(_softmax(z)), z0, method="Nelder-Mead",
                    options={"maxfev": 80 * M, "xatol": 1e-3, "fatol": 1e-3})
     c = _softmax(sol.x) if cost(_softmax(sol.x)) <= cost(start) else start
+    c = np.where(c >= RECIPE_MIN, c, 0.0)  # a recipe names no trace components; it is scored as named
+    c /= c.sum()
     new = _mixture_bank(bank, c)
     _, de_new = best_thickness(new, skins[gap], skins[gap], illuminant)
     after = np.minimum(best_de[gap], de_new[:, 0])
-    order = np.argsort(-c)
-    recipe = {bank.names[i]: float(c[i]) for i in order if c[i] >= 0.005}
-    total = sum(recipe.values())
-    return GapShade(recipe={k: v / total for k, v in recipe.items()}, S=new.S[0], K=new.K[0],
+    recipe = {bank.names[i]: float(c[i]) for i in np.argsort(-c) if c[i] > 0.0}
+    return GapShade(recipe=recipe, S=new.S[0], K=new.K[0],
                     r_inf=r_inf_from_ks(new.K[0] / new.S[0]), gap_skins=gap,
                     mean_de_before=float(best_de[gap].mean()), mean_de_after=float(after.mean()),
                     served_after=int(np.sum(after <= threshold)))
