@@ -69,6 +69,12 @@ STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("view.mode_lightweight", "Render Mode: Lightweight (captured face)", "View", checkable=True,
                tip="Phong + detail texture of a captured face (Paris et al. 2003)"),
     ActionSpec("view.overlay", "Frame-Time &Overlay", "View", "O", checkable=True),
+    ActionSpec("view.scale_50", "While Moving: Up to 50% Resolution", "View", checkable=True,
+               tip="interactive frames at most half the view's resolution (a slow machine)"),
+    ActionSpec("view.scale_75", "While Moving: Up to 75% Resolution", "View", checkable=True,
+               tip="interactive frames at most three quarters of the resolution (the default)"),
+    ActionSpec("view.scale_100", "While Moving: Full Resolution", "View", checkable=True,
+               tip="interactive frames up to full resolution (a strong GPU)"),
     ActionSpec("help.shortcuts", "&Keyboard Shortcuts", "Help", "F1"),
     ActionSpec("help.about", "&About Sheer", "Help"),
 )

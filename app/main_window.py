@@ -177,6 +177,9 @@ class StudioWindow(QMainWindow):
             "brush.mirror": self._toggle_mirror, "view.frame": self.viewport.frame_head,
             "view.split": self._toggle_split, "view.reference": self._toggle_reference,
             "view.overlay": self._toggle_overlay, "help.shortcuts": self.show_shortcuts,
+            "view.scale_50": lambda: self._set(interactive_scale_cap=0.5),
+            "view.scale_75": lambda: self._set(interactive_scale_cap=0.75),
+            "view.scale_100": lambda: self._set(interactive_scale_cap=1.0),
             "help.about": self.show_about,
         }
         for spec in STUDIO_ACTIONS:
@@ -216,7 +219,10 @@ class StudioWindow(QMainWindow):
                         ("view.reference", s.render_mode == "reference"), ("view.overlay", s.overlay),
                         ("view.mode_fast", s.render_mode == "fast"),
                         ("view.mode_reference", s.render_mode == "reference"),
-                        ("view.mode_lightweight", s.render_mode == "lightweight")):
+                        ("view.mode_lightweight", s.render_mode == "lightweight"),
+                        ("view.scale_50", s.interactive_scale_cap == 0.5),
+                        ("view.scale_75", s.interactive_scale_cap == 0.75),
+                        ("view.scale_100", s.interactive_scale_cap == 1.0)):
             self.actions_by_id[aid].setChecked(on)
         self.recent_menu.clear()
         for p in self.settings.recent_files:
@@ -337,6 +343,7 @@ class StudioWindow(QMainWindow):
         vp.debug_layer_index = self.selected_layer
         vp.brush_radius_units = s.brush_radius_mm / self.doc.head.mm_per_unit
         vp.set_overlay(s.overlay)
+        vp.refine.set_cap(s.interactive_scale_cap)
         vp.environment = s.environment
         self._update_actions()
         credit = self.doc.head.credit

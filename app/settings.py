@@ -62,6 +62,8 @@ class StudioSettings:
         environment: one of :data:`ENVIRONMENTS` ("none" for no HDR environment).
         split: the before/after divider's position, [0, 1] of the view's width (0: off).
         overlay: show the frame-time overlay.
+        interactive_scale_cap: the largest internal scale of the frames drawn while the view moves
+            (progressive refinement, render.progressive), one of 0.5, 0.75, 1.0 (1.0: full resolution).
         autosave_minutes: minutes between autosaves of unsaved work, [0.25, 120].
         recent_files: the projects opened or saved last, newest first.
         cache_max_mb: the cache folder's size cap in MiB, [0, 1048576]; 0: automatic (10 % of the free
@@ -81,6 +83,7 @@ class StudioSettings:
     environment: str = "none"
     split: float = 0.0
     overlay: bool = False
+    interactive_scale_cap: float = 0.75
     autosave_minutes: float = 3.0
     recent_files: list[str] = field(default_factory=list)
     cache_max_mb: float = 0.0
@@ -99,6 +102,8 @@ class StudioSettings:
         if self.environment not in ENVIRONMENTS:
             self.environment = "none"
         self.split = min(max(self.split, 0.0), 1.0)
+        if self.interactive_scale_cap not in (0.5, 0.75, 1.0):
+            self.interactive_scale_cap = 0.75
         self.autosave_minutes = min(max(self.autosave_minutes, 0.25), 120.0)
         if not math.isfinite(self.cache_max_mb) or self.cache_max_mb < 0:
             self.cache_max_mb = 0.0  # (automatic)

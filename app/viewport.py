@@ -558,6 +558,10 @@ class Viewport(QWidget):
         if self._drag == "paint":  # the pen rests on the head mid-stroke: keep the stroke's frames cheap
             self._settle_timer.start()
             return
+        quiet_ms = (time.perf_counter() - (self.last_input_time or 0.0)) * 1000.0
+        if quiet_ms < SETTLE_MS:  # the timer came due behind a slow frame: wait out the rest
+            self._settle_timer.start(max(int(SETTLE_MS - quiet_ms), 1))
+            return
         self.stage = "settle"
         self.update()
 

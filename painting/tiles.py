@@ -9,3 +9,20 @@ from __future__ import annotations
 
 #: the side of a tile in texels
 TILE: int = 64
+
+
+def tile_rects(tiles: list[tuple[int, int]], size: tuple[int, int]) -> list[tuple[int, int, int, int]]:
+    """The texel rectangles (x, y, width, height) of tiles (row, col) of a map of ``size`` (width, height).
+
+    Tiles are clipped to the map; tiles wholly outside it and repeats are dropped.
+    """
+    w, h = size
+    out: list[tuple[int, int, int, int]] = []
+    seen: set[tuple[int, int]] = set()
+    for row, col in tiles:
+        x0, y0 = int(col) * TILE, int(row) * TILE
+        if (row, col) in seen or not (0 <= x0 < w and 0 <= y0 < h):
+            continue
+        seen.add((row, col))
+        out.append((x0, y0, min(x0 + TILE, w) - x0, min(y0 + TILE, h) - y0))
+    return out

@@ -31,6 +31,22 @@ def write_uniform(program: moderngl.Program, name: str, data: Any) -> None:
         u.write(np.ascontiguousarray(arr[:max(u.array_length, 1)]).tobytes())
 
 
+def rect_vertices(rects: list[tuple[int, int, int, int]] | None, size: tuple[int, int]) -> np.ndarray:
+    """NDC vertices (float32 (n, 2)) of two triangles per rectangle of a ``size`` (w, h) target.
+
+    ``rects`` are (x, y, width, height) in pixels; None = one triangle covering the whole target.
+    """
+    if rects is None:
+        return np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
+    w, h = size
+    r = np.asarray(rects, np.float64).reshape(-1, 4)
+    x0, y0 = r[:, 0] / w * 2.0 - 1.0, r[:, 1] / h * 2.0 - 1.0
+    x1, y1 = (r[:, 0] + r[:, 2]) / w * 2.0 - 1.0, (r[:, 1] + r[:, 3]) / h * 2.0 - 1.0
+    return np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1), np.stack([x1, y1], 1),
+                     np.stack([x0, y0], 1), np.stack([x1, y1], 1), np.stack([x0, y1], 1)],
+                    axis=1).reshape(-1, 2).astype(np.float32)
+
+
 def read_depth(fbo: moderngl.Framebuffer, x: int, y: int) -> float | None:
     """The window depth in [0, 1) at pixel (x, y) of ``fbo``'s depth attachment (origin top-left).
 

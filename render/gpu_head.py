@@ -78,7 +78,9 @@ class GpuHead:
         faces = np.asarray(head.faces)
         uv = np.asarray(head.uv, dtype=np.float64)
         paint_uv = uv
-        if layout is not None and getattr(layout, "source", "mesh") != "mesh":
+        #: the paint maps are in the mesh's own UVs (texel p of a paint map = texel p of the head's maps)
+        self.paint_uv_is_mesh_uv = layout is None or getattr(layout, "source", "mesh") == "mesh"
+        if not self.paint_uv_is_mesh_uv:
             vmap = np.asarray(layout.vertex_map)
             v = np.asarray(layout.vertices, dtype=np.float64)
             n = np.asarray(layout.normals, dtype=np.float64)

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from km.srgb import srgb_decode
-from painting.tiles import TILE
+from painting.tiles import TILE, tile_rects
 from render.errors import RenderError
 
 if TYPE_CHECKING:
@@ -168,6 +168,9 @@ class KMTextureSpace:
         self.fbo: Any = None
         self.layer_spec = np.zeros((MAX_LAYERS, 4), np.float32)
         self.version = 0
+        #: evaluations of the whole map (set_layers); tiles re-evaluated since (consumers take them)
+        self.full_version = 0
+        self.dirty_tiles: list[tuple[int, int]] = []
         #: per active slot, per 64² tile (row, column): the uploaded map is non-zero somewhere in it
         self.present = np.zeros((0, 0, 0), bool)
         self._max_tiles = 16384
@@ -275,6 +278,8 @@ class KMTextureSpace:
         self.layers = list(layers)
         self.active = [i for i, lay in enumerate(layers) if lay.visible and lay.opacity > 0]
         self.version += 1
+        self.full_version += 1
+        self.dirty_tiles = []
         if not self.active or shape is None:
             self.present = np.zeros((0, 0, 0), bool)
             self._set_thickness_textures(0, (1, 1))
@@ -302,12 +307,11 @@ class KMTextureSpace:
 
     def _draw_tiles(self, tiles: list[tuple[int, int]]) -> None:
         """Evaluate tiles (row, col), grouped by the set of layers non-zero in them."""
-        w, h = self.size
         groups: dict[tuple[int, ...], list[tuple[int, int, int, int]]] = {}
-        for row, col in tiles:
-            x0, y0 = col * TILE, row * TILE
+        for rect in tile_rects(tiles, self.size):
+            row, col = rect[1] // TILE, rect[0] // TILE
             key = tuple(int(s) for s in np.flatnonzero(self.present[:, row, col]))
-            groups.setdefault(key, []).append((x0, y0, min(x0 + TILE, w) - x0, min(y0 + TILE, h) - y0))
+            groups.setdefault(key, []).append(rect)
         for slots, rects in groups.items():
             if slots and len(tiles) <= SPLIT_TILES:
                 for rect in rects:
@@ -384,6 +388,7 @@ class KMTextureSpace:
             done.append(rc)
             self.present[slot, rc[0], rc[1]] = bool((block > 0).any())
         self._draw_tiles(done)
+        self.dirty_tiles += done
         self.fbo.viewport = (0, 0, w, h)
         self.version += 1
 
@@ -401,20 +406,10 @@ class KMTextureSpace:
         return self._programs[n]
 
     def _write_rects(self, rects: list[tuple[int, int, int, int]] | None, size: tuple[int, int]) -> int:
-        """Put two triangles per rectangle in the vertex buffer; returns the vertex count.
+        """Put two triangles per rectangle in the vertex buffer (see :func:`render.glutil.rect_vertices`)."""
+        from render.glutil import rect_vertices
 
-        ``rects`` are (x, y, width, height) in pixels of a ``size`` target; None = one full-screen triangle.
-        """
-        if rects is None:
-            verts = np.array([[-1.0, -1.0], [3.0, -1.0], [-1.0, 3.0]], np.float32)
-        else:
-            w, h = size
-            r = np.asarray(rects, np.float64)
-            x0, y0 = r[:, 0] / w * 2.0 - 1.0, r[:, 1] / h * 2.0 - 1.0
-            x1, y1 = (r[:, 0] + r[:, 2]) / w * 2.0 - 1.0, (r[:, 1] + r[:, 3]) / h * 2.0 - 1.0
-            verts = np.stack([np.stack([x0, y0], 1), np.stack([x1, y0], 1), np.stack([x1, y1], 1),
-                              np.stack([x0, y0], 1), np.stack([x1, y1], 1), np.stack([x0, y1], 1)],
-                             axis=1).reshape(-1, 2).astype(np.float32)
+        verts = rect_vertices(rects, size)
         self.vbo.write(verts.tobytes())
         return len(verts)
 

@@ -184,12 +184,15 @@ SH_COSINE = np.array([math.pi, *[2 * math.pi / 3] * 3, *[math.pi / 4] * 5])
 def equirect_directions(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
     """Directions (H, W, 3) of an equirectangular image's texel centres and their solid angles (H, W).
 
-    Row 0 is straight up (+Y); column 0 is −Z (behind the head), the middle column +Z (in front).
+    Row 0 is straight up (+Y); column 0 is −Z (behind the head), the middle column +Z (in front), a
+    quarter of the way +X: seen from inside, facing the middle column, the image's right is the
+    viewer's right (−X), as a panorama is shot. (Before issue 14 the columns ran the other way, a
+    mirror image; :func:`capture.probe.equirect_lookup` is this convention turned 180° about +Y.)
     """
     theta = (np.arange(h) + 0.5) / h * math.pi
     phi = (np.arange(w) + 0.5) / w * 2 * math.pi - math.pi
     st, ct = np.sin(theta)[:, None], np.cos(theta)[:, None]
-    d = np.stack([st * np.sin(phi)[None, :], np.broadcast_to(ct, (h, w)), st * np.cos(phi)[None, :]], -1)
+    d = np.stack([-st * np.sin(phi)[None, :], np.broadcast_to(ct, (h, w)), st * np.cos(phi)[None, :]], -1)
     dw = (math.pi / h) * (2 * math.pi / w) * np.broadcast_to(st, (h, w))
     return d, dw
 

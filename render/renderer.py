@@ -20,6 +20,7 @@ from render.gpu_head import GpuHead
 from render.irradiance import TextureIrradiance
 from render.km_pass import MAX_LAYERS, KMTextureSpace
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights, upload_lights
+from render.lit_cache import TextureLighting
 from render.settings import DEBUG_VIEWS, RenderSettings
 from render.shaders import ShaderLibrary
 from render.sss_passes import SSSPasses
@@ -37,7 +38,7 @@ if TYPE_CHECKING:
 KEPT_TARGET_SIZES = 3
 
 # texture units of the lit pass
-_U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 24, 25
+_U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR, _U_LIT = 4, 8, 9, 17, 24, 25, 28
 
 
 @dataclass
@@ -82,6 +83,7 @@ class Renderer:
         self.km = KMTextureSpace(ctx, self.shaders, dtype=km_dtype)
         self.shadows = ShadowMaps(ctx, self.shaders, self.settings.shadow_size)
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
+        self.lighting = TextureLighting(ctx, self.shaders)
         self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
         self._composites: dict[tuple[int, int], moderngl.Program] = {}
@@ -134,7 +136,8 @@ class Renderer:
         self._size = size
 
     # -- programs ---------------------------------------------------------------------------------
-    def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True) -> moderngl.Program:
+    def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True,
+                       cached: bool = False) -> moderngl.Program:
         """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time).
 
         Makeup, debug views, the head's optional maps, which lights cast shadows and which are point
@@ -144,11 +147,11 @@ class Renderer:
         gh = self.gpu_head
         shadowed = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.shadows)
         points = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.kind != "directional")
-        key = (n, lights, int(makeup), int(debug), shadowed, points)
+        key = (n, lights, int(makeup), int(debug), shadowed, points, int(cached))
         if key not in self._frame_programs:
             self._frame_programs[key] = self.shaders.program(
                 self.ctx, "mesh.vert", "frame.frag",
-                {"NL": n, "NLIGHTS": lights, "MAKEUP": int(makeup), "DEBUG": int(debug),
+                {"NL": n, "NLIGHTS": lights, "MAKEUP": int(makeup), "DEBUG": int(debug), "CACHED": int(cached),
                  "SHADOWED": shadowed, "POINT_LIGHTS": points,
                  "HAS_SPEC_MAP": int(gh.has_specular_map), "HAS_ROUGH_MAP": int(gh.has_roughness_map),
                  "HAS_SKIN_MASK": int(self.head.skin_mask is not None)})
@@ -233,11 +236,22 @@ class Renderer:
             self._set(p, "u_normal_strength", float(s.normal_strength))
             self._upload_lights(p)
 
-        self.irradiance.update(irr_key, self.gpu_head, setup_irradiance, self.lights, env is not None)
+        relit = self.irradiance.update(irr_key, self.gpu_head, setup_irradiance, self.lights, env is not None)
 
-        # 2. lit pass into the G-buffer
+        # 2. the texture-space lighting cache (view-independent terms), then the lit pass into the G-buffer
         n = len(self.km.active)
-        prog = self._frame_program(n, len(self.lights), s.makeup and n > 0, DEBUG_VIEWS[s.debug_view] != 0)
+        debug_on = DEBUG_VIEWS[s.debug_view] != 0
+        cached = s.lighting_cache and self.gpu_head.paint_uv_is_mesh_uv and n > 0 and s.makeup and not debug_on
+        if cached and relit and self.lighting.needs_whole(self.irradiance, self.km):
+            # the lights are moving (the irradiance was just recomputed): a whole cache per frame would
+            # cost more than it saves; the direct path draws until the lights rest
+            cached = False
+        if cached:
+            self.lighting.update(self.km, self.irradiance, self.gpu_head)
+        elif len(self.km.dirty_tiles) > 4096:  # long unused (direct path, bare skin, debug views)
+            self.km.dirty_tiles = []
+            self.lighting.invalidate()  # recomputed whole when it is used again
+        prog = self._frame_program(n, len(self.lights), s.makeup and n > 0, debug_on, cached)
         gb = self._targets["gbuffer"]
         # only the diffuse (read around the head by the SSS taps and the masks) and the depth are
         # cleared: outer and factor are read only at the head's pixels (the composite draws the same
@@ -261,9 +275,12 @@ class Renderer:
             self.km.thickness_textures[slot].use(_U_THICK + slot)
         for j, tex in enumerate(self.irradiance.textures):
             tex.use(_U_IRR + j)
+        if cached:
+            self.lighting.bind(_U_LIT)
         units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
                  "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_spec0": _U_SPEC0, "u_spec1": _U_SPEC1,
-                 "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2}
+                 "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2, "u_lit_diffuse": _U_LIT,
+                 "u_lit_outer": _U_LIT + 1, "u_lit_factor": _U_LIT + 2}
         for name, unit in units.items():
             self._set(prog, name, unit)
         if n and "u_layer_thick" in prog:
@@ -479,6 +496,7 @@ class Renderer:
         self.sss.release()
         self._composites = {}
         self.km.release()
+        self.lighting.release()
         self.irradiance.release()
         self.shadows.release()
         self.gpu_head.release()

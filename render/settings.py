@@ -39,6 +39,8 @@ class RenderSettings:
         shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
         irradiance_size: side of the texture-space irradiance cache (texels).
         cull_back_faces: skip triangles facing away (the head and the baseline alike).
+        lighting_cache: take the view-independent lighting from the texture-space cache
+            (:mod:`render.lit_cache`); False computes it per pixel (the direct path, for comparison).
         reference_full_resolution: run every Gaussian of the reference mode at full resolution (default:
             Gaussians wider than 3 pixels run on the half-resolution grid, like the fast mode's wide lobes).
     """
@@ -62,6 +64,7 @@ class RenderSettings:
     irradiance_size: int = 1024
     reference_full_resolution: bool = False
     cull_back_faces: bool = True
+    lighting_cache: bool = True
 
     def validate(self) -> None:
         """Check every field a frame reads.

@@ -111,3 +111,34 @@ def assert_image_close(request: pytest.FixtureRequest) -> Callable[..., None]:
             )
 
     return check
+
+
+@pytest.fixture
+def assert_de2000_close(request: pytest.FixtureRequest) -> Callable[..., float]:
+    """``assert_de2000_close(a, b, mask, mean_tol, name)``: two uint8 sRGB frames agree on ``mask``.
+
+    Passes when the mean ΔE2000 over the pixels of ``mask`` (bool (H, W)) is at most ``mean_tol``;
+    otherwise writes both frames and the ΔE map (×25 grey levels per ΔE unit) to ``tests/_failures`` and
+    fails. Returns the mean.
+    """
+    from PIL import Image
+
+    from bench.stats import de2000_srgb8
+
+    def check(a: np.ndarray, b: np.ndarray, mask: np.ndarray, mean_tol: float, name: str) -> float:
+        assert a.shape == b.shape and mask.shape == a.shape[:2] and mask.any(), "frames and mask must match"
+        de = de2000_srgb8(a, b, mask)
+        mean = float(de.mean())
+        if mean > mean_tol:
+            FAILURE_DIR.mkdir(parents=True, exist_ok=True)
+            stem = f"{request.node.name}-{name}"
+            Image.fromarray(np.ascontiguousarray(a)).save(FAILURE_DIR / f"{stem}-a.png")
+            Image.fromarray(np.ascontiguousarray(b)).save(FAILURE_DIR / f"{stem}-b.png")
+            vis = np.zeros(mask.shape, np.float64)
+            vis[mask] = de * 25.0
+            Image.fromarray(np.clip(vis, 0, 255).astype(np.uint8)).save(FAILURE_DIR / f"{stem}-de2000.png")
+            pytest.fail(f"{name}: mean ΔE2000 {mean:.3f} on {int(mask.sum())} pixels (tol {mean_tol}); "
+                        f"diff written to {FAILURE_DIR / (stem + '-de2000.png')}")
+        return mean
+
+    return check

@@ -9,7 +9,12 @@
 // MAKEUP (1: fetch the KM maps), DEBUG (1: debug views), HAS_SPEC_MAP, HAS_ROUGH_MAP, HAS_SKIN_MASK
 // (the skin mask is the albedo texture's alpha), SHADOWED and POINT_LIGHTS (bit i: light i casts
 // shadows / is a point light; an unshadowed light needs no visibility fetch, a directional one no
-// per-pixel direction or fall-off).
+// per-pixel direction or fall-off). CACHED (1: with MAKEUP and without DEBUG) takes the view-independent
+// terms (E*T*sqrt(albedo), R_top*E, the out-scatter factor, the skin mask, light 0's visibility) from the
+// texture-space lighting cache (render/lit_cache.py, lit_cache.frag) instead of computing them here.
+#ifndef CACHED
+#define CACHED 0
+#endif
 #ifndef MAKEUP
 #define MAKEUP 1
 #endif
@@ -48,6 +53,11 @@ uniform sampler2D u_spec1;       // unit 16: layers 4-7
 uniform sampler2D u_irr;         // unit 25: texture-space irradiance E (rgb), a: visibility of light 0
 uniform sampler2D u_vis0;        // unit 26: shadow visibility of lights 1-4
 uniform sampler2D u_vis1;        // unit 27: lights 5-7
+#if CACHED
+uniform sampler2D u_lit_diffuse; // the lighting cache (units 28-30): E*T*sqrt(albedo), a: skin mask
+uniform sampler2D u_lit_outer;   // R_top*E, a: smoothing coverage
+uniform sampler2D u_lit_factor;  // sqrt(albedo)*T/(1 - R_bottom*albedo), a: light 0's visibility
+#endif
 #if NL > 0
 uniform sampler2D u_layer_thick[NL];  // units 9.. : µm
 #endif
@@ -79,6 +89,25 @@ void main() {
     vec3 Ng = normalize(v_normal);
     vec3 V = normalize(u_eye - v_pos);
     if (dot(Ng, V) < 0.0) Ng = -Ng;  // back faces seen through holes
+    vec3 rtop = vec3(0.0), tr = vec3(1.0), rbot = vec3(0.0);
+    // foundation smoothing (from the KM pass): coverage of smoothing layers flattens the normal detail
+    // and their roughness replaces the skin's
+    float smooth_cov = 0.0, smooth_rough = u_skin_roughness;
+    vec4 A0 = vec4(0.0), A1 = vec4(0.0);
+#if CACHED
+    vec4 c_d = texture(u_lit_diffuse, v_uv_paint);
+    vec4 c_o = texture(u_lit_outer, v_uv_paint);
+    vec4 c_f = texture(u_lit_factor, v_uv_paint);
+    vec4 t_full = texture(u_trans, v_uv_paint);
+    tr = t_full.rgb;
+    smooth_cov = c_o.a;
+    smooth_rough = smooth_cov > 0.0 ? t_full.a : u_skin_roughness;
+    A0 = texture(u_spec0, v_uv_paint);
+#if NL > 4
+    A1 = texture(u_spec1, v_uv_paint);
+#endif
+    bool skin = c_d.a > 0.5;
+#else
     vec4 albedo_mask = texture(u_albedo, v_uv);
     vec3 albedo = albedo_mask.rgb;
 #if HAS_SKIN_MASK
@@ -88,11 +117,6 @@ void main() {
 #endif
 
     // makeup in texture space
-    vec3 rtop = vec3(0.0), tr = vec3(1.0), rbot = vec3(0.0);
-    // foundation smoothing (from the KM pass): coverage of smoothing layers flattens the normal detail
-    // and their roughness replaces the skin's
-    float smooth_cov = 0.0, smooth_rough = u_skin_roughness;
-    vec4 A0 = vec4(0.0), A1 = vec4(0.0);
 #if MAKEUP
     if (u_makeup_on > 0.5) {
         vec4 rt_full = texture(u_rtop, v_uv_paint);
@@ -107,6 +131,7 @@ void main() {
         A1 = texture(u_spec1, v_uv_paint);
 #endif
     }
+#endif
 #endif
 
     vec3 nt = texture(u_normal_map, v_uv).xyz * 2.0 - 1.0;
@@ -132,8 +157,12 @@ void main() {
     float skin_inv_m2 = 1.0 / (skin_m2 * skin_m2);
 
     // diffuse irradiance (lights, shadows, environment) from the texture-space cache
+#if CACHED
+    vec4 irr = vec4(0.0, 0.0, 0.0, c_f.a);  // only light 0's visibility is needed here
+#else
     vec4 irr = texture(u_irr, v_uv);
     vec3 E = irr.rgb;
+#endif
 #if (SHADOWED & 30) != 0
     vec4 vis0 = texture(u_vis0, v_uv);
 #else
@@ -173,11 +202,17 @@ void main() {
         spec += s * Ei * max(ndl, 0.0);  // no `continue`: llvmpipe runs both sides anyway
     }
 
+#if CACHED
+    o_diffuse = vec4(c_d.rgb, skin ? v_depth : -v_depth);
+    o_outer = vec4(c_o.rgb + spec, 1.0);
+    o_factor = vec4(c_f.rgb, v_depth);
+#else
     vec3 sa = sqrt(max(albedo, vec3(0.0)));
     vec3 out_factor = sa * tr / max(vec3(1.0) - rbot * albedo, vec3(1e-4));
     o_diffuse = vec4(E * tr * sa, skin ? v_depth : -v_depth);
     o_outer = vec4(rtop * E + spec, 1.0);
     o_factor = vec4(out_factor, v_depth);
+#endif
 
 #if DEBUG
     if (u_debug != 0) {

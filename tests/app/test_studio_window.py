@@ -532,3 +532,62 @@ def test_measurement_import_in_background_reports_rejected_rows(window: object, 
     assert "rejected" in driver.shown[-1].text
     window.library_dock.undo_stack.undo()
     assert len(window.library.names()) == n
+
+
+@pytest.mark.parametrize("mode", ["fast", "reference"])
+def test_the_view_settles_once_after_input_stops(window: object, qtbot: object, mode: str) -> None:
+    """Progressive refinement: interactive frames while input goes on and no full frame among them; when it
+    stops, exactly one full-resolution frame (fast), then in reference mode the reference frame."""
+    from app.viewport import SETTLE_MS
+
+    vp = window.viewport
+    window._set(render_mode=mode)
+    try:
+        qtbot.waitUntil(lambda: vp.settled, timeout=10000)
+        settled_before = vp.settled_frames
+        drawn = vp.renderer_frames
+        for _ in range(10):
+            vp.orbit_by(0.5)
+            qtbot.wait(SETTLE_MS // 6)
+            assert vp.settled_frames == settled_before, "a full frame was drawn while input continued"
+        assert vp.renderer_frames > drawn and vp.last_frame_interactive
+        assert vp.renderer.r.last.size < vp.pixel_size()
+        qtbot.waitUntil(lambda: vp.settled, timeout=10000)
+        qtbot.wait(SETTLE_MS * 3)  # nothing more follows
+        assert vp.settled_frames == settled_before + (2 if mode == "reference" else 1)
+        assert tuple(vp.renderer.r.last.size) == vp.pixel_size()
+        assert vp.renderer.drawn_by == mode and not vp.renderer.interactive
+    finally:
+        window._set(render_mode="fast")
+        qtbot.waitUntil(lambda: vp.settled, timeout=10000)
+
+
+def test_overlay_shows_interactive_and_settled_frames(window: object, qtbot: object) -> None:
+    vp = window.viewport
+    window._set(overlay=True)
+    try:
+        vp.orbit_by(0.5)
+        qtbot.waitUntil(lambda: vp.last_frame_interactive, timeout=10000)
+        text = vp.overlay.text()
+        assert "interactive" in text and "budget" in text and "scale cap" in text, text
+        qtbot.waitUntil(lambda: vp.settled, timeout=10000)
+        assert "settled 1.00×" in vp.overlay.text()
+    finally:
+        window._set(overlay=False)
+
+
+def test_interactive_scale_cap_setting(window: object, qtbot: object) -> None:
+    vp = window.viewport
+    try:
+        window.actions_by_id["view.scale_100"].trigger()
+        assert window.settings.interactive_scale_cap == 1.0 and vp.refine.max_scale == 1.0
+        assert window.actions_by_id["view.scale_100"].isChecked()
+        assert not window.actions_by_id["view.scale_75"].isChecked()
+        window.actions_by_id["view.scale_50"].trigger()
+        assert vp.refine.max_scale == 0.5 and vp.refine.scale <= 0.5
+        vp.orbit_by(0.5)
+        qtbot.waitUntil(lambda: vp.last_frame_interactive, timeout=10000)
+        assert vp.renderer.scale <= 0.5 + 1e-6
+    finally:
+        window.actions_by_id["view.scale_75"].trigger()
+        qtbot.waitUntil(lambda: vp.settled, timeout=10000)

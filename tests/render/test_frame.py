@@ -1,4 +1,5 @@
-"""Frames of the sample head on llvmpipe (320×240): determinism, stored references, physical sanity."""
+"""Frames of the sample head on llvmpipe (320×240): determinism, stored references, physical sanity
+(the direct path: see the ``r`` fixture)."""
 
 from __future__ import annotations
 
@@ -53,10 +54,14 @@ def renderer(_gl_session_ctx: Any, doc: Any) -> Iterator[Renderer]:
 
 @pytest.fixture
 def r(renderer: Renderer, gl_ctx: Any) -> Renderer:
-    """The module's renderer reset to defaults, bare."""
+    """The module's renderer reset to defaults, bare, on the direct path.
+
+    These tests hold the shading model itself (every term computed per pixel); the texture-space lighting
+    cache that the studio draws with is held to this path in tests/render/test_lit_cache.py.
+    """
     from render.settings import RenderSettings
 
-    renderer.settings = RenderSettings()
+    renderer.settings = RenderSettings(lighting_cache=False)
     renderer.lights = [Light.directional(35.0, 25.0, 1.5), Light.directional(-45.0, 5.0, 0.35, shadows=False)]
     renderer.environment = None
     renderer.set_layers([])
