@@ -198,7 +198,17 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
     result.dashboard = dashboard_link(client)
     if result.dashboard and on_dashboard is not None:
         on_dashboard(result.dashboard)
-    n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+    from catalogue.worker import worker_version
+
+    versions = client.run(worker_version)  # before any work: every worker must draw what the names say
+    expected = todo[0].version
+    other = {addr: v for addr, v in versions.items() if v != expected}
+    if other:
+        addr, v = next(iter(other.items()))
+        raise CatalogueError(f"{len(other)} of {len(versions)} Dask worker(s) run another Sheer (e.g. {addr}: "
+                             f"renderer version {v[:12]}, this one {expected[:12]}); install the same Sheer "
+                             "everywhere (or restart workers started before an update)")
+    n_workers = max(len(versions), 1)
     by_out = {j.out: j for j in todo}
     attempts: dict[str, int] = dict.fromkeys(by_out, 0)
     run_id = uuid.uuid4().hex[:8]
@@ -271,7 +281,7 @@ def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], re
                        "worker": worker})
     result.rendered = sum(e["status"] == "rendered" for e in images)
     manifest = {"schema_version": MANIFEST_SCHEMA_VERSION, "name": spec.name, "spec": str(spec.path.absolute()),
-                "renderer_version": renderer_version(), "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+                "renderer_version": jobs[0].version if jobs else renderer_version(), "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                 "total": len(jobs), "rendered": result.rendered, "skipped": result.skipped,
                 "failed": len(result.failed), "images": images}
     try:

@@ -102,9 +102,12 @@ def file_hash(path: str) -> str:
     return h.hexdigest()
 
 
-@functools.cache
 def renderer_version() -> str:
-    """A hash of the source files and shaders that draw a catalogue image (the "renderer's version")."""
+    """A hash of the source files and shaders that draw a catalogue image (the "renderer's version").
+
+    Read from disk on every call (≈ 20 ms): a driver computes it per expansion; a worker keeps the one
+    of the code it loaded (:func:`catalogue.worker.worker_version`).
+    """
     import importlib
 
     from core.assets import resource_path

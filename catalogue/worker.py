@@ -44,6 +44,19 @@ KEEP_HEADS, KEEP_DOCUMENTS = 2, 4
 _STATE: WorkerState | None = None
 
 
+def worker_version() -> str:
+    """The renderer version of the code this process loaded (computed once, on first use)."""
+    global _VERSION
+    if _VERSION is None:
+        from catalogue.jobs import renderer_version
+
+        _VERSION = renderer_version()
+    return _VERSION
+
+
+_VERSION: str | None = None
+
+
 def worker_state() -> WorkerState:
     """This process's state (made on first use)."""
     global _STATE
@@ -70,11 +83,14 @@ def render_chunk(jobs: list[Job], out_dir: str, force_before: float | None = Non
 
 
 def encode_png(image: np.ndarray) -> bytes:
-    """PNG bytes of a uint8 image, deterministic (no time stamp or other metadata)."""
+    """PNG bytes of a uint8 image, deterministic (no time stamp or other metadata).
+
+    zlib level 1: at 640×640 it encodes in a third of level 6's time for files about 15 % larger.
+    """
     from PIL import Image
 
     buf = io.BytesIO()
-    Image.fromarray(image).save(buf, format="PNG", optimize=False, compress_level=6)
+    Image.fromarray(image).save(buf, format="PNG", optimize=False, compress_level=1)
     return buf.getvalue()
 
 
@@ -132,11 +148,9 @@ class WorkerState:
         Raises:
             CatalogueError: the job comes from a Sheer with another renderer version.
         """
-        from catalogue.jobs import renderer_version
-
-        if job.version != renderer_version():
+        if job.version != worker_version():
             raise CatalogueError(f"this worker ({self.identity}) runs another Sheer: renderer version "
-                                 f"{renderer_version()[:12]}, the driver's {job.version[:12]}")
+                                 f"{worker_version()[:12]}, the driver's {job.version[:12]}")
         self.counters["jobs"] += 1
         if self.ctx is None:
             import moderngl
