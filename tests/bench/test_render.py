@@ -15,9 +15,11 @@ pytestmark = pytest.mark.gl
 #: the medians (ms), each with ``_p90`` and ``_max``
 MEDIANS = ("baseline_ms", "fast_ms", "reference_ms", "no_sss_ms", "fast_11_taps_ms", "fast_25_taps_ms",
            "fast_relight_ms", "fast_lit_pass_ms", "fast_sss_ms", "fast_composite_ms", "fast_floor_ms",
-           "km_full_2048_ms", "km_tile_64_ms", "km_full_2048_dense_ms", "km_tile_64_dense_ms")
+           "km_full_2048_ms", "km_tile_64_ms", "km_full_2048_dense_ms", "km_tile_64_dense_ms", "fast_direct_ms",
+           "fast_cached_ms")
 OTHERS = {"size", "frames", "gl_renderer", "km_layers", "fast_over_baseline", "reference_over_baseline",
-          "fast_floor_over_baseline", "fast_vs_reference_de2000", "skin_pixels"}
+          "fast_floor_over_baseline", "fast_vs_reference_de2000", "skin_pixels", "reference_over_fast",
+          "cached_over_direct", "cached_vs_direct_de2000", "load_average_1min"}
 HEADLINE = ("baseline_ms", "fast_ms", "reference_ms", "fast_over_baseline", "reference_over_baseline",
             "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms")
 
@@ -35,3 +37,6 @@ def test_sheer_bench_render_prints_one_json_object(capsys: pytest.CaptureFixture
     assert result["fast_over_baseline"] == pytest.approx(result["fast_ms"] / result["baseline_ms"], rel=2e-3)
     assert 0 <= result["fast_vs_reference_de2000"] < 5 and result["skin_pixels"] > 0
     assert isinstance(result["gl_renderer"], str) and result["gl_renderer"]
+    assert result["fast_cached_ms"] == result["fast_ms"]  # the studio's frame is the cached one
+    assert result["reference_over_fast"] == pytest.approx(result["reference_ms"] / result["fast_ms"], rel=2e-3)
+    assert 0 <= result["cached_vs_direct_de2000"] < 1.0
