@@ -18,6 +18,7 @@ BENCHMARKS: dict[str, str] = {
     "studio": "bench.studio:main",
     "fuzz": "bench.fuzz:bench_main",
     "project": "bench.project:main",
+    "catalogue": "bench.catalogue:main",
 }
 
 
