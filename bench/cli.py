@@ -19,6 +19,7 @@ BENCHMARKS: dict[str, str] = {
     "fuzz": "bench.fuzz:bench_main",
     "project": "bench.project:main",
     "catalogue": "bench.catalogue:main",
+    "shade": "bench.shade:main",
 }
 
 
