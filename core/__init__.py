@@ -6,8 +6,9 @@
 - :mod:`core.atomicio`: atomic file writes (fsync of the file and of its folder, an optional ``.bak``).
 - :mod:`core.files`: :func:`~core.files.read_bounded`, reading a user's file whole, bounded in size, with
   one set of refusals (missing, a folder, a FIFO or device, too large).
-- :mod:`core.cache`: the cache folder (``$SHEER_CACHE_DIR``, else ``$XDG_CACHE_HOME/sheer``) and
-  :func:`~core.cache.save_array`.
+- :mod:`core.cache`: the cache folder (``$SHEER_CACHE_DIR``, else ``$XDG_CACHE_HOME/sheer``) and its one
+  policy: checked entries (:func:`~core.cache.save_arrays` / :func:`~core.cache.load_arrays`, in the
+  format of :mod:`core.cache_entry`), a size cap with least-recently-used eviction, private caches.
 - :mod:`core.migrations`: :class:`~core.migrations.Migrations`, upgrading a parsed JSON document
   through registered per-version steps (on a copy; a failing step is the format's own error).
 - :mod:`core.lazy`: :func:`~core.lazy.install_lazy`, lazy public names for a package's ``__init__``.

@@ -5,11 +5,11 @@ matrices, parsed meshes) lives in one folder per kind under :func:`cache_root` a
 :func:`save_arrays` / :func:`load_arrays` (or the one-array :func:`save_array` / :func:`load_array`):
 
 - **One format with a check** (:mod:`core.cache_entry`): every entry carries its caller's version key
-  and a CRC-32 of its bytes. An entry that fails to load (truncated, wrong version, a flipped bit) is
+  and an XXH3-64 checksum of its bytes. An entry that fails to load (truncated, wrong version, a flipped bit) is
   deleted with one log line and the caller makes it again; never a crash, never a wrong result.
 - **Atomic writes**: a temporary file in the same folder renamed over the entry, so processes sharing
   the cache (the studio and a catalogue worker) never read half an entry. No fsync: a power cut can
-  leave a short file, which the length and CRC checks refuse.
+  leave a short file, which the length and checksum checks refuse.
 - **A size cap** (:func:`cache_cap`): ``$SHEER_CACHE_MAX_MB``, else the studio's setting
   (:func:`set_configured_max_mb`), else 10 % of the free space of the cache's file system, at most
   2 GiB. Enforced at write time by evicting the least recently used entries (reading an entry marks it
@@ -346,7 +346,7 @@ def save_arrays(path: Path, arrays: Mapping[str, Any], version: int | str = 0, c
 def load_arrays(path: Path, version: int | str = 0) -> dict[str, np.ndarray] | None:
     """The arrays of the entry ``path``, or None when it is absent or damaged.
 
-    A damaged entry (truncated, of another version, failing its CRC) is deleted with one warning and
+    A damaged entry (truncated, of another version, failing its checksum) is deleted with one warning and
     None is returned, so the caller makes it again. Reading marks the entry most recently used.
     """
     for i, candidate in enumerate(_read_candidates(path)):
