@@ -23,6 +23,16 @@ def _wait(cond: object, timeout: float = 90.0) -> None:
         QApplication.processEvents()
 
 
+def _screen_grab(win: object) -> object:
+    """The window's pixels as the X server shows them (``QScreen.grabWindow``).
+
+    ``QWidget.grab`` renders the widgets again and leaves the viewport's native GL window blank; the
+    screen's copy is what a user sees, the GL frame and its overlay included.
+    """
+    _wait(lambda: True)
+    return win.screen().grabWindow(win.winId())  # type: ignore[attr-defined]
+
+
 def main(argv: list[str]) -> int:
     """Write studio_*.png and kiosk_*.png into ``argv[0]`` (default docs/images) and list them; returns 0."""
     out = Path(argv[0] if argv else "docs/images")
@@ -51,7 +61,7 @@ def main(argv: list[str]) -> int:
     vp._ring = vp.pick(QPointF(vp.width() * 0.62, vp.height() * 0.62))  # the brush ring on a cheek
     vp.repaint()
     _wait(lambda: True)
-    win.grab().save(str(out / "studio_main.png"))
+    _screen_grab(win).save(str(out / "studio_main.png"))
     vp._ring = None
     win._set(split=0.5)
     vp.repaint()
@@ -65,14 +75,14 @@ def main(argv: list[str]) -> int:
     kiosk.resize(1600, 1000)
     kiosk.show()
     _wait(lambda: kiosk.isVisible())
-    kiosk.grab().save(str(out / "kiosk_start.png"))
+    _screen_grab(kiosk).save(str(out / "kiosk_start.png"))
     kiosk.show_main()
     kiosk.set_look("evening")
     kiosk.set_light("warm indoor")
     _wait(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready)
     kiosk.viewport.repaint()
     _wait(lambda: True)
-    kiosk.grab().save(str(out / "kiosk_tryon.png"))
+    _screen_grab(kiosk).save(str(out / "kiosk_tryon.png"))
     kiosk._allow_close = True
     kiosk.close()
     print("\n".join(str(p) for p in sorted(out.glob("*_*.png")) if p.name.startswith(("studio_", "kiosk_"))))
