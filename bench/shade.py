@@ -63,7 +63,9 @@ def main(argv: list[str]) -> int:
     except SystemExit as exc:
         return int(exc.code or 0)
     if not (1 <= args.skins <= len(_SKINS)) or args.repeats < 1 or args.large < 1 or args.population < 1:
-        parser.error(f"--skins must be 1..{len(_SKINS)}; --repeats, --large and --population at least 1")
+        print(f"sheer bench shade: error: --skins must be 1..{len(_SKINS)}; --repeats, --large and --population "
+              "at least 1", file=sys.stderr)
+        return 2
 
     bank = ShadeBank.from_materials(foundations(default_library()))
     large = _large_bank(bank, args.large)
