@@ -250,6 +250,9 @@ class WorkerState:
             r.lights = rig_lights(job.light)
             r.environment = _environment(job.light)
         self._held[job.head_hash] = (layers_key, light_key)
+        # the direct path, always: the texture-space lighting cache is skipped on the frame right after a
+        # lighting change, so with it a frame's pixels would depend on the jobs this worker ran before
+        r.settings.lighting_cache = False
         r.settings.exposure = job.exposure
         r.camera.yaw, r.camera.pitch = job.view.yaw, job.view.pitch
         if job.mode != "lightweight":
