@@ -1,4 +1,6 @@
-"""Ground truth for the capture drawn by a renderer that is not the one being fitted (no tests here).
+"""Ground truth for the capture drawn by a renderer that is not the one being fitted.
+
+Used by tests/capture/test_out_of_sample.py and ``sheer bench capture``.
 
 The capture fits :func:`capture.phong.shade` on the CPU rasteriser of :mod:`capture.raster`; this module
 draws the synthetic flash photograph on the GPU instead (moderngl on the test session's EGL context):
@@ -26,8 +28,9 @@ rendered beside the photograph.
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -106,15 +109,16 @@ class GpuPhoto:
 
 
 def irradiance_sh(env: np.ndarray, scale: float) -> np.ndarray:
-    """Irradiance SH coefficients (9, 3) of an equirectangular environment (H, W, 3) in capture's
-    convention (:func:`capture.probe.equirect_lookup`: row 0 = +Y, longitude 0 at −Z, increasing towards
-    +X), times ``scale``; E(n) = Σ c_i Y_i(n) in the environment's units × ``scale``.
+    """Irradiance SH coefficients (9, 3) of an equirectangular environment (H, W, 3), times ``scale``.
+
+    In capture's convention (:func:`capture.probe.equirect_lookup`: row 0 = +Y, longitude 0 at −Z,
+    increasing towards +X); E(n) = Σ c_i Y_i(n) in the environment's units × ``scale``.
     """
     from render.lights import SH_COSINE, equirect_directions, sh9_basis
 
     h, w = env.shape[:2]
-    d, dw = equirect_directions(h, w)  # render's convention: column 0 at −Z, the middle at +Z
-    d = d * np.array([1.0, 1.0, -1.0])  # capture's: column 0 at +Z, the middle at −Z (±X where render's are)
+    d, dw = equirect_directions(h, w)  # render's convention: the middle column at +Z
+    d = d * np.array([-1.0, 1.0, -1.0])  # capture's is render's turned 180° about +Y (the middle at −Z)
     radiance = np.einsum("hwk,hwc,hw->kc", sh9_basis(d), np.asarray(env, dtype=np.float64), dw)
     return radiance * SH_COSINE[:, None] * scale
 
@@ -130,8 +134,11 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
         head: the head (vertices, normals, uv, faces).
         texture: float (Ht, Wt, 3) linear texture in the head's UV space (top row first), ~1 on average.
         camera: the photograph's camera (its width × height is the photograph's size, pixels).
-        diffuse: (3,) D, linear. specular: i_s, photograph units. exponent: s (dimensionless, ≥ 1).
-        light: (3,) unit direction towards the flash, world. flash: (3,) F, linear, luminance 1.
+        diffuse: (3,) D, linear.
+        specular: i_s, photograph units.
+        exponent: s (dimensionless, ≥ 1).
+        light: (3,) unit direction towards the flash, world.
+        flash: (3,) F, linear, luminance 1.
         ambient: (3,) the constant A, photograph units (ignored with ``sh``).
         sh: (9, 3) irradiance SH coefficients (:func:`irradiance_sh`) for A(n) = E(n)/π, or None.
         supersample: samples per pixel along each axis (the photograph is their linear mean).
@@ -194,7 +201,217 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
 
 
 def truth_diffuse(diffuse: np.ndarray, photo: GpuPhoto, skin: np.ndarray) -> np.ndarray:
-    """The diffuse colour the capture should find: D times the texture's mean over the ``skin`` pixels
-    (bool (H, W), those the capture used). Linear RGB (3,).
+    """The diffuse colour the capture should find, linear RGB (3,).
+
+    D times the texture's mean over the ``skin`` pixels (bool (H, W), those the capture used).
     """
     return np.asarray(diffuse, dtype=np.float64) * photo.texture[skin].mean(axis=0)
+
+
+# --- scenes: what a case changes, drawn and captured ---------------------------------------------------
+
+#: The validation's targets (README, "Validation on synthetic flash photographs").
+TARGETS = {"light_deg": 2.0, "s": 0.10, "i_s": 0.05, "diffuse_de": 1.0, "reproduction_de": 2.0}
+SKIN = (0.46, 0.31, 0.245)
+
+
+@dataclass(frozen=True)
+class Case:
+    """One synthetic photograph: the truth and how it is taken.
+
+    Attributes:
+        head: "sample" (the validation's), "canonical" (the MediaPipe canonical face, a procedural
+            texture) or "coarse" (the sample head decimated to 1,143 triangles, :mod:`capture.lod`).
+        exponent: s. specular: i_s. diffuse: D (linear RGB, the texture's mean over the skin is 1).
+        environment: the HDR environment of the ambient light and the probe.
+        light_deg: the flash's angles above and to the right of the lens's axis, degrees.
+        camera: "given" (the true camera), "clicks" (calibrated from the head's landmarks clicked at the
+            centre of the pixel they fall in) or "noisy" (landmarks with Gaussian pixel noise of
+            ``noise_px``, seeded): the fit never sees the true camera unless "given".
+        ambient: "constant" (the Phong model's A: the environment's mean radiance) or "irradiance"
+            (E(n)/π per fragment).
+        yaw_deg: the camera turned about the head's vertical axis (degrees, positive: towards the
+            subject's left), at ``distance_mm`` from the face (the validation's: 2362.5 mm, a 6.4°
+            vertical field; the field follows the distance so the head keeps its size).
+        noise_px: the landmarks' pixel noise (standard deviation, pixels) for "noisy".
+    """
+
+    head: str
+    exponent: float
+    specular: float = 0.18
+    diffuse: tuple[float, float, float] = SKIN
+    environment: str = "warehouse"
+    light_deg: tuple[float, float] = (4.0, 3.0)
+    camera: str = "given"
+    ambient: str = "constant"
+    yaw_deg: float = 0.0
+    distance_mm: float = 2362.5
+    noise_px: float = 1.0
+
+
+class Figures(NamedTuple):
+    """What the capture recovered, against the truth.
+
+    Attributes:
+        light_deg: angle between the recovered and the true flash direction, degrees.
+        s: relative error of the exponent (s / s_true − 1). i_s: same for the specular intensity.
+        diffuse_de: CIEDE2000 between the recovered and the true diffuse colour.
+        reproduction_de: the capture's own mean ΔE2000 on skin (photo vs Phong × detail).
+        s_value, i_s_value: the recovered values.
+    """
+
+    light_deg: float
+    s: float
+    i_s: float
+    diffuse_de: float
+    reproduction_de: float
+    s_value: float
+    i_s_value: float
+
+
+def case_head(kind: str) -> tuple[Head, np.ndarray]:
+    """The head and its texture (linear, float (H, W, 3), ~1 on the face)."""
+    from capture.lod import simplify_head
+    from core.assets import find_asset
+    from painting.head import load_head
+
+    if kind == "canonical":
+        return load_head(find_asset("heads/canonical-face/canonical_face_model.obj")), skin_texture()
+    head = load_head()
+    albedo = srgb_decode(np.asarray(head.albedo) / 255.0)
+    # The coarse head's UVs come from the fine surface (capture.lod), so the albedo fits it closely
+    # enough to be a skin texture; whatever is drawn is the truth.
+    return (simplify_head(head, 1143) if kind == "coarse" else head), albedo
+
+
+def skin_texture(size: int = 512) -> np.ndarray:
+    """A procedural skin texture (linear, mean 1), seeded.
+
+    Regional tone (σ 40 texels, 8 %), redness (σ 25, 4 %), blotches (σ 5, 4 %) and pores (σ 1, 3 %).
+    """
+    from scipy import ndimage
+
+    rng = np.random.default_rng(7)
+
+    def field(sigma: float, amplitude: float) -> np.ndarray:
+        f = ndimage.gaussian_filter(rng.standard_normal((size, size)), sigma)
+        return f * (amplitude / f.std())
+
+    tone = 1.0 + field(40, 0.08) + field(5, 0.04) + field(1, 0.03)
+    red = field(25, 0.04)
+    return np.stack([tone * (1 + red), tone, tone * (1 - 0.5 * red)], axis=-1)
+
+
+def case_camera(head: Head, case: Case, size: int = 512) -> Camera:
+    """The true camera of ``case``, ``size``² pixels.
+
+    Aimed at the face from ``case.distance_mm`` in front of it, turned by ``case.yaw_deg`` about the
+    vertical, with the validation's framing (6.4° vertical field at 2362.5 mm, scaled with the
+    distance); the validation's own camera for the sample and coarse heads at yaw 0 and that distance.
+    """
+    from capture.camera import look_at
+    from capture.synthetic import validation_camera
+
+    if case.head != "canonical" and case.yaw_deg == 0.0 and case.distance_mm == 2362.5:
+        return validation_camera(size)
+    lm = np.array(list(head.metadata.landmarks.values()))
+    target = (lm.min(axis=0) + lm.max(axis=0)) / 2 if case.head == "canonical" else np.array([0.0, 1.3, 0.0])
+    distance = case.distance_mm / head.mm_per_unit
+    yaw = np.radians(case.yaw_deg)
+    eye = target + distance * np.array([np.sin(yaw), 0.0, np.cos(yaw)])
+    fov = float(np.degrees(2 * np.arctan(np.tan(np.radians(3.2)) * 2362.5 / case.distance_mm)))
+    return look_at(eye, target, np.array([0.0, 1.0, 0.0]), fov, size, size)
+
+
+def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:
+    """The camera the fit is given.
+
+    The true one ("given"), or calibrated from the head's landmarks (gnathion = chin left out) clicked
+    at the centre of their pixel ("clicks", ±0.5 px) or with Gaussian noise of ``case.noise_px``
+    ("noisy", seeded by the case).
+    """
+    from capture.camera import calibrate
+
+    if case.camera == "given":
+        return camera
+    names = sorted(set(head.metadata.landmarks) - {"gnathion"})
+    points3d = np.array([head.metadata.landmarks[n] for n in names])
+    pixels, _ = camera.project(points3d)
+    if case.camera == "clicks":
+        pixels = np.floor(pixels) + 0.5
+    else:
+        rng = np.random.default_rng(zlib.crc32(repr(case).encode()))
+        pixels = pixels + rng.normal(0.0, case.noise_px, pixels.shape)
+    return calibrate(pixels, points3d, camera.width, camera.height)
+
+
+@dataclass
+class Scene:
+    """A case drawn: the truth and the inputs the capture gets.
+
+    Attributes:
+        head, camera: the head and the true camera. fit_camera: the camera the capture is given.
+        photo: the GPU photograph. probe_linear: the probe as photographed (linear, (256, 256, 3)).
+        light: the true flash direction (unit, world). diffuse: the D drawn (the texture's mean on the
+        face ~1 times it).
+    """
+
+    head: Head
+    camera: Camera
+    fit_camera: Camera
+    photo: GpuPhoto
+    probe_linear: np.ndarray
+    light: np.ndarray
+    diffuse: np.ndarray
+
+
+def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
+    """Draw ``case``'s photograph on the GPU and its probe (see :class:`Case`)."""
+    from capture.mask import landmark_region
+    from capture.probe import synthetic_probe
+    from capture.synthetic import (
+        DIM_ROOM,
+        FLASH_RGB,
+        as_photographed,
+        env_mean_radiance,
+        light_from_camera,
+        read_env,
+    )
+    from core.assets import find_asset
+
+    head, texture = case_head(case.head)
+    camera = case_camera(head, case)
+    env = read_env(str(find_asset(f"environments/{case.environment}.exr")))
+    mean_radiance = env_mean_radiance(env)
+    scale = DIM_ROOM / float(mean_radiance.mean())
+    sh = irradiance_sh(env, scale) if case.ambient == "irradiance" else None
+    light = light_from_camera(camera, *case.light_deg)
+    # Scale D so that D × the texture's mean over the face is about the case's D (the exact truth is
+    # read after the capture over the skin pixels it used).
+    args = dict(specular=case.specular, exponent=case.exponent, light=light, flash=FLASH_RGB,
+                ambient=mean_radiance * scale, sh=sh)
+    first = render_photo(ctx, head, texture, camera, np.asarray(case.diffuse), supersample=1, **args)
+    face = landmark_region(camera, head.metadata.landmarks, (camera.height, camera.width)) & (first.coverage > 0)
+    diffuse = np.asarray(case.diffuse) / first.texture[face].mean(axis=0)
+    photo = render_photo(ctx, head, texture, camera, diffuse, **args)
+    probe = as_photographed(synthetic_probe(env, camera.R, light, FLASH_RGB, size=256, env_scale=scale))
+    return Scene(head=head, camera=camera, fit_camera=calibrated_camera(head, camera, case), photo=photo,
+                 probe_linear=probe, light=light, diffuse=diffuse)
+
+
+def measure_case(ctx: moderngl.Context, case: Case) -> Figures:
+    """Draw ``case`` on the GPU, capture it on the CPU (from the camera it is given), compare."""
+    from capture.phong import delta_e2000
+    from capture.pipeline import capture
+    from capture.probe import analyse_probe
+
+    scene = draw_case(ctx, case)
+    result = capture(scene.head, scene.photo.linear, scene.fit_camera, probe=analyse_probe(scene.probe_linear),
+                     texture_size=512)
+    truth = truth_diffuse(scene.diffuse, scene.photo, result.skin_mask)
+    return Figures(
+        light_deg=float(np.degrees(np.arccos(np.clip(result.light_dir_world @ scene.light, -1.0, 1.0)))),
+        s=result.exponent.s / case.exponent - 1.0, i_s=result.params.specular / case.specular - 1.0,
+        diffuse_de=float(delta_e2000(result.params.diffuse, truth)),
+        reproduction_de=result.reproduction_de2000_skin, s_value=result.exponent.s,
+        i_s_value=result.params.specular)

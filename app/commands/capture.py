@@ -6,10 +6,16 @@
 - ``--camera FILE``: JSON ``{"P": [[…4], […4], […4]]}``, the 3×4 projection matrix (pixels ← mesh units).
 - ``--points FILE``: JSON ``{"points": [{"name": …, "image": [x, y], "mesh": [x, y, z]}, …]}`` (≥ 6);
   image pixels x right, y down, top-left pixel centre at (0.5, 0.5).
-- ``--probe PATH``: a photograph of a mirror ball cropped to the ball (same camera and flash); without
-  it, a white flash on the camera axis and no ambient light are assumed.
+- ``--probe PATH``: a photograph of a mirror ball cropped to the ball (same camera, flash and exposure;
+  see docs/CAPTURE.md); without it, a white flash on the camera axis and no ambient light are assumed.
+  ``--probe-reflectance R`` (0 < R ≤ 1, default 1: a perfect mirror) is the ball's reflectance: a chrome
+  ball reflects about 0.5–0.7, and the ambient light is the ball's mean divided by it.
 - ``--mask PATH``: a painted skin mask (white = skin) of the photograph's size; without it, the mask is
   computed from the head's landmarks and a skin-colour model.
+
+Units: the photograph's linear sRGB values (the sensor saturating at 1). The flash's colour has
+luminance 1 and its intensity is folded into the diffuse colour D and the specular intensity i_s, so
+``sheer render --face FACE_DIR --light from-capture`` (intensity 1, exposure 1) reproduces the photograph.
 
 Writes FACE_DIR/face.json (parameters, light, camera, residuals), detail.exr (float32 detail texture in the
 head's UV space), report.png (photo | fitted render | difference | detail texture with the texels the
@@ -32,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     cam.add_argument("--camera", metavar="FILE", help="projection matrix JSON")
     cam.add_argument("--points", metavar="FILE", help="2D-3D correspondences JSON (at least 6)")
     p.add_argument("--probe", metavar="PATH", help="mirror-ball photograph, cropped to the ball")
+    p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
+                   help="the ball's reflectance, 0 < R ≤ 1 (default 1, a perfect mirror; chrome ≈ 0.5–0.7)")
     p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
     p.add_argument("--texture-size", type=int, default=1024, metavar="N", help="detail texture side (texels)")
     p.add_argument("--starts", type=int, default=0, metavar="N",
@@ -53,6 +61,10 @@ def run(args: argparse.Namespace) -> int:
         raise CaptureError(f"--texture-size must be between 16 and 8192, got {args.texture_size}")
     if args.starts < 0:
         raise CaptureError(f"--starts must be ≥ 0, got {args.starts}")
+    if not 0.0 < args.probe_reflectance <= 1.0:  # NaN fails too
+        raise CaptureError(f"--probe-reflectance must be in (0, 1], got {args.probe_reflectance}")
+    if args.probe_reflectance != 1.0 and not args.probe:
+        raise CaptureError("--probe-reflectance needs --probe (the mirror ball it describes)")
 
     def say(msg: str) -> None:
         print(f"capture: {msg}", file=sys.stderr, flush=True)
@@ -70,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
         say(f"camera from correspondences: RMS reprojection error {camera.reprojection_error_px:.2f} px")
     probe = None
     if args.probe:
-        probe = analyse_probe(read_photo(args.probe), source=args.probe)
+        probe = analyse_probe(read_photo(args.probe), source=args.probe, reflectance=args.probe_reflectance)
     mask = load_mask(args.mask, (h, w)) if args.mask else None
     result = capture(head, photo, camera, probe=probe, mask=mask, texture_size=args.texture_size,
                      progress=say, robustness_starts=args.starts)

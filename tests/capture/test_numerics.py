@@ -161,3 +161,32 @@ def test_specular_intensity_is_separated_from_albedo_brighter_under_the_lobe() -
     sep = specular_from_detail(photo, geo, joint, rows, cols, (n_px, n_px))
     assert joint.specular > 0.18 * 1.10  # the paper's joint fit: biased by the brighter albedo
     assert sep is not None and abs(sep.specular / 0.18 - 1) < 0.03
+
+
+def test_equirect_conventions_agree_up_to_a_turn_and_neither_is_mirrored() -> None:
+    # capture.probe.equirect_lookup (the synthetic probes and photographs) and render.lights'
+    # equirect_directions (sheer render --env) read the same EXR: each texel's direction in one is the
+    # other's turned 180° about +Y (a rotation, not a mirror: a lamp on the subject's left stays there).
+    from capture.probe import equirect_lookup
+    from render.lights import equirect_directions
+
+    h, w = 16, 32
+    d_render, _ = equirect_directions(h, w)
+    turned = d_render * np.array([-1.0, 1.0, -1.0])
+    for row, col in [(3, 5), (8, 16), (12, 24), (7, 30)]:
+        env = np.zeros((h, w, 3))
+        env[row, col] = 1.0
+        assert equirect_lookup(env, turned[row, col][None])[0, 0] == pytest.approx(1.0, abs=1e-9), (row, col)
+    up = np.array([0.0, 1.0, 0.0])
+
+    def capture_direction(col: int) -> np.ndarray:  # the centre of column ``col`` on the horizon
+        lon = ((col + 0.5) / w - 0.5) * 2 * np.pi
+        return np.array([np.sin(lon), 0.0, -np.cos(lon)])
+
+    env = np.zeros((h, w, 3))
+    env[h // 2 - 1:h // 2 + 1, w // 2 + 1] = 1.0  # the horizon lies between rows h/2 - 1 and h/2
+    assert equirect_lookup(env, capture_direction(w // 2 + 1)[None])[0, 0] == pytest.approx(1.0, abs=1e-9)
+    # Facing the middle column, one column to the image's right is the viewer's right (forward × up).
+    for forward, right in [(d_render[h // 2, w // 2], d_render[h // 2, w // 2 + 1]),
+                           (capture_direction(w // 2), capture_direction(w // 2 + 1))]:
+        assert np.cross(forward, up) @ right > 0

@@ -1,0 +1,150 @@
+"""``sheer bench capture --json``: how the capture holds up out of sample (issue 14).
+
+Two sweeps, printed as one JSON object:
+
+- **the exponent**: the sample head drawn on the GPU by another renderer (:mod:`bench.capture_truth`)
+  with s ∈ {8, 12, 24, 40, 60}, the camera turned −30°, 0° or +30° about the head's vertical, the flash
+  straight above, beside or off-axis (8° from the lens), a different HDR environment for each (its
+  irradiance E(n)/π as the ambient light, its mirror ball as the probe) and the camera calibrated from
+  landmarks with 1 px of noise; the capture's relative s and i_s errors: ``s_error_median``,
+  ``s_error_p90``, ``s_error_max`` (|s / s_true − 1|, per cent) and the same for i_s, with every case.
+- **the probe**: random flashes 0.5–3° across (the clipped spot's angular diameter), within 15° of the
+  lens, in mirror balls of 256, 512 and 1024 px (six environments at the validation's level, the flash's
+  core averaged over 4 × 4 points per pixel so its rim pixels are partly covered): ``probe_acceptance``
+  (the fraction analysed, not refused), ``probe_error_deg_median`` / ``_max`` (the light direction's
+  error of those accepted), and each refusal's message.
+
+``--quick`` runs a third of the exponent grid and 60 probes; ``--placements N`` sets the probes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+#: The exponent sweep's axes (see the module docstring).
+EXPONENTS = (8.0, 12.0, 24.0, 40.0, 60.0)
+YAWS = (-30.0, 0.0, 30.0)
+FLASHES = {"above": (8.0, 0.0), "beside": (0.0, 8.0), "off-axis": (-5.7, 5.7)}
+ENVIRONMENTS = ("city", "lobby", "night", "studio", "sunset", "warehouse")
+PROBE_SIZES = (256, 512, 1024)
+
+
+def spot_core_deg(diameter_deg: float, gain: float = 50.0) -> float:
+    """The core σ (degrees) of :func:`capture.probe.flash_reflection` for a clipped spot ``diameter_deg`` across.
+
+    The spot is where ``gain``·exp(−a²/2σ²) ≥ 1.
+    """
+    return diameter_deg / (2.0 * np.sqrt(2.0 * np.log(gain)))
+
+
+def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PROBE_SIZES,
+                     max_angle_deg: float = 15.0) -> dict[str, Any]:
+    """Analyse ``placements`` random probes (see the module docstring); the figures as a dict."""
+    from capture.probe import ProbeError, analyse_probe, flash_reflection, probe_environment
+    from capture.synthetic import (
+        DIM_ROOM,
+        FLASH_RGB,
+        as_photographed,
+        env_mean_radiance,
+        read_env,
+        validation_camera,
+    )
+    from core.assets import find_asset
+
+    rng = np.random.default_rng(seed)
+    R = validation_camera().R
+    balls: dict[tuple[str, int], np.ndarray] = {}
+    errors: list[float] = []
+    refused: list[str] = []
+    for i in range(placements):
+        env_name = ENVIRONMENTS[i % len(ENVIRONMENTS)]
+        size = int(sizes[(i // len(ENVIRONMENTS)) % len(sizes)])
+        if (env_name, size) not in balls:
+            env = read_env(str(find_asset(f"environments/{env_name}.exr")))
+            balls[env_name, size] = probe_environment(env, R, size, DIM_ROOM / float(env_mean_radiance(env).mean()))
+        # Uniform over the cap of directions within max_angle_deg of the lens's axis (towards the camera).
+        cos_t = rng.uniform(np.cos(np.radians(max_angle_deg)), 1.0)
+        phi = rng.uniform(0.0, 2 * np.pi)
+        sin_t = np.sqrt(1.0 - cos_t ** 2)
+        light_cam = np.array([sin_t * np.cos(phi), sin_t * np.sin(phi), -cos_t])
+        light = R.T @ light_cam
+        diameter = rng.uniform(0.5, 3.0)
+        lobe = flash_reflection(size, R, light, core_deg=spot_core_deg(diameter), supersample=4)
+        image = as_photographed(np.clip(balls[env_name, size] + lobe[..., None] * FLASH_RGB, 0.0, 1.0))
+        try:
+            found = R.T @ analyse_probe(image, source=f"{env_name} {size}px").light_dir_camera
+        except ProbeError as exc:
+            refused.append(f"{diameter:.2f}° spot {np.degrees(np.arccos(cos_t)):.2f}° off the axis: {exc}")
+            continue
+        errors.append(float(np.degrees(np.arccos(np.clip(found @ light, -1.0, 1.0)))))
+    return {"probe_placements": placements, "probe_acceptance": 1.0 - len(refused) / max(placements, 1),
+            "probe_error_deg_median": round(float(np.median(errors)), 3) if errors else None,
+            "probe_error_deg_max": round(float(np.max(errors)), 3) if errors else None,
+            "probe_refusals": refused}
+
+
+def exponent_cases(quick: bool = False) -> list[tuple[str, Any]]:
+    """The exponent sweep's cases, named (``quick``: every third)."""
+    from bench.capture_truth import Case
+
+    cases = []
+    for i, (s, yaw, (flash, angles)) in enumerate((s, y, f) for s in EXPONENTS for y in YAWS for f in FLASHES.items()):
+        env = ENVIRONMENTS[i % len(ENVIRONMENTS)]
+        name = f"s{s:g} yaw {yaw:+g}° flash {flash} {env}"
+        cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera="noisy",
+                                 ambient="irradiance", yaw_deg=yaw)))
+    return cases[::3] if quick else cases
+
+
+def exponent_sweep(quick: bool = False) -> dict[str, Any]:
+    """Capture every case of :func:`exponent_cases`; the error distribution of s and i_s as a dict."""
+    import moderngl
+
+    from bench.capture_truth import measure_case
+    from bench.stats import spread
+
+    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    rows = []
+    try:
+        for name, case in exponent_cases(quick):
+            f = measure_case(ctx, case)
+            rows.append({"case": name, "s": round(f.s_value, 3), "s_error_pct": round(100 * f.s, 2),
+                         "i_s_error_pct": round(100 * f.i_s, 2), "light_deg": round(f.light_deg, 3),
+                         "reproduction_de2000": round(f.reproduction_de, 3)})
+    finally:
+        ctx.release()
+    s_err = [abs(r["s_error_pct"]) for r in rows]
+    i_err = [abs(r["i_s_error_pct"]) for r in rows]
+    return {"cases": len(rows), **spread("s_error_median", s_err), "s_within_10pct": sum(e <= 10 for e in s_err),
+            **spread("i_s_error_median", i_err), "exponent_cases": rows}
+
+
+def main(argv: list[str]) -> int:
+    """Run the benchmark (``argv``: its options, see ``--help``), print one JSON object; returns 0."""
+    parser = argparse.ArgumentParser(prog="sheer bench capture", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="a third of the exponent grid and 60 probes")
+    parser.add_argument("--placements", type=int, default=None, help="random probes (default 600, --quick 60)")
+    parser.add_argument("--skip", choices=("exponent", "probe"), action="append", default=[],
+                        help="leave out a sweep (repeatable)")
+    parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
+    args = parser.parse_args(argv)
+    placements = args.placements if args.placements is not None else (60 if args.quick else 600)
+    if placements < 1:
+        parser.error("--placements must be at least 1")
+    t0 = time.perf_counter()
+    out: dict[str, Any] = {"benchmark": "capture"}
+    if "probe" not in args.skip:
+        out.update(probe_acceptance(placements))
+    if "exponent" not in args.skip:
+        out.update(exponent_sweep(args.quick))
+    out["seconds"] = round(time.perf_counter() - t0, 1)
+    out["load_average"] = [round(x, 2) for x in os.getloadavg()]
+    print(json.dumps(out, indent=2))
+    return 0

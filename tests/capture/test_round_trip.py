@@ -1,0 +1,102 @@
+"""The command line round trip (issue 14): a flash photograph drawn on the GPU by another renderer
+(bench/capture_truth.py), ``sheer capture`` on it from its files alone (the photograph, the probe and
+landmarks clicked with 1 px of noise — never the true camera), then ``sheer render --face DIR --light
+from-capture`` — both through the installed ``sheer`` entry point, in their own processes — must give
+the photograph back: mean ΔE2000 over the skin pixels the capture used ≤ 2.5.
+
+Measured (mean ΔE2000 on skin, the relit image against the photograph; 512² images, the detail
+texture at the CLI's default 1024²):
+
+================= ============================================================== ======
+case              what it is                                                     ΔE
+================= ============================================================== ======
+validation-scene  s 24, i_s 0.18, flash 4° up 3° right, warehouse                1.51
+turned-15-beside  s 12, the camera turned −15°, flash 8° right, city sky          1.87
+turned-30-above   s 24, the camera turned +30°, flash 8° above, lobby sky         **2.62**
+dark-skin-s60     s 60, i_s 0.10, dark skin, city, flash 6° down 9° right         1.44
+================= ============================================================== ======
+
+The face turned 30° misses the 2.5 target (a strict expected failure): the capture's own reproduction
+(Phong × detail, its CPU model) is already 2.65 there and 2.64 with a 2048² texture — the detail texture
+(photograph / reflectance map) from a view that far round does not return the photograph under the
+same flash; the lightweight engine adds nothing to it.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from bench.capture_truth import Case, draw_case
+from capture.phong import delta_e2000
+from capture.pipeline import linear_to_srgb8
+from km.srgb import srgb_decode
+
+if TYPE_CHECKING:
+    import moderngl
+
+pytestmark = [pytest.mark.slow, pytest.mark.gl]
+
+#: The issue's target.
+TARGET_DE = 2.5
+#: Missed today: the case → the measured figure (the module docstring).
+MISSED = {"turned-30-above": "mean ΔE2000 2.62 (the capture's own reproduction 2.65): the detail texture of a face "
+                             "turned 30°"}
+#: The case, and the bound just above its measured mean ΔE2000 (the module docstring).
+CASES = {
+    "validation-scene": (Case("sample", 24.0, camera="noisy"), 1.6),
+    "turned-15-beside": (Case("sample", 12.0, environment="city", light_deg=(0.0, 8.0), camera="noisy",
+                              ambient="irradiance", yaw_deg=-15.0), 2.0),
+    "turned-30-above": (Case("sample", 24.0, environment="lobby", light_deg=(8.0, 0.0), camera="noisy",
+                             ambient="irradiance", yaw_deg=30.0), TARGET_DE),
+    "dark-skin-s60": (Case("sample", 60.0, 0.10, (0.25, 0.15, 0.11), "city", (-6.0, 9.0), camera="noisy"), 1.55),
+}
+
+
+def _sheer(*args: str) -> subprocess.CompletedProcess[str]:
+    """Run the installed ``sheer`` console script (the venv's, beside this interpreter)."""
+    exe = Path(sys.executable).with_name("sheer")
+    return subprocess.run([str(exe), *args], capture_output=True, text=True, timeout=600)
+
+
+def _points_file(path: Path, scene: object) -> None:
+    """The head's landmarks where the noisy calibration put them (clicked with 1 px of noise): the image
+    points the fit's camera projects them to, so the CLI calibrates the same camera from the file."""
+    head, cam = scene.head, scene.fit_camera  # type: ignore[attr-defined]
+    names = sorted(set(head.metadata.landmarks) - {"gnathion"})
+    mesh = np.array([head.metadata.landmarks[n] for n in names])
+    image, _ = cam.project(mesh)
+    path.write_text(json.dumps({"points": [{"name": n, "image": list(map(float, im)), "mesh": list(map(float, m))}
+                                           for n, im, m in zip(names, image, mesh)]}))
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(n, marks=[pytest.mark.xfail(strict=True, reason=f"measured {MISSED[n]}")] if n in MISSED else [])
+    for n in sorted(CASES)])
+def test_capture_then_render_from_capture_gives_the_photograph_back(name: str, gl_ctx: moderngl.Context,
+                                                                    tmp_path: Path) -> None:
+    case, bound = CASES[name]
+    assert bound <= TARGET_DE
+    scene = draw_case(gl_ctx, case)
+    Image.fromarray(scene.photo.srgb8).save(tmp_path / "photo.png")
+    Image.fromarray(linear_to_srgb8(scene.probe_linear)).save(tmp_path / "probe.png")
+    _points_file(tmp_path / "points.json", scene)
+    face = tmp_path / "face"
+    cap = _sheer("capture", "--photo", str(tmp_path / "photo.png"), "--probe", str(tmp_path / "probe.png"),
+                 "--points", str(tmp_path / "points.json"), "--out", str(face))
+    assert cap.returncode == 0, cap.stderr
+    relit_path = tmp_path / "relit.png"
+    ren = _sheer("render", "--face", str(face), "--light", "from-capture", "--out", str(relit_path))
+    assert ren.returncode == 0, ren.stderr
+    relit = srgb_decode(np.asarray(Image.open(relit_path), dtype=np.float64) / 255.0)
+    assert relit.shape == scene.photo.linear.shape  # the capture's camera and size by default
+    skin = np.asarray(Image.open(face / "skin_mask.png")) > 0
+    de = float(delta_e2000(relit[skin], scene.photo.linear[skin]).mean())
+    assert de < bound, f"{name}: mean ΔE2000 {de:.2f} on {int(skin.sum())} skin pixels"
