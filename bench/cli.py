@@ -20,6 +20,7 @@ BENCHMARKS: dict[str, str] = {
     "project": "bench.project:main",
     "catalogue": "bench.catalogue:main",
     "shade": "bench.shade:main",
+    "capture": "bench.capture:main",
 }
 
 
