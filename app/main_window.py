@@ -43,6 +43,7 @@ from app.settings import (
     load_settings,
     save_settings,
 )
+from app.shade_finder import ShadeFinder
 from app.viewport import Viewport
 from app.workers import run_task
 from painting import Brush
@@ -112,6 +113,10 @@ class StudioWindow(QMainWindow):
         layers_dock = self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
         library_dock = self._add_dock("Material Library", self.library_dock, Qt.DockWidgetArea.RightDockWidgetArea)
         self.resizeDocks([layers_dock, library_dock], [250, 380], Qt.Orientation.Horizontal)
+        self.shade_finder = ShadeFinder(session, self._skin_colour)
+        self.tabifyDockWidget(library_dock, self._add_dock("Shade Finder", self.shade_finder,
+                                                           Qt.DockWidgetArea.RightDockWidgetArea))
+        library_dock.raise_()
 
         self.actions_by_id: dict[str, QAction] = {}
         self._build_actions()

@@ -343,6 +343,17 @@ class ShadeMatch:
     reflectance: FloatArray
     swatch_hex: str
 
+    def metamerism_words(self) -> str:
+        """The metamerism warning in plain words ("" when the shade holds under every check light)."""
+        if not self.metameric:
+            return ""
+        by = self.de2000_by_illuminant
+        best = min(by, key=lambda k: by[k])
+        worst = max(by, key=lambda k: by[k])
+        names = {"D65": "daylight", "A": "warm indoor light"}
+        return (f"matches best in {names.get(best, best)} but looks different in {names.get(worst, worst)} "
+                f"(ΔE {by[best]:.1f} → {by[worst]:.1f})")
+
     def to_json(self) -> dict[str, Any]:
         """The issue's per-shade JSON: name, thickness_um, de2000, de2000_by_illuminant, metameric, swatch."""
         return {"name": self.name, "thickness_um": round(self.thickness_um, 3), "de2000": round(self.de2000, 4),

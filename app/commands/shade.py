@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from km.shade import ShadeMatch
     from km.shade_coverage import Coverage
     from km.skin import SkinFit
 
@@ -177,17 +176,6 @@ def _lights(args: argparse.Namespace) -> tuple[str, tuple[str, ...]]:
     return main, tuple(dict.fromkeys(("D65", store, "A")))
 
 
-def metamerism_words(shade: ShadeMatch) -> str:
-    """The metamerism warning in plain words ("" when the shade holds under every light)."""
-    if not shade.metameric:
-        return ""
-    by = shade.de2000_by_illuminant
-    best, worst = min(by, key=by.get), max(by, key=by.get)  # type: ignore[arg-type]
-    names = {"D65": "daylight", "A": "warm indoor light"}
-    return (f"matches best in {names.get(best, best)} but looks different in {names.get(worst, worst)} "
-            f"(ΔE {by[best]:.1f} → {by[worst]:.1f})")
-
-
 def run_match(args: argparse.Namespace) -> int:
     """Rank the library's foundations on the skin and print a table or JSON; returns 0."""
     from core.errors import SheerError
@@ -205,7 +193,7 @@ def run_match(args: argparse.Namespace) -> int:
     if args.json:
         out = {"skin": fit.to_json(), "source": source, "target": target.to_json(), "illuminant": main,
                "lights": list(lights), "note": note,
-               "shades": [{**s.to_json(), "rank": i + 1, "metamerism": metamerism_words(s)}
+               "shades": [{**s.to_json(), "rank": i + 1, "metamerism": s.metamerism_words()}
                           for i, s in enumerate(shown)]}
         json.dump(out, sys.stdout, indent=2, ensure_ascii=False)
         print()

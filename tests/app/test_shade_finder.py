@@ -1,0 +1,86 @@
+"""The studio's Shade Finder dock on a real window (xcb under Xvfb, Mesa GL): match a skin, see the ranked
+shades and the spectra, apply the best shade to the foundation layer (undoable), run the coverage."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pytest
+
+from app.qt_compat import pin_singletons
+from km.shade import ShadeBank, foundations, match_shades
+from km.skin import fit_skin
+from km.srgb import srgb_decode
+from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+pin_singletons()
+
+pytestmark = [pytest.mark.qt, pytest.mark.gl]
+
+
+@pytest.fixture(scope="module")
+def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, DialogDriver]]:
+    with open_studio_window(qapp, tmp_path_factory) as pair:
+        yield pair
+
+
+@pytest.fixture
+def window(studio: tuple[object, DialogDriver]) -> object:
+    reset_studio(studio[0])
+    return studio[0]
+
+
+def test_the_dock_is_in_the_studio(window: object) -> None:
+    from PySide6.QtWidgets import QDockWidget
+
+    titles = [d.windowTitle() for d in window.findChildren(QDockWidget)]
+    assert "Shade Finder" in titles and "Material Library" in titles
+
+
+def test_typed_colour_is_matched_like_the_library_match(window: object) -> None:
+    finder = window.shade_finder
+    finder.rgb_edit.setText("150,100,75")
+    finder.match_typed()
+    assert finder.fit is not None and finder.table.rowCount() == len(foundations(window.library))
+    expected = match_shades(fit_skin(linear_rgb=srgb_decode(np.array([150, 100, 75]) / 255.0)).reflectance,
+                            finder.fit.reflectance, ShadeBank.from_materials(foundations(window.library)))
+    assert [finder.table.item(r, 1).text() for r in range(finder.table.rowCount())] == [s.name for s in expected]
+    assert finder.table.item(0, 0).background().color().name() == expected[0].swatch_hex
+    assert finder.selected() is finder.results[0]
+    assert finder.spectra_plot is not None and len(finder.spectra_plot.listDataItems()) == 2  # skin, made-up
+    # a store light and a target change the ranking's columns and the target curve
+    finder.target.setCurrentText("lighter")
+    assert len(finder.spectra_plot.listDataItems()) == 3
+    finder.rgb_edit.setText("1,2")
+    finder.match_typed()
+    assert "R,G,B" in finder.status.text()
+
+
+def test_apply_gives_the_foundation_layer_the_shade_as_one_undo_step(window: object) -> None:
+    finder = window.shade_finder
+    finder.match_head()
+    assert finder.results and "fit ΔE00" in finder.status.text()
+    doc = window.doc
+    layers_before = [(lay.name, lay.material) for lay in doc.layers]
+    finder.table.selectRow(1)
+    shade = finder.selected()
+    finder.apply_selected()
+    lib = window.library
+    found = [lay for lay in doc.layers if lib.get(lay.material).category == "foundation"]
+    assert found and found[0].material == shade.name
+    assert f"{shade.thickness_um:.1f} µm" in finder.status.text()
+    window.undo()
+    assert [(lay.name, lay.material) for lay in doc.layers] == layers_before
+
+
+def test_coverage_is_plotted(window: object) -> None:
+    finder = window.shade_finder
+    cov = finder.compute_coverage(48)
+    finder.show_coverage(cov)
+    assert finder.coverage is cov
+    assert len(finder.coverage_plot.listDataItems()) >= 1
+    assert "48 skins" in finder.coverage_label.text()
