@@ -49,6 +49,8 @@ STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("file.export_maps_exr", "Export Layer Maps (&EXR)…", "File", "", "has_layers"),
     ActionSpec("file.export_image", "Export Rendered &Image…", "File", "Ctrl+Shift+E"),
     ActionSpec("file.export_gltf", "Export &glTF/GLB…", "File", "Ctrl+Alt+E"),
+    ActionSpec("file.render_catalogue", "Render &Catalogue…", "File", "",
+               tip="render a catalogue spec (shades × faces × lights × views) in the background"),
     ActionSpec("file.quit", "&Quit", "File", "Ctrl+Q"),
     ActionSpec("edit.undo", "&Undo", "Edit", "Ctrl+Z", "can_undo"),
     ActionSpec("edit.redo", "&Redo", "Edit", "Ctrl+Shift+Z", "can_redo"),

@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
 
 from app import dialogs
 from app.actions import MENU_ORDER, STUDIO_ACTIONS, is_enabled, shortcut_sheet
+from app.catalogue_dialog import CatalogueDialog
 from app.export_actions import ExportActions
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
@@ -173,6 +174,7 @@ class StudioWindow(QMainWindow):
             "file.export_maps_exr": lambda: self.exports.ask_export_maps("exr"),
             "file.export_image": self.exports.ask_export_image, "file.export_gltf": self.exports.ask_export_gltf,
             "file.quit": self.close, "file.open_face": self.ask_open_face,
+            "file.render_catalogue": lambda: CatalogueDialog.open_for(self),
             "view.mode_fast": lambda: self.set_render_mode("fast"),
             "view.mode_reference": lambda: self.set_render_mode("reference"),
             "view.mode_lightweight": lambda: self.set_render_mode("lightweight"), "edit.undo": self.undo, "edit.redo": self.redo,

@@ -191,7 +191,7 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
               records: dict[str, dict[str, Any]], failed: dict[str, dict[str, Any]], on_progress: Progress | None,
               on_dashboard: Callable[[str], None] | None, cancelled: Callable[[], bool] | None) -> None:
     """Submit ``todo`` in chunks, retry each failure once on its own, fill ``records`` and ``failed``."""
-    from distributed import as_completed
+    from distributed import wait
 
     from catalogue.worker import render_chunk
 
@@ -222,32 +222,54 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
         pending[fut] = chunk
         return fut
 
-    queue = as_completed([submit(c) for c in chunks(todo, n_workers)])
+    is_cancelled = cancelled or (lambda: False)
+    if is_cancelled():
+        result.cancelled = True
+        return
+    for c in chunks(todo, n_workers):
+        submit(c)
     done = result.skipped
-    for fut in queue:
-        chunk = pending.pop(fut)
-        try:
-            outcomes = fut.result()
-        except Exception as exc:  # the task itself died (e.g. KilledWorker after repeated worker deaths)
-            reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
-            outcomes = [{"key": j.key, "out": j.out, "status": "failed", "seconds": None, "error": reason,
-                         "worker": None} for j in chunk]
-        for res in outcomes:
-            job = by_out[res["out"]]
-            if res["status"] == "failed" and attempts[job.out] < 2:
-                queue.add(submit([job]))  # retried once, on its own (maybe on another worker)
-                continue
-            if res["status"] == "failed":
-                failed[job.out] = {"file": job.out, "hash": job.key, **job.params(), "error": res["error"],
-                                   "attempts": attempts[job.out], "worker": res["worker"]}
-            records[job.out] = res
-            done += 1
-        if on_progress is not None:
-            on_progress(done, result.total, sum(r["status"] == "rendered" for r in records.values()), len(failed))
-        if cancelled is not None and cancelled():
+    while pending:
+        try:  # wake up at least every 0.25 s to see a Cancel
+            finished = wait(list(pending), timeout=0.25, return_when="FIRST_COMPLETED").done
+        except TimeoutError:
+            finished = set()
+        if is_cancelled():
             result.cancelled = True
             client.cancel(list(pending))
-            break
+            return
+        for fut in finished:
+            done += _collect(fut, pending.pop(fut), by_out, attempts, records, failed, submit)
+        if finished and on_progress is not None:
+            on_progress(done, result.total, sum(r["status"] == "rendered" for r in records.values()), len(failed))
+
+
+def _collect(fut: Any, chunk: list[Job], by_out: dict[str, Job], attempts: dict[str, int],
+             records: dict[str, dict[str, Any]], failed: dict[str, dict[str, Any]],
+             submit: Callable[[list[Job]], Any]) -> int:
+    """Record a finished task's outcomes; a job failing for the first time is submitted again on its own.
+
+    Returns:
+        How many outputs are settled (rendered, found, or failed for good).
+    """
+    try:
+        outcomes = fut.result()
+    except Exception as exc:  # the task itself died (e.g. KilledWorker after repeated worker deaths)
+        reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        outcomes = [{"key": j.key, "out": j.out, "status": "failed", "seconds": None, "error": reason,
+                     "worker": None} for j in chunk]
+    settled = 0
+    for res in outcomes:
+        job = by_out[res["out"]]
+        if res["status"] == "failed" and attempts[job.out] < 2:
+            submit([job])  # retried once, on its own (maybe on another worker)
+            continue
+        if res["status"] == "failed":
+            failed[job.out] = {"file": job.out, "hash": job.key, **job.params(), "error": res["error"],
+                               "attempts": attempts[job.out], "worker": res["worker"]}
+        records[job.out] = res
+        settled += 1
+    return settled
 
 
 def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], records: dict[str, dict[str, Any]],

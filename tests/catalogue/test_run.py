@@ -76,7 +76,9 @@ def test_interrupted_run_then_rerun_renders_only_the_missing(dask_client, write_
     spec = load_spec(write_spec(lights='[[lights]]\nname = "key"\npreset = "key"'))
     jobs = expand(spec)
     out = tmp_path / "out"
-    first = run_catalogue(spec, out, jobs=jobs, client=dask_client, cancelled=lambda: True)  # stop after 1 task
+    stop: list[bool] = []  # the user cancels once the first images are in
+    first = run_catalogue(spec, out, jobs=jobs, client=dask_client, cancelled=lambda: bool(stop),
+                          on_progress=lambda done, total, rendered, failed: rendered and stop.append(True))
     assert first.cancelled and 0 < first.rendered < len(jobs)
     manifest = json.loads((out / "manifest.json").read_text())
     assert {e["status"] for e in manifest["images"]} <= {"rendered", "cancelled"}
