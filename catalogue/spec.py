@@ -218,6 +218,11 @@ def load_spec(path: str | Path) -> Spec:
     library, library_path = _library(data, rel, fail)
     heads = _heads(data, rel, fail, mode)
     looks = _looks(data, rel, fail, library)
+    if mode == "lightweight":
+        for i, src in enumerate(looks):
+            if src.project is not None:
+                raise fail(f"looks[{i}].project", "mode 'lightweight' renders captured faces only; a project "
+                                                  "is rendered on its own head")
     lights = _lights(data, rel, fail)
     views = [View(label(v.get("name") or f"yaw{v.get('yaw', 0):g}_pitch{v.get('pitch', 0):g}"),
                   float(v.get("yaw", 0.0)), float(v.get("pitch", 0.0))) for v in data.get("views", [{}])]

@@ -151,3 +151,51 @@ def test_a_worker_killed_mid_run_loses_and_duplicates_nothing(dask_client, write
     assert sorted(files) == sorted(j.out for j in jobs) and len(set(files)) == 12
     assert len(_pngs(out)) == 12 and not list(out.rglob("*.tmp"))
     dask_client.wait_for_workers(2, timeout=60)  # the nanny restarts it, for the tests after this one
+
+
+@pytest.fixture
+def face_dir(tmp_path: Path) -> Path:
+    """A captured face folder (what ``sheer capture`` writes): Phong parameters and a flat detail texture."""
+    import OpenEXR
+
+    from capture.face import FACE_SCHEMA_VERSION
+    from capture.phong import PhongParams
+
+    d = tmp_path / "face"
+    d.mkdir()
+    p = PhongParams(diffuse=np.array([0.55, 0.33, 0.25]), specular=0.1, exponent=20.0, ambient_scale=1.0,
+                    flash_rgb=np.ones(3), ambient_rgb=np.full(3, 0.02))
+    (d / "face.json").write_text(json.dumps({"schema_version": FACE_SCHEMA_VERSION, "phong": p.to_json()}))
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(hdr, {"RGB": np.ones((64, 64, 3), np.float32)}).write(str(d / "detail.exr"))
+    return d
+
+
+def test_captured_faces_projects_and_the_lightweight_mode(dask_client, write_spec, face_dir, tmp_path) -> None:
+    from app.cli import main
+
+    project = tmp_path / "campaign.sheer"
+    assert main(["project", "new", "--out", str(project), "--look", "natural", "--resolution", "256"]) == 0
+    text = write_spec().read_text()
+    text = text.replace("[[looks]]", "[[heads]]\nname = \"sample\"\n[[heads]]\nname = \"captured\"\nface = \"face\"\n"
+                                     "[[looks]]\nproject = \"campaign.sheer\"\n[[looks]]", 1)
+    text = text.replace("[[lights]]\nname = \"flat\"\npreset = \"flat\"\n", "")
+    spec = load_spec(write_spec(text))
+    jobs = expand(spec)
+    # the project on its own head, red-lip on both heads; 2 lipsticks each
+    assert sorted((j.head.name, j.look.name) for j in jobs) == sorted(
+        [("campaign", "campaign")] * 2 + [("sample", "red-lip")] * 2 + [("captured", "red-lip")] * 2)
+    result = run_catalogue(spec, tmp_path / "out", jobs=jobs, client=dask_client)
+    assert (result.rendered, result.failed) == (6, [])
+    img = {(j.head.name, j.look.name, j.product): np.asarray(Image.open(tmp_path / "out" / j.out), float) for j in jobs}
+    assert np.abs(img["campaign", "campaign", "Lipstick Nude"] - img["campaign", "campaign", "Lipstick Pink"]).max() > 10
+    assert np.abs(img["sample", "red-lip", "Lipstick Nude"] - img["captured", "red-lip", "Lipstick Nude"]).mean() > 2
+
+    light = write_spec(text.replace("size = [48, 48]", "size = [48, 48]\nmode = \"lightweight\"")
+                       .replace("[[heads]]\nname = \"sample\"\n", "").replace("[[looks]]\nproject = \"campaign.sheer\"\n", ""),
+                       name="light.toml")
+    lw = run_catalogue(load_spec(light), tmp_path / "lw", client=dask_client)
+    assert (lw.rendered, lw.failed) == (2, [])
+    with pytest.raises(Exception, match=r"looks\[0\]\.project: mode 'lightweight'"):
+        load_spec(write_spec(text.replace("size = [48, 48]", "size = [48, 48]\nmode = \"lightweight\"")
+                             .replace("[[heads]]\nname = \"sample\"\n", ""), name="bad.toml"))
