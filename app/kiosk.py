@@ -451,6 +451,7 @@ class KioskWindow(QWidget):
         """Idle: turn the head and cycle the looks on the try-on screen (not while the PIN pad is up)."""
         if self.stack.currentWidget() is self.pin_pad:
             return
+        self.private_cache.close()  # idle: the shopper has gone, and so does their session's cache
         self.attract = True
         self.stack.setCurrentWidget(self.main_page)
         self.spin_timer.start()

@@ -16,6 +16,6 @@
   data package, :func:`~core.assets.find_asset` on the sample assets' search path) and the assets'
   credits.
 
-May import: the standard library and numpy only (``resources`` is read as files, never imported). Every
-other Sheer package may import it.
+May import: the standard library, numpy and xxhash (the cache entries' checksum) only (``resources`` is
+read as files, never imported). Every other Sheer package may import it.
 """

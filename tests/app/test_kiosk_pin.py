@@ -139,6 +139,12 @@ def test_a_shoppers_session_writes_its_cache_privately_and_removes_it(kiosk: Kio
     kiosk.show_start()
     assert not kiosk.private_cache.is_open and not private.exists() and cache_root() == shared_root()
     assert not (shared_root() / "atlas" / "from-the-shoppers-face.cache").exists()
+    kiosk.show_main()  # the next shopper walks away: the attract mode ends the session
+    private = cache_root()
+    assert private.is_dir()
+    kiosk.start_attract()
+    assert not kiosk.private_cache.is_open and not private.exists()
+    kiosk.stop_attract()
 
 
 def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
