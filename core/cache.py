@@ -358,7 +358,7 @@ def load_arrays(path: Path, version: int | str = 0) -> dict[str, np.ndarray] | N
         except OSError as exc:
             log.debug("cache: could not read %s (%s)", candidate, exc)
             continue
-        except DamagedEntry as exc:
+        except (DamagedEntry, ValueError, TypeError) as exc:  # (numpy refusing a header that passed its checks)
             if i == 0:  # (the shared cache is left alone while a private one is open)
                 log.warning("cache: %s was damaged (%s); deleted, it will be made again", candidate, exc)
                 _remove(candidate)

@@ -148,6 +148,8 @@ def read_entry(fh: io.BufferedIOBase, size: int, version: int | str = 0) -> dict
         stored_version = header["version"]
     except (ValueError, TypeError, KeyError) as exc:
         raise DamagedEntry(f"malformed header ({exc})") from None
+    if payload < 0 or stored < 0 or any(d < 0 for _n, _t, shape, _o, _b in table for d in shape):
+        raise DamagedEntry("negative sizes in the header")
     if stored_version != version:
         raise DamagedEntry(f"version {stored_version!r}, expected {version!r}")
     data_start = _aligned(fixed + header_len)

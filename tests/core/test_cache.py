@@ -102,6 +102,42 @@ def test_a_damaged_entry_is_deleted_with_one_log_line_and_made_again(compress: b
         _same(load_arrays(path, 1), data)  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("forge", ["negative shape", "field beyond the payload", "unknown dtype", "object dtype",
+                                   "no arrays key", "huge payload claimed"])
+def test_a_forged_header_with_a_valid_checksum_is_refused_not_a_crash(forge: str) -> None:
+    """A header that passes its checksum but describes impossible arrays is still refused and deleted."""
+    import json
+    import struct
+
+    import xxhash
+
+    from core.cache_entry import MAGIC
+
+    path = cache_dir("mesh") / "m.cache"
+    save_arrays(path, {"v": np.arange(12.0).reshape(4, 3)}, 1)
+    raw = path.read_bytes()
+    n, _sum = struct.unpack("<IQ", raw[8:20])
+    header = json.loads(raw[20:20 + n])
+    row = header["arrays"][0]
+    if forge == "negative shape":
+        row[2] = [-4, -3]
+    elif forge == "field beyond the payload":
+        row[3] = 10_000
+    elif forge == "unknown dtype":
+        row[1] = "<q99"
+    elif forge == "object dtype":
+        row[1] = "|O"
+    elif forge == "no arrays key":
+        del header["arrays"]
+    else:
+        header["payload"] = 1 << 40
+    new = json.dumps(header).encode()
+    body = raw[(20 + n + 63) // 64 * 64:]  # the payload, after the header's padding to 64 bytes
+    head = MAGIC + struct.pack("<IQ", len(new), xxhash.xxh3_64_intdigest(new)) + new
+    path.write_bytes(head + bytes((len(head) + 63) // 64 * 64 - len(head)) + body)
+    assert load_arrays(path, 1) is None and not path.exists()
+
+
 def test_an_entry_of_another_version_is_not_used(caplog: pytest.LogCaptureFixture) -> None:
     path = cache_dir("colour") / "m.cache"
     save_array(path, np.eye(3), version=1)
