@@ -93,8 +93,6 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     Raises:
         CatalogueError: the scheduler cannot be reached.
     """
-    import importlib.util
-
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
@@ -109,7 +107,7 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
             client.close()
         return
     n = workers or os.cpu_count() or 1
-    dashboard = ":0" if importlib.util.find_spec("bokeh") is not None else None
+    dashboard = ":0" if _has_bokeh() else None
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=dashboard, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         yield client
@@ -132,10 +130,19 @@ def _probe(address: str) -> None:
         raise CatalogueError(f"cannot reach the Dask scheduler at {address}: {reason}") from None
 
 
+def _has_bokeh() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("bokeh") is not None
+
+
 def dashboard_link(client: Any) -> str | None:
-    """The Dask dashboard's URL, when the scheduler serves one."""
+    """The Dask dashboard's URL, when the scheduler serves one.
+
+    The scheduler's HTTP server always runs; the dashboard's pages need ``bokeh`` where the scheduler runs.
+    """
     try:
-        if "dashboard" in client.scheduler_info().get("services", {}):
+        if "dashboard" in client.scheduler_info().get("services", {}) and client.run_on_scheduler(_has_bokeh):
             return str(client.dashboard_link)
     except Exception:
         return None
