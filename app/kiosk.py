@@ -29,6 +29,7 @@ from PySide6.QtWidgets import (
 
 from app.actions import KIOSK_ACTIONS
 from app.kiosk_config import KioskConfig, require_pin
+from app.kiosk_shades import FoundationFinder
 from app.pin_lock import PinGuard
 from app.pin_pad import PinPad, big_button
 from app.session import Session
@@ -282,6 +283,9 @@ class KioskWindow(QWidget):
         side.addWidget(QLabel("Before  ◀▶  After"))
         side.addWidget(self.split)
         side.addWidget(self.snapshot_button)
+        self.foundation_finder = FoundationFinder(self.library, self.doc, lambda: self.face, self._sync,
+                                                  self.guard)
+        side.addWidget(self.foundation_finder)
         side.addWidget(self.toast)
         side.addStretch(1)
         # the head scan's licence (CC BY) asks for its credit wherever it is shown

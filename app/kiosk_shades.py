@@ -1,0 +1,123 @@
+"""The kiosk's "Find my foundation": the three best foundations on the shopper's skin, tap one to wear it.
+
+Her skin is the captured face's fitted diffuse colour when the kiosk has one (``sheer capture``), else the
+head's albedo (the median of its middle third). It is fitted with the skin model and the library's
+foundations ranked on it (:func:`km.shade.match_shades`: own skin as the target, daylight, with the
+metamerism check under the store's light F11 and warm indoor light A). Three touch-sized buttons show
+the shades over her skin; a line says in plain words which of them change under the shop's light.
+Tapping one gives the look's foundation layer that shade.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
+
+from app.pin_pad import big_button
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from capture.face import Face
+    from km.library import Library
+    from km.shade import ShadeMatch
+    from painting import Document
+
+SHOWN = 3
+_PLAIN_LIGHTS = {"D65": "daylight", "F11": "the shop's light", "A": "warm indoor light"}
+
+
+def head_skin_rgb(albedo: np.ndarray | None) -> np.ndarray:
+    """Linear sRGB (3,) of a head's albedo (uint8 sRGB (H, W, 3)): the median of its middle third."""
+    from km.srgb import srgb_decode
+
+    if albedo is None:
+        return np.array([0.6, 0.45, 0.38])
+    h, w = albedo.shape[:2]
+    c = srgb_decode(albedo[h // 3:2 * h // 3, w // 3:2 * w // 3, :3].reshape(-1, 3).astype(np.float64) / 255.0)
+    return np.asarray(np.median(c, axis=0), dtype=np.float64)
+
+
+def plain_warning(shade: ShadeMatch) -> str:
+    """One sentence a shopper understands, or "" when the shade holds under every light."""
+    if not shade.metameric:
+        return ""
+    by = shade.de2000_by_illuminant
+    worst = max(by, key=lambda k: by[k])
+    return f"{shade.name} looks right here but noticeably different in {_PLAIN_LIGHTS.get(worst, worst)}."
+
+
+class FoundationFinder(QWidget):
+    """The kiosk's foundation finder (see the module docstring).
+
+    Args:
+        library: the kiosk's library.
+        doc: the kiosk's document (its foundation layer gets the shade tapped).
+        face: returns the captured face (None without one).
+        worn: called after a shade was put on (the kiosk refreshes its labels).
+        guard: the kiosk's error guard for handlers.
+
+    Attributes:
+        shades: the shades shown, best first.
+    """
+
+    def __init__(self, library: Library, doc: Document, face: Callable[[], Face | None], worn: Callable[[], Any],
+                 guard: Callable[[Callable[..., Any]], Callable[..., Any]]) -> None:
+        super().__init__()
+        self.library, self.doc, self.face, self.worn = library, doc, face, worn
+        self.shades: list[ShadeMatch] = []
+        self.find_button = big_button("Find my foundation")
+        self.find_button.clicked.connect(guard(self.find))
+        self.shade_buttons = [big_button("", 64) for _ in range(SHOWN)]
+        for i, b in enumerate(self.shade_buttons):
+            b.clicked.connect(guard(lambda _c=False, i=i: self.wear(i)))
+            b.hide()
+        self.message = QLabel("")
+        self.message.setWordWrap(True)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(self.find_button)
+        for b in self.shade_buttons:
+            lay.addWidget(b)
+        lay.addWidget(self.message)
+
+    def skin_rgb(self) -> np.ndarray:
+        """Her skin, linear sRGB: the captured face's diffuse colour, else the head's albedo."""
+        face = self.face()
+        if face is not None:
+            return np.asarray(face.params.diffuse, dtype=np.float64)
+        return head_skin_rgb(self.doc.head.albedo)
+
+    def find(self) -> None:
+        """Rank the foundations on her skin and show the three best."""
+        from km.shade import ShadeBank, foundations, match_shades
+        from km.skin import fit_skin
+
+        fit = fit_skin(linear_rgb=self.skin_rgb())
+        ranked = match_shades(fit.reflectance, fit.reflectance, ShadeBank.from_materials(foundations(self.library)))
+        self.shades = ranked[:SHOWN]
+        for b, s in zip(self.shade_buttons, self.shades):
+            b.setText(f"{s.name}  ·  ΔE {s.de2000:.1f}")
+            dark = int(s.swatch_hex[1:3], 16) + int(s.swatch_hex[3:5], 16) + int(s.swatch_hex[5:7], 16) < 384
+            b.setStyleSheet(f"background: {s.swatch_hex}; color: {'#f4efe9' if dark else '#1d1b1c'};")
+            b.show()
+        for b in self.shade_buttons[len(self.shades):]:
+            b.hide()
+        warnings = [w for w in (plain_warning(s) for s in self.shades) if w]
+        self.message.setText(" ".join(warnings) or "These match in daylight, in the shop and at home.")
+
+    def wear(self, index: int) -> None:
+        """Give the look's foundation layer the shade of button ``index``."""
+        shade = self.shades[index]
+        layer = next((i for i, lay in enumerate(self.doc.layers)
+                      if lay.material in self.library and self.library.get(lay.material).category == "foundation"),
+                     None)
+        if layer is None:
+            self.message.setText("This look has no foundation: pick another look first.")
+            return
+        self.doc.set_layer(layer, material=shade.name)
+        self.doc.clear_history()
+        self.message.setText(f"You are wearing {shade.name}.")
+        self.worn()
