@@ -6,8 +6,9 @@ Per pixel, in linear RGB (photograph units, the sensor saturating at 1):
 
 with D the skin's diffuse (= ambient) colour, A the ambient light measured on the probe, k the ambient
 intensity relative to the flash, F the flash colour (luminance 1), i_s the specular intensity (white
-specular: no spectral distortion) and s the exponent (estimated beforehand from the saturation around the
-highlight, :mod:`capture.reflectance`, then refined over the specular lobe, :func:`refine_exponent`).
+specular: no spectral distortion) and s the exponent (first estimated from the saturation around the
+highlight, :mod:`capture.reflectance`, then fitted with i_s on the high-passed photograph,
+:func:`specular_from_detail`).
 
 The fit minimises the L2 difference in CIE Luv (colour-science, D65) between the photograph and the
 model over skin pixels. The paper's "varying-step gradient descent, coarse to fine" is done with
@@ -26,25 +27,19 @@ k = 0.25 (studio, lobby), and the photograph alone prefers k = 0.59–0.86 in fi
 still runs the paper's step, and :func:`photo_ambient_scale` reports the k the photograph alone would
 choose.
 
-The specular intensity i_s: the paper fits it jointly with D; that fit reads albedo that is brighter
-under the lobe as specular (+15 to +35 % on the synthetic truth). The capture then refits i_s with the
-diffuse term modulated by the low-frequency detail, :func:`specular_from_detail` (a departure from the
-paper, explained there), and D once more with that i_s fixed. Measured beyond the validation test's
-truth (s 24, i_s 0.18: within 2 % in all six environments): s 12 studio +0.6 % (joint fit +29 %),
-s 40 city −3.2 % (+15 %), i_s 0.10 warehouse −3.0 % (+35 %), i_s 0.30 sunset −1.5 % (+16 %).
-
-Limits out of sample (tests/capture/test_out_of_sample.py: photographs drawn on the GPU by another
-renderer): the light, i_s and D hold on the sample head and the canonical face (light ≤ 0.44°, i_s
-within 4.1 %, D within ΔE2000 0.69, s within 7 % at s 12, 24, 30 and 60 with the flash at other angles),
-but s does not everywhere: s 8 comes out 6.89 (−13.8 %); with the flash 10° above the lens s 24 comes out
-28.46 (+18.6 %); on the 1,143-triangle head (:mod:`capture.lod`) s 16 comes out 17.99 (+12.4 %) and i_s
-+15.5 % (+16.2 % on this model's own CPU render, and s 33.0 for 24 in the validation's scene there).
-The skin's texture under the highlight is the cause: the same photographs with an untextured skin give
-s within 0.6 % and i_s within 1.3 % in all three. :func:`refine_exponent` and
-:func:`specular_from_detail` read albedo that varies where the lobe falls as part of the lobe, and
-where the lobe falls moves with the flash, the exponent and the head; their scales (the soft-L1 scale,
-the lobe support, ``DETAIL_HIGH_PASS_MM``) were chosen with the flash at 4° up and 3° right on the
-sample head.
+The exponent s and the specular intensity i_s: the paper reads s from the saturation around the
+highlight and fits i_s jointly with D; both read albedo that varies under the lobe as part of it. Out of
+sample (tests/capture/test_out_of_sample.py: photographs drawn on the GPU by another renderer) that put s
+at 6.89 for 8 (−13.8 %), 28.46 for 24 with the flash 10° above the lens (+18.6 %) and 17.99 for 16 on the
+1,143-triangle head (+12.4 %, i_s +15.5 %), all three exact on an untextured skin — and the scales that
+limited it (a soft-L1 scale, a lobe support, a 3.5 mm high-pass) had been chosen on the validation's
+scene. :func:`specular_from_detail` fits s and i_s on the photograph high-passed at
+``LOBE_HIGH_PASS_PX`` (a scale set by the sensor's pixel, not by a scene); D is refitted with both fixed.
+Out of sample s is then within 8 % on the sample head, the canonical face and the coarse head with the
+flash above, beside, below and off-axis and s from 8 to 60 (from the true camera; with landmarks clicked
+with 1 px of noise up to −10.6 %), i_s within 6.3 % (−10.6 % with the noisy landmarks and s 60). On the
+validation's own CPU photograph, which samples each pixel's centre where the fit models a pixel's
+integration, s comes out 5.7–6.0 % high.
 """
 
 from __future__ import annotations
@@ -307,9 +302,10 @@ class DetailSpecular:
 
 def _pixel_box_lobe(lobe: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape: tuple[int, int],
                     interior: np.ndarray) -> np.ndarray:
-    """The lobe averaged over each pixel's square, to second order: S + ∇²S / 24 (∇² the 5-point
-    Laplacian on the pixel grid; a unit box has variance 1/12 per axis). Only at ``interior`` pixels
-    (all four neighbours on the skin); the others keep their centre value.
+    """The lobe averaged over each pixel's square, to second order: S + ∇²S / 24.
+
+    ∇² is the 5-point Laplacian on the pixel grid (a unit box has variance 1/12 per axis). Only at
+    ``interior`` pixels (all four neighbours on the skin); the others keep their centre value.
     """
     from scipy import ndimage
 
