@@ -45,7 +45,9 @@ if TYPE_CHECKING:
 DETAIL_DOUBLINGS = 3
 #: The probe's flash-hue spread above which the capture warns. On 88 synthetic probes (6 environments
 #: × 8 rotations × 2 flash positions, less the ambiguous ones) the 6 with a spread above 1.5 % had hue
-#: errors of 2.8–24 %; 2 of the other 82 had 4–5 % (not caught), the rest under 3 %.
+#: errors of 2.8–24 %; 2 of the other 82 had 4–5 % (not caught), the rest under 3 %. It only decides
+#: whether a warning is printed (no figure the capture returns depends on it), so it was left where
+#: those probes put it.
 FLASH_HUE_SPREAD_WARN = 0.015
 #: A shaded-model value below this is replaced by it before dividing (the paper's "small value").
 SHADED_FLOOR = 1e-3
