@@ -153,24 +153,6 @@ def test_a_worker_killed_mid_run_loses_and_duplicates_nothing(dask_client, write
     dask_client.wait_for_workers(2, timeout=60)  # the nanny restarts it, for the tests after this one
 
 
-@pytest.fixture
-def face_dir(tmp_path: Path) -> Path:
-    """A captured face folder (what ``sheer capture`` writes): Phong parameters and a flat detail texture."""
-    import OpenEXR
-
-    from capture.face import FACE_SCHEMA_VERSION
-    from capture.phong import PhongParams
-
-    d = tmp_path / "face"
-    d.mkdir()
-    p = PhongParams(diffuse=np.array([0.55, 0.33, 0.25]), specular=0.1, exponent=20.0, ambient_scale=1.0,
-                    flash_rgb=np.ones(3), ambient_rgb=np.full(3, 0.02))
-    (d / "face.json").write_text(json.dumps({"schema_version": FACE_SCHEMA_VERSION, "phong": p.to_json()}))
-    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    OpenEXR.File(hdr, {"RGB": np.ones((64, 64, 3), np.float32)}).write(str(d / "detail.exr"))
-    return d
-
-
 def test_captured_faces_projects_and_the_lightweight_mode(dask_client, write_spec, face_dir, tmp_path) -> None:
     from app.cli import main
 
