@@ -37,7 +37,7 @@ _VERSION_PACKAGES = ("km", "painting", "project", "render", "catalogue")
 _VERSION_RESOURCES = ("shaders", "looks", "heads", "materials")
 #: Dry-run estimate (measured by ``sheer bench catalogue`` on a 2-core llvmpipe machine): seconds to start
 #: a worker and set up a head, per lighting change, and per megapixel of a fast-mode image.
-EST_WORKER_S, EST_LIGHT_S, EST_FAST_S_PER_MPIX = 4.0, 0.35, 0.25
+EST_WORKER_S, EST_LIGHT_S, EST_FAST_S_PER_MPIX = 4.0, 0.35, 0.35
 EST_MODE_FACTOR = {"fast": 1.0, "reference": 3.0, "lightweight": 0.5}
 
 
