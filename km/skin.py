@@ -246,14 +246,21 @@ def skin_coefficients(melanin: ArrayLike, blood: ArrayLike, oxygenation: ArrayLi
     ============ ===== ===============================================================
 
     Returns ``{"mua_epidermis", "mua_dermis", "musp"}``, each ``(*broadcast shape, len(grid))`` per mm.
-    Values outside the domain give values outside physics (no check here: :class:`SkinParams` checks).
+    Like :mod:`km.optics`'s forward functions it never raises on values: a parameter outside its domain
+    (or NaN, or infinite) gives NaN at that position, and no numpy warning escapes.
     """
     t = _tissue(grid)
     m, b, o, s, p = (np.asarray(v, dtype=np.float64)[..., None]
                      for v in (melanin, blood, oxygenation, scattering, pheomelanin))
-    mua_e = m * ((1.0 - p) * t["eumelanin"] + p * t["pheomelanin"]) + (1.0 - m) * t["baseline"]
-    mua_d = b * (o * t["oxy"] + (1.0 - o) * t["deoxy"]) + (1.0 - b) * t["baseline"]
-    return {"mua_epidermis": mua_e, "mua_dermis": mua_d, "musp": s * t["musp"]}
+    with np.errstate(all="ignore"):
+        bad = ~((m >= 0) & (m <= 1) & (b >= 0) & (b <= 1) & (o >= 0) & (o <= 1) & (p >= 0) & (p <= 1)
+                & (s > 0) & (s < np.inf))
+        mua_e = m * ((1.0 - p) * t["eumelanin"] + p * t["pheomelanin"]) + (1.0 - m) * t["baseline"]
+        mua_d = b * (o * t["oxy"] + (1.0 - o) * t["deoxy"]) + (1.0 - b) * t["baseline"]
+        musp = s * t["musp"]
+        if bad.any():
+            mua_e, mua_d, musp = (np.where(bad, np.nan, a) for a in np.broadcast_arrays(mua_e, mua_d, musp))
+    return {"mua_epidermis": mua_e, "mua_dermis": mua_d, "musp": musp}
 
 
 def skin_reflectance(melanin: ArrayLike, blood: ArrayLike, oxygenation: ArrayLike = DEFAULT_OXYGENATION,

@@ -206,3 +206,14 @@ def test_independent_check_by_adding_doubling(melanin: float, blood: float) -> N
     # the product's spectrum is this one without the specular part
     np.testing.assert_allclose(skin_reflectance(melanin, blood, grid=grid),
                                saunderson(over(R_e, T_e, R_d), 0.0, ks.SURFACE_K2), rtol=1e-12)
+
+
+def test_bad_values_give_nan_not_warnings() -> None:
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        R = skin_reflectance(np.array([np.nan, 0.05, -1.0]), np.array([0.01, np.inf, 0.01]))
+    assert np.isnan(R[0]).all()
+    assert np.isnan(R[1]).all()  # infinite blood is no volume fraction
+    assert np.isnan(R[2]).all()  # neither is a negative melanin fraction
