@@ -176,6 +176,15 @@ def _lights(args: argparse.Namespace) -> tuple[str, tuple[str, ...]]:
     return main, tuple(dict.fromkeys(("D65", store, "A")))
 
 
+def _credits() -> list[str]:
+    """The credits of the data the skin model is made of (the haemoglobin spectra)."""
+    from core.assets import credit_for
+    from km.skin import HAEMOGLOBIN_ASSET
+
+    credit = credit_for(HAEMOGLOBIN_ASSET)
+    return [credit] if credit else []
+
+
 def run_match(args: argparse.Namespace) -> int:
     """Rank the library's foundations on the skin and print a table or JSON; returns 0."""
     from core.errors import SheerError
@@ -192,7 +201,7 @@ def run_match(args: argparse.Namespace) -> int:
     note = source.get("note", "")
     if args.json:
         out = {"skin": fit.to_json(), "source": source, "target": target.to_json(), "illuminant": main,
-               "lights": list(lights), "note": note,
+               "lights": list(lights), "note": note, "credits": _credits(),
                "shades": [{**s.to_json(), "rank": i + 1, "metamerism": s.metamerism_words()}
                           for i, s in enumerate(shown)]}
         json.dump(out, sys.stdout, indent=2, ensure_ascii=False)
@@ -249,6 +258,7 @@ def plot_coverage(cov: Coverage, out: Path) -> None:
         title += (f"\nsuggested shade for the gap ({cov.gap.gap_skins.size} skins): {recipe}; "
                   f"mean ΔE2000 {cov.gap.mean_de_before:.2f} → {cov.gap.mean_de_after:.2f}")
     fig.suptitle(title, fontsize=10)
+    fig.text(0.01, 0.01, "Skin model data: " + "; ".join(_credits()), fontsize=6, color="0.4")
     atomic_write_with(out, lambda fh: fig.savefig(fh, format="png"))
 
 
@@ -267,7 +277,8 @@ def run_coverage(args: argparse.Namespace) -> int:
     cov = coverage(bank, args.skins, seed=args.seed, illuminant=resolve_light(args.illuminant), threshold=threshold)
     plot_coverage(cov, args.out)
     if args.json:
-        json.dump({**cov.to_json(), "plot": str(args.out)}, sys.stdout, indent=2, ensure_ascii=False)
+        json.dump({**cov.to_json(), "plot": str(args.out), "credits": _credits()}, sys.stdout, indent=2,
+                  ensure_ascii=False)
         print()
         return 0
     js = cov.to_json()

@@ -52,6 +52,7 @@ def test_match_table_and_json(capsys: pytest.CaptureFixture[str]) -> None:
     for shade in js["shades"]:
         assert {"name", "thickness_um", "de2000", "de2000_by_illuminant", "metameric"} <= set(shade)
         assert set(shade["de2000_by_illuminant"]) == {"D65", "F2", "A"}
+    assert any("Prahl" in c for c in js["credits"])  # the haemoglobin spectra the skin model is made of
     des = [s["de2000"] for s in js["shades"]]
     assert des == sorted(des)
 
