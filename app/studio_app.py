@@ -20,6 +20,21 @@ if TYPE_CHECKING:
 log = logging.getLogger("sheer.app")
 
 
+def configure_qt_environment() -> None:
+    """Environment Qt reads when the application starts (call before the ``QApplication`` exists).
+
+    ``QT_XCB_GL_INTEGRATION=xcb_egl`` (unless set): on X11, Qt's GL windows use EGL, as the renderer's
+    headless contexts (exports, ``sheer render``) do. With Qt's default GLX integration, once a headless
+    EGL context had been created in the process (even released), a Qt GL window shown afterwards could
+    never make its context current (measured on Mesa 22.3 + PySide6 6.x: "Failed to make context current",
+    then a crash); with EGL on both sides the order does not matter.
+    """
+    import os
+
+    os.environ.setdefault("QT_XCB_GL_INTEGRATION", "xcb_egl")
+    os.environ.setdefault("MPLBACKEND", "Agg")  # colour-science imports pyplot; never a GUI backend
+
+
 def make_application(argv: list[str] | None = None) -> QApplication:
     """The QApplication (made once, with the viewport's OpenGL surface format as the default).
 
@@ -34,9 +49,7 @@ def make_application(argv: list[str] | None = None) -> QApplication:
     from app.viewport import default_surface_format
 
     pin_singletons()
-    import os
-
-    os.environ.setdefault("MPLBACKEND", "Agg")  # colour-science imports pyplot; never a GUI backend
+    configure_qt_environment()
 
     app = QApplication.instance()
     if app is None:

@@ -104,6 +104,36 @@ def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
     _PRELOAD["task"] = run_task(None, "Starting the renderer", preload_renderer, done, done, show_progress=False)
 
 
+class _QtGLLoader:
+    """Hands moderngl the GL functions of Qt's current context (``QOpenGLContext.getProcAddress``).
+
+    Works whether Qt drives GLX or EGL. ``moderngl.create_context()`` alone would look for a GLX context
+    once any headless (EGL) context exists in the process, and fail under Qt's EGL integration.
+    """
+
+    def __init__(self, context: QOpenGLContext) -> None:
+        self.context = context
+
+    def load_opengl_function(self, name: str) -> int:
+        """The address of GL function ``name`` (0 if the driver has none)."""
+        return int(self.context.getProcAddress(name.encode("ascii")) or 0)
+
+    def release(self) -> None:
+        """Nothing to free: the context is Qt's."""
+
+    def __enter__(self) -> None:
+        """No context switch needed (Qt made its context current)."""
+
+    def __exit__(self, *args: object) -> None:
+        """See :meth:`__enter__`."""
+
+
+def _attach_moderngl(moderngl: Any, context: QOpenGLContext) -> moderngl.Context:
+    """A moderngl context on Qt's current GL ``context`` (EGL or GLX, whichever Qt uses)."""
+    moderngl.init_context(_QtGLLoader(context))
+    return moderngl.get_context()
+
+
 def default_surface_format() -> QSurfaceFormat:
     """OpenGL 4.1 core with a depth buffer and no vsync (frames are drawn on demand)."""
     fmt = QSurfaceFormat()
@@ -349,7 +379,7 @@ class Viewport(QWidget):
         import moderngl
 
         try:
-            self.ctx = moderngl.create_context()
+            self.ctx = _attach_moderngl(moderngl, self.context())
         except Exception as exc:  # shown by the window as a message, never a traceback
             self.gl_failed.emit(f"OpenGL could not start: {exc}")
             return

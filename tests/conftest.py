@@ -25,17 +25,16 @@ REFERENCE_DIR = TESTS_DIR / "references"
 FAILURE_DIR = TESTS_DIR / "_failures"
 
 
-def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config,
-                                  items: list[pytest.Item]) -> None:
-    """Run the Qt window tests (those marked ``qt``) before every other test.
+def pytest_configure(config: pytest.Config) -> None:
+    """Qt's environment as the studio sets it, before pytest-qt makes the QApplication.
 
-    Measured on Mesa 22.3 + PySide6 6.x under Xvfb: once a standalone EGL context has been created in
-    the process (even if released), a QOpenGLWidget shown afterwards never gets ``initializeGL``
-    (with Qt's default xcb_glx integration), unless a QOpenGLWidget was initialised first. The studio
-    itself always initialises its viewport before any EGL work (exports run later), so the suite
-    keeps that order: tests marked ``qt``, in their usual order, then the rest.
+    Qt's GL windows then use EGL on X11, like the headless contexts of the render tests, so Qt window
+    tests and headless GL tests may run in any order (with Qt's default GLX integration a Qt GL window
+    shown after a headless EGL context never got its context: see ``app.studio_app.configure_qt_environment``).
     """
-    items.sort(key=lambda item: 0 if item.get_closest_marker("qt") is not None else 1)
+    from app.studio_app import configure_qt_environment
+
+    configure_qt_environment()
 
 
 @pytest.fixture(autouse=True)
