@@ -25,6 +25,13 @@ def _pngs(folder: Path) -> dict[str, bytes]:
     return {str(p.relative_to(folder)): p.read_bytes() for p in folder.rglob("*.png") if "sheets" not in p.parts}
 
 
+def _counters() -> dict[str, int]:
+    """This worker process's cache misses (run on each Dask worker)."""
+    from catalogue.worker import worker_state
+
+    return dict(worker_state().counters)
+
+
 def _settled(folder: Path) -> dict[str, bytes]:
     """The images in ``folder`` once no more appear for 0.5 s."""
     import time
@@ -42,8 +49,14 @@ def test_run_manifest_sheets_and_same_bytes_on_every_run_and_worker(dask_client,
     spec = load_spec(write_spec(extra="glb = true"))
     jobs = expand(spec)
     assert len(jobs) == 2 * 2 + 2  # 2 products × 2 lights, and a GLB per product
+    before = dask_client.run(_counters)
     result = run_catalogue(spec, tmp_path / "a", jobs=jobs, client=dask_client)
     assert (result.rendered, result.skipped, result.failed) == (6, 0, [])
+    # each worker process loaded the head, painted the look and built its renderer at most once
+    after = dask_client.run(_counters)
+    for addr, c in after.items():
+        delta = {k: v - before.get(addr, {}).get(k, 0) for k, v in c.items()}
+        assert delta["heads"] <= 1 and delta["documents"] <= 1 and delta["renderers"] <= 1, delta
     manifest = json.loads((tmp_path / "a" / "manifest.json").read_text())
     assert sorted(e["file"] for e in manifest["images"]) == sorted(j.out for j in jobs)
     assert all(e["status"] == "rendered" and e["seconds"] > 0 and e["worker"] for e in manifest["images"])
