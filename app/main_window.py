@@ -95,6 +95,7 @@ class StudioWindow(QMainWindow):
         self.viewport.light_moved.connect(self._light_moved)
         self.viewport.renderer_ready.connect(self.apply)
         self.viewport.renderer_ready.connect(self._refresh_swatches)
+        self.viewport.renderer_ready.connect(self._prepare_painting)
         self.viewport.frame_drawn.connect(self._after_first_frame)
         self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
 
@@ -215,6 +216,17 @@ class StudioWindow(QMainWindow):
             menus["File"].addAction(act)
         self.recent_menu = menus["File"].addMenu("Recent Projects")
         self._update_actions()
+
+    def _prepare_painting(self) -> None:
+        """Load the bake's texel index and the brush kernels in the background.
+
+        The first dab is then as quick as any; a failure here only means the first dab loads them itself.
+        """
+        import logging
+
+        run_task(self, "Preparing the brush", lambda _p, _c: self.doc.prepare_painting(), lambda _r: None,
+                 lambda msg: logging.getLogger("sheer.app").warning("preparing the brush: %s", msg),
+                 show_progress=False)
 
     def _update_actions(self) -> None:
         ctx = self.context()

@@ -13,6 +13,7 @@ Pipeline::
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +35,8 @@ MIN_RESOLUTION = 64
 MAX_RESOLUTION = 8192
 
 _CACHE_VERSION = 5
+#: one texel index loads at a time (see :attr:`Atlas.index`)
+_INDEX_LOCK = threading.Lock()
 #: version of the spatial index kept beside a cached bake (see :attr:`Atlas.index`)
 _INDEX_CACHE_VERSION = 1
 
@@ -86,6 +89,10 @@ class Atlas:
 
         Kept in the cache beside a cached bake (building it takes about 2 s at 2048², reading it 0.1 s).
         """
+        with _INDEX_LOCK:  # a background warm-up and the first dab may ask at once: one load
+            return self._load_index()
+
+    def _load_index(self) -> TexelIndex:
         if self._index is None:
             from core.cache import cache_dir as core_cache_dir
 

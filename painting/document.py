@@ -119,6 +119,15 @@ class Document:
             self._atlases[res] = bake(self.layout, res, progress=self._progress, cache=self._cache)
         return self._atlases[res]
 
+    def prepare_painting(self) -> None:
+        """Load what the first dab needs (the bake, its texel index, the brush kernels) ahead of it.
+
+        The first dab then costs what every dab does. Safe on a background thread while the document is used (the studio calls it once its window is
+        up): the index loads once, under a lock; the kernels load on their own thread.
+        """
+        kernels.warm_up()
+        _ = self.atlas.index
+
     def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray]:
         """(mask, base) flat float32 scratch maps for strokes at ``res`` (mask is zero between strokes).
 
