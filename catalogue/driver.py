@@ -180,14 +180,19 @@ def run_catalogue(spec: Spec, out: str | Path, *, jobs: list[Job] | None = None,
     failed: dict[str, dict[str, Any]] = {}
     if on_progress is not None:
         on_progress(result.skipped, len(jobs), 0, 0)
-    if todo:
-        if client is not None:
+    try:
+        if todo and client is not None:
             _run_jobs(client, todo, folder, t0 if force else None, result, records, failed, on_progress,
                       on_dashboard, cancelled)
-        else:
+        elif todo:
             with dask_client(workers, scheduler) as own:
                 _run_jobs(own, todo, folder, t0 if force else None, result, records, failed, on_progress,
                           on_dashboard, cancelled)
+    except KeyboardInterrupt:  # Ctrl-C: the manifest still lists what is there, then the interrupt goes on
+        result.cancelled = True
+        result.failed = list(failed.values())
+        _write_outputs(spec, folder, jobs, {j.out for j in todo}, records, result, sheets=False)
+        raise
     result.failed = list(failed.values())
     _write_outputs(spec, folder, jobs, {j.out for j in todo}, records, result)
     result.seconds = time.time() - t0
@@ -280,7 +285,7 @@ def _collect(fut: Any, chunk: list[Job], by_out: dict[str, Job], attempts: dict[
 
 
 def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], records: dict[str, dict[str, Any]],
-                   result: RunResult) -> None:
+                   result: RunResult, sheets: bool = True) -> None:
     """manifest.json, manifest.csv, failed.json (or its removal) and the contact sheets, atomically.
 
     Sets ``result.rendered``: the outputs this run wrote (``todo`` are those it set out to write).
@@ -325,7 +330,7 @@ def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], re
             atomic_write_text(failed_path, json.dumps({"failed": result.failed}, indent=1))
         else:
             failed_path.unlink(missing_ok=True)
-        if spec.contact_sheets:
+        if spec.contact_sheets and sheets:
             write_contact_sheets(folder, jobs, only_if_changed=result.rendered == 0 and not result.failed)
     except OSError as exc:
         raise CatalogueError(f"{folder}: cannot write the manifest: {exc.strerror or exc}") from None
