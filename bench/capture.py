@@ -6,7 +6,7 @@ Two sweeps, printed as one JSON object:
   with s ∈ {8, 12, 24, 40, 60}, the camera turned −30°, 0° or +30° about the head's vertical, the flash
   straight above, beside or off-axis (8° from the lens), a different HDR environment for each (its
   irradiance E(n)/π as the ambient light, its mirror ball as the probe) and the camera calibrated from
-  landmarks with 1 px of noise; the capture's relative s and i_s errors |s / s_true − 1| in per cent:
+  landmarks with 1 px of noise (``--camera given``: the true camera); the capture's relative s and i_s errors |s / s_true − 1| in per cent:
   ``s_error_pct`` (the median), ``s_error_pct_p90``, ``s_error_pct_max`` (the worst),
   ``s_within_10pct`` (how many cases), the same for i_s, and every case.
 - **the probe**: random flashes 0.5–3° across (the clipped spot's angular diameter), within 15° of the
@@ -92,20 +92,23 @@ def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PR
             "probe_refusals": refused}
 
 
-def exponent_cases(quick: bool = False) -> list[tuple[str, Any]]:
-    """The exponent sweep's cases, named (``quick``: every third)."""
+def exponent_cases(quick: bool = False, camera: str = "noisy") -> list[tuple[str, Any]]:
+    """The exponent sweep's cases, named.
+
+    ``quick``: every third; ``camera``: as :class:`bench.capture_truth.Case`'s.
+    """
     from bench.capture_truth import Case
 
     cases = []
     for i, (s, yaw, (flash, angles)) in enumerate((s, y, f) for s in EXPONENTS for y in YAWS for f in FLASHES.items()):
         env = ENVIRONMENTS[i % len(ENVIRONMENTS)]
         name = f"s{s:g} yaw {yaw:+g}° flash {flash} {env}"
-        cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera="noisy",
+        cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera=camera,
                                  ambient="irradiance", yaw_deg=yaw)))
     return cases[::3] if quick else cases
 
 
-def exponent_sweep(quick: bool = False, cases: int | None = None) -> dict[str, Any]:
+def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = "noisy") -> dict[str, Any]:
     """Capture the cases of :func:`exponent_cases`; the error distribution of s and i_s as a dict.
 
     ``cases``: that many, spread over the grid (default all).
@@ -118,7 +121,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None) -> dict[str, A
     ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     rows = []
     try:
-        grid = exponent_cases(quick)
+        grid = exponent_cases(quick, camera)
         if cases is not None:
             grid = [grid[int(i)] for i in np.linspace(0, len(grid) - 1, min(cases, len(grid)))]
         for name, case in grid:
@@ -130,7 +133,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None) -> dict[str, A
         ctx.release()
     s_err = [abs(r["s_error_pct"]) for r in rows]
     i_err = [abs(r["i_s_error_pct"]) for r in rows]
-    return {"cases": len(rows), **spread("s_error_pct", s_err), "s_within_10pct": sum(e <= 10 for e in s_err),
+    return {"cases": len(rows), "camera": camera, **spread("s_error_pct", s_err), "s_within_10pct": sum(e <= 10 for e in s_err),
             **spread("i_s_error_pct", i_err), "exponent_cases": rows}
 
 
@@ -141,6 +144,8 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--quick", action="store_true", help="a third of the exponent grid and 60 probes")
     parser.add_argument("--placements", type=int, default=None, help="random probes (default 600, --quick 60)")
     parser.add_argument("--cases", type=int, default=None, help="exponent cases, spread over the grid (default all)")
+    parser.add_argument("--camera", choices=("noisy", "given"), default="noisy",
+                        help="the exponent sweep's camera: from landmarks with 1 px of noise (default) or the true one")
     parser.add_argument("--skip", choices=("exponent", "probe"), action="append", default=[],
                         help="leave out a sweep (repeatable)")
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
@@ -157,7 +162,7 @@ def main(argv: list[str]) -> int:
     if "probe" not in args.skip:
         out.update(probe_acceptance(placements))
     if "exponent" not in args.skip:
-        out.update(exponent_sweep(args.quick, args.cases))
+        out.update(exponent_sweep(args.quick, args.cases, args.camera))
     out["seconds"] = round(time.perf_counter() - t0, 1)
     out["load_average"] = [round(x, 2) for x in os.getloadavg()]
     print(json.dumps(out, indent=2))
