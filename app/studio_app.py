@@ -44,9 +44,9 @@ def make_application(argv: list[str] | None = None) -> QApplication:
     from PySide6.QtGui import QSurfaceFormat
     from PySide6.QtWidgets import QApplication
 
+    from app.gl_surface import default_surface_format
     from app.qt_compat import pin_singletons
     from app.settings import APPLICATION, ORGANISATION
-    from app.viewport import default_surface_format
 
     pin_singletons()
     configure_qt_environment()

@@ -37,12 +37,12 @@ import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from PySide6.QtCore import QEvent, QPointF, QRectF, Qt, QTimer, Signal
-from PySide6.QtGui import QColor, QMouseEvent, QPainter, QSurfaceFormat, QTabletEvent, QWheelEvent
-from PySide6.QtOpenGL import QOpenGLWindow
+from PySide6.QtCore import QEvent, QPointF, Qt, QTimer, Signal
+from PySide6.QtGui import QColor, QMouseEvent, QPainter, QTabletEvent, QWheelEvent
 from PySide6.QtWidgets import QApplication, QVBoxLayout, QWidget
 
 from app.camera import Lighting, OrbitCamera
+from app.gl_surface import Caption, GLSurface, attach_moderngl
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -104,134 +104,6 @@ def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
     _PRELOAD["task"] = run_task(None, "Starting the renderer", preload_renderer, done, done, show_progress=False)
 
 
-class _QtGLLoader:
-    """Hands moderngl the GL functions of Qt's current context (``QOpenGLContext.getProcAddress``).
-
-    Works whether Qt drives GLX or EGL. ``moderngl.create_context()`` alone would look for a GLX context
-    once any headless (EGL) context exists in the process, and fail under Qt's EGL integration.
-    """
-
-    def __init__(self, context: QOpenGLContext) -> None:
-        self.context = context
-
-    def load_opengl_function(self, name: str) -> int:
-        """The address of GL function ``name`` (0 if the driver has none)."""
-        return int(self.context.getProcAddress(name.encode("ascii")) or 0)
-
-    def release(self) -> None:
-        """Nothing to free: the context is Qt's."""
-
-    def __enter__(self) -> None:
-        """No context switch needed (Qt made its context current)."""
-
-    def __exit__(self, *args: object) -> None:
-        """See :meth:`__enter__`."""
-
-
-def _attach_moderngl(moderngl: Any, context: QOpenGLContext) -> moderngl.Context:
-    """A moderngl context on Qt's current GL ``context`` (EGL or GLX, whichever Qt uses)."""
-    moderngl.init_context(_QtGLLoader(context))
-    return moderngl.get_context()
-
-
-def default_surface_format() -> QSurfaceFormat:
-    """OpenGL 4.1 core with a depth buffer and no vsync (frames are drawn on demand)."""
-    fmt = QSurfaceFormat()
-    fmt.setVersion(4, 1)
-    fmt.setProfile(QSurfaceFormat.OpenGLContextProfile.CoreProfile)
-    fmt.setDepthBufferSize(24)
-    fmt.setSwapInterval(0)
-    return fmt
-
-
-class _Caption:
-    """A line of text drawn over the frame (the overlay, a notice): its text, colours and visibility."""
-
-    def __init__(self, colour: str, background: QColor) -> None:
-        self._text = ""
-        self._visible = False
-        self.colour = QColor(colour)
-        self.background = background
-
-    def text(self) -> str:
-        """The caption's text."""
-        return self._text
-
-    def setText(self, text: str) -> None:  # (the QLabel API it replaces)
-        """Set the text."""
-        self._text = text
-
-    def isVisible(self) -> bool:
-        """Whether it is drawn over the frame."""
-        return self._visible
-
-    def setVisible(self, on: bool) -> None:
-        """Show or hide it."""
-        self._visible = bool(on)
-
-    def draw(self, painter: QPainter, x: float, y: float, bottom: bool = False) -> None:
-        """Draw the caption's box with its top-left (or bottom-left if ``bottom``) corner at (x, y) px."""
-        lines = self._text.split("\n")
-        fm = painter.fontMetrics()
-        w = max(fm.horizontalAdvance(line) for line in lines) + 8
-        h = fm.height() * len(lines) + 6
-        top = y - h if bottom else y
-        painter.fillRect(QRectF(x, top, w, h), self.background)
-        painter.setPen(self.colour)
-        for i, line in enumerate(lines):
-            painter.drawText(QPointF(x + 4, top + 3 + fm.ascent() + i * fm.height()), line)
-
-
-class _Surface(QOpenGLWindow):
-    """The viewport's GL window: paints through the :class:`Viewport` and hands it every input event."""
-
-    def __init__(self, view: Viewport) -> None:
-        super().__init__(QOpenGLWindow.UpdateBehavior.NoPartialUpdate)
-        self.view = view
-        self.setFormat(default_surface_format())
-        # keyboard focus stays with the studio's widgets (their shortcuts), the view takes it on a click
-        self.setFlag(Qt.WindowType.WindowDoesNotAcceptFocus, True)
-
-    def initializeGL(self) -> None:
-        """The view's GL set-up."""
-        self.view.initializeGL()
-
-    def paintGL(self) -> None:
-        """The view's frame."""
-        self.view.paintGL()
-
-    def paintOverGL(self) -> None:
-        """The view's captions over the frame."""
-        self.view.paint_captions(self)
-
-    def mousePressEvent(self, event: QMouseEvent) -> None:
-        """To the view (which takes the keyboard focus)."""
-        self.view.setFocus(Qt.FocusReason.MouseFocusReason)
-        self.view.mousePressEvent(event)
-
-    def mouseMoveEvent(self, event: QMouseEvent) -> None:
-        """To the view."""
-        self.view.mouseMoveEvent(event)
-
-    def mouseReleaseEvent(self, event: QMouseEvent) -> None:
-        """To the view."""
-        self.view.mouseReleaseEvent(event)
-
-    def wheelEvent(self, event: QWheelEvent) -> None:
-        """To the view."""
-        self.view.wheelEvent(event)
-
-    def tabletEvent(self, event: QTabletEvent) -> None:
-        """To the view."""
-        self.view.tabletEvent(event)
-
-    def event(self, event: QEvent) -> bool:
-        """The pointer leaving the window reaches the view too (it hides the brush ring)."""
-        if event.type() == QEvent.Type.Leave:
-            self.view.leaveEvent(event)
-        return super().event(event)
-
-
 class Viewport(QWidget):
     """The studio's (and the kiosk's) 3D view of a document's head and layers (see the module docstring)."""
 
@@ -248,7 +120,7 @@ class Viewport(QWidget):
         from render.progressive import AdaptiveScale
 
         super().__init__(parent)
-        self.surface = _Surface(self)
+        self.surface = GLSurface(self)
         self.surface.frameSwapped.connect(self.frameSwapped)
         self.container: QWidget | None = QWidget.createWindowContainer(self.surface, self)
         self._shut = False  # the GL window was deleted (shutdown)
@@ -303,8 +175,8 @@ class Viewport(QWidget):
         self._settle_timer.setSingleShot(True)
         self._settle_timer.setInterval(SETTLE_MS)
         self._settle_timer.timeout.connect(self._settle)
-        self.overlay = _Caption("#e8e8e8", QColor(0, 0, 0, 120))
-        self.notice = _Caption("#ffe9a8", QColor(0, 0, 0, 150))
+        self.overlay = Caption("#e8e8e8", QColor(0, 0, 0, 120))
+        self.notice = Caption("#ffe9a8", QColor(0, 0, 0, 150))
 
     # ------------------------------------------------------------------ the GL surface
     def makeCurrent(self) -> None:  # (QOpenGLWidget's API)
@@ -360,7 +232,7 @@ class Viewport(QWidget):
         """Device pixels per logical pixel of the surface."""
         return float(self.surface.devicePixelRatio())
 
-    def paint_captions(self, device: _Surface) -> None:
+    def paint_captions(self, device: GLSurface) -> None:
         """The overlay (top left) and the notice (bottom left) over the frame just drawn."""
         if not (self.overlay.isVisible() or self.notice.isVisible()):
             return
@@ -379,7 +251,7 @@ class Viewport(QWidget):
         import moderngl
 
         try:
-            self.ctx = _attach_moderngl(moderngl, self.context())
+            self.ctx = attach_moderngl(moderngl, self.context())
         except Exception as exc:  # shown by the window as a message, never a traceback
             self.gl_failed.emit(f"OpenGL could not start: {exc}")
             return
