@@ -67,7 +67,7 @@ def baked_albedo(doc: Document, library: Library | None, ctx: moderngl.Context |
     res = r_top.shape[0]
     hi = srgb_decode(albedo[..., :3].astype(np.float32) / 255.0)
     small = srgb_decode(np.asarray(Image.fromarray(np.ascontiguousarray(albedo[..., :3]))
-                                   .resize((res, res), Image.BILINEAR)).astype(np.float32) / 255.0)
+                                   .resize((res, res), Image.Resampling.BILINEAR)).astype(np.float32) / 255.0)
     # what the makeup does to the skin at the maps' resolution: a gain (through it) and an offset (its own
     # reflection), applied to the full-resolution skin so its detail stays
     gain = trans * trans / np.maximum(1.0 - r_bot * small, 1e-4)
@@ -75,7 +75,7 @@ def baked_albedo(doc: Document, library: Library | None, ctx: moderngl.Context |
 
     def up(a: np.ndarray) -> np.ndarray:
         return np.stack([np.asarray(Image.fromarray(np.ascontiguousarray(a[..., k], np.float32))
-                                    .resize(size, Image.BILINEAR)) for k in range(3)], axis=-1)
+                                    .resize(size, Image.Resampling.BILINEAR)) for k in range(3)], axis=-1)
 
     out = np.clip(up(r_top) + hi * up(gain), 0.0, 1.0)
     return np.round(srgb_encode(out.astype(np.float64)) * 255.0).astype(np.uint8)  # float64, as km encodes

@@ -6,7 +6,8 @@ A merchandiser checks a range at a glance: every cell is a thumbnail of the rend
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+import functools
+from typing import IO, TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -55,12 +56,16 @@ def write_contact_sheets(folder: Path, jobs: list[Job], only_if_changed: bool = 
             x, y = c * cw, r * (ch + CAPTION)
             try:
                 with Image.open(folder / job.out) as im:
-                    sheet.paste(im.convert("RGB").resize((cw, ch), Image.LANCZOS), (x, y + CAPTION))
+                    sheet.paste(im.convert("RGB").resize((cw, ch), Image.Resampling.LANCZOS), (x, y + CAPTION))
             except OSError:
                 draw.rectangle((x, y + CAPTION, x + cw - 1, y + CAPTION + ch - 1), fill=(200, 200, 200))
                 draw.text((x + 4, y + CAPTION + 4), "missing or failed", fill=(120, 0, 0))
             draw.text((x + 3, y + 2), f"{job.head.name} · {job.look.name} · {job.light.name}"[:40], fill=(0, 0, 0))
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write_with(path, lambda fh, im=sheet: im.save(fh, format="PNG"))
+        atomic_write_with(path, functools.partial(_save_png, sheet))
         written.append(path)
     return written
+
+
+def _save_png(image: Any, fh: IO[bytes]) -> None:
+    image.save(fh, format="PNG")

@@ -231,7 +231,7 @@ def load_spec(path: str | Path) -> Spec:
         dup = next((n for n in names if names.count(n) > 1), None)
         if dup is not None:
             raise fail(axis, f"two entries are named {dup!r} (give each a distinct 'name')")
-    spec = Spec(path=p, name=str(data.get("name", p.stem)), size=tuple(data.get("size", [1280, 720])),  # type: ignore[arg-type]
+    spec = Spec(path=p, name=str(data.get("name", p.stem)), size=tuple(data.get("size", [1280, 720])),
                 mode=mode, exposure=float(data.get("exposure", 0.85)), resolution=int(data.get("resolution", 1024)),
                 naming=naming, library=library, library_path=library_path, glb=bool(data.get("glb", False)),
                 contact_sheets=bool(data.get("contact_sheets", True)), heads=heads, looks=looks, lights=lights,
