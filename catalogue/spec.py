@@ -161,6 +161,39 @@ def label(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "x"
 
 
+def key_line(text: str, key: str) -> int | None:
+    """The 1-based line of ``text`` (a spec's TOML) where ``key`` (``looks[1].look``, ``size[0]``) is set.
+
+    Follows ``[table]`` and ``[[array-of-tables]]`` headers; falls back to the entry's header line when the
+    key itself is not written (a default), None when neither is found.
+    """
+    parts = [p for p in re.split(r"\.|\[(\d+)\]|\[|\]", key) if p]
+    if not parts:
+        return None
+    head, rest = parts[0], parts[1:]
+    index = int(rest.pop(0)) if rest and rest[0].isdigit() else None
+    sub = next((r for r in rest if not r.isdigit()), None)
+    section, seen, found = "", -1, None
+    for no, line in enumerate(text.splitlines(), 1):
+        stripped = line.strip()
+        header = re.fullmatch(r"\[\[?\s*([A-Za-z0-9_-]+)\s*\]\]?(\s*#.*)?", stripped)
+        if header:
+            section = header.group(1)
+            if section == head:
+                seen += 1
+                if found is None and (index is None or seen == index):
+                    found = no
+            continue
+        name = re.match(r"([A-Za-z0-9_-]+)\s*=", stripped)
+        if name is None:
+            continue
+        if section == "" and name.group(1) == head:
+            return no
+        if section == head and (index is None or seen == index) and name.group(1) == sub:
+            return no
+    return found
+
+
 def parse_spec(path: str | Path) -> dict[str, Any]:
     """The spec's TOML as a dict, checked against the JSON Schema.
 
@@ -175,7 +208,8 @@ def parse_spec(path: str | Path) -> dict[str, Any]:
     p = Path(path)
     blob = read_bounded(p, MAX_SPEC_BYTES, "catalogue spec", CatalogueError)
     try:
-        data = tomllib.loads(blob.decode("utf-8"))
+        text = blob.decode("utf-8")
+        data = tomllib.loads(text)
     except UnicodeDecodeError as exc:
         raise CatalogueError(f"{p}: not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     except tomllib.TOMLDecodeError as exc:
@@ -185,7 +219,9 @@ def parse_spec(path: str | Path) -> dict[str, Any]:
         message = error.message if len(error.message) <= 200 else error.message[:200] + "…"
         if error.validator == "pattern" and list(error.absolute_path) == ["naming"]:
             message = "must contain {hash} (outputs are named by their content hash)"
-        raise CatalogueError(f"{p}: {_key(error.absolute_path)}: {message}")
+        key = _key(error.absolute_path)
+        line = key_line(text, key)
+        raise CatalogueError(f"{p}{'' if line is None else f':{line}'}: {key}: {message}")
     return data
 
 
@@ -200,8 +236,11 @@ def load_spec(path: str | Path) -> Spec:
     base = p.absolute().parent
     where = str(p)
 
+    text = p.read_text(encoding="utf-8", errors="replace")
+
     def fail(key: str, message: str) -> CatalogueError:
-        return CatalogueError(f"{where}: {key}: {message}")
+        line = key_line(text, key)
+        return CatalogueError(f"{where}{'' if line is None else f':{line}'}: {key}: {message}")
 
     def rel(text: str) -> str:
         q = Path(text).expanduser()

@@ -9,6 +9,7 @@ import pytest
 
 from app.cli import main
 from catalogue import CatalogueError, expand, load_spec
+from catalogue.spec import key_line
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -101,7 +102,10 @@ def test_spec_errors_name_the_key_and_exit_2(write_spec, capsys, edit, key, word
     path = write_spec(text.replace(edit[0], edit[1], 1))
     assert main(["catalogue", str(path), "--out", str(path.parent / "out")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"sheer: error: {path}: {key}: "), err
+    line = f":{line_no}" if (line_no := key_line(path.read_text(), key)) else ""
+    assert err.startswith(f"sheer: error: {path}{line}: {key}: "), err
+    if key in ("looks[0].look", "products.materials[1]", "size[0]", "views[0].yaw"):
+        assert line  # the key is written in the spec: its line is given
     assert words in err and "\n" not in err
     assert not (path.parent / "out").exists()  # refused before any work
 
