@@ -12,6 +12,8 @@ new folder, so every worker starts cold (context, head, look, shaders) as in a r
   one after another) over seconds per image of the 1-worker catalogue (≥ 3).
 - ``resume_noop_s``: a rerun of the finished catalogue (no cluster is started), and ``resume_noop_ratio``
   over the first run's wall time including the cluster's start (≤ 0.05).
+- ``worker_busy_s_*``: the job seconds of every worker added up (from the manifest), ``first_jobs_s_*``
+  those of each worker's first, cold job: what a second worker duplicates.
 - ``load_avg_start``/``_end``: the machine's 1-minute load average (other work on the 2 cores shows).
 """
 
@@ -73,6 +75,15 @@ def _catalogue(spec_path: Path, folder: Path, workers: int) -> tuple[float, floa
     return t1 - t0, t2 - t1, result.rendered
 
 
+def _busy(folder: Path) -> tuple[float, float]:
+    """(Σ job seconds over every worker, Σ of each worker's first job) from a run's manifest."""
+    images = json.loads((folder / "manifest.json").read_text(encoding="utf-8"))["images"]
+    first: dict[str, float] = {}
+    for e in images:
+        first.setdefault(e["worker"], e["seconds"])
+    return sum(e["seconds"] for e in images), sum(first.values())
+
+
 def _separate(folder: Path, n: int) -> list[float]:
     """Seconds of ``n`` ``sheer render`` processes, one image each, 640×640 fast, red-lip."""
     times = []
@@ -99,10 +110,12 @@ def main(argv: list[str]) -> int:
         from catalogue import load_spec, run_catalogue
 
         runs: dict[int, list[tuple[float, float, int]]] = {1: [], 2: []}
+        busy: dict[int, list[tuple[float, float]]] = {1: [], 2: []}
         resume_s = 0.0
         for r in range(max(args.repeats, 1)):
             for workers in (1, 2):
                 runs[workers].append(_catalogue(spec_path, root / f"w{workers}-{r}", workers))
+                busy[workers].append(_busy(root / f"w{workers}-{r}"))
                 if r == 0 and workers == 1:  # the rerun of the finished catalogue, at once (no cluster)
                     t0 = time.perf_counter()
                     noop = run_catalogue(load_spec(spec_path), root / "w1-0")
@@ -124,6 +137,12 @@ def main(argv: list[str]) -> int:
         **spread("cluster_start_s", [c for c, _, _ in runs[1] + runs[2]]),
         **spread("separate_process_s_per_image", separate),
         "catalogue_s_per_image_1_worker": round(per_image_catalogue, 3),
+        # work done by all workers together (Σ job seconds) and in their first (cold) jobs: what a second
+        # worker adds (its own start-up and lighting set-ups) against what it can take off the first
+        "worker_busy_s_1_worker": round(float(np.median([b for b, _ in busy[1]])), 2),
+        "worker_busy_s_2_workers": round(float(np.median([b for b, _ in busy[2]])), 2),
+        "first_jobs_s_1_worker": round(float(np.median([f for _, f in busy[1]])), 2),
+        "first_jobs_s_2_workers": round(float(np.median([f for _, f in busy[2]])), 2),
         "speedup_vs_separate_processes": round(per_image_separate / per_image_catalogue, 2),
         "first_run_s_with_cluster_start": round(first[0] + first[1], 2),
         "resume_noop_s": round(resume_s, 3), "resume_noop_ratio": round(resume_s / (first[0] + first[1]), 4),
