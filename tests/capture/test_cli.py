@@ -103,7 +103,7 @@ def test_every_number_in_face_json_has_a_unit(captured: Captured) -> None:
     assert not missing, missing
 
 
-@pytest.mark.parametrize("case", ["missing_photo", "few_points", "bad_mask"])
+@pytest.mark.parametrize("case", ["missing_photo", "few_points", "bad_mask", "bad_reflectance", "reflectance_alone"])
 def test_capture_bad_input_is_one_line(case: str, inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
     from app.cli import main
 
@@ -113,6 +113,10 @@ def test_capture_bad_input_is_one_line(case: str, inputs: dict[str, Path], capsy
         args[2] = str(d / "nope.png")
     elif case == "few_points":
         args[3:5] = ["--points", str(d / "few_points.json")]
+    elif case == "bad_reflectance":
+        args += ["--probe", str(d / "photo.png"), "--probe-reflectance", "1.5"]
+    elif case == "reflectance_alone":
+        args += ["--probe-reflectance", "0.6"]
     else:
         Image.new("L", (10, 10), 255).save(d / "mask.png")
         args += ["--mask", str(d / "mask.png")]

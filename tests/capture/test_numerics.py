@@ -192,3 +192,21 @@ def test_equirect_conventions_agree_up_to_a_turn_and_neither_is_mirrored() -> No
     for forward, right in [(d_render[h // 2, w // 2], d_render[h // 2, w // 2 + 1]),
                            (capture_direction(w // 2), capture_direction(w // 2 + 1))]:
         assert np.cross(forward, up) @ right > 0
+
+
+def test_probe_reflectance_divides_the_ambient_only() -> None:
+    # A chrome ball reflects a fraction R of the room: the ambient is the ball's mean / R; the flash's
+    # direction and hue are the same whatever R.
+    from capture.probe import ProbeError
+
+    env = np.full((64, 128, 3), 0.02)
+    env[:32] = [0.03, 0.02, 0.01]
+    img = _probe_with(env, np.array([0.05, -0.03, -1.0]), np.ones(3))
+    mirror, chrome = analyse_probe(img), analyse_probe(img, reflectance=0.6)
+    np.testing.assert_allclose(chrome.ambient_rgb, mirror.ambient_rgb / 0.6, rtol=1e-12)
+    np.testing.assert_allclose(chrome.light_dir_camera, mirror.light_dir_camera)
+    np.testing.assert_allclose(chrome.flash_rgb, mirror.flash_rgb)
+    assert chrome.to_json()["reflectance"] == 0.6
+    for bad in (0.0, 1.2, float("nan")):
+        with pytest.raises(ProbeError, match="reflectance"):
+            analyse_probe(img, reflectance=bad)
