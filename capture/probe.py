@@ -382,8 +382,11 @@ def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
 
 
 def _ball_reflections(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The reflected viewing directions (..., 3) (camera coordinates) of an orthographic mirror ball at
-    normalised ball coordinates ``dx``, ``dy`` (radius 1), and whether each point is on the ball."""
+    """The reflected viewing directions of an orthographic mirror ball, and which points are on it.
+
+    ``dx``, ``dy``: normalised ball coordinates (radius 1, broadcast together); returns the directions
+    (..., 3) in camera coordinates and a bool (...) mask of the points on the ball.
+    """
     dx, dy = np.broadcast_arrays(dx, dy)
     rr = dx ** 2 + dy ** 2
     nz = -np.sqrt(np.clip(1 - rr, 0, 1))
@@ -393,9 +396,10 @@ def _ball_reflections(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.nd
 
 
 def probe_environment(env: np.ndarray, R: np.ndarray, size: int = 256, env_scale: float = 1.0) -> np.ndarray:
-    """A mirror ball (inscribed in a ``size``² image) reflecting an equirectangular environment, seen
-    orthographically by a camera with world→camera rotation ``R``: linear RGB (size, size, 3), the
-    environment's units × ``env_scale``, unclipped, 0 off the ball (pixel centres sampled).
+    """A mirror ball reflecting an equirectangular environment (unclipped, pixel centres sampled).
+
+    The ball is inscribed in a ``size``² image and seen orthographically by a camera with world→camera
+    rotation ``R``: linear RGB (size, size, 3) in the environment's units × ``env_scale``, 0 off the ball.
     """
     c = (np.arange(size) + 0.5 - size / 2) / (size / 2)
     refl, inside = _ball_reflections(c[None, :], c[:, None])
@@ -407,8 +411,9 @@ def probe_environment(env: np.ndarray, R: np.ndarray, size: int = 256, env_scale
 def flash_reflection(size: int, R: np.ndarray, light_dir_world: np.ndarray, core_deg: float = 0.6,
                      halo_deg: float = 4.0, core_gain: float = 50.0, halo_gain: float = 0.5,
                      supersample: int = 1) -> np.ndarray:
-    """The flash's reflection in a ``size``² mirror-ball image (see :func:`probe_environment`), float
-    (size, size) in units of the flash's colour: a narrow core (Gaussian of ``core_deg`` in the reflected
+    """The flash's reflection in a ``size``² mirror-ball image (see :func:`probe_environment`).
+
+    Float (size, size) in units of the flash's colour: a narrow core (Gaussian of ``core_deg`` in the reflected
     direction, gain ``core_gain``) plus a wide halo (``halo_deg``, ``halo_gain``). With ``supersample``
     > 1 the core is averaged over ``supersample``² points per pixel near the spot (a sensor integrates
     its pixel: the spot's rim pixels are partly covered); elsewhere, and for the halo, pixel centres.
