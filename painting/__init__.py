@@ -110,6 +110,10 @@ _EXPORTS: dict[str, str] = {
     "HeadError": "painting.head",
     "HeadMetadata": "painting.head",
     "load_head": "painting.head",
+    "LayerMask": "painting.mask",
+    "RegionSet": "painting.regions",
+    "RegionError": "painting.regions",
+    "REGION_NAMES": "painting.regions",
 }
 
 __getattr__, __dir__, __all__ = install_lazy(__name__, _EXPORTS)

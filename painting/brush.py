@@ -18,6 +18,11 @@ fill      the chart under the dab is set to ``strength · amount`` (clamped to t
 ========  ===========================================================================================
 
 ``amount`` (µm) defaults to the layer material's default thickness.
+
+Region options (:mod:`painting.regions`): with ``region`` set, ``region_mode="inside"`` multiplies every
+dab's weight by the region's soft mask (the stroke stays inside, fading over its feather), ``"avoid"``
+by one minus it (e.g. never paint the eyes); ``mode="fill"`` with a region fills the whole region (not
+the chart) towards ``strength · amount`` with the region's soft edge.
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import numpy as np
 from core.errors import SheerError
 
 MODES = ("add", "erase", "smooth", "set", "fill")
+REGION_MODES = ("inside", "avoid")
 
 
 class BrushError(SheerError, ValueError):
@@ -58,6 +64,8 @@ class Brush:
             exchange thickness), fraction of the radius, (0, 1]; at least one texel.
         falloff_curve: optional custom falloff, weights sampled at evenly spaced d/r in [0, 1]
             (at least 2 samples in [0, 1]); overrides ``hardness``.
+        region: a facial region's name (:data:`painting.regions.REGION_NAMES`) or None.
+        region_mode: "inside" (stay inside ``region``) or "avoid" (never paint it).
     """
 
     radius_mm: float = 8.0
@@ -73,6 +81,8 @@ class Brush:
     mirror: bool = False
     smooth_radius: float = 0.25
     falloff_curve: tuple[float, ...] | None = field(default=None)
+    region: str | None = None
+    region_mode: str = "inside"
 
     def validate(self) -> Brush:
         """Raise :class:`BrushError` for a bad setting; return self."""
@@ -99,6 +109,13 @@ class Brush:
             number("amount_um", 0.0, 10_000.0)
         if self.mode not in MODES:
             raise BrushError(f"brush mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.region_mode not in REGION_MODES:
+            raise BrushError(f"brush region_mode must be one of {', '.join(REGION_MODES)}, got {self.region_mode!r}")
+        if self.region is not None:
+            from painting.regions import REGION_NAMES
+
+            if self.region not in REGION_NAMES:
+                raise BrushError(f"brush region {self.region!r} is not a region (known: {', '.join(REGION_NAMES)})")
         if self.falloff_curve is not None:
             curve = np.asarray(self.falloff_curve, dtype=float)
             if curve.ndim != 1 or len(curve) < 2 or not np.all(np.isfinite(curve)) \
@@ -109,6 +126,13 @@ class Brush:
     def falloff(self, t: np.ndarray) -> np.ndarray:
         """Weight in [0, 1] at normalised distance ``t = d / r`` (float32 in, float32 out); 0 at t ≥ 1."""
         t = np.asarray(t, dtype=np.float32)
+        if self.region_mode not in REGION_MODES:
+            raise BrushError(f"brush region_mode must be one of {', '.join(REGION_MODES)}, got {self.region_mode!r}")
+        if self.region is not None:
+            from painting.regions import REGION_NAMES
+
+            if self.region not in REGION_NAMES:
+                raise BrushError(f"brush region {self.region!r} is not a region (known: {', '.join(REGION_NAMES)})")
         if self.falloff_curve is not None:
             curve = np.asarray(self.falloff_curve, dtype=np.float32)
             xs = np.linspace(0.0, 1.0, len(curve), dtype=np.float32)

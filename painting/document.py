@@ -21,6 +21,7 @@ from core.errors import SheerError
 from painting import kernels
 from painting.atlas import Atlas, bake, check_resolution
 from painting.brush import Brush, BrushError
+from painting.document_masks import MaskEditing
 from painting.history import DEFAULT_BUDGET_BYTES, History, Step
 from painting.layer import ChangeEvent, DocumentError, Layer, as_vec3
 from painting.layout import build_layout
@@ -50,8 +51,10 @@ class MaterialLibrary(Protocol):
         ...
 
 
-class Document:
+class Document(MaskEditing):
     """Layers of cosmetic thickness painted on a head (see :mod:`painting` for an overview).
+
+    Regions and layer masks: :class:`painting.document_masks.MaskEditing`.
 
     Args:
         head: a :class:`painting.head.Head`.

@@ -37,7 +37,9 @@ class ChangeEvent:
         layer: the layer's id (stable for the document's life), or None.
         tiles: (tile row, tile column) of the touched 64² tiles, for "paint".
         detail: "stroke", "undo", "redo", "fill", "import", "rollback" for paint; "added", "removed",
-            "moved", "name", "visible", "opacity", "max_thickness" for layers.
+            "moved", "name", "visible", "opacity", "max_thickness", "mask" (the layer's mask recipe or
+            channel was replaced) for layers; "mask" for paint also means the mask's paint channel changed
+            inside ``tiles`` (the thickness the renderer shows changed there).
     """
 
     kind: str
@@ -82,6 +84,11 @@ class Layer:
         self._data.fill(0.0)
         self._view = self._data.view()
         self._view.flags.writeable = False
+        #: the mask's recipe (a :class:`painting.mask.LayerMask`) or None; set through the document
+        self.mask: Any = None
+        #: the mask's paint channel (float32 (H, W) in [0, 2], neutral 1) or None; see :mod:`painting.mask`
+        self.mask_channel: np.ndarray | None = None
+        self._mask_recipe: np.ndarray | None = None  # the recipe's values at this resolution (the document's)
 
     @property
     def thickness(self) -> np.ndarray:
@@ -93,11 +100,23 @@ class Layer:
         """The layer's maximum thickness in µm (the same as ``max_thickness``)."""
         return self.max_thickness
 
+    @property
+    def has_mask(self) -> bool:
+        """Whether a mask (a recipe or a paint channel) limits where the layer shows."""
+        return self.mask is not None or self.mask_channel is not None
+
     def effective_thickness(self) -> np.ndarray:
-        """Thickness as rendered: × opacity, zero when hidden (a new float32 array, µm)."""
+        """Thickness as rendered: × opacity × the mask, zero when hidden (a new float32 array, µm)."""
         if not self.visible:
             return np.zeros_like(self._data)
-        return self._data * np.float32(self.opacity)
+        out = self._data * np.float32(self.opacity)
+        if self._mask_recipe is not None:
+            m = self._mask_recipe if self.mask_channel is None else \
+                self._mask_recipe + self.mask_channel - np.float32(1.0)
+            out *= np.clip(m, 0.0, 1.0)
+        elif self.mask_channel is not None:
+            out *= np.clip(self.mask_channel, 0.0, 1.0)
+        return out
 
     def __repr__(self) -> str:
         return (f"Layer(id={self.id}, name={self.name!r}, material={self.material!r}, "

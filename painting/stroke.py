@@ -69,6 +69,10 @@ class StrokeHost(Protocol):
 
     def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray]: ...
 
+    def region_values(self, name: str, resolution: int) -> np.ndarray:
+        """Region ``name`` at ``resolution``² texels (float32 [0, 1])."""
+        ...
+
     def _emit(self, event: ChangeEvent) -> None: ...
 
     def _push(self, step: Step) -> None: ...
@@ -126,6 +130,11 @@ class Stroke:
         else:
             kind = kernels.FALLOFF_SMOOTH
         self._falloff_args = (kind, hardness, xs, curve)
+        # The brush's region as a per-texel factor on the dab weights (flat float32), or None.
+        self._clip: np.ndarray | None = None
+        if brush.region is not None:
+            m = doc.region_values(brush.region, res).reshape(-1)
+            self._clip = m if brush.region_mode == "inside" else (np.float32(1.0) - m)
 
     # ---- context manager
     def __enter__(self) -> Stroke:
@@ -275,9 +284,12 @@ class Stroke:
         self._last = (p, n0)
         self.dabs += 1
         if brush.mode == "fill":
-            chart = int(self.atlas.chart.reshape(-1)[index.flat[k]])
             amount = min(brush.strength * self._amount, self.layer.max_thickness)
-            tiles = self._fill_region(self.atlas, chart, amount, emit=False)
+            if self._clip is not None:
+                tiles = self._fill_soft(self._clip, amount, emit=False)
+            else:
+                chart = int(self.atlas.chart.reshape(-1)[index.flat[k]])
+                tiles = self._fill_region(self.atlas, chart, amount, emit=False)
         else:
             # The compiled kernels once loaded, else the numpy reference: bit-identical results.
             paint = self._paint_compiled if kernels.active() else self._paint_numpy
@@ -390,6 +402,8 @@ class Stroke:
         sidx, w = kernels.weights(index.pn, index.origin, float(index.cell), index.dims_array, index.cell_start,
                                   a, b, n, float(r), cos_max, bool(self.brush.max_angle_deg < 180.0), kind,
                                   hardness, xs, curve)
+        if self._clip is not None:
+            sidx, w = self._clipped(sidx, w, index)
         if len(sidx) == 0:
             return ()
         if self.brush.mode == "smooth":
@@ -410,11 +424,21 @@ class Stroke:
         bit-identical to :meth:`_paint_compiled`.
         """
         flat, w, sidx = self._weights(pieces, r, index)
+        if self._clip is not None:
+            sidx, w = self._clipped(sidx, w, index)
+            flat = index.flat[sidx]
         if len(flat) == 0:
             return ()
         if self.brush.mode == "smooth":
             return self._smooth(flat, w * alpha, sidx, r, index)
         return self._composite(flat, w * alpha, sidx)
+
+    def _clipped(self, sidx: np.ndarray, w: np.ndarray, index: TexelIndex) -> tuple[np.ndarray, np.ndarray]:
+        """The dab's texels (index entries, weights) times the brush region's factor, zeros dropped."""
+        assert self._clip is not None
+        w = (w * self._clip[index.flat[sidx]]).astype(np.float32)
+        keep = np.flatnonzero(w > 0)
+        return sidx[keep], w[keep]
 
     def _composite(self, flat: np.ndarray, alpha: np.ndarray,
                    sidx: np.ndarray | None = None) -> Tiles:
@@ -494,6 +518,18 @@ class Stroke:
         if len(flat) == 0:
             return ()
         tiles = self._write(flat, np.full(len(flat), value, dtype=np.float32))
+        if emit and tiles:
+            self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
+        return tiles
+
+    def _fill_soft(self, weights: np.ndarray, value: float, emit: bool = True) -> Tiles:
+        """Move every covered texel towards ``value`` (µm) by its weight (flat float32 in [0, 1]): ``t + (value − t)·w``."""
+        flat = np.flatnonzero((weights > 0) & self.atlas.coverage.reshape(-1))
+        if len(flat) == 0:
+            return ()
+        t = self._data[flat]
+        w = weights[flat].astype(np.float32)
+        tiles = self._write(flat, (t + (np.float32(value) - t) * w).astype(np.float32))
         if emit and tiles:
             self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles

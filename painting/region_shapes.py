@@ -1,0 +1,404 @@
+"""Deriving facial regions (:mod:`painting.regions`) from a head: landmarks, face-mesh contours, albedo.
+
+Every region is first a hard outline on the face seen from the front: each covered texel of the atlas
+(its baked 3D position) is put in the **face frame** — X along the midplane normal (subject's left +),
+Y up (gnathion → forehead, made orthogonal), Z forward, in mm from the midplane point — and shapes are
+tested in (X, Y). Only the front layer of the surface counts (texels facing forward and within
+:data:`FRONT_DEPTH_MM` of the frontmost surface at their (X, Y)), so the inner mouth, the teeth and the
+back of the head never join a region. The outline is then feathered (:func:`painting.regions.feather`).
+
+Sources:
+
+- **face-mesh heads** (468 or 478 vertices: MediaPipe's topology): lips, eyes, lids, crease, brow bone,
+  under-eye and brows from the standard contour indices (:data:`CONTOURS`, as in MediaPipe's
+  ``face_mesh`` annotations); the rest from the landmarks as below.
+- **heads with landmarks** (the sidecar's ``left_eye_inner``… ``gnathion``): proportional shapes stated
+  per region in :func:`_landmark_shapes`; for a head with an albedo in its own UVs the lips are the
+  vermilion's colour edge (the red-to-green ratio, Otsu threshold) inside the landmarks' mouth box.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from painting.regions import (
+    DEFAULT_FEATHER_MM,
+    REGION_NAMES,
+    Region,
+    RegionSet,
+    feather,
+    local_texel_mm,
+    spread_to_padding,
+)
+
+if TYPE_CHECKING:
+    from painting.atlas import Atlas
+    from painting.head import Head
+
+#: Texels deeper than this behind the frontmost surface at their (X, Y) are not in any region (mm).
+FRONT_DEPTH_MM = 4.0
+#: Texels whose normal is further than this from the face frame's forward axis are not in front
+#: regions (cosine); the jawline accepts side-facing texels.
+FRONT_COS = 0.2
+
+#: MediaPipe face-mesh contours (vertex indices of the 468-point topology; MediaPipe's annotations).
+CONTOURS: dict[str, list[int]] = {
+    "lipsUpperOuter": [61, 185, 40, 39, 37, 0, 267, 269, 270, 409, 291],
+    "lipsLowerOuter": [61, 146, 91, 181, 84, 17, 314, 405, 321, 375, 291],
+    "lipsUpperInner": [78, 191, 80, 81, 82, 13, 312, 311, 310, 415, 308],
+    "lipsLowerInner": [78, 95, 88, 178, 87, 14, 317, 402, 318, 324, 308],
+    "rightEyeUpper0": [33, 246, 161, 160, 159, 158, 157, 173, 133],
+    "rightEyeLower0": [33, 7, 163, 144, 145, 153, 154, 155, 133],
+    "rightEyeUpper2": [113, 225, 224, 223, 222, 221, 189],
+    "rightEyeLower3": [143, 111, 117, 118, 119, 120, 121, 128, 245],
+    "rightEyebrowUpper": [156, 70, 63, 105, 66, 107, 55, 193],
+    "rightEyebrowLower": [35, 124, 46, 53, 52, 65],
+    "leftEyeUpper0": [263, 466, 388, 387, 386, 385, 384, 398, 362],
+    "leftEyeLower0": [263, 249, 390, 373, 374, 380, 381, 382, 362],
+    "leftEyeUpper2": [342, 445, 444, 443, 442, 441, 413],
+    "leftEyeLower3": [372, 340, 346, 347, 348, 349, 350, 357, 465],
+    "leftEyebrowUpper": [383, 300, 293, 334, 296, 336, 285, 417],
+    "leftEyebrowLower": [265, 353, 276, 283, 282, 295],
+}
+FACE_MESH_SIZES = (468, 478)
+LANDMARKS_NEEDED = ("left_eye_inner", "left_eye_outer", "right_eye_inner", "right_eye_outer", "left_brow",
+                    "right_brow", "left_cheek", "right_cheek", "nose_tip", "lip_centre", "upper_lip",
+                    "lower_lip", "mouth_left", "mouth_right", "chin", "forehead", "nasion", "subnasale",
+                    "gnathion")
+
+
+class FaceFrame:
+    """The face frame of a head (see the module docstring): mm coordinates of points and texels."""
+
+    def __init__(self, head: Head) -> None:
+        meta = head.metadata
+        self.mpu = float(head.mm_per_unit)
+        self.origin = np.asarray(meta.midplane_point, float)
+        ex = np.asarray(meta.midplane_normal, float)
+        ex /= np.linalg.norm(ex)
+        lm = meta.landmarks
+        up = (np.asarray(lm["forehead"], float) - np.asarray(lm["gnathion"], float)) if \
+            "forehead" in lm and "gnathion" in lm else np.array([0.0, 1.0, 0.0])
+        ey = up - np.dot(up, ex) * ex
+        ey /= np.linalg.norm(ey)
+        ez = np.cross(ex, ey)
+        if "nose_tip" in lm and np.dot(np.asarray(lm["nose_tip"], float) - self.origin, ez) < 0:
+            ex, ez = -ex, -ez  # keep a right-handed frame facing forward (subject's left then is -X)
+        self.axes = np.stack([ex, ey, ez])
+
+    def mm(self, points: np.ndarray) -> np.ndarray:
+        """Points (…, 3) in mesh units → face-frame mm (…, 3)."""
+        return (np.asarray(points, float) - self.origin) @ self.axes.T * self.mpu
+
+
+def _inside(poly: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Points (x, y) inside the closed polygon ``poly`` (K, 2) (matplotlib's even–odd test)."""
+    from matplotlib.path import Path as MplPath
+
+    return np.asarray(MplPath(poly).contains_points(np.stack([x, y], axis=1)), bool)
+
+
+def _parabola(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The parabola through three (X, Y) points evaluated at ``x`` (Lagrange form)."""
+    (x0, y0), (x1, y1), (x2, y2) = p0, p1, p2
+    return (y0 * (x - x1) * (x - x2) / ((x0 - x1) * (x0 - x2)) + y1 * (x - x0) * (x - x2) / ((x1 - x0) * (x1 - x2))
+            + y2 * (x - x0) * (x - x1) / ((x2 - x0) * (x2 - x1)))
+
+
+def _capsule(x: np.ndarray, y: np.ndarray, a: np.ndarray, b: np.ndarray, r: float) -> np.ndarray:
+    """Points within ``r`` (mm) of the segment a–b (face-frame X, Y)."""
+    ab = b - a
+    t = np.clip(((x - a[0]) * ab[0] + (y - a[1]) * ab[1]) / float(ab @ ab), 0.0, 1.0)
+    return (x - a[0] - t * ab[0]) ** 2 + (y - a[1] - t * ab[1]) ** 2 <= r * r
+
+
+class _Texels:
+    """The atlas's covered texels in the face frame: X, Y, Z (mm), facing (cos to forward), front layer."""
+
+    def __init__(self, atlas: Atlas, frame: FaceFrame, allowed: np.ndarray) -> None:
+        self.shape = atlas.coverage.shape
+        self.allowed = allowed
+        self.flat = np.flatnonzero(atlas.coverage.reshape(-1))
+        p = frame.mm(atlas.position.reshape(-1, 3)[self.flat])
+        self.x, self.y, self.z = p[:, 0], p[:, 1], p[:, 2]
+        n = atlas.normal.reshape(-1, 3)[self.flat].astype(float)
+        self.facing = n @ frame.axes[2]
+        # The frontmost surface per 1 mm cell of (X, Y): a texel deeper than FRONT_DEPTH_MM behind it is
+        # hidden (inner mouth, teeth, inside the nostrils, the back of the head).
+        ix = np.floor(self.x).astype(np.int64)
+        iy = np.floor(self.y).astype(np.int64)
+        key = (ix - ix.min()) * (int(iy.max() - iy.min()) + 1) + (iy - iy.min())
+        top = np.full(int(key.max()) + 1, -np.inf)
+        np.maximum.at(top, key, self.z)
+        self.front = (self.z >= top[key] - FRONT_DEPTH_MM) & (self.facing > FRONT_COS)
+
+    def image(self, sel: np.ndarray) -> np.ndarray:
+        """A bool (R, R) image of the selected covered texels (only where regions are allowed: the skin)."""
+        out = np.zeros(self.shape[0] * self.shape[1], bool)
+        out[self.flat[sel]] = True
+        return out.reshape(self.shape) & self.allowed
+
+
+def _albedo_blob(head: Head, tex: _Texels, box: np.ndarray, dark: bool = False) -> np.ndarray | None:
+    """The texels of ``box`` past the albedo's colour edge there (bool per covered texel), or None.
+
+    The feature is redness ``(R − G) / (R + G + B)`` (the vermilion), or darkness ``−(R + G + B)``
+    (brow hair) with ``dark``, of the albedo at each texel's centre (the head's own UVs), split by Otsu's
+    threshold over the box; the connected blobs at least a fifth the size of the largest, closed and
+    with their holes filled. None when the
+    box is empty or the two classes' means differ by less than a visible edge (0.03 in redness, 30 in
+    the 0–765 sum).
+    """
+    from scipy import ndimage
+
+    if head.albedo is None or not box.any():
+        return None
+    h, w = head.albedo.shape[:2]
+    res = tex.shape[0]
+    flat = tex.flat[box]
+    rows = np.minimum(((flat // res + 0.5) / res * h).astype(np.int64), h - 1)
+    cols = np.minimum(((flat % res + 0.5) / res * w).astype(np.int64), w - 1)
+    rgb = head.albedo[rows, cols].astype(np.float64)
+    feature = -rgb.sum(axis=1) if dark else (rgb[:, 0] - rgb[:, 1]) / (rgb.sum(axis=1) + 1.0)
+    hist, edges = np.histogram(feature, bins=64)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    w0 = np.cumsum(hist)
+    w1 = w0[-1] - w0
+    m0 = np.cumsum(hist * centres) / np.maximum(w0, 1)
+    m1 = (np.sum(hist * centres) - np.cumsum(hist * centres)) / np.maximum(w1, 1)
+    best = int(np.argmax(w0 * w1 * (m0 - m1) ** 2))
+    if m1[best] - m0[best] < (30.0 if dark else 0.03):  # no visible edge
+        return None
+    sel = np.zeros(len(tex.flat), bool)
+    sel[np.flatnonzero(box)[feature > centres[best]]] = True
+    img = tex.image(sel)
+    labels, count = ndimage.label(img)
+    if count == 0:
+        return None
+    sizes = np.asarray(ndimage.sum(img, labels, index=np.arange(1, count + 1)))
+    keep = 1 + np.flatnonzero(sizes >= 0.2 * sizes.max())  # both lips (the mouth line may part them)
+    blob = ndimage.binary_closing(np.isin(labels, keep), iterations=2)
+    return np.asarray(ndimage.binary_fill_holes(blob), bool).reshape(-1)[tex.flat] & box
+
+
+def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tuple[np.ndarray, str]]:
+    """Hard masks (bool (R, R)) and their sources from the sidecar's landmarks (face-frame mm)."""
+    lm = {k: frame.mm(np.asarray(v, float)) for k, v in head.metadata.landmarks.items()}
+    x, y, front = tex.x, tex.y, tex.front
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    src = "landmarks (sidecar) and the bake's 3D positions, front view"
+
+    # Lips: the mouth box from the corners and lip points, refined by the albedo's vermilion edge.
+    ml, mr, up_, lo_, lc = lm["mouth_left"], lm["mouth_right"], lm["upper_lip"], lm["lower_lip"], lm["lip_centre"]
+    xl, xr = max(ml[0], mr[0]), min(ml[0], mr[0])
+    cx = 0.5 * (xl + xr)
+    half = 0.5 * (xl - xr) + 3.0
+    top = up_[1] + 0.6 * (up_[1] - lc[1]) + 2.0
+    bottom = lo_[1] - 0.8 * (lc[1] - lo_[1]) - 2.0
+    box = front & (np.abs(x - cx) <= half) & (y <= top) & (y >= bottom)
+    mouth_line = _parabola(mr[:2], lc[:2], ml[:2], x)
+    lips = _albedo_blob(head, tex, box)
+    if lips is not None:
+        lip_src = "the albedo's vermilion colour edge (red/green ratio, Otsu) inside the landmarks' mouth box"
+    else:
+        # No colour edge: an ellipse per lip through the corners and the upper/lower lip points.
+        e_up = ((x - cx) / (0.5 * (xl - xr))) ** 2 + ((y - mouth_line) / max(up_[1] - lc[1], 1.0) / 1.3) ** 2
+        e_lo = ((x - cx) / (0.5 * (xl - xr))) ** 2 + ((y - mouth_line) / max(lc[1] - lo_[1], 1.0) / 1.3) ** 2
+        lips = front & (np.where(y >= mouth_line, e_up, e_lo) <= 1.0)
+        lip_src = "ellipses through the landmarks' mouth corners and lip points (no albedo edge)"
+    above = y >= mouth_line
+    out["lips"] = (tex.image(lips), lip_src)
+    out["upper_lip"] = (tex.image(lips & above), lip_src + "; split at the mouth line (parabola through the corners "
+                        "and lip_centre)")
+    out["lower_lip"] = (tex.image(lips & ~above), out["upper_lip"][1])
+
+    # Eyes, per side: the lash line joins the corners (bowed 1.5 mm up); the lid, crease and brow bone are
+    # nested half-ellipses over it (semi-axes 0.55 × the eye's width and 10 / 14 mm); under-eye a 12 mm
+    # half-ellipse below; brows a 10 mm band on the parabola through the inner corner, brow point and
+    # 8 mm past the outer corner.
+    parts: dict[str, np.ndarray] = {k: np.zeros(len(x), bool) for k in
+                                    ("eyes", "upper_eyelid", "crease", "brow_bone", "under_eye", "brows")}
+    brow_src = "a 10 mm band through the brow landmark"
+    for side in ("left", "right"):
+        inner, outer, brow = lm[f"{side}_eye_inner"], lm[f"{side}_eye_outer"], lm[f"{side}_brow"]
+        out_dir = np.sign(outer[0] - inner[0])
+        width = abs(outer[0] - inner[0])
+        s = (x - inner[0]) / (outer[0] - inner[0])
+        lash = inner[1] + s * (outer[1] - inner[1]) + 6.0 * s * (1 - s)
+        ecx = 0.5 * (inner[0] + outer[0])
+        a = 0.55 * width
+        h = y - lash
+        ex2 = ((x - ecx) / a) ** 2
+        e_lid = np.sqrt(ex2 + (h / 10.0) ** 2)
+        e_cr = np.sqrt(ex2 + (h / 14.0) ** 2)
+        end = np.array([outer[0] + 6.0 * out_dir, brow[1] - 5.0])
+        brow_line = _parabola(np.array([inner[0] - 2.0 * out_dir, brow[1] - 2.0]), brow[:2], end, x)
+        in_brow_x = ((x - inner[0]) * out_dir >= -4.0) & ((x - end[0]) * out_dir <= 0.0)
+        brow_box = front & in_brow_x & (np.abs(y - brow_line) <= 8.0)
+        hair = _albedo_blob(head, tex, brow_box, dark=True)
+        parts["eyes"] |= front & (ex2 + ((h + 1.0) / 2.5) ** 2 <= 1.0)
+        parts["upper_eyelid"] |= front & (h >= 0.0) & (e_lid <= 1.0)
+        parts["crease"] |= front & (h >= 0.0) & (e_lid > 1.0) & (e_cr <= 1.0)
+        parts["brows"] |= (front & in_brow_x & (np.abs(y - brow_line) <= 5.0)) if hair is None else hair
+        brow_src = brow_src if hair is None else "the albedo's dark brow hair (luminance, Otsu) in a 16 mm band " \
+            "through the brow landmark"
+        parts["brow_bone"] |= front & (h >= 0.0) & (e_cr > 1.0) & (y < brow_line - 5.0) & \
+            (np.sqrt(ex2 / 1.15 ** 2 + (h / 30.0) ** 2) <= 1.0)
+        parts["under_eye"] |= front & (h < -2.5) & (np.sqrt(ex2 + (h / 12.0) ** 2) <= 1.0)
+    eye_src = (src + ": lash line through the eye corners; lid/crease/brow bone nested half-ellipses "
+               "10/14 mm high; under-eye 12 mm")
+    for k, sel in parts.items():
+        out[k] = (tex.image(sel), eye_src if k != "brows" else src + ": " + brow_src)
+
+    # Cheeks: the apple a 16 mm disc on the cheek landmark; the cheekbone a 10 mm capsule from just above
+    # the apple up and out to the temple (22 mm past the outer eye corner, between eye and cheek).
+    apple = np.zeros(len(x), bool)
+    bone = np.zeros(len(x), bool)
+    for side in ("left", "right"):
+        ck, outer = lm[f"{side}_cheek"], lm[f"{side}_eye_outer"]
+        out_dir = np.sign(outer[0] - lm[f"{side}_eye_inner"][0])
+        apple |= front & ((x - ck[0]) ** 2 + (y - ck[1]) ** 2 <= 16.0 ** 2)
+        temple = np.array([outer[0] + 22.0 * out_dir, 0.5 * (outer[1] + ck[1]) + 2.0])
+        bone |= (tex.facing > 0.0) & _capsule(x, y, ck[:2] + np.array([6.0 * out_dir, 6.0]), temple, 10.0)
+    out["cheek_apple"] = (tex.image(apple), src + ": a 16 mm disc on the cheek landmark")
+    out["cheekbone"] = (tex.image(bone), src + ": a 10 mm capsule from the apple to the temple")
+
+    # Nose, forehead, T-zone, jaw.
+    na, nt, sn, fh, gn, ch = lm["nasion"], lm["nose_tip"], lm["subnasale"], lm["forehead"], lm["gnathion"], lm["chin"]
+    brow_top = max(lm["left_brow"][1], lm["right_brow"][1])
+    eye_half = max(abs(lm["left_eye_outer"][0]), abs(lm["right_eye_outer"][0]))
+    bridge = front & (np.abs(x - na[0]) <= 6.0) & (y <= na[1]) & (y >= nt[1] + 8.0)
+    forehead = (tex.facing > 0.0) & (y >= brow_top + 10.0) & \
+        ((x / (eye_half + 15.0)) ** 2 + ((y - brow_top - 10.0) / (fh[1] + 40.0 - brow_top)) ** 2 <= 1.0)
+    nose = (tex.facing > 0.0) & (np.abs(x - na[0]) <= 14.0) & (y <= na[1]) & (y >= sn[1] - 2.0)
+    chin = front & (((x - ch[0]) / 18.0) ** 2 + ((y - ch[1]) / 14.0) ** 2 <= 1.0)
+    out["nose_bridge"] = (tex.image(bridge), src + ": 12 mm wide from the nasion to 8 mm above the nose tip")
+    out["forehead"] = (tex.image(forehead), src + ": 10 mm above the brows to the hairline (skin "
+                       "mask): a half-ellipse 15 mm wider than the outer eye corners")
+    out["t_zone"] = (tex.image(forehead | nose | chin), src + ": forehead ∪ nose (28 mm wide, nasion to "
+                     "subnasale) ∪ chin (36 × 28 mm ellipse)")
+    mouth_y = lc[1]
+    level = (np.abs(y - mouth_y) <= 3.0) & (tex.facing > -0.3)
+    face_half = float(np.max(np.abs(x[level]))) if level.any() else eye_half + 20.0
+    x_go, y_go = 0.92 * face_half, mouth_y - 0.25 * (mouth_y - gn[1])
+    jaw_curve = gn[1] + (y_go - gn[1]) * np.minimum(np.abs(x) / x_go, 1.0) ** 2
+    jaw = (tex.facing > -0.5) & (np.abs(x) <= x_go) & (np.abs(y - jaw_curve) <= 8.0) & (tex.z > lc[2] - 95.0)
+    out["jawline"] = (tex.image(jaw), src + ": a 16 mm band on the parabola from the gnathion to the jaw "
+                      "angles (0.92 × the face's half-width at the mouth, a quarter of the way down to the chin)")
+    return out
+
+
+def _contour_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tuple[np.ndarray, str]]:
+    """Hard masks of the contour regions of a face-mesh head (MediaPipe's 468-point contour indices)."""
+    v = frame.mm(head.vertices)[:, :2]
+    x, y, front = tex.x, tex.y, tex.front
+
+    def poly(*chains: tuple[str, bool]) -> np.ndarray:
+        pts = [v[CONTOURS[name][::-1] if rev else CONTOURS[name]] for name, rev in chains]
+        return _inside(np.concatenate(pts), x, y) & front
+
+    src = "face-mesh contours (MediaPipe 468-point indices: {})"
+    upper = poly(("lipsUpperOuter", False), ("lipsUpperInner", True))
+    lower = poly(("lipsLowerOuter", False), ("lipsLowerInner", True))
+    out: dict[str, tuple[np.ndarray, str]] = {
+        "upper_lip": (tex.image(upper), src.format("lipsUpperOuter − lipsUpperInner")),
+        "lower_lip": (tex.image(lower), src.format("lipsLowerOuter − lipsLowerInner")),
+        "lips": (tex.image(upper | lower), src.format("outer lip contour − inner lip contour")),
+    }
+    parts = {k: np.zeros(len(x), bool) for k in ("eyes", "upper_eyelid", "crease", "brow_bone", "under_eye",
+                                                  "brows")}
+    for side in ("left", "right"):
+        s = side
+        eye = poly((f"{s}EyeUpper0", False), (f"{s}EyeLower0", True))
+        lid_top = poly((f"{s}EyeUpper0", False), (f"{s}EyeUpper2", True))
+        brow = poly((f"{s}EyebrowUpper", False), (f"{s}EyebrowLower", True))
+        above_lid = poly((f"{s}EyeUpper2", False), (f"{s}EyebrowLower", True))
+        # the crease: the 4 mm band centred on EyeUpper2 (the socket's fold line)
+        up2 = v[CONTOURS[f"{s}EyeUpper2"]]
+        crease = np.zeros(len(x), bool)
+        for a, b in zip(up2[:-1], up2[1:]):
+            crease |= _capsule(x, y, a, b, 2.0)
+        parts["eyes"] |= eye
+        parts["upper_eyelid"] |= lid_top & ~eye & ~crease
+        parts["crease"] |= crease & front & ~eye
+        parts["brows"] |= brow
+        parts["brow_bone"] |= above_lid & ~crease & ~brow
+        parts["under_eye"] |= poly((f"{s}EyeLower0", False), (f"{s}EyeLower3", True)) & ~eye
+    sources = {"eyes": "EyeUpper0/EyeLower0", "upper_eyelid": "EyeUpper0 to EyeUpper2, less the crease",
+               "crease": "a 4 mm band on EyeUpper2", "brows": "EyebrowUpper/EyebrowLower",
+               "brow_bone": "EyeUpper2 to EyebrowLower", "under_eye": "EyeLower0 to EyeLower3"}
+    for k, sel in parts.items():
+        out[k] = (tex.image(sel), src.format(sources[k]))
+    return out
+
+
+def is_face_mesh(head: Head) -> bool:
+    """Whether ``head`` has MediaPipe's face-mesh topology (468 or 478 vertices in landmark order)."""
+    return len(head.vertices) in FACE_MESH_SIZES
+
+
+def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
+    """Every region of ``head`` on ``atlas`` (see the module docstring); the others in ``missing``.
+
+    Args:
+        head: the head (its landmarks, and for a face mesh its vertices).
+        atlas: the bake of its paint layout (:data:`painting.regions.REGION_RESOLUTION`² is enough).
+        head_uv: the layout is the head's own UVs (the albedo and skin mask can be read per texel);
+            False for an unwrapped layout (no albedo refinement, no skin mask).
+    """
+    out = RegionSet(head_name=head.name)
+    if not head_uv:
+        from dataclasses import replace
+
+        head = replace(head, albedo=None, skin_mask=None)
+    missing_lm = [k for k in LANDMARKS_NEEDED if k not in head.metadata.landmarks]
+    if missing_lm and not is_face_mesh(head):
+        why = f"the head's sidecar lacks landmark(s) {', '.join(missing_lm)} and it is not a face mesh"
+        out.missing = dict.fromkeys(REGION_NAMES, why)
+        return out
+    frame = FaceFrame(head)
+    skin = atlas.coverage.copy() if head.skin_mask is None else _skin_mask(head, atlas)
+    from scipy.ndimage import binary_fill_holes
+
+    # regions stay on the skin and what it surrounds (the lips, brows and lids are holes in a skin mask)
+    tex = _Texels(atlas, frame, np.asarray(binary_fill_holes(skin), bool) & atlas.coverage)
+    shapes: dict[str, tuple[np.ndarray, str]] = {}
+    if not missing_lm:
+        shapes.update(_landmark_shapes(head, frame, tex))
+    if is_face_mesh(head):
+        shapes.update(_contour_shapes(head, frame, tex))
+    texel_mm = local_texel_mm(atlas)
+    for name in ("lips", "eyes", "brows"):
+        if name in shapes:
+            skin &= ~shapes[name][0]
+    shapes["skin"] = (skin, "the head's skin mask" if head.skin_mask is not None else "every covered texel"
+                      + "; less the lips, eyes and brows")
+    if "lips" in shapes:
+        from scipy.ndimage import distance_transform_edt
+
+        lips = shapes["lips"][0]
+        signed = np.where(lips, distance_transform_edt(lips) - 0.5, 0.5 - distance_transform_edt(~lips)) * texel_mm
+        shapes["lip_line"] = (np.abs(signed) <= 0.75, "a 1.5 mm band on the lips' outline")
+    for name in REGION_NAMES:
+        if name not in shapes or not shapes[name][0].any():
+            out.missing[name] = "no texels matched its shape on this head" if name in shapes else \
+                "needs the sidecar's landmarks"
+            continue
+        hard, source = shapes[name]
+        f = DEFAULT_FEATHER_MM[name]
+        mask = spread_to_padding(feather(hard, f, texel_mm), atlas)
+        mask.flags.writeable = False
+        out.regions[name] = Region(name, mask, f, source)
+    return out
+
+
+def _skin_mask(head: Head, atlas: Atlas) -> np.ndarray:
+    """The head's skin mask (its own UVs) sampled at the atlas's texel centres, and the coverage."""
+    assert head.skin_mask is not None
+    h, w = head.skin_mask.shape
+    res = atlas.resolution
+    rows = np.minimum(((np.arange(res) + 0.5) / res * h).astype(np.int64), h - 1)
+    cols = np.minimum(((np.arange(res) + 0.5) / res * w).astype(np.int64), w - 1)
+    return head.skin_mask[rows][:, cols] & atlas.coverage
