@@ -88,6 +88,34 @@ void main() {
 """
 
 
+@dataclass(frozen=True)
+class Sensor:
+    """What a real camera adds before it clips and quantises (linear photograph units).
+
+    Attributes:
+        vignetting: the light lost in the image's corners (0..1), falling off as the squared distance
+            from the image's centre (a lens wide open loses 0.3–0.5 there).
+        shot: photon noise, the variance per unit of signal (σ² = shot·I): 5e-5 gives SNR 100 at 0.5.
+        read: read noise, σ in linear units.
+        seed: the noise's generator seed.
+    """
+
+    vignetting: float = 0.0
+    shot: float = 0.0
+    read: float = 0.0
+    seed: int = 0
+
+    def apply(self, linear: np.ndarray) -> np.ndarray:
+        """``linear`` (H, W, 3) as the sensor records it, before clipping: vignetted, then noisy."""
+        h, w = linear.shape[:2]
+        yy, xx = np.mgrid[0:h, 0:w]
+        r2 = ((xx + 0.5 - w / 2) ** 2 + (yy + 0.5 - h / 2) ** 2) / ((w / 2) ** 2 + (h / 2) ** 2)
+        out = linear * (1.0 - self.vignetting * r2)[..., None]
+        rng = np.random.default_rng(self.seed)
+        sigma = np.sqrt(self.shot * np.clip(out, 0.0, None) + self.read ** 2)
+        return out + sigma * rng.standard_normal(out.shape)
+
+
 @dataclass
 class GpuPhoto:
     """A photograph drawn on the GPU.
@@ -126,7 +154,7 @@ def irradiance_sh(env: np.ndarray, scale: float) -> np.ndarray:
 def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera: Camera,
                  diffuse: np.ndarray, specular: float, exponent: float, light: np.ndarray,
                  flash: np.ndarray, ambient: np.ndarray, sh: np.ndarray | None = None,
-                 supersample: int = 3) -> GpuPhoto:
+                 supersample: int = 3, sensor: Sensor | None = None) -> GpuPhoto:
     """Draw the flash photograph of ``head`` (see the module docstring).
 
     Args:
@@ -142,6 +170,7 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
         ambient: (3,) the constant A, photograph units (ignored with ``sh``).
         sh: (9, 3) irradiance SH coefficients (:func:`irradiance_sh`) for A(n) = E(n)/π, or None.
         supersample: samples per pixel along each axis (the photograph is their linear mean).
+        sensor: vignetting and noise applied before the sensor clips and quantises; None = neither.
     """
     w, h = camera.width * supersample, camera.height * supersample
     # The head's v counts from the image's top row (painting.head) and GL puts the first row uploaded at
@@ -195,7 +224,7 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
         for obj in (fbo, colour_rb, texture_rb, depth_rb, vao, index, *buffers, prog, tex):
             obj.release()
     coverage = colour[..., 3]
-    srgb8 = linear_to_srgb8(colour[..., :3])
+    srgb8 = linear_to_srgb8(colour[..., :3] if sensor is None else sensor.apply(colour[..., :3]))
     texture_px = texel[..., :3] / np.maximum(coverage, 1e-9)[..., None]
     return GpuPhoto(srgb8=srgb8, texture=np.where(coverage[..., None] > 0, texture_px, 0.0), coverage=coverage)
 
@@ -234,6 +263,7 @@ class Case:
             subject's left), at ``distance_mm`` from the face (the validation's: 2362.5 mm, a 6.4°
             vertical field; the field follows the distance so the head keeps its size).
         noise_px: the landmarks' pixel noise (standard deviation, pixels) for "noisy".
+        sensor: the camera's vignetting and noise (:class:`Sensor`), or None for neither.
     """
 
     head: str
@@ -247,6 +277,7 @@ class Case:
     yaw_deg: float = 0.0
     distance_mm: float = 2362.5
     noise_px: float = 1.0
+    sensor: Sensor | None = None
 
 
 class Figures(NamedTuple):
@@ -393,7 +424,7 @@ def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
     first = render_photo(ctx, head, texture, camera, np.asarray(case.diffuse), supersample=1, **args)
     face = landmark_region(camera, head.metadata.landmarks, (camera.height, camera.width)) & (first.coverage > 0)
     diffuse = np.asarray(case.diffuse) / first.texture[face].mean(axis=0)
-    photo = render_photo(ctx, head, texture, camera, diffuse, **args)
+    photo = render_photo(ctx, head, texture, camera, diffuse, sensor=case.sensor, **args)
     probe = as_photographed(synthetic_probe(env, camera.R, light, FLASH_RGB, size=256, env_scale=scale))
     return Scene(head=head, camera=camera, fit_camera=calibrated_camera(head, camera, case), photo=photo,
                  probe_linear=probe, light=light, diffuse=diffuse)
