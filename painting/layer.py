@@ -112,7 +112,7 @@ class Layer:
         out = self._data * np.float32(self.opacity)
         if self._mask_recipe is not None:
             m = self._mask_recipe if self.mask_channel is None else \
-                self._mask_recipe + self.mask_channel - np.float32(1.0)
+                self._mask_recipe + (self.mask_channel - np.float32(1.0))
             out *= np.clip(m, 0.0, 1.0)
         elif self.mask_channel is not None:
             out *= np.clip(self.mask_channel, 0.0, 1.0)

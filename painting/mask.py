@@ -187,7 +187,8 @@ def effective_tiles(recipe: np.ndarray | None, channel: np.ndarray | None, tiles
         assert base is not None
         return np.asarray(base, np.float32).copy()
     ch = pick(channel)
-    out = ch if base is None else base + ch - np.float32(CHANNEL_NEUTRAL)
+    # (c − 1) first: a neutral channel then leaves the recipe bit-exact
+    out = ch if base is None else base + (ch - np.float32(CHANNEL_NEUTRAL))
     return np.clip(out, 0.0, 1.0).astype(np.float32)
 
 

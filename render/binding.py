@@ -10,6 +10,11 @@ changes to the renderer:
 - ``"layers"`` and ``"material"`` events: every layer is read again (:func:`layer_inputs`) and evaluated;
 - ``"history"`` events change nothing on screen.
 
+Layer masks (:mod:`painting.mask`) are applied here, at upload: a masked layer's thickness goes to the
+renderer multiplied by its mask. The binding keeps that product per masked layer and, for dirty tiles,
+recomputes only those tiles (so a dab on a masked layer, or on its mask's channel, stays as cheap as on
+any layer); the tiles still go through ``km.update_tiles``, so the lighting cache follows.
+
 The renderer's layer *i* is the document's layer *i*, hidden ones included (``visible=False``), so a
 document index is also the renderer's. A change made outside the document — a material edited in the
 library — has no event: :meth:`DocumentBinding.invalidate` asks for a full re-evaluation.
@@ -19,26 +24,41 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from painting.mask import layer_mask_values
+from painting.tiles import TILE
 from render.km_pass import LayerInput
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
     from km.library import Library
-    from painting import ChangeEvent, Document
+    from painting import ChangeEvent, Document, Layer
     from render.renderer import Renderer
 
 
-def layer_inputs(doc: Document, library: Library | None = None) -> list[LayerInput]:
+def masked_thickness(layer: Layer) -> np.ndarray:
+    """The thickness a layer is rendered with (µm).
+
+    Its map × its mask (a new float32 array), or the live map when it has no mask.
+    """
+    mask = layer_mask_values(layer)
+    return layer.thickness if mask is None else np.multiply(layer.thickness, mask, dtype=np.float32)
+
+
+def layer_inputs(doc: Document, library: Library | None = None,
+                 maps: dict[int, np.ndarray] | None = None) -> list[LayerInput]:
     """Every layer of ``doc`` as a :class:`render.km_pass.LayerInput`, bottom first.
 
     Hidden layers are kept with ``visible=False``, so index *i* is document layer *i*. The thickness is
-    the layer's live map (µm), not a copy.
+    the layer's live map (µm), not a copy, unless the layer has a mask (then :func:`masked_thickness`).
 
     Args:
         doc: the document.
         library: where materials are looked up by name first (the studio's library: edits there show at
             once); without one, or for a name it lacks, the layer's own material object is used.
+        maps: thickness to use per layer id instead (the binding's masked maps), or None.
 
     Returns:
         One input per layer. A layer whose material is nowhere is kept (indices) but not drawn.
@@ -52,7 +72,8 @@ def layer_inputs(doc: Document, library: Library | None = None) -> list[LayerInp
         visible = bool(lay.visible) and mat is not None
         if mat is None:
             mat = next(iter(library if library is not None else doc.library))
-        out.append(LayerInput(mat, lay.thickness, float(lay.opacity), visible, str(lay.name)))
+        thickness = maps[lay.id] if maps is not None and lay.id in maps else masked_thickness(lay)
+        out.append(LayerInput(mat, thickness, float(lay.opacity), visible, str(lay.name)))
     return out
 
 
@@ -84,6 +105,7 @@ class DocumentBinding:
         self.on_change = on_change
         self.dirty: dict[int, set[tuple[int, int]]] = {}
         self.full = True
+        self._masked: dict[int, np.ndarray] = {}  # layer id -> its thickness × its mask, as uploaded
         self._unsubscribe: Callable[[], None] | None = doc.subscribe(self._on_event)
 
     def _on_event(self, event: ChangeEvent) -> None:
@@ -125,12 +147,28 @@ class DocumentBinding:
                != layers[index[lid]].thickness.shape for lid in self.dirty):
             self.full = True
         if self.full:
-            self.renderer.set_layers(layer_inputs(self.doc, self.library))
+            self._masked = {lay.id: masked_thickness(lay) for lay in layers if lay.has_mask}
+            self.renderer.set_layers(layer_inputs(self.doc, self.library, self._masked))
         else:
             for lid, tiles in self.dirty.items():
-                self.renderer.km.update_tiles(index[lid], layers[index[lid]].thickness, sorted(tiles))
+                lay = layers[index[lid]]
+                order = sorted(tiles)
+                thickness = lay.thickness
+                if lid in self._masked:
+                    thickness = self._masked[lid]
+                    self._remask(lay, thickness, order)
+                self.renderer.km.update_tiles(index[lid], thickness, order)
         self.full, self.dirty = False, {}
         return True
+
+    @staticmethod
+    def _remask(layer: Layer, out: np.ndarray, tiles: list[tuple[int, int]]) -> None:
+        """Recompute ``out`` (the layer's masked thickness) on ``tiles`` only."""
+        mask = layer_mask_values(layer, tiles)
+        n = out.shape[0] // TILE
+        t = np.asarray(tiles, dtype=np.int64).reshape(-1, 2)
+        src = layer.thickness.reshape(n, TILE, n, TILE)[t[:, 0], :, t[:, 1], :]
+        out.reshape(n, TILE, n, TILE)[t[:, 0], :, t[:, 1], :] = src if mask is None else src * mask
 
     def close(self) -> None:
         """Stop following the document (queued changes are dropped)."""
