@@ -180,21 +180,27 @@ def run_catalogue(spec: Spec, out: str | Path, *, jobs: list[Job] | None = None,
     failed: dict[str, dict[str, Any]] = {}
     if on_progress is not None:
         on_progress(result.skipped, len(jobs), 0, 0)
+    outs = {j.out for j in todo}
+
+    def run_on(cl: Any) -> None:
+        _run_jobs(cl, todo, folder, t0 if force else None, result, records, failed, on_progress, on_dashboard,
+                  cancelled)
+        result.failed = list(failed.values())
+        _write_outputs(spec, folder, jobs, outs, records, result, sheets_on=cl)
+
     try:
         if todo and client is not None:
-            _run_jobs(client, todo, folder, t0 if force else None, result, records, failed, on_progress,
-                      on_dashboard, cancelled)
+            run_on(client)
         elif todo:
             with dask_client(workers, scheduler) as own:
-                _run_jobs(own, todo, folder, t0 if force else None, result, records, failed, on_progress,
-                          on_dashboard, cancelled)
+                run_on(own)
+        else:
+            _write_outputs(spec, folder, jobs, outs, records, result, sheets_on=None)
     except KeyboardInterrupt:  # Ctrl-C: the manifest still lists what is there, then the interrupt goes on
         result.cancelled = True
         result.failed = list(failed.values())
-        _write_outputs(spec, folder, jobs, {j.out for j in todo}, records, result, sheets=False)
+        _write_outputs(spec, folder, jobs, outs, records, result, sheets=False)
         raise
-    result.failed = list(failed.values())
-    _write_outputs(spec, folder, jobs, {j.out for j in todo}, records, result)
     result.seconds = time.time() - t0
     return result
 
@@ -285,15 +291,16 @@ def _collect(fut: Any, chunk: list[Job], by_out: dict[str, Job], attempts: dict[
 
 
 def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], records: dict[str, dict[str, Any]],
-                   result: RunResult, sheets: bool = True) -> None:
+                   result: RunResult, sheets: bool = True, sheets_on: Any = None) -> None:
     """manifest.json, manifest.csv, failed.json (or its removal) and the contact sheets, atomically.
 
-    Sets ``result.rendered``: the outputs this run wrote (``todo`` are those it set out to write).
+    Sets ``result.rendered``: the outputs this run wrote (``todo`` are those it set out to write). The
+    sheets are drawn by the Dask workers of ``sheets_on`` (a client; they are independent), else here.
     """
     import csv
     import io
 
-    from catalogue.sheets import write_contact_sheets
+    from catalogue.sheets import sheet_groups, write_sheet
     from core.atomicio import atomic_write_text
 
     old = _previous_manifest(folder)
@@ -314,6 +321,8 @@ def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], re
         images.append({"file": job.out, "hash": job.key, **job.params(), "status": status, "seconds": seconds,
                        "worker": worker})
     result.rendered = sum(e["status"] == "rendered" for e in images)
+    if not result.cancelled:
+        _remove_stale_temporaries(folder, jobs)
     manifest = {"schema_version": MANIFEST_SCHEMA_VERSION, "name": spec.name, "spec": str(spec.path.absolute()),
                 "renderer_version": jobs[0].version if jobs else renderer_version(), "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
                 "total": len(jobs), "rendered": result.rendered, "skipped": result.skipped,
@@ -331,10 +340,31 @@ def _write_outputs(spec: Spec, folder: Path, jobs: list[Job], todo: set[str], re
         else:
             failed_path.unlink(missing_ok=True)
         if spec.contact_sheets and sheets:
-            write_contact_sheets(folder, jobs, only_if_changed=result.rendered == 0 and not result.failed)
+            groups = sheet_groups(folder, jobs, only_if_changed=result.rendered == 0 and not result.failed)
+            if sheets_on is not None and groups:
+                sheets_on.gather(sheets_on.map(write_sheet, [folder] * len(groups), list(groups),
+                                               list(groups.values()), pure=False))
+            else:
+                for path, items in groups.items():
+                    write_sheet(folder, path, items)
     except OSError as exc:
         raise CatalogueError(f"{folder}: cannot write the manifest: {exc.strerror or exc}") from None
     result.manifest = folder / "manifest.json"
+
+
+def _remove_stale_temporaries(folder: Path, jobs: list[Job]) -> None:
+    """Delete the temporary files a killed worker left beside this catalogue's outputs.
+
+    They are ``.<name>.<random>.tmp`` (:mod:`core.atomicio`); the outputs themselves are never half-written.
+    """
+    names: dict[Path, set[str]] = {}
+    for job in jobs:
+        target = folder / job.out
+        names.setdefault(target.parent, set()).add(target.name)
+    for parent, outs in names.items():
+        for tmp in parent.glob(".*.tmp") if parent.is_dir() else ():
+            if tmp.name[1:].rsplit(".", 2)[0] in outs:
+                tmp.unlink(missing_ok=True)
 
 
 def _previous_manifest(folder: Path) -> dict[str, dict[str, Any]]:
