@@ -20,7 +20,8 @@ from painting.mask import (
     neutral_channel,
     recipe_values,
 )
-from painting.regions import REGION_RESOLUTION, RegionError, RegionSet, regions_for
+from painting.region_shapes import regions_for
+from painting.regions import REGION_RESOLUTION, RegionError, RegionSet
 from painting.stroke import Stroke
 
 if TYPE_CHECKING:
@@ -54,7 +55,7 @@ class MaskEditing:
 
     @property
     def regions(self) -> RegionSet:
-        """The head's facial regions (:func:`painting.regions.regions_for`; read or derived on first use)."""
+        """The head's facial regions (:func:`painting.region_shapes.regions_for`; read or derived on first use)."""
         if self._regions is None:
             stored = regions_for(self.head)
             if all(why == "no atlas to derive them on" for why in stored.missing.values()) and stored.missing:

@@ -27,9 +27,12 @@ from painting.regions import (
     DEFAULT_FEATHER_MM,
     REGION_NAMES,
     Region,
+    RegionError,
     RegionSet,
+    decode_regions,
     feather,
     local_texel_mm,
+    regions_file,
     spread_to_padding,
 )
 
@@ -402,3 +405,29 @@ def _skin_mask(head: Head, atlas: Atlas) -> np.ndarray:
     rows = np.minimum(((np.arange(res) + 0.5) / res * h).astype(np.int64), h - 1)
     cols = np.minimum(((np.arange(res) + 0.5) / res * w).astype(np.int64), w - 1)
     return head.skin_mask[rows][:, cols] & atlas.coverage
+
+
+def regions_for(head: Head, atlas: Atlas | None = None, head_uv: bool = True) -> RegionSet:
+    """The regions of ``head`` (see the module docstring for where they come from).
+
+    Args:
+        head: the head.
+        atlas: the bake of the head's paint layout at :data:`REGION_RESOLUTION`; needed to derive regions
+            (not to read stored ones).
+        head_uv: the layout is the head's own UVs (see :func:`painting.region_shapes.derive_regions`).
+
+    Returns:
+        The regions; those that could not be derived are named in ``missing``.
+    """
+    from core.files import read_bounded
+    from painting.head import MAX_HEAD_FILE_BYTES, find_sidecar
+
+    sidecar = find_sidecar(head.path) if head.path.parent.name != "<embedded>" else None
+    if sidecar is not None:
+        stored = regions_file(sidecar)
+        if stored.is_file():
+            blob = read_bounded(stored, MAX_HEAD_FILE_BYTES, "region masks", RegionError)
+            return decode_regions(blob, str(stored), head.name)
+    if atlas is None:
+        return RegionSet(head_name=head.name, missing=dict.fromkeys(REGION_NAMES, "no atlas to derive them on"))
+    return derive_regions(head, atlas, head_uv=head_uv)

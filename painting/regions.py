@@ -5,7 +5,7 @@ A region is a float32 mask in [0, 1] over the paint atlas's texels (top row firs
 resolution on use. Its edge is a linear ramp ``feather_mm`` wide (3D surface distance, through the
 atlas's local texel size) centred on the hard outline, so the mask reaches 0 half a feather outside it.
 
-Where regions come from (:func:`regions_for`):
+Where regions come from (:func:`painting.region_shapes.regions_for`):
 
 - a head whose sidecar ships region files (``<sidecar stem>.regions.png`` beside it, e.g. the sample
   head in ``resources/heads/``): read from there (rebuilt byte-exactly by ``resources/heads/build_regions.py``);
@@ -33,7 +33,6 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from painting.atlas import Atlas
-    from painting.head import Head
 
 #: Texels per side of a stored region mask.
 REGION_RESOLUTION = 1024
@@ -272,31 +271,3 @@ def decode_regions(blob: bytes, where: str, head_name: str = "") -> RegionSet:
         mask.flags.writeable = False
         out.regions[name] = Region(name, mask, float(e.get("feather_mm", 0.0)), str(e.get("source", "")))
     return out
-
-
-def regions_for(head: Head, atlas: Atlas | None = None, head_uv: bool = True) -> RegionSet:
-    """The regions of ``head`` (see the module docstring for where they come from).
-
-    Args:
-        head: the head.
-        atlas: the bake of the head's paint layout at :data:`REGION_RESOLUTION`; needed to derive regions
-            (not to read stored ones).
-        head_uv: the layout is the head's own UVs (see :func:`painting.region_shapes.derive_regions`).
-
-    Returns:
-        The regions; those that could not be derived are named in ``missing``.
-    """
-    from core.files import read_bounded
-    from painting.head import MAX_HEAD_FILE_BYTES, find_sidecar
-
-    sidecar = find_sidecar(head.path) if head.path.parent.name != "<embedded>" else None
-    if sidecar is not None:
-        stored = regions_file(sidecar)
-        if stored.is_file():
-            blob = read_bounded(stored, MAX_HEAD_FILE_BYTES, "region masks", RegionError)
-            return decode_regions(blob, str(stored), head.name)
-    if atlas is None:
-        return RegionSet(head_name=head.name, missing=dict.fromkeys(REGION_NAMES, "no atlas to derive them on"))
-    from painting.region_shapes import derive_regions
-
-    return derive_regions(head, atlas, head_uv=head_uv)

@@ -13,7 +13,7 @@ import pytest
 from core.assets import find_asset
 from painting import Brush, Document, DocumentError
 from painting.head import load_head
-from painting.region_shapes import CONTOURS
+from painting.region_shapes import CONTOURS, regions_for
 from painting.regions import (
     REGION_NAMES,
     REGION_RESOLUTION,
@@ -22,7 +22,6 @@ from painting.regions import (
     decode_regions,
     encode_regions,
     feather,
-    regions_for,
     resample,
 )
 
