@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from core.errors import SheerError
 from painting.head import HeadError, load_head, load_head_from_bytes
 from project.errors import ProjectError
 from project.heads import make_head_ref
@@ -109,6 +110,14 @@ def document_from_project(project: Project, head_path: str | Path | None = None,
         if np.any(pl.thickness):
             doc.set_thickness(layer, pl.thickness, detail="open")
         doc.set_layer(layer, visible=bool(pl.visible), opacity=float(pl.opacity))
+        if pl.mask is not None or pl.mask_channel is not None:
+            from painting.mask import LayerMask
+
+            try:
+                recipe = None if pl.mask is None else LayerMask.from_json(pl.mask, "mask")
+                doc.set_layer_mask(layer, recipe, pl.mask_channel)
+            except SheerError as exc:
+                raise ProjectError(f"project '{project.name}': layer {pl.name!r}: {exc}") from None
     doc.clear_history()
     return doc
 
@@ -145,7 +154,10 @@ def project_from_document(doc: Document, *, name: str = "Untitled", base: Projec
         layers.append(ProjectLayer(name=layer.name, material=layer.material,
                                    thickness=np.array(layer.thickness, dtype=np.float32, copy=True),
                                    visible=bool(layer.visible), opacity=float(layer.opacity),
-                                   max_thickness_um=float(layer.max_thickness_um), encoding=encoding))
+                                   max_thickness_um=float(layer.max_thickness_um), encoding=encoding,
+                                   mask=None if layer.mask is None else layer.mask.to_json(),
+                                   mask_channel=None if layer.mask_channel is None
+                                   else np.array(layer.mask_channel, dtype=np.float32, copy=True)))
 
     def keep(value: Any, attr: str, default: Any) -> Any:
         return value if value is not None else getattr(base, attr) if base is not None else default

@@ -92,6 +92,8 @@ def _read_json(zf: SafeZipReader, label: str) -> dict[str, Any]:
 def _check_entries(zf: SafeZipReader, label: str, data: dict[str, Any]) -> None:
     """The entries must be exactly what project.json names (``mimetype`` optional, and then first)."""
     expected = {PROJECT_JSON} | {layer["map"] for layer in data["layers"]}
+    expected |= {layer["mask"]["channel"]["map"] for layer in data["layers"]
+                 if layer["mask"] is not None and layer["mask"]["channel"] is not None}
     if data["head"]["embedded"]:
         expected |= {HEAD_PREFIX + key for key in data["head"]["files"]}
     names = zf.names()
@@ -128,9 +130,31 @@ def _read_layer(zf: SafeZipReader, label: str, i: int, record: dict[str, Any]) -
         thickness = check_thickness(values, at, (side, side))
     except MapError as exc:
         raise ProjectError(str(exc)) from None
+    mask = record["mask"]
+    channel = None if mask is None or mask["channel"] is None else _read_channel(zf, label, i, mask["channel"], side)
     return ProjectLayer(name=record["name"], material=record["material"], thickness=thickness,
                         visible=record["visible"], opacity=float(record["opacity"]),
-                        max_thickness_um=float(record["max_thickness_um"]), encoding=record["encoding"])
+                        max_thickness_um=float(record["max_thickness_um"]), encoding=record["encoding"],
+                        mask=None if mask is None else {k: mask[k] for k in ("regions", "invert", "feather_mm")},
+                        mask_channel=channel)
+
+
+def _read_channel(zf: SafeZipReader, label: str, i: int, record: dict[str, Any], side: int) -> np.ndarray:
+    """Layer ``i``'s mask channel: digest checked, decoded (EXR float32 of the layer's size), values in [0, 2]."""
+    entry = record["map"]
+    blob = zf.read(entry)
+    at = f"{label}: entry {entry!r} (mask of layer {i})"
+    actual = hashlib.sha256(blob).hexdigest()
+    if actual != record["sha256"]:
+        raise ProjectError(f"{at}: SHA-256 {actual[:12]}… does not match layers[{i}].mask.channel.sha256 "
+                           f"({record['sha256'][:12]}…): the mask is damaged or belongs to another layer")
+    try:
+        values = decode_exr(blob, at, (side, side))
+    except MapError as exc:
+        raise ProjectError(str(exc)) from None
+    if not np.all(np.isfinite(values)) or values.min(initial=0.0) < 0.0 or values.max(initial=0.0) > 2.0:
+        raise ProjectError(f"{at}: mask channel values must be finite and in [0, 2]")
+    return values
 
 
 def _read_embedded_head(zf: SafeZipReader, label: str, record: dict[str, Any]) -> HeadRef:
@@ -229,16 +253,47 @@ def encode_maps(project: Project) -> list[bytes]:
     return out
 
 
+def encode_channels(project: Project) -> list[bytes | None]:
+    """Each layer's mask channel entry (EXR float32 bytes), or None for a layer without one."""
+    out: list[bytes | None] = []
+    for i, layer in enumerate(project.layers):
+        ch = layer.mask_channel
+        if ch is None:
+            out.append(None)
+            continue
+        arr = np.asarray(ch)
+        if arr.shape != (layer.resolution, layer.resolution) or arr.dtype != np.float32 \
+                or not np.all(np.isfinite(arr)) or arr.min() < 0.0 or arr.max() > 2.0:
+            raise ProjectError(f"project '{project.name}': layer {i} {layer.name!r}: the mask channel must be "
+                               f"float32 {layer.resolution}×{layer.resolution} in [0, 2]")
+        out.append(encode_exr(arr))
+    return out
+
+
+def _mask_json(layer: ProjectLayer, i: int, channel: bytes | None) -> dict[str, Any] | None:
+    """Layer ``i``'s ``mask`` record (its recipe and its channel entry), or None."""
+    if layer.mask is None and channel is None:
+        return None
+    recipe = layer.mask or {"regions": [], "invert": False, "feather_mm": 0.0}
+    return {"regions": [list(r) for r in recipe["regions"]], "invert": bool(recipe["invert"]),
+            "feather_mm": float(recipe["feather_mm"]),
+            "channel": None if channel is None else {"map": f"masks/{i:03d}.exr",
+                                                     "sha256": hashlib.sha256(channel).hexdigest()}}
+
+
 def project_json(project: Project, target_dir: Path | None, self_contained: bool,
-                 maps: list[bytes] | None = None) -> dict[str, Any]:
+                 maps: list[bytes] | None = None, channels: list[bytes | None] | None = None) -> dict[str, Any]:
     """The project.json dict for ``project`` saved into ``target_dir``.
 
     The head's path is made relative to ``target_dir`` when it can be; ``self_contained`` records an
-    embedded head; ``maps`` are the encoded map entries (:func:`encode_maps`, computed when not given).
+    embedded head; ``maps`` are the encoded map entries (:func:`encode_maps`, computed when not given),
+    ``channels`` the mask channels' (:func:`encode_channels`, likewise).
     """
     head = project.head
     if maps is None:
         maps = encode_maps(project)
+    if channels is None:
+        channels = encode_channels(project)
     path_text: str | None = None
     if not self_contained:
         if head.mesh_path is None:
@@ -259,6 +314,7 @@ def project_json(project: Project, target_dir: Path | None, self_contained: bool
             "map": f"layers/{i:03d}.{ext}", "encoding": layer.encoding,
             "scale_um": png16_um_per_count(layer.thickness) if layer.encoding == "png16" else None,
             "sha256": hashlib.sha256(maps[i]).hexdigest(),
+            "mask": _mask_json(layer, i, channels[i]),
         })
     out: dict[str, Any] = {
         "schema_version": SCHEMA_VERSION,
@@ -294,7 +350,8 @@ def _entries(project: Project, target_dir: Path | None, self_contained: bool) ->
     """Validate ``project`` as it would be read back, then produce the zip entries."""
     head = embed_head(project.head) if self_contained else project.head
     maps = encode_maps(project)
-    doc = project_json(project, target_dir, self_contained, maps)
+    channels = encode_channels(project)
+    doc = project_json(project, target_dir, self_contained, maps, channels)
     where = f"project '{project.name}'"
     validate_json(doc, where)  # never write a file this Sheer would refuse to open
     check_semantics(doc, where)
@@ -302,8 +359,10 @@ def _entries(project: Project, target_dir: Path | None, self_contained: bool) ->
         ("mimetype", MIMETYPE.encode(), False),
         (PROJECT_JSON, json.dumps(doc, indent=1, ensure_ascii=False, allow_nan=False).encode("utf-8"), True),
     ]
-    for blob, meta in zip(maps, doc["layers"]):
+    for blob, channel, meta in zip(maps, channels, doc["layers"]):
         entries.append((meta["map"], blob, False))
+        if channel is not None:
+            entries.append((meta["mask"]["channel"]["map"], channel, False))
     if self_contained:
         assert head.data is not None
         for key in sorted(head.data):

@@ -14,8 +14,10 @@ Version history (see ``docs/FORMAT.md``):
 
 1. The draft layout: ``head`` a path string with ``head_sha256`` of the mesh alone, one
    ``resolution`` for every layer, layers without opacity, EXR maps only.
-2. Current: a head object (path, asset, SHA-256 of every head file, embedded flag), per-layer
+2. A head object (path, asset, SHA-256 of every head file, embedded flag), per-layer
    ``resolution``/``opacity``/``encoding``/``scale_um``, ``format``, ``created_by``, ``look``.
+3. Current: per-layer ``mask`` (facial regions combined, inverted, feathered, and a paint channel map
+   ``masks/NNN.exr``), or null.
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ if TYPE_CHECKING:
     from core.migrations import Step
 
 #: The version this Sheer writes.
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 #: The oldest version it can migrate from.
 OLDEST_SCHEMA_VERSION = 1
 
@@ -120,4 +122,20 @@ def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
                          "materials", "lights", "camera"}
     if extra:
         raise ValueError(f"unknown field(s) {sorted(extra)} in a schema_version 1 project")
+    return out
+
+
+@MIGRATIONS.register(2)
+def _v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
+    """2 → 3: every layer gets ``mask: null`` (no mask: the layer shows everywhere, as before)."""
+    layers = _require(data, "layers", list)
+    out = dict(data)
+    out["layers"] = []
+    for layer in layers:
+        if not isinstance(layer, dict):
+            raise ValueError("a layer is not an object")
+        if "mask" in layer:
+            raise ValueError("a schema_version 2 layer has a 'mask' field")
+        out["layers"].append({**layer, "mask": None})
+    out["schema_version"] = 3
     return out

@@ -80,6 +80,9 @@ class ProjectLayer:
         opacity: [0, 1], scales the thickness when rendering.
         max_thickness_um: (0, 10000] µm, what the brush builds up to.
         encoding: how the map is stored, one of :data:`ENCODINGS`.
+        mask: the layer mask's recipe as JSON (``regions`` [[op, name]…], ``invert``, ``feather_mm``;
+            see ``painting.mask.LayerMask``), or None.
+        mask_channel: the mask's paint channel, float32 (N, N) in [0, 2] (neutral 1), or None.
     """
 
     name: str
@@ -89,6 +92,8 @@ class ProjectLayer:
     opacity: float = 1.0
     max_thickness_um: float = 100.0
     encoding: str = "exr-float32"
+    mask: dict[str, Any] | None = None
+    mask_channel: np.ndarray | None = None
 
     @property
     def resolution(self) -> int:
@@ -100,7 +105,11 @@ class ProjectLayer:
         return (self.name, self.material, self.visible, self.opacity, self.max_thickness_um, self.encoding) == (
             other.name, other.material, other.visible, other.opacity, other.max_thickness_um, other.encoding
         ) and self.thickness.dtype == other.thickness.dtype and np.array_equal(
-            self.thickness.view(np.uint32), other.thickness.view(np.uint32))
+            self.thickness.view(np.uint32), other.thickness.view(np.uint32)) and self.mask == other.mask and (
+            (self.mask_channel is None) == (other.mask_channel is None)) and (
+            self.mask_channel is None or other.mask_channel is None or np.array_equal(
+                np.asarray(self.mask_channel, np.float32).view(np.uint32),
+                np.asarray(other.mask_channel, np.float32).view(np.uint32)))
 
 
 @dataclass

@@ -109,6 +109,10 @@ def check_semantics(data: dict[str, Any], where: str) -> None:
             raise ProjectError(f"{where}: layers[{i}].map: {layer['map']!r}, expected {expected!r}")
         if (layer["encoding"] == "png16") != (layer["scale_um"] is not None):
             raise ProjectError(f"{where}: layers[{i}].scale_um: a number for png16 maps, null for exr-float32")
+        channel = (layer["mask"] or {}).get("channel")
+        if channel is not None and channel["map"] != f"masks/{i:03d}.exr":
+            raise ProjectError(f"{where}: layers[{i}].mask.channel.map: {channel['map']!r}, expected "
+                               f"'masks/{i:03d}.exr'")
         if layer["material"] not in data["materials"]:
             raise ProjectError(f"{where}: layers[{i}].material: unknown material {layer['material']!r} "
                                "(not embedded in the project)")

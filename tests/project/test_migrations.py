@@ -78,8 +78,8 @@ def test_step_1_to_2_gives_a_valid_current_document() -> None:
     doc = v1_document("a" * 64)
     before = copy.deepcopy(doc)
     out = MIGRATIONS[1](copy.deepcopy(doc))
-    assert out["schema_version"] == 2 == SCHEMA_VERSION
-    validate_json(out, "migrated")
+    assert out["schema_version"] == 2
+    validate_json(MIGRATIONS[2](copy.deepcopy(out)), "migrated")  # 2 → 3 adds only the layers' masks
     assert out["resolution"] == 64 and out["layers"][0]["resolution"] == 64 and out["layout"] is None
     assert out["head"] == {"name": "head", "path": "v1-head/head.obj", "asset": None, "mesh": "head.obj",
                            "files": {"head.obj": "a" * 64}, "embedded": False}
@@ -131,7 +131,7 @@ def test_saving_a_migrated_project_backs_up_the_original(tmp_path: Path) -> None
     assert project_version(path) == SCHEMA_VERSION
     assert (tmp_path / "d" / "v1-draft.sheer.v1.bak").read_bytes() == original
     again = open_project(path)
-    assert again.source_schema_version == 2 and np.array_equal(again.layers[0].thickness, v1_thickness())
+    assert again.source_schema_version == SCHEMA_VERSION and np.array_equal(again.layers[0].thickness, v1_thickness())
     save_project(again, path)  # the v1 backup is kept, not overwritten by later saves
     assert (tmp_path / "d" / "v1-draft.sheer.v1.bak").read_bytes() == original
 
@@ -149,7 +149,7 @@ def test_cli_upgrade(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None
     shutil.copytree(DATA, tmp_path / "d")
     path = tmp_path / "d" / "v1-draft.sheer"
     assert main(["project", "upgrade", str(path)]) == 0
-    assert "upgraded from schema_version 1 to 2" in capsys.readouterr().out
-    assert project_version(path) == 2 and (tmp_path / "d" / "v1-draft.sheer.v1.bak").is_file()
+    assert f"upgraded from schema_version 1 to {SCHEMA_VERSION}" in capsys.readouterr().out
+    assert project_version(path) == SCHEMA_VERSION and (tmp_path / "d" / "v1-draft.sheer.v1.bak").is_file()
     assert main(["project", "upgrade", str(path)]) == 0
     assert "nothing to do" in capsys.readouterr().out

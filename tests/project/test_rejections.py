@@ -17,6 +17,7 @@ from bench.fuzz import sample_project
 from painting.maps_io import encode_exr
 from project.errors import ProjectContainerError, ProjectError, ProjectVersionError
 from project.io import open_project, project_bytes, read_project
+from project.migrations import SCHEMA_VERSION
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -257,7 +258,7 @@ def test_malformed_json(text: bytes, fragment: str) -> None:
 
 def test_newer_version_is_refused_with_a_message_that_says_so() -> None:
     message = rejected(with_json(lambda d: d.update(schema_version=99)), "newer Sheer", "schema_version 99",
-                       "reads up to 2", kind=ProjectVersionError)
+                       f"reads up to {SCHEMA_VERSION}", kind=ProjectVersionError)
     assert "update Sheer" in message
     rejected(with_json(lambda d: d.update(schema_version=0)), "older than any", kind=ProjectVersionError)
 
