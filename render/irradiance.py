@@ -150,6 +150,10 @@ class TextureIrradiance:
         self.version += 1
         return True
 
+    def is_current(self, key: Hashable) -> bool:
+        """Whether the cache holds the irradiance for ``key`` (see :meth:`update`)."""
+        return key == self._key
+
     def invalidate(self) -> None:
         """Recompute at the next :meth:`update` whatever its key (e.g. to time a relight)."""
         self._key = None

@@ -83,6 +83,7 @@ class Renderer:
         self.km = KMTextureSpace(ctx, self.shaders, dtype=km_dtype)
         self.shadows = ShadowMaps(ctx, self.shaders, self.settings.shadow_size)
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
+        self._irradiances: dict[int, TextureIrradiance] = {self.irradiance.size: self.irradiance}
         self.lighting = TextureLighting(ctx, self.shaders)
         self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
@@ -158,6 +159,12 @@ class Renderer:
                  "HAS_SKIN_MASK": int(self.head.skin_mask is not None)})
         return self._frame_programs[key]
 
+    def _irradiance_at(self, size: int) -> TextureIrradiance:
+        """The texture-space irradiance of side ``size`` (texels), made on first use and kept."""
+        if size not in self._irradiances:
+            self._irradiances[size] = TextureIrradiance(self.ctx, self.shaders, size)
+        return self._irradiances[size]
+
     def _composite_program(self, mode: int, debug: bool) -> moderngl.Program:
         """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
         key = (mode, int(debug))
@@ -224,14 +231,17 @@ class Renderer:
         shadowed = [lt for lt in self.lights if lt.shadows]
         if shadowed:
             self.shadows.update(self.lights, self.gpu_head.centre, self.gpu_head.radius, self.gpu_head.draw)
-        if self.irradiance.size != s.irradiance_size:
-            self.irradiance.release()
-            self.irradiance = TextureIrradiance(ctx, self.shaders, s.irradiance_size)
         env = self.environment
         irr_key = (tuple((lt.kind, tuple(lt.vector), tuple(lt.colour), lt.intensity, lt.shadows,
                           lt.reference_distance) for lt in self.lights),
                    None if env is None else env.coefficients.tobytes(), s.normal_strength, s.pcf_radius,
                    s.shadow_size)
+        # while a light is dragged (an interactive frame whose lights differ from the full-resolution
+        # irradiance's), relight at half its side: a quarter of the texture-space pass
+        size = s.irradiance_size
+        if s.interactive and not self._irradiance_at(size).is_current(irr_key):
+            size = max(size // 2, 64)
+        self.irradiance = self._irradiance_at(size)
 
         def setup_irradiance(p: moderngl.Program) -> None:
             self.shadows.texture.use(_U_SHADOW)
@@ -245,10 +255,10 @@ class Renderer:
         n = len(self.km.active)
         debug_on = DEBUG_VIEWS[s.debug_view] != 0
         cached = s.lighting_cache and self.gpu_head.paint_uv_is_mesh_uv and n > 0 and s.makeup and not debug_on
-        if cached and relit and self.lighting.needs_whole(self.irradiance, self.km):
-            # the lights are moving (the irradiance was just recomputed): a whole cache per frame would
-            # cost more than it saves; the direct path draws until the lights rest
-            cached = False
+        if cached and (relit or s.interactive) and self.lighting.needs_whole(self.irradiance, self.km):
+            # the lights are moving (an interactive frame whose irradiance is not the cache's): a whole
+            # cache per frame would cost more than it saves; the direct path draws until the view settles
+            cached = cached and not s.interactive
         if cached:
             self.lighting.update(self.km, self.irradiance, self.gpu_head)
         elif len(self.km.dirty_tiles) > 4096:  # long unused (direct path, bare skin, debug views)
@@ -499,6 +509,8 @@ class Renderer:
         self._composites, self._composite_vaos = {}, {}
         self.km.release()
         self.lighting.release()
-        self.irradiance.release()
+        for irr in self._irradiances.values():
+            irr.release()
+        self._irradiances = {}
         self.shadows.release()
         self.gpu_head.release()

@@ -39,6 +39,9 @@ class RenderSettings:
         shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
         irradiance_size: side of the texture-space irradiance cache (texels).
         cull_back_faces: skip triangles facing away (the head and the baseline alike).
+        interactive: a frame drawn while the user moves the view or a light (progressive refinement):
+            a light that moved is relit at half the irradiance cache's side, and the lighting cache is
+            not rebuilt whole (the direct path draws) until a frame that is not interactive.
         lighting_cache: take the view-independent lighting from the texture-space cache
             (:mod:`render.lit_cache`); False computes it per pixel (the direct path, for comparison).
         reference_full_resolution: run every Gaussian of the reference mode at full resolution (default:
@@ -65,6 +68,7 @@ class RenderSettings:
     reference_full_resolution: bool = False
     cull_back_faces: bool = True
     lighting_cache: bool = True
+    interactive: bool = False
 
     def validate(self) -> None:
         """Check every field a frame reads.

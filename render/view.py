@@ -141,7 +141,7 @@ class ViewRenderer:
         return list(self.r.km.active)
 
     # ------------------------------------------------------------------ frames
-    def _sync(self, camera: OrbitCamera, key_light: Light, debug: int, mode: str) -> None:
+    def _sync(self, camera: OrbitCamera, key_light: Light, debug: int, mode: str, interactive: bool = False) -> None:
         from render.lights import default_lights
 
         c = self.r.camera
@@ -154,6 +154,7 @@ class ViewRenderer:
             self._env = self.environment
         s = self.r.settings
         s.mode = mode if mode in ("fast", "reference") else "fast"
+        s.interactive = interactive
         view = self.views[debug] if 0 <= debug < len(self.views) else "none"
         self.debug_hidden = False
         if view == "thickness":
@@ -213,7 +214,7 @@ class ViewRenderer:
                "fast" if reduced else mode, low_size, self.layer_index, self.r.km.version)
         fresh = key != self._scene_key
         if fresh:
-            self._sync(camera, key_light, debug, "fast" if reduced else mode)
+            self._sync(camera, key_light, debug, "fast" if reduced else mode, bool(interactive))
             if mode == "lightweight":
                 self._draw_lightweight(frame, before)
             elif reduced:

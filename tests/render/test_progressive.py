@@ -194,3 +194,31 @@ def test_eight_shadowed_lights_and_a_map_covering_every_texel(view: ViewRenderer
     finally:
         view.r.lights = saved
         view.r.set_layers(layer_inputs(doc, None))
+
+
+def test_a_light_drag_relights_at_half_resolution_until_the_view_settles(view: ViewRenderer, gl_ctx: Any) -> None:
+    from render.lights import Light
+
+    size = (320, 240)
+    frame(gl_ctx, view, size, interactive=False)
+    full = view.r.settings.irradiance_size
+    assert view.r.irradiance.size == full
+    rebuilt = view.r.lighting.full_updates
+    for az in (10.0, 20.0, 30.0):  # the key light dragged: interactive frames
+        key = Light.directional(az, 30.0, 2.0)
+        view.render(_target(gl_ctx, size), size, view.r.camera, key, interactive=True, scale=0.5)
+        assert view.r.irradiance.size == full // 2, "a moving light must be relit at half resolution"
+    assert view.r.lighting.full_updates == rebuilt, "no whole lighting cache while the light moves"
+    view.render(_target(gl_ctx, size), size, view.r.camera, key, interactive=False)  # settled
+    assert view.r.irradiance.size == full
+    assert view.r.lighting.full_updates == rebuilt + 1, "the settled frame rebuilds the lighting cache once"
+
+
+_TARGETS: dict[tuple[int, int], Any] = {}
+
+
+def _target(ctx: Any, size: tuple[int, int]) -> Any:
+    """A colour framebuffer of ``size`` kept for the module (the view binds and draws into it)."""
+    if size not in _TARGETS:
+        _TARGETS[size] = ctx.framebuffer([ctx.texture(size, 4)])
+    return _TARGETS[size]
