@@ -13,6 +13,12 @@ dz]}`` (offset in mm in head space, then projected back onto the surface along â
 ``[x, y, z]`` in mesh units (projected likewise). Each stroke becomes one brush stroke (one undo step)
 through :class:`painting.Document`'s brush API; ``mirror`` paints the mirror image too. ``bare`` has no
 layers.
+
+Regions (:mod:`painting.regions`): a stroke may name ``"region"`` (with ``"region_mode"`` ``"inside"``,
+the default, or ``"avoid"``) to stay inside or out of it; a stroke ``{"fill_region": "lips",
+"amount_um": 20}`` (no points) fills a region to its line with its soft edge
+(:meth:`painting.Document.fill_region`); a layer may carry a ``"mask"`` (``{"regions": [["union",
+"lips"]], "invert": false, "feather_mm": 0}``, :class:`painting.mask.LayerMask`).
 """
 
 from __future__ import annotations
@@ -34,7 +40,8 @@ if TYPE_CHECKING:
 
 LOOK_SCHEMA_VERSION = 1
 BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip")
-_STROKE_KEYS = {"points", "radius_mm", "hardness", "strength", "amount_um", "mode", "mirror", "flow", "spacing"}
+_STROKE_KEYS = {"points", "radius_mm", "hardness", "strength", "amount_um", "mode", "mirror", "flow", "spacing",
+                "region", "region_mode", "fill_region"}
 
 
 class LookError(SheerError, ValueError):
@@ -54,6 +61,9 @@ class LookStroke:
     mirror: bool = False
     flow: float = 1.0
     spacing: float = 0.15
+    region: str | None = None
+    region_mode: str = "inside"
+    fill_region: str | None = None
 
 
 @dataclass
@@ -63,6 +73,7 @@ class LookLayer:
     material: str
     name: str = ""
     strokes: list[LookStroke] = field(default_factory=list)
+    mask: dict[str, Any] | None = None
 
 
 @dataclass
@@ -105,8 +116,18 @@ class Look:
                 if unknown:
                     raise LookError(f"{w}: unknown field(s) {sorted(unknown)}")
                 pts = st.get("points")
-                if not isinstance(pts, list) or not pts:
+                if "fill_region" in st:
+                    if "points" in st or not isinstance(st["fill_region"], str):
+                        raise LookError(f"{w}: a 'fill_region' stroke names a region and has no 'points'")
+                    st = {**st, "points": []}
+                elif not isinstance(pts, list) or not pts:
                     raise LookError(f"{w}: 'points' must be a non-empty list")
+                for key in ("region", "fill_region"):
+                    if st.get(key) is not None:
+                        from painting.regions import REGION_NAMES
+
+                        if st[key] not in REGION_NAMES:
+                            raise LookError(f"{w}.{key}: unknown region {st[key]!r} (known: {', '.join(REGION_NAMES)})")
                 for key in ("radius_mm", "hardness", "strength", "amount_um", "flow", "spacing"):
                     value = st.get(key)
                     if value is None and (key == "amount_um" or key not in st):
@@ -119,7 +140,15 @@ class Look:
                     strokes.append(LookStroke(**st))
                 except TypeError as exc:
                     raise LookError(f"{w}: {exc}") from None
-            layers.append(LookLayer(lay["material"], str(lay.get("name", lay["material"])), strokes))
+            mask = lay.get("mask")
+            if mask is not None:
+                from painting.mask import LayerMask
+
+                try:
+                    LayerMask.from_json(mask, f"{where}.mask")
+                except SheerError as exc:
+                    raise LookError(str(exc)) from None
+            layers.append(LookLayer(lay["material"], str(lay.get("name", lay["material"])), strokes, mask))
         return cls(str(data.get("name", source)), str(data.get("description", "")), layers)
 
 
@@ -244,7 +273,8 @@ def _code_digest() -> str:
         h = hashlib.sha256()
         folder = Path(__file__).resolve().parent
         for name in ("brush.py", "document.py", "layer.py", "stroke.py", "spatial.py", "kernels.py",
-                     "layout.py", "atlas.py", "history.py", "raster.py", "looks.py"):
+                     "layout.py", "atlas.py", "history.py", "raster.py", "looks.py", "regions.py",
+                     "region_shapes.py", "mask.py", "document_masks.py"):
             f = folder / name
             h.update(name.encode() + (f.read_bytes() if f.is_file() else b"-"))
         _CODE_DIGEST = h.hexdigest()
@@ -267,11 +297,14 @@ def _maps_cache_path(doc: Document, look: Look, points: list[list[list[np.ndarra
     for lay, lay_points in zip(look.layers, points):
         mat = doc.library.get(lay.material)  # a stroke without amount_um adds the material's default
         h.update(f"|{lay.material}|{float(mat.max_thickness_um)!r}|{getattr(mat, 'default_thickness_um', None)!r}"
-                 f"|{getattr(mat, 'thickness_um', None)!r}"
+                 f"|{getattr(mat, 'thickness_um', None)!r}|{json.dumps(lay.mask, sort_keys=True)}"
                  .encode())
         for st, pts in zip(lay.strokes, lay_points):
             h.update(repr((st.radius_mm, st.hardness, st.strength, st.mode, st.flow, st.amount_um, st.spacing,
-                           st.mirror)).encode())
+                           st.mirror, st.region, st.region_mode, st.fill_region)).encode())
+            for name in (st.region, st.fill_region):
+                if name is not None:  # the region's mask itself (a rebuilt region file paints differently)
+                    h.update(doc.regions.get(name).mask.tobytes())
             for p in pts:
                 h.update(np.ascontiguousarray(p, dtype="<f8").tobytes())
     from core.cache import cache_dir
@@ -326,15 +359,22 @@ def apply_look(doc: Document, look: Look | str, clear: bool = True) -> list[Laye
     for i, lay in enumerate(look.layers):
         layer = doc.add_layer(lay.material, name=lay.name or None)
         added.append(layer)
+        if lay.mask is not None:
+            from painting.mask import LayerMask
+
+            doc.set_layer_mask(layer, LayerMask.from_json(lay.mask, f"look '{look.name}' layers[{i}].mask"))
         if i == 0:
             cached = _load_maps(path, len(look.layers), tuple(layer.thickness.shape))
         if cached is not None:
             doc.set_thickness(layer, cached[i], detail=f"look {look.name}")
             continue
         for st, pts in zip(lay.strokes, points[i]):
+            if st.fill_region is not None:
+                doc.fill_region(layer, st.fill_region, st.amount_um)
+                continue
             brush = Brush(radius_mm=float(st.radius_mm), hardness=float(st.hardness), strength=float(st.strength),
                           mode=st.mode, flow=float(st.flow), amount_um=st.amount_um, spacing=float(st.spacing),
-                          mirror=bool(st.mirror))
+                          mirror=bool(st.mirror), region=st.region, region_mode=st.region_mode)
             with doc.stroke(layer, brush) as s:
                 for p in pts:
                     s.dab(p)

@@ -26,6 +26,7 @@ import numpy as np
 from painting.regions import (
     DEFAULT_FEATHER_MM,
     REGION_NAMES,
+    REGION_RESOLUTION,
     Region,
     RegionError,
     RegionSet,
@@ -123,6 +124,7 @@ class _Texels:
     def __init__(self, atlas: Atlas, frame: FaceFrame, allowed: np.ndarray) -> None:
         self.shape = atlas.coverage.shape
         self.allowed = allowed
+        self.texel_mm = float(atlas.texel_mm)
         self.flat = np.flatnonzero(atlas.coverage.reshape(-1))
         p = frame.mm(atlas.position.reshape(-1, 3)[self.flat])
         self.x, self.y, self.z = p[:, 0], p[:, 1], p[:, 2]
@@ -165,6 +167,16 @@ def _albedo_blob(head: Head, tex: _Texels, box: np.ndarray, dark: bool = False) 
     cols = np.minimum(((flat % res + 0.5) / res * w).astype(np.int64), w - 1)
     rgb = head.albedo[rows, cols].astype(np.float64)
     feature = -rgb.sum(axis=1) if dark else (rgb[:, 0] - rgb[:, 1]) / (rgb.sum(axis=1) + 1.0)
+    # smoothed over ~0.6 mm (a normalised Gaussian inside the box), so the edge follows the colour, not
+    # the scan's pore-level noise
+    img = np.zeros(res * res)
+    wgt = np.zeros(res * res)
+    img[flat] = feature
+    wgt[flat] = 1.0
+    sigma = 0.6 / max(tex.texel_mm, 1e-6)
+    num = ndimage.gaussian_filter(img.reshape(res, res), sigma)
+    den = ndimage.gaussian_filter(wgt.reshape(res, res), sigma)
+    feature = (num / np.maximum(den, 1e-9)).reshape(-1)[flat]
     hist, edges = np.histogram(feature, bins=64)
     centres = 0.5 * (edges[1:] + edges[:-1])
     w0 = np.cumsum(hist)
@@ -199,7 +211,7 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
     cx = 0.5 * (xl + xr)
     half = 0.5 * (xl - xr) + 3.0
     top = up_[1] + 0.6 * (up_[1] - lc[1]) + 2.0
-    bottom = lo_[1] - 0.8 * (lc[1] - lo_[1]) - 2.0
+    bottom = lo_[1] - 0.6 * (lc[1] - lo_[1]) - 2.0
     box = front & (np.abs(x - cx) <= half) & (y <= top) & (y >= bottom)
     mouth_line = _parabola(mr[:2], lc[:2], ml[:2], x)
     lips = _albedo_blob(head, tex, box)
@@ -347,7 +359,8 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
 
     Args:
         head: the head (its landmarks, and for a face mesh its vertices).
-        atlas: the bake of its paint layout (:data:`painting.regions.REGION_RESOLUTION`² is enough).
+        atlas: the bake of its paint layout at :data:`painting.regions.REGION_RESOLUTION` or a multiple
+            of it (then the masks are averaged down to it: supersampled, smoother outlines).
         head_uv: the layout is the head's own UVs (the albedo and skin mask can be read per texel);
             False for an unwrapped layout (no albedo refinement, no skin mask).
     """
@@ -373,25 +386,33 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
     if is_face_mesh(head):
         shapes.update(_contour_shapes(head, frame, tex))
     texel_mm = local_texel_mm(atlas)
-    for name in ("lips", "eyes", "brows"):
-        if name in shapes:
-            skin &= ~shapes[name][0]
-    shapes["skin"] = (skin, "the head's skin mask" if head.skin_mask is not None else "every covered texel"
-                      + "; less the lips, eyes and brows")
+    excluded = [name for name in ("lips", "eyes", "brows") if name in shapes]
+    shapes["skin"] = (skin, ("the head's skin mask" if head.skin_mask is not None else "every covered texel")
+                      + " × (1 − each of the lips, eyes and brows as soft masks)")
     if "lips" in shapes:
         from scipy.ndimage import distance_transform_edt
 
         lips = shapes["lips"][0]
         signed = np.where(lips, distance_transform_edt(lips) - 0.5, 0.5 - distance_transform_edt(~lips)) * texel_mm
         shapes["lip_line"] = (np.abs(signed) <= 0.75, "a 1.5 mm band on the lips' outline")
-    for name in REGION_NAMES:
+    soft: dict[str, np.ndarray] = {}
+    for name in REGION_NAMES:  # "skin" last: it needs the others' soft masks
         if name not in shapes or not shapes[name][0].any():
             out.missing[name] = "no texels matched its shape on this head" if name in shapes else \
                 "needs the sidecar's landmarks"
             continue
         hard, source = shapes[name]
         f = DEFAULT_FEATHER_MM[name]
-        mask = spread_to_padding(feather(hard, f, texel_mm), atlas)
+        mask = feather(hard, f, texel_mm)
+        if name == "skin":  # the excluded regions cut out with their own (narrow) feathers
+            for other in excluded:
+                mask *= 1.0 - soft[other]
+        soft[name] = mask
+        mask = spread_to_padding(mask, atlas)
+        k = atlas.resolution // REGION_RESOLUTION
+        if k > 1:  # supersampled: the block means give the outline sub-texel (smooth) edges
+            n = REGION_RESOLUTION
+            mask = mask.reshape(n, k, n, k).mean(axis=(1, 3), dtype=np.float64).astype(np.float32)
         mask.flags.writeable = False
         out.regions[name] = Region(name, mask, f, source)
     return out

@@ -58,8 +58,8 @@ REGION_NAMES: dict[str, str] = {
 }
 #: Default feather (full ramp width, mm) per region.
 DEFAULT_FEATHER_MM: dict[str, float] = {
-    "upper_lip": 0.5, "lower_lip": 0.5, "lips": 0.5, "lip_line": 0.5, "eyes": 1.0, "upper_eyelid": 1.5,
-    "crease": 3.0, "brow_bone": 3.0, "under_eye": 3.0, "brows": 1.5, "cheek_apple": 10.0, "cheekbone": 10.0,
+    "upper_lip": 0.5, "lower_lip": 0.5, "lips": 0.5, "lip_line": 0.5, "eyes": 1.0, "upper_eyelid": 1.0,
+    "crease": 1.0, "brow_bone": 3.0, "under_eye": 3.0, "brows": 1.5, "cheek_apple": 10.0, "cheekbone": 10.0,
     "nose_bridge": 3.0, "forehead": 6.0, "t_zone": 6.0, "jawline": 6.0, "skin": 3.0,
 }
 #: Bump when the stored region format changes.
@@ -271,3 +271,30 @@ def decode_regions(blob: bytes, where: str, head_name: str = "") -> RegionSet:
         mask.flags.writeable = False
         out.regions[name] = Region(name, mask, float(e.get("feather_mm", 0.0)), str(e.get("source", "")))
     return out
+
+
+def region_fit(thickness: np.ndarray, mask: np.ndarray, texel_mm: np.ndarray | float, amount_um: float,
+               dilate_mm: float = 0.5) -> tuple[float, float]:
+    """How well a layer keeps to a region: (fraction outside, coverage).
+
+    Args:
+        thickness: the layer's map (µm, (R, R)).
+        mask: the region at the same resolution (float [0, 1]); its outline is ``mask ≥ 0.5``.
+        texel_mm: texel size (mm), one number or per texel.
+        amount_um: the thickness the region should be filled to (µm, > 0).
+        dilate_mm: how far beyond the outline thickness still counts as inside (mm).
+
+    Returns:
+        The fraction of the layer's total thickness lying more than ``dilate_mm`` outside the outline,
+        and the fraction of the outline's texels holding at least 45 % of ``amount_um`` (the outline
+        itself sits mid-feather, at 50 %).
+    """
+    from scipy.ndimage import distance_transform_edt
+
+    inside = np.asarray(mask) >= 0.5
+    t = np.asarray(thickness, dtype=np.float64)
+    total = float(t.sum())
+    near = (distance_transform_edt(~inside) - 0.5) * texel_mm <= dilate_mm
+    outside = float(t[~near].sum()) / total if total > 0 else 0.0
+    coverage = float(np.mean(t[inside] >= 0.45 * amount_um)) if inside.any() else 0.0
+    return outside, coverage

@@ -2,7 +2,7 @@
 """Build ``resources/heads/<head>.regions.png``: the sample head's facial regions (issue #16).
 
 The regions are derived by :func:`painting.region_shapes.derive_regions` from the head's landmarks and
-geometry (the paint atlas's per-texel 3D positions at 1024²), the lips and brows refined by the albedo's
+geometry (the paint atlas's per-texel 3D positions at 2048², averaged down to 1024²), the lips and brows refined by the albedo's
 colour edges, and stored as one deterministic 8-bit PNG (:func:`painting.regions.encode_regions`): the
 masks stacked top to bottom, names, feathers and sources in a text chunk. Running this script again
 gives the same bytes. Usage::
@@ -29,7 +29,9 @@ def build(head_path: str | None) -> tuple[bytes, Path]:
 
     head = load_head(head_path)
     layout = build_layout(head)
-    regions = derive_regions(head, bake(layout, REGION_RESOLUTION, cache=False), head_uv=layout.source == "mesh")
+    # derived at 2× and averaged down: the outlines get sub-texel (smooth) edges
+    atlas = bake(layout, 2 * REGION_RESOLUTION, cache=False)
+    regions = derive_regions(head, atlas, head_uv=layout.source == "mesh")
     sidecar = find_sidecar(head.path)
     if sidecar is None:
         raise SystemExit(f"{head.path}: the head has no sidecar to store regions beside")

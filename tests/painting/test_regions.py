@@ -49,7 +49,7 @@ def test_sample_head_has_every_region_from_its_stored_file(sample: Document) -> 
     assert "albedo" in lips.source and lips.feather_mm == 0.5
     # upper and lower lip do not overlap (beyond their soft edges) and together make the lips
     up, lo, both = (regions.get(n).mask > 0.5 for n in ("upper_lip", "lower_lip", "lips"))
-    assert np.count_nonzero(up & lo) == 0
+    assert np.count_nonzero(up & lo) <= 0.005 * np.count_nonzero(both)  # only where their soft edges meet
     assert np.count_nonzero(both & ~(up | lo)) <= 0.02 * np.count_nonzero(both)
     # each lip is a sizeable area (a few hundred texels at 1024²: ~0.6 mm texels, 5–6 mm tall lips)
     assert np.count_nonzero(up) > 300 and np.count_nonzero(lo) > 300
@@ -72,6 +72,7 @@ def test_lip_region_lies_around_the_lip_landmarks_in_3d(sample: Document) -> Non
     assert up > lo
 
 
+@pytest.mark.slow  # ~20–40 s: the bake at 2048² and the derivation
 def test_stored_file_is_rebuilt_byte_exactly() -> None:
     out = subprocess.run([sys.executable, str(ROOT / "scripts" / "build_head_regions.py"), "--check"],
                          capture_output=True, text=True, cwd=ROOT, timeout=300)
