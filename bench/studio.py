@@ -150,11 +150,12 @@ def main(argv: list[str]) -> int:
         "load_average_1min": round(os.getloadavg()[0], 2),
         "cpus": os.cpu_count(),
         "renderer_frames": vp.renderer_frames,
-        "note": "input is real Qt mouse events delivered to the window (QTest on its QWindow) on a fixed "
-                "100 Hz schedule (moves overdue behind a frame coalesced into one, as X11 compresses motion); a frame counts when it is presented (QOpenGLWidget.frameSwapped, after the "
-                "window's composition and swap). orbit_fps = frames presented / orbit time; orbit_frame_ms = "
+        "note": "input is real Qt mouse events sent to the window's QWindow (Qt dispatches them) on a fixed "
+                "100 Hz schedule (moves overdue behind a frame coalesced into one, as X11 compresses motion); a "
+                "frame counts when it is presented (the viewport's frameSwapped, after its GL window's swap). "
+                "orbit_fps = frames presented / orbit time; orbit_frame_ms = "
                 "intervals between presented frames; orbit_paintgl_ms = the viewport's paintGL per orbit "
-                "frame (the rest: Qt, composition); dab_to_frame_ms = from a dab's scheduled event time to "
+                "frame (the rest: Qt's event handling and the swap); dab_to_frame_ms = from a dab's scheduled event time to "
                 "the presentation of the first frame containing it; first_dab_ms = the session's first dab "
                 "(the stroke's press) to its frame; settle_ms = from the last input event to the "
                 "full-resolution frame presented; interactive_vs_settled_de2000 = mean ΔE2000 over skin "
@@ -174,16 +175,19 @@ def main(argv: list[str]) -> int:
 
 
 class _PresentProbe:
-    """Every new frame the viewport presents: (time, frame number, interactive, scale, paintGL ms, flush ms).
+    """Every new frame the viewport presents.
 
-    A frame is presented when ``QOpenGLWidget.frameSwapped`` fires (after the window's composition and
-    swap) and the viewport's paintGL ran since the last one.
+    Each is (time, frame number, interactive, scale, paintGL ms, flush ms, settled): ``interactive`` when
+    the renderer drew an interactive frame for it, ``settled`` when it is a new full-resolution frame drawn
+    after input stopped (the viewport's ``settled_frames`` advanced). A frame is presented when the
+    viewport's ``frameSwapped`` fires (after its GL window's swap) and its paintGL ran since the last one.
     """
 
     def __init__(self, vp: Viewport) -> None:
         self.vp = vp
-        self.presents: list[tuple[float, int, bool, float, float, float]] = []
+        self.presents: list[tuple[float, int, bool, float, float, float, bool]] = []
         self._last_frame = vp.frames
+        self._last_settled = vp.settled_frames
         vp.frameSwapped.connect(self._swapped)
 
     def _swapped(self) -> None:
@@ -191,9 +195,11 @@ class _PresentProbe:
         if vp.frames == self._last_frame:
             return  # a composition without a new frame of ours
         self._last_frame = vp.frames
+        settled = vp.settled_frames > self._last_settled
+        self._last_settled = vp.settled_frames
         scale = vp.renderer.scale if vp.renderer is not None else 1.0
         self.presents.append((time.perf_counter(), vp.frames, vp.last_frame_interactive, scale, vp.frame_ms,
-                              vp.flush_ms))
+                              vp.flush_ms, settled))
 
 
 def _send_mouse(vp: Viewport, kind: QEvent.Type, x: float, y: float, button: Qt.MouseButton,
@@ -280,8 +286,8 @@ def _settle_time(vp: Viewport, probe: _PresentProbe, t_last: float) -> float:
     from core.errors import SheerError
 
     n = len([p for p in probe.presents if p[0] <= t_last])
-    _wait_until(lambda: vp.settled and any(not p[2] for p in probe.presents[n:]), 5.0)
-    settled = next((p for p in probe.presents[n:] if not p[2]), None)
+    _wait_until(lambda: vp.settled and any(p[6] for p in probe.presents[n:]), 5.0)
+    settled = next((p for p in probe.presents[n:] if p[6]), None)
     if settled is None:
         raise SheerError("bench studio: the view did not settle within 5 s of the last input")
     return (settled[0] - t_last) * 1000.0
