@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from painting.brush import Brush, BrushError
 from painting.history import Step
 from painting.layer import ChangeEvent, DocumentError
@@ -27,13 +29,15 @@ from painting.stroke import Stroke
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    import numpy as np
-
     from painting.atlas import Atlas
     from painting.head import Head
     from painting.history import History
     from painting.layer import Layer
     from painting.layout import UVLayout
+
+
+#: Bump when the cached derived regions' format changes.
+_REGIONS_CACHE_VERSION = 1
 
 
 class MaskEditing:
@@ -59,10 +63,43 @@ class MaskEditing:
         if self._regions is None:
             stored = regions_for(self.head)
             if all(why == "no atlas to derive them on" for why in stored.missing.values()) and stored.missing:
-                stored = regions_for(self.head, self.atlas_at(REGION_RESOLUTION),
-                                     head_uv=self.layout.source == "mesh")
+                stored = self._derived_regions()
             self._regions = stored
         return self._regions
+
+    def _derived_regions(self) -> RegionSet:
+        """The head's regions derived on its layout, through the cache (the ``looks`` kind).
+
+        Always as stored (8-bit, :func:`painting.regions.encode_regions`), so the first use and later
+        ones paint the same. Keyed by the layout, the head's metadata, albedo and skin mask, and the
+        deriving code.
+        """
+        import hashlib
+        import json
+        from pathlib import Path
+
+        from core.cache import cache_dir, load_arrays, save_arrays
+        from painting.regions import decode_regions, encode_regions
+
+        h = hashlib.sha256(f"{self.layout.key}|{self.layout.source}|".encode())
+        h.update(json.dumps(self.head.metadata.to_json(), sort_keys=True).encode())
+        for image in (self.head.albedo, self.head.skin_mask):
+            h.update(b"-" if image is None else np.ascontiguousarray(image).tobytes())
+        for module in ("regions.py", "region_shapes.py"):
+            h.update((Path(__file__).resolve().parent / module).read_bytes())
+        path = cache_dir("looks") / f"regions-{h.hexdigest()[:32]}.cache"
+        cached = load_arrays(path, _REGIONS_CACHE_VERSION)
+        if cached is not None and "png" in cached:
+            try:
+                return decode_regions(cached["png"].tobytes(), str(path), self.head.name)
+            except RegionError:
+                pass  # a damaged entry: derive again
+        derived = regions_for(self.head, self.atlas_at(REGION_RESOLUTION), head_uv=self.layout.source == "mesh")
+        if not derived.regions:
+            return derived
+        blob = encode_regions(derived)
+        save_arrays(path, {"png": np.frombuffer(blob, np.uint8)}, _REGIONS_CACHE_VERSION)
+        return decode_regions(blob, "derived regions", self.head.name)
 
     def region_values(self, name: str, resolution: int) -> np.ndarray:
         """Region ``name`` at ``resolution``² texels (float32 [0, 1]); :class:`DocumentError` naming it if absent."""
