@@ -34,6 +34,7 @@ from app.export_actions import ExportActions
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
 from app.project_files import ProjectFiles
+from app.region_picker import RegionPicker
 from app.session import BACKENDS
 from app.settings import (
     APPLICATION,
@@ -270,6 +271,11 @@ class StudioWindow(QMainWindow):
             tb.addWidget(QLabel(f" {label} "))
             tb.addWidget(w)
         tb.addWidget(self.mirror_check)
+        self.region_picker = RegionPicker(self.doc)  # stay inside / avoid / fill a facial region (issue #16)
+        tb.addWidget(self.region_picker)
+        self.region_picker.fill_requested.connect(
+            lambda name: self.doc.layers and self._layer_cmd(
+                lambda: self.doc.fill_region(self.doc.layers[self.selected_layer], name)))
         self.radius_spin.valueChanged.connect(lambda v: self._set(brush_radius_mm=float(v)))
         self.strength_spin.valueChanged.connect(lambda v: self._set(brush_strength=float(v)))
         self.hardness_spin.valueChanged.connect(lambda v: self._set(brush_hardness=float(v)))
@@ -547,7 +553,8 @@ class StudioWindow(QMainWindow):
             return
         s = self.settings
         brush = Brush(radius_mm=float(s.brush_radius_mm), hardness=float(s.brush_hardness),
-                      strength=float(s.brush_strength), mode=s.brush_mode, mirror=bool(s.brush_mirror))
+                      strength=float(s.brush_strength), mode=s.brush_mode, mirror=bool(s.brush_mirror),
+                      **self.region_picker.brush_options())
         self._stroke = self.doc.stroke(lay, brush).__enter__()
         self._stroke_move(point, pressure)
 
