@@ -88,7 +88,6 @@ class Renderer:
         self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
         self._composites: dict[tuple[int, int], moderngl.Program] = {}
-        self._composite_vaos: dict[tuple[int, int], moderngl.VertexArray] = {}
         self._baseline: moderngl.Program | None = None
         self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
         self._targets: dict[str, Any] = {}  # textures and framebuffers by name (see _ensure_targets)
@@ -169,10 +168,8 @@ class Renderer:
         """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
         key = (mode, int(debug))
         if key not in self._composites:
-            prog = self.shaders.program(self.ctx, "fullscreen.vert", "composite.frag",
-                                        {"MODE": mode, "DEBUG": int(debug)})
-            self._composites[key] = prog
-            self._composite_vaos[key] = self.ctx.vertex_array(prog, [])
+            self._composites[key] = self.shaders.program(self.ctx, "mesh.vert", "composite.frag",
+                                                         {"MODE": mode, "DEBUG": int(debug)})
         return self._composites[key]
 
     _set = staticmethod(set_uniform)
@@ -385,12 +382,13 @@ class Renderer:
         fbo.clear(enc[0], enc[1], enc[2], 1.0, viewport=viewport)
         rx, ry, rw, rh = rect
         ctx.scissor = (vx + rx, vy + ry, rw, rh)
-        ctx.disable(ctx.BLEND | ctx.DEPTH_TEST | ctx.CULL_FACE)
-        if rw > 0 and rh > 0:
-            # a full-screen triangle scissored to the head's rectangle: the shader tells the head's pixels
-            # from the G-buffer (the diffuse's alpha), so no vertex of the mesh is transformed again
-            vao = next(v for k, v in self._composite_vaos.items() if self._composites[k] is prog)
-            vao.render(vertices=3)
+        ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
+        if rw > 0 and rh > 0:  # the head's pixels: the lit pass's geometry, transform and culling
+            self._write(prog, "u_view_proj", self.last.view_proj.T.reshape(1, 16))
+            self._write(prog, "u_view", self.last.view.T.reshape(1, 16))
+            self._cull(True)
+            self.gpu_head.draw(prog)
+            self._cull(False)
         ctx.scissor = None
 
     def _cull(self, on: bool) -> None:
@@ -496,7 +494,7 @@ class Renderer:
 
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
-        objs: list[Any] = [*self._frame_programs.values(), *self._composite_vaos.values(), *self._composites.values(),
+        objs: list[Any] = [*self._frame_programs.values(), *self._composites.values(),
                            *(o for t in self._target_sets.values() for o in t.values())]
         if self._baseline is not None:
             objs.append(self._baseline)
@@ -506,7 +504,7 @@ class Renderer:
         self._frame_programs, self._targets, self._target_sets = {}, {}, {}
         self._size = (0, 0)
         self.sss.release()
-        self._composites, self._composite_vaos = {}, {}
+        self._composites = {}
         self.km.release()
         self.lighting.release()
         for irr in self._irradiances.values():

@@ -5,9 +5,8 @@
 // Gaussian, below a pixel); 2 = fast: c^2 E + the (half-resolution, premultiplied) wide part.
 // u_debug != 0: show outer (the debug view's colour) as it is.
 #include "common.glsl"
-// Drawn as a full-screen triangle (fullscreen.vert) scissored to the head's screen rectangle: a pixel
-// belongs to the head where the lit pass wrote the G-buffer's diffuse (alpha = ±depth, 0 where cleared);
-// elsewhere it is the background.
+// Drawn with the head's mesh (mesh.vert, the lit pass's geometry and culling): only the head's pixels
+// run it; the background is the target's clear colour.
 uniform sampler2D u_src;      // unblurred diffuse; a = coded depth (see frame.frag)
 uniform sampler2D u_accum;    // mode 1: sum of weighted Gaussians (full res); mode 2: wide part (rgb, coverage)
 uniform sampler2D u_factor;   // rgb: out-scatter factor; a = linear depth (0 = background)
@@ -33,15 +32,15 @@ out vec4 o_colour;
 void main() {
     // full-resolution inputs fetched at this pixel (no filtering: cheaper on llvmpipe)
     ivec2 p = ivec2(gl_FragCoord.xy) - u_origin;
-    vec4 src = texelFetch(u_src, p, 0);
-    if (src.a == 0.0) {  // not drawn by the lit pass: outer and factor hold nothing here
+    vec4 f = texelFetch(u_factor, p, 0);
+    vec2 v_uv = (vec2(p) + 0.5) / vec2(textureSize(u_factor, 0));
+    if (f.a <= 0.0) {
         o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb(u_background), 1.0);
         return;
     }
-    vec4 f = texelFetch(u_factor, p, 0);
-    vec2 v_uv = (vec2(p) + 0.5) / vec2(textureSize(u_factor, 0));
     vec3 outer = texelFetch(u_outer, p, 0).rgb;
     if (DEBUG != 0) { o_colour = vec4(linear_to_srgb(outer), 1.0); return; }
+    vec4 src = texelFetch(u_src, p, 0);
     vec3 d = src.rgb;
     if (src.a > 0.0) {
         if (MODE == 1) {
