@@ -254,7 +254,7 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
         brow_box = front & in_brow_x & (np.abs(y - brow_line) <= 8.0)
         hair = _albedo_blob(head, tex, brow_box, dark=True)
         parts["eyes"] |= front & (ex2 + ((h + 1.0) / 2.5) ** 2 <= 1.0)
-        parts["upper_eyelid"] |= front & (h >= 0.0) & (e_lid <= 1.0)
+        parts["upper_eyelid"] |= front & (h >= -2.5) & (e_lid <= 1.0)  # down to the closed lids' slit
         parts["crease"] |= front & (h >= 0.0) & (e_lid > 1.0) & (e_cr <= 1.0)
         parts["brows"] |= (front & in_brow_x & (np.abs(y - brow_line) <= 5.0)) if hair is None else hair
         brow_src = brow_src if hair is None else "the albedo's dark brow hair (luminance, Otsu) in a 16 mm band " \
