@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from painting.layer import Layer
 
 LOOK_SCHEMA_VERSION = 1
-BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip")
+BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip", "soft-glam", "no-makeup")
 _STROKE_KEYS = {"points", "radius_mm", "hardness", "strength", "amount_um", "mode", "mirror", "flow", "spacing",
                 "region", "region_mode", "fill_region"}
 

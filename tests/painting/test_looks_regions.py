@@ -1,4 +1,4 @@
-"""The built-in looks keep to the face's regions (issue #16): lipstick on the lips, eyeshadow on the lid and
+"""The built-in looks keep to the face's regions (issue #16): lipstick on the lips (all five looks), eyeshadow on the lid and
 crease, blush on the cheeks — on the sample head and on the canonical face (a face mesh)."""
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ def doc(request: pytest.FixtureRequest) -> Document:
     return Document.from_head(path, resolution=1024)
 
 
-@pytest.mark.parametrize(("look", "amount"), [("red-lip", 20.0), ("natural", 10.0), ("evening", 18.0)])
+@pytest.mark.parametrize(("look", "amount"), [("red-lip", 20.0), ("natural", 10.0), ("evening", 18.0),
+                                             ("soft-glam", 14.0), ("no-makeup", 6.0)])
 def test_lipstick_stays_on_the_lips(doc: Document, look: str, amount: float) -> None:
     layers = apply_look(doc, look)
     lipstick = next(lay for lay in layers if lay.name == "Lipstick")
