@@ -117,10 +117,35 @@ def recipe_values(mask: LayerMask, regions: RegionSet, resolution: int, texel_mm
     if mask.invert:
         out = 1.0 - out
     if mask.feather_mm > 0:
-        from scipy.ndimage import gaussian_filter
-
-        out = gaussian_filter(out, sigma=mask.feather_mm / (2.0 * texel_mm), mode="nearest")
+        out = _feather(out, mask.feather_mm / (2.0 * texel_mm))
     return np.clip(out, 0.0, 1.0).astype(np.float32)
+
+
+#: a feather wider than this many texels (Gaussian σ) is blurred on a coarser grid (see :func:`_feather`)
+_COARSE_SIGMA = 4.0
+
+
+def _feather(values: np.ndarray, sigma: float) -> np.ndarray:
+    """``values`` (square float32) blurred by a Gaussian of ``sigma`` texels.
+
+    A wide feather (σ > :data:`_COARSE_SIGMA` texels, e.g. a 4 mm blush edge at 2048²: σ ≈ 16) is blurred
+    on a grid coarser by a power of two that keeps σ ≥ 2 coarse texels, then resampled back bilinearly
+    (:func:`painting.regions.resample`, texel centres kept): the result is smooth on the fine grid's scale,
+    so nothing visible is lost, and the blur costs 1/16 or less (0.62 s → under 0.05 s for the blush of
+    the ``natural`` look at 2048², most of a studio start-up before).
+    """
+    from scipy.ndimage import gaussian_filter
+
+    n = values.shape[0]
+    factor = 1
+    while sigma / (factor * 2) >= 2.0 and sigma > _COARSE_SIGMA and n % (factor * 2) == 0:
+        factor *= 2
+    if factor == 1:
+        return gaussian_filter(values, sigma=sigma, mode="nearest")
+    from painting.regions import resample
+
+    coarse = values.reshape(n // factor, factor, n // factor, factor).mean(axis=(1, 3))
+    return resample(gaussian_filter(coarse, sigma=sigma / factor, mode="nearest"), n)
 
 
 def neutral_channel(resolution: int) -> np.ndarray:
