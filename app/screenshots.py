@@ -53,7 +53,7 @@ def main(argv: list[str]) -> int:
     win.resize(1600, 1000)
     win.show()
     vp = win.viewport
-    _wait(lambda: vp.frames > 0 and vp.full_quality_ready)
+    _wait(lambda: vp.frames > 0 and vp.full_quality_ready and vp.settled)
     if "Lipstick Nude" in win.library:
         win.library_dock.select("Lipstick Nude")
     from PySide6.QtCore import QPointF
@@ -79,7 +79,7 @@ def main(argv: list[str]) -> int:
     kiosk.show_main()
     kiosk.set_look("evening")
     kiosk.set_light("warm indoor")
-    _wait(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready)
+    _wait(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready and kiosk.viewport.settled)
     kiosk.viewport.repaint()
     _wait(lambda: True)
     _screen_grab(kiosk).save(str(out / "kiosk_tryon.png"))

@@ -277,6 +277,9 @@ class Viewport(QWidget):
         self._bind()
         self.full_quality_ready = True
         self.renderer_ready.emit()
+        # the first frame refines too: an interactive one at once, the full one after the settle time
+        self.stage = "interactive"
+        self._settle_timer.start()
         self.update()
 
     def release_gl(self) -> None:
@@ -584,8 +587,8 @@ class Viewport(QWidget):
         self._drag = None
         if was == "paint":
             self.stroke_end.emit()
-        if was is not None and self.stage == "interactive":
-            self._settle_timer.start()  # settle once the hand has been still for SETTLE_MS
+        if was is not None and self.stage == "interactive" and not self._settle_timer.isActive():
+            self._settle_timer.start()  # (it runs from the last move: releasing the button is no movement)
         self.update()
 
     def leaveEvent(self, event: QEvent) -> None:
