@@ -97,6 +97,7 @@ class StudioWindow(QMainWindow):
         self.viewport.renderer_ready.connect(self.apply)
         self.viewport.renderer_ready.connect(self._refresh_swatches)
         self.viewport.renderer_ready.connect(self._prepare_painting)
+        self.viewport.surface_picked.connect(self._skin_picked)
         self.viewport.frame_drawn.connect(self._after_first_frame)
         self.viewport.gl_failed.connect(lambda msg: QTimer.singleShot(0, lambda: dialogs.error(self, "Viewport", msg)))
 
@@ -116,7 +117,7 @@ class StudioWindow(QMainWindow):
         layers_dock = self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
         library_dock = self._add_dock("Material Library", self.library_dock, Qt.DockWidgetArea.RightDockWidgetArea)
         self.resizeDocks([layers_dock, library_dock], [250, 380], Qt.Orientation.Horizontal)
-        self.shade_finder = ShadeFinder(session, self._skin_colour)
+        self.shade_finder = ShadeFinder(session, self._skin_colour, pick_on_face=self._arm_skin_pick)
         self.tabifyDockWidget(library_dock, self._add_dock("Shade Finder", self.shade_finder,
                                                            Qt.DockWidgetArea.RightDockWidgetArea))
         library_dock.raise_()
@@ -457,6 +458,19 @@ class StudioWindow(QMainWindow):
         self._set(overlay=not self.settings.overlay)
 
     # ------------------------------------------------------------------ document
+    def _arm_skin_pick(self) -> None:
+        """The next left click on the face picks the Shade Finder's skin (no stroke)."""
+        vp = self.viewport
+        vp.pick_next = True
+        vp.surface.setCursor(Qt.CursorShape.CrossCursor)
+
+    def _skin_picked(self, point: object) -> None:
+        """Match the head's colour where the user clicked (the albedo's median around the point)."""
+        from painting.hit import albedo_colour_at
+
+        colour = albedo_colour_at(self.doc, self.doc.head, point)
+        self.shade_finder.match_linear(colour, "the skin picked on the face")
+
     def _skin_colour(self) -> tuple[float, float, float]:
         a = self.doc.head.albedo
         if a is None:

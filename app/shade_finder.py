@@ -65,7 +65,8 @@ class ShadeFinder(QWidget):
         coverage: the last coverage run (None before one).
     """
 
-    def __init__(self, session: Session, head_skin: Callable[[], tuple[float, float, float]]) -> None:
+    def __init__(self, session: Session, head_skin: Callable[[], tuple[float, float, float]],
+                 pick_on_face: Callable[[], None] | None = None) -> None:
         super().__init__()
         self.session = session
         self.head_skin = head_skin
@@ -81,12 +82,19 @@ class ShadeFinder(QWidget):
         self.rgb_edit.returnPressed.connect(self.match_typed)
         head_button = QPushButton("Use the head's skin")
         head_button.clicked.connect(self.match_head)
+        self.pick_button = QPushButton("Pick the skin on the face")
+        self.pick_button.setToolTip("then click the skin in the view: its colour (the head's albedo there, "
+                                    "a 2 mm median) is matched")
+        self.pick_button.setEnabled(pick_on_face is not None)
+        if pick_on_face is not None:
+            self.pick_button.clicked.connect(lambda: (pick_on_face(), self.status.setText(
+                "Click the skin on the face in the view (cheek or jaw, away from hair and lips).")))
         match_button = QPushButton("Match")
         match_button.clicked.connect(self.match_typed)
         self.illuminant = self._combo(ILLUMINANTS)
         self.store_light = self._combo(STORE_LIGHTS)
         self.target = self._combo(TARGETS)
-        self.status = QLabel("Pick a skin: the head's, or type its colour.")
+        self.status = QLabel("Pick a skin: the head's, one on the face, or type its colour.")
         self.status.setWordWrap(True)
         self.table = QTableWidget(0, len(_COLUMNS))
         self.table.setHorizontalHeaderLabels(_COLUMNS)
@@ -112,7 +120,10 @@ class ShadeFinder(QWidget):
         form.addRow("Store light", self.store_light)
         form.addRow("Target", self.target)
         layout = QVBoxLayout(self)
-        layout.addWidget(head_button)
+        buttons = QHBoxLayout()
+        buttons.addWidget(head_button)
+        buttons.addWidget(self.pick_button)
+        layout.addLayout(buttons)
         layout.addLayout(row)
         layout.addLayout(form)
         layout.addWidget(self.status)

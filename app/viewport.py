@@ -115,6 +115,8 @@ class Viewport(QWidget):
     frame_drawn = Signal(float)
     gl_failed = Signal(str)
     renderer_ready = Signal()
+    #: a left click picked this surface point (mesh units) while :attr:`Viewport.pick_next` was armed
+    surface_picked = Signal(object)
 
     def __init__(self, head: Head, layout: UVLayout | None = None, parent: QWidget | None = None) -> None:
         from render.progressive import AdaptiveScale
@@ -143,6 +145,7 @@ class Viewport(QWidget):
         self.debug_layer_index = 0  # the document layer the thickness view shows
         self.brush_radius_units = 0.2
         self.paint_enabled = True
+        self.pick_next = False  # the next left click on the head picks a point (surface_picked), no stroke
         self.environment = "none"
         #: the document shown (see :meth:`set_document`) and the library its materials come from
         self.document: Document | None = None
@@ -526,6 +529,14 @@ class Viewport(QWidget):
         self._last = pos
         mods = event.modifiers()
         btn = event.button()
+        if btn == Qt.MouseButton.LeftButton and self.pick_next:
+            hit = self.pick(pos)  # a pick for a tool (the Shade Finder's skin), not a stroke
+            if hit is not None:
+                self.pick_next = False
+                self.surface.setCursor(Qt.CursorShape.ArrowCursor)
+                self.surface_picked.emit(hit)
+            event.accept()
+            return
         if btn == Qt.MouseButton.LeftButton and mods & Qt.KeyboardModifier.ControlModifier:
             self._drag = "light"
         elif btn == Qt.MouseButton.LeftButton and self.paint_enabled:

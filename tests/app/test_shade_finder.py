@@ -84,3 +84,30 @@ def test_coverage_is_plotted(window: object) -> None:
     assert finder.coverage is cov
     assert len(finder.coverage_plot.listDataItems()) >= 1
     assert "48 skins" in finder.coverage_label.text()
+
+
+def test_skin_picked_on_the_face_is_the_albedo_there(window: object, qtbot: object) -> None:
+    """Pick the skin by clicking the face: the click picks (no stroke is painted), and the colour matched is
+    the head's albedo around the clicked point."""
+    from PySide6.QtCore import QPoint, QPointF, Qt
+
+    from painting.hit import albedo_colour_at
+
+    finder, vp = window.shade_finder, window.viewport
+    steps = len(window.doc.history)
+    finder.pick_button.click()
+    assert vp.pick_next and "Click the skin" in finder.status.text()
+    where = QPoint(int(vp.width() * 0.62), int(vp.height() * 0.62))  # a cheek
+    point = vp.pick(QPointF(where))
+    assert point is not None, "the click must land on the face"
+    with qtbot.waitSignal(vp.surface_picked, timeout=5000):
+        qtbot.mouseClick(vp, Qt.MouseButton.LeftButton, pos=where)
+    assert not vp.pick_next
+    assert len(window.doc.history) == steps, "the pick painted a stroke"
+    from km.colour import linear_rgb_to_lab
+
+    expected = albedo_colour_at(window.doc, window.doc.head, point)
+    np.testing.assert_allclose(finder.fit.target_lab, linear_rgb_to_lab(expected), atol=1e-6)
+    assert finder.status.text().startswith("the skin picked on the face") and finder.table.rowCount() > 0
+    # the skin colour there is a skin colour (red above green above blue), not the head's median elsewhere
+    assert expected[0] > expected[1] > expected[2] > 0.0
