@@ -2,7 +2,7 @@
 
 A look is a JSON file in ``resources/looks/<name>.json``::
 
-    {"schema_version": 1, "name": "natural", "description": "…",
+    {"schema_version": 2, "name": "natural", "description": "…",
      "layers": [{"material": "Foundation Ivory", "name": "Foundation",
                  "strokes": [{"points": ["forehead", {"landmark": "left_cheek", "offset_mm": [5, 0, 0]}],
                               "radius_mm": 30, "hardness": 0.3, "strength": 0.8, "amount_um": 12,
@@ -18,7 +18,8 @@ Regions (:mod:`painting.regions`): a stroke may name ``"region"`` (with ``"regio
 the default, or ``"avoid"``) to stay inside or out of it; a stroke ``{"fill_region": "lips",
 "amount_um": 20}`` (no points) fills a region to its line with its soft edge
 (:meth:`painting.Document.fill_region`); a layer may carry a ``"mask"`` (``{"regions": [["union",
-"lips"]], "invert": false, "feather_mm": 0}``, :class:`painting.mask.LayerMask`).
+"lips"]], "invert": false, "feather_mm": 0}``, :class:`painting.mask.LayerMask`). Regions and masks
+need ``"schema_version": 2``; files of version 1 (without them) are read as they were.
 """
 
 from __future__ import annotations
@@ -38,7 +39,10 @@ if TYPE_CHECKING:
     from painting.document import Document
     from painting.layer import Layer
 
-LOOK_SCHEMA_VERSION = 1
+LOOK_SCHEMA_VERSION = 2
+#: what version 2 added (regions): a version-1 file naming any of these is refused, so a file written for
+#: this Sheer is never read by an older one as if the regions were not there (the older one refuses 2)
+_V2_STROKE_KEYS = ("region", "region_mode", "fill_region")
 BUILTIN_LOOKS = ("bare", "natural", "evening", "red-lip", "soft-glam", "no-makeup")
 _STROKE_KEYS = {"points", "radius_mm", "hardness", "strength", "amount_um", "mode", "mirror", "flow", "spacing",
                 "region", "region_mode", "fill_region"}
@@ -93,9 +97,12 @@ class Look:
         """
         if not isinstance(data, dict):
             raise LookError(f"{source}: a look must be a JSON object")
-        if data.get("schema_version") != LOOK_SCHEMA_VERSION:
-            raise LookError(f"{source}: schema_version {data.get('schema_version')!r} is not supported "
-                            f"(this Sheer reads {LOOK_SCHEMA_VERSION})")
+        version = data.get("schema_version")
+        if isinstance(version, bool) or version not in (1, LOOK_SCHEMA_VERSION):
+            raise LookError(f"{source}: schema_version {version!r} is not supported "
+                            f"(this Sheer reads 1 to {LOOK_SCHEMA_VERSION})")
+        if version == 1:
+            _check_version_1(data, source)
         layers_raw = data.get("layers", [])
         if not isinstance(layers_raw, list):
             raise LookError(f"{source}: 'layers' must be a list")
@@ -381,3 +388,16 @@ def apply_look(doc: Document, look: Look | str, clear: bool = True) -> list[Laye
     if cached is None and path is not None and added:
         _save_maps(path, [np.asarray(lay.thickness, dtype=np.float32) for lay in added])
     return added
+
+
+def _check_version_1(data: dict[str, Any], source: str) -> None:
+    """Refuse the keys of version 2 in a version-1 look (named, with the version they need)."""
+    for i, lay in enumerate(data.get("layers", []) if isinstance(data.get("layers"), list) else []):
+        if not isinstance(lay, dict):
+            continue
+        if "mask" in lay:
+            raise LookError(f"{source}: layers[{i}].mask needs \"schema_version\": 2")
+        for j, st in enumerate(lay.get("strokes", []) if isinstance(lay.get("strokes"), list) else []):
+            used = [k for k in _V2_STROKE_KEYS if isinstance(st, dict) and k in st]
+            if used:
+                raise LookError(f"{source}: layers[{i}].strokes[{j}].{used[0]} needs \"schema_version\": 2")
