@@ -26,7 +26,7 @@ uniform float u_spec;              // i_s
 uniform float u_exposure;
 out vec4 o_colour;
 
-#if LW_SHADOWS == 1
+#if LW_NLIGHTS > 0 && LW_SHADOWS == 1
 // One hardware-filtered (2x2 PCF) comparison per light (lighting.glsl's 4 rotated taps cost 4x more on
 // llvmpipe, and with 8 lights that was most of the frame).
 float lw_shadow(int i) {

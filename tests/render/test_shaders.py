@@ -124,3 +124,17 @@ def test_reference_taps_space_at_most_a_texel() -> None:
         assert n % 2 == 1 and 5 <= n <= REFERENCE_TAPS
         if n < REFERENCE_TAPS:  # not capped: taps over ±3σ are at most 0.8 texel apart
             assert 6.0 * sigma / (n - 1) <= 0.8 + 1e-9
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("shadows", [0, 1, 2])
+@pytest.mark.parametrize("lights", [0, 1, 8])
+def test_every_lightweight_face_specialisation_compiles(gl_ctx: object, lights: int, shadows: int) -> None:
+    """Every light count × shadow mode the engine may ask for (render.lightweight.program_for) compiles:
+    no lights with per-pixel shadows once failed (the shadow helper referred to per-light varyings)."""
+    lib = ShaderLibrary()
+    for env in (0, 1):
+        for makeup in (0, 1):
+            prog = lib.program(gl_ctx, "lightweight_face.vert", "lightweight_face.frag",  # type: ignore[arg-type]
+                               {"LW_NLIGHTS": lights, "LW_SHADOWS": shadows, "LW_ENV": env, "LW_MAKEUP": makeup})
+            prog.release()
