@@ -45,6 +45,8 @@ STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("file.save_as", "Save Project &As…", "File", "Ctrl+Shift+S"),
     ActionSpec("file.open_face", "Open Captured &Face…", "File", "",
                tip="a face folder written by 'sheer capture', drawn by the lightweight render mode"),
+    ActionSpec("file.close_face", "Close Captured Face", "File", "", "has_face",
+               tip="back to the physical renderer; the face's folder is left as it is"),
     ActionSpec("file.export_maps", "Export Layer &Maps (16-bit PNG)…", "File", "Ctrl+E", "has_layers"),
     ActionSpec("file.export_maps_exr", "Export Layer Maps (&EXR)…", "File", "", "has_layers"),
     ActionSpec("file.export_image", "Export Rendered &Image…", "File", "Ctrl+Shift+E"),

@@ -165,7 +165,8 @@ class StudioWindow(QMainWindow):
 
     def context(self) -> dict[str, bool]:
         """The predicates actions are enabled by (``ActionSpec.enabled_when``), as they are now."""
-        return {"has_layers": bool(self.doc.layers), "can_undo": self.doc.can_undo, "can_redo": self.doc.can_redo}
+        return {"has_layers": bool(self.doc.layers), "can_undo": self.doc.can_undo, "can_redo": self.doc.can_redo,
+                "has_face": self.viewport.face is not None}
 
     def _build_actions(self) -> None:
         menus = {name: self.menuBar().addMenu(f"&{name}") for name in MENU_ORDER}
@@ -176,7 +177,7 @@ class StudioWindow(QMainWindow):
             "file.export_maps": self.exports.ask_export_maps,
             "file.export_maps_exr": lambda: self.exports.ask_export_maps("exr"),
             "file.export_image": self.exports.ask_export_image, "file.export_gltf": self.exports.ask_export_gltf,
-            "file.quit": self.close, "file.open_face": self.ask_open_face,
+            "file.quit": self.close, "file.open_face": self.ask_open_face, "file.close_face": self.close_face,
             "file.render_catalogue": lambda: CatalogueDialog.open_for(self),
             "view.mode_fast": lambda: self.set_render_mode("fast"),
             "view.mode_reference": lambda: self.set_render_mode("reference"),
@@ -444,12 +445,26 @@ class StudioWindow(QMainWindow):
             self.viewport.face = face
             self.face_path = Path(folder)
             self._set(render_mode="lightweight")
+            self._update_actions()
             self.statusBar().showMessage(f"Captured face: {folder} (lightweight mode)", 6000)
             if on_done is not None:
                 on_done(face)
 
         run_task(self, "Opening the captured face", lambda p, c: load_face(folder), done,
                  lambda m: dialogs.error(self, "Open captured face", f"The face could not be opened: {m}"))
+
+    def close_face(self) -> None:
+        """File → Close Captured Face: forget the face; the lightweight mode gives way to the fast one."""
+        if self.viewport.face is None:
+            return
+        self.viewport.face = None
+        self.face_path = None
+        if self.settings.render_mode == "lightweight":
+            self._set(render_mode="fast")
+        else:
+            self._update_actions()
+            self.viewport.update()
+        self.statusBar().showMessage("Captured face closed", 4000)
 
     def _toggle_reference(self) -> None:
         self._set(render_mode="fast" if self.settings.render_mode == "reference" else "reference")

@@ -242,6 +242,11 @@ def test_lightweight_mode_with_a_captured_face(window: object, qtbot: object, tm
         fast_img = np.asarray(Image.open(tmp_path / "fast.png")).astype(int)
         assert lw_img.shape == fast_img.shape == (150, 200, 3) and lw_img.std() > 5
         assert (np.abs(lw_img - fast_img).max(axis=-1) > 12).mean() > 0.05
+        # File → Close Captured Face: back to the physical renderer, the action disabled until a face opens
+        assert window.actions_by_id["file.close_face"].isEnabled()
+        window.actions_by_id["file.close_face"].trigger()
+        assert vp.face is None and window.face_path is None and window.settings.render_mode == "fast"
+        assert not window.actions_by_id["file.close_face"].isEnabled()
     finally:
         window.set_render_mode("fast")
     draw(vp, qtbot)
