@@ -321,6 +321,7 @@ class KioskWindow(QWidget):
         """Log an error and return to the start screen with the friendly message (``detail`` is kept in ``last_error``)."""
         self.last_error = detail
         log.error("kiosk: %s", detail)
+        self.stop_attract()  # an error in the attract mode must not leave it turning behind the start screen
         self.start_message.setText(FRIENDLY)
         self.show_start()
 

@@ -157,6 +157,16 @@ def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
     assert "no-such-look" in (kiosk.last_error or "")
 
 
+def test_an_error_in_the_attract_mode_stops_it(kiosk: object) -> None:
+    """The attract mode's timers stop with the error: the head does not go on turning, nor the looks changing,
+    behind the start screen."""
+    kiosk.start_attract()
+    assert kiosk.attract and kiosk.spin_timer.isActive()
+    kiosk.guard(lambda: kiosk.set_look("no-such-look"))()
+    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert not kiosk.attract and not kiosk.spin_timer.isActive() and not kiosk.look_timer.isActive()
+
+
 def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
     from app import project_io
     from app.kiosk import FRIENDLY
