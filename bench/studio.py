@@ -230,7 +230,6 @@ def _drag(vp: Viewport, probe: _PresentProbe, kind: str, seconds: float, step_px
     keeps its scheduled time, so a latency includes the wait behind the frame in progress, as a hand feels it.
     """
     from PySide6.QtCore import QEvent, Qt
-    from PySide6.QtWidgets import QApplication
 
     button = Qt.MouseButton.RightButton if kind == "orbit" else Qt.MouseButton.LeftButton
     none = Qt.MouseButton.NoButton
@@ -247,15 +246,17 @@ def _drag(vp: Viewport, probe: _PresentProbe, kind: str, seconds: float, step_px
     k = 0
     while k < n_events:
         now = time.perf_counter()
-        due = [t0 + i * period for i in range(k, n_events) if t0 + i * period <= now]
-        if due:
-            x += step_px * len(due)
+        k_due = min(int((now - t0) / period) + 1, n_events)  # events scheduled up to now
+        if k_due > k:
+            x += step_px * (k_due - k)
             t_in = time.perf_counter()
             _send_mouse(vp, QEvent.Type.MouseMove, x, y, none, button)
             update_ms.append((time.perf_counter() - t_in) * 1000.0)
-            events += [(t, vp.frames) for t in due]
-            k += len(due)
-        QApplication.processEvents()
+            events += [(t0 + i * period, vp.frames) for i in range(k, k_due)]
+            k = k_due
+        # wait in Qt's event loop (frames are drawn and presented there) until the next event is due: a
+        # busy loop here would take a core from the renderer on a 2-core machine
+        _run_event_loop(max(t0 + k * period - time.perf_counter(), 0.0))
     t_end = t0 + (n_events - 1) * period
     last_frames = events[-1][1] if events else vp.frames
     _wait_until(lambda: len(probe.presents) > first_present and probe.presents[-1][1] > last_frames, 5.0)
@@ -312,19 +313,28 @@ def _interactive_vs_settled(vp: Viewport) -> tuple[float, float, float]:
     return float(np.mean(de)), float(np.percentile(de, 95)), scale
 
 
+def _run_event_loop(seconds: float) -> None:
+    """Run Qt's event loop for ``seconds`` (sleeping while there is nothing to do), then return."""
+    from PySide6.QtCore import QEventLoop, QTimer
+    from PySide6.QtWidgets import QApplication
+
+    if seconds <= 0.0:
+        QApplication.processEvents()
+        return
+    loop = QEventLoop()
+    QTimer.singleShot(max(int(seconds * 1000.0), 1), loop.quit)
+    loop.exec()
+
+
 def _wait_until(cond: Callable[[], bool], timeout: float) -> None:
     """Run the event loop until ``cond()`` is true or ``timeout`` seconds have passed.
 
     In 20 ms slices spent inside Qt's event loop (not a Python busy loop, which would hold the GIL the
     studio's import worker needs).
     """
-    from PySide6.QtCore import QEventLoop, QTimer
-
     deadline = time.perf_counter() + timeout
     while not cond() and time.perf_counter() < deadline:
-        loop = QEventLoop()
-        QTimer.singleShot(20, loop.quit)
-        loop.exec()
+        _run_event_loop(0.02)
 
 
 def _draw_frame(vp: Viewport) -> None:

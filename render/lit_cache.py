@@ -131,8 +131,7 @@ class TextureLighting:
         ctx.scissor = None
         ctx.disable(ctx.DEPTH_TEST | ctx.BLEND | ctx.CULL_FACE)
         gpu_head.albedo.use(0)
-        for i, tex in enumerate(irradiance.textures[:1]):
-            tex.use(1 + i)
+        irradiance.textures[0].use(1)  # E (rgb) and light 0's visibility (a)
         km.bind(2)
         for name, unit in (("u_albedo", 0), ("u_irr", 1), ("u_rtop", 2), ("u_trans", 3), ("u_rbottom", 4)):
             self.program[name].value = unit

@@ -246,16 +246,16 @@ class Renderer:
             self._set(p, "u_normal_strength", float(s.normal_strength))
             self._upload_lights(p)
 
-        relit = self.irradiance.update(irr_key, self.gpu_head, setup_irradiance, self.lights, env is not None)
+        self.irradiance.update(irr_key, self.gpu_head, setup_irradiance, self.lights, env is not None)
 
         # 2. the texture-space lighting cache (view-independent terms), then the lit pass into the G-buffer
         n = len(self.km.active)
         debug_on = DEBUG_VIEWS[s.debug_view] != 0
         cached = s.lighting_cache and self.gpu_head.paint_uv_is_mesh_uv and n > 0 and s.makeup and not debug_on
-        if cached and (relit or s.interactive) and self.lighting.needs_whole(self.irradiance, self.km):
+        if cached and s.interactive and self.lighting.needs_whole(self.irradiance, self.km):
             # the lights are moving (an interactive frame whose irradiance is not the cache's): a whole
             # cache per frame would cost more than it saves; the direct path draws until the view settles
-            cached = cached and not s.interactive
+            cached = False
         if cached:
             self.lighting.update(self.km, self.irradiance, self.gpu_head)
         elif len(self.km.dirty_tiles) > 4096:  # long unused (direct path, bare skin, debug views)
