@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import DialogDriver, open_studio_window
+from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
@@ -32,6 +32,14 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, DialogDriver]]:
     with open_studio_window(qapp, tmp_path_factory, wait_full_quality=False, check_gl_release=False) as pair:
         yield pair
+
+
+@pytest.fixture
+def window(studio: tuple[Any, DialogDriver]) -> Any:
+    """The module's window as it opened (see ``reset_studio``): an untitled, unmodified document, whatever
+    project the tests before opened, saved or recovered."""
+    reset_studio(studio[0])
+    return studio[0]
 
 
 @pytest.fixture

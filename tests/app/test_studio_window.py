@@ -11,15 +11,28 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
+from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
     from pathlib import Path
-
-    from tests.app.studio_support import DialogDriver
 
 pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
+
+
+@pytest.fixture(scope="module")
+def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, DialogDriver]]:
+    with open_studio_window(qapp, tmp_path_factory) as pair:
+        yield pair
+
+
+@pytest.fixture
+def window(studio: tuple[object, DialogDriver]) -> object:
+    """The module's window as it opened (see ``reset_studio``), whatever the tests before left in it."""
+    reset_studio(studio[0])
+    return studio[0]
 
 
 @pytest.fixture
