@@ -81,7 +81,7 @@ void main() {
     float above = 1.0, smooth_cov = 0.0, smooth_rough = 0.0;
     for (int i = NL - 1; i >= 0; --i) {
         vec4 ls = u_layer_spec[i];
-        float c = 1.0 - exp(-X[i] / max(ls.w, 1e-3));
+        float c = 1.0 - exp(-1000.0 * X[i] / max(ls.w, 1e-3));  // X in mm, the scale in µm
         A[i] = c * above;
         above *= clamp(tl[i], 0.0, 1.0);
         if (ls.z > 0.5 && c > smooth_cov) { smooth_cov = c; smooth_rough = ls.x; }
