@@ -15,7 +15,14 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
+# The studio and the kiosk need a display: without one, one line says what to do instead of Qt's abort.
+# (Other commands, e.g. `make run ARGS="render ..."`, are headless and run anyway.)
+NEEDS_DISPLAY := $(if $(filter-out studio kiosk --project --head,$(firstword $(ARGS))),,yes)
 run: $(STAMP)
+	@if [ -n "$(NEEDS_DISPLAY)" ] && [ -z "$$DISPLAY" ] && [ -z "$$WAYLAND_DISPLAY" ] && [ -z "$$QT_QPA_PLATFORM" ]; then \
+		echo "make run: no display (DISPLAY is not set): set DISPLAY to your X server, run it under a virtual one with 'xvfb-run -a make run', or render without a window: '.venv/bin/sheer render --help'" >&2; \
+		exit 2; \
+	fi
 	$(VENV)/bin/sheer $(ARGS)
 
 # pytest exits 5 when it collected no test: the suite has tests, so that fails too (e.g. a PYTEST_ARGS

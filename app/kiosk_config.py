@@ -16,8 +16,12 @@ import os
 import secrets
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.settings import DEFAULT_RESOLUTION
+
+if TYPE_CHECKING:
+    from capture.probe import ProbeAnalysis
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -62,6 +66,14 @@ class KioskConfig:
         face_dir: a captured face folder written by ``sheer capture`` ("" for none).
         max_frame_ms: the slowest physical frame "auto" accepts, in ms, in [10, 10000].
         resolution: texels per side of the thickness maps (a multiple of 64 in [64, 8192]).
+        camera: the "Try it on me" camera: "auto" (the first video device OpenCV opens), "off" (no
+            camera and no "Try it on me" button unless ``watch_dir`` is set), a device index ("0") or a
+            device or video-file path ("/dev/video2").
+        watch_dir: a folder a kiosk without a camera takes the shopper's photo from (the newest image
+            file written there after the countdown; "" for none).
+        light: the kiosk's own light, measured from a mirror-ball photograph by ``sheer kiosk
+            --calibrate-light`` (:meth:`capture.probe.ProbeAnalysis.to_json`); empty: the capture assumes
+            a white flash on the camera's axis.
         source: the file this configuration was read from (None when made in memory); not saved. The
             PIN lockout's state is kept beside it (:mod:`app.pin_lock`).
     """
@@ -75,6 +87,9 @@ class KioskConfig:
     face_dir: str = ""
     max_frame_ms: float = 250.0
     resolution: int = DEFAULT_RESOLUTION
+    camera: str = "auto"
+    watch_dir: str = ""
+    light: dict[str, object] = field(default_factory=dict)
     source: Path | None = field(default=None, repr=False, compare=False)
 
     @staticmethod
@@ -120,6 +135,9 @@ class KioskConfig:
         if cfg.engine not in ENGINES:
             log.warning("kiosk config: engine must be one of %s, got %r; using auto", ", ".join(ENGINES), cfg.engine)
             cfg.engine = "auto"
+        if cfg.light and cfg.probe() is None:
+            log.warning("kiosk config %s: the calibrated light is malformed; using the flash-on-axis default", path)
+            cfg.light = {}
         from core.errors import SheerError
         from painting.atlas import check_resolution
 
@@ -129,6 +147,45 @@ class KioskConfig:
             log.warning("kiosk config: %s; using %d", exc, DEFAULT_RESOLUTION)
             cfg.resolution = DEFAULT_RESOLUTION
         return cfg
+
+    @property
+    def camera_enabled(self) -> bool:
+        """Whether "Try it on me" may open a camera (``camera`` is not "off")."""
+        return self.camera.strip().lower() != "off"
+
+    @property
+    def can_try_on(self) -> bool:
+        """Whether the kiosk offers "Try it on me": a camera, or a watched folder to take the photo from."""
+        return self.camera_enabled or bool(self.watch_dir)
+
+    def probe(self) -> ProbeAnalysis | None:
+        """The calibrated light as the capture takes it (None without one, or when it is malformed)."""
+        if not self.light:
+            return None
+        import numpy as np
+
+        from capture.probe import ProbeAnalysis
+
+        try:
+            d = self.light
+            direction = np.asarray(d["light_dir_camera"], dtype=np.float64)
+            flash = np.asarray(d["flash_rgb"], dtype=np.float64)
+            ambient = np.asarray(d["ambient_rgb"], dtype=np.float64)
+            if direction.shape != (3,) or flash.shape != (3,) or ambient.shape != (3,):
+                return None
+            if not (np.all(np.isfinite(direction)) and np.all(np.isfinite(flash)) and np.all(np.isfinite(ambient))
+                    and abs(float(np.linalg.norm(direction)) - 1.0) < 1e-3 and np.all(flash >= 0)
+                    and np.all(ambient >= 0)):
+                return None
+            hx, hy = (float(v) for v in d.get("highlight_px", (0.0, 0.0)))  # type: ignore[union-attr]
+            return ProbeAnalysis(light_dir_camera=direction, theta_deg=float(d["theta_deg"]),  # type: ignore[arg-type]
+                                 phi_deg=float(d["phi_deg"]), highlight_px=(hx, hy),  # type: ignore[arg-type]
+                                 flash_rgb=flash, ambient_rgb=ambient, classes=np.zeros((0, 0), np.uint8),
+                                 clipped_fraction=float(d.get("clipped_fraction", 0.0)),  # type: ignore[arg-type]
+                                 flash_hue_spread=float(d.get("flash_hue_spread", 0.0)),  # type: ignore[arg-type]
+                                 reflectance=float(d.get("reflectance", 1.0)))  # type: ignore[arg-type]
+        except (KeyError, TypeError, ValueError):
+            return None
 
     def save(self, path: Path | None = None) -> Path:
         """Write the configuration atomically (to :meth:`default_path` when ``path`` is None); returns the file."""

@@ -1,13 +1,24 @@
-"""``sheer kiosk [--project FILE] [--config FILE] [--set-pin [--allow-short-pin]] [--windowed]``: the in-store kiosk.
+"""``sheer kiosk [--project FILE] [--config FILE] [--set-pin [--pin-file FILE] [--allow-short-pin]] [--windowed]``.
 
-``--set-pin`` asks for the administrator PIN (twice) and stores its salted hash. It refuses fewer than
-6 digits unless ``--allow-short-pin``: after 5 wrong PINs the pad locks for 30 s, doubling up to 15
-minutes, so a guesser gets about 96 tries a day; that finds a 4-digit PIN (10,000 values) within weeks,
-a 6-digit one (1,000,000) only after years.
+The in-store kiosk. Setting up (each stores into the configuration and exits; they combine):
+
+- ``--set-pin`` stores the administrator PIN's salted hash. At a terminal it asks twice; when standard
+  input is not a terminal (a provisioning script: ``echo 482913 | sheer kiosk --set-pin``) it reads the
+  PIN from its first line (a second line, if any, must repeat it); ``--pin-file FILE`` reads it from a
+  file's first line instead. It refuses fewer than 6 digits unless ``--allow-short-pin``: after 5 wrong
+  PINs the pad locks for 30 s, doubling up to 15 minutes, so a guesser gets about 96 tries a day; that
+  finds a 4-digit PIN (10,000 values) within weeks, a 6-digit one (1,000,000) only after years.
+- ``--snapshot-dir DIR``: where Save Photo writes.
+- ``--calibrate-light PROBE``: the kiosk's own light from a photograph of a mirror ball cropped to the
+  ball, taken with the kiosk's camera and light (``--probe-reflectance R`` for a chrome ball's
+  reflectance, default 1); "Try it on me" then captures with it instead of a white flash on the axis.
+- ``--camera auto|off|INDEX|PATH`` and ``--watch-dir DIR`` (``""`` for none): the camera "Try it on me"
+  uses, or the folder a kiosk without one takes the photo from.
 """
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -15,52 +26,130 @@ if TYPE_CHECKING:
 
 #: The fewest digits ``--set-pin`` accepts, and with ``--allow-short-pin``; the most digits.
 MIN_PIN, MIN_SHORT_PIN, MAX_PIN = 6, 4, 12
+#: The most bytes read from a PIN file or a PIN's standard input.
+_PIN_INPUT_BYTES = 4096
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add ``sheer kiosk`` and its options to the sub-command parsers ``sub``."""
-    p = sub.add_parser("kiosk", help="start the full-screen customer kiosk", description=__doc__)
+    import argparse
+
+    p = sub.add_parser("kiosk", help="start the full-screen customer kiosk", description=__doc__,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--project", help="project (.sheer) to show")
     p.add_argument("--config", help="kiosk configuration file (default: ~/.config/sheer/kiosk.json)")
-    p.add_argument("--set-pin", action="store_true", help="ask for a new administrator PIN, store it hashed, exit")
+    p.add_argument("--set-pin", action="store_true",
+                   help="store a new administrator PIN (hashed) and exit: asked at a terminal, else read from "
+                        "standard input's first line")
+    p.add_argument("--pin-file", metavar="FILE", help="with --set-pin: read the PIN from this file's first line")
     p.add_argument("--allow-short-pin", action="store_true",
                    help=f"with --set-pin: accept {MIN_SHORT_PIN} or {MIN_SHORT_PIN + 1} digits (guessable within weeks)")
     p.add_argument("--snapshot-dir", help="store this snapshot folder in the configuration and exit")
+    p.add_argument("--calibrate-light", metavar="PROBE",
+                   help="store the kiosk's light measured from this mirror-ball photograph (cropped to the ball) and exit")
+    p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
+                   help="with --calibrate-light: the ball's reflectance, 0 < R <= 1 (default 1)")
+    p.add_argument("--camera", metavar="auto|off|INDEX|PATH",
+                   help="store the camera 'Try it on me' uses and exit")
+    p.add_argument("--watch-dir", metavar="DIR",
+                   help="store the folder a kiosk without a camera takes the photo from and exit ('' for none)")
     p.add_argument("--windowed", action="store_true", help="run in a window (for setting up)")
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Store a PIN or a snapshot folder (``--set-pin``, ``--snapshot-dir``), or run the kiosk; returns the exit status."""
+def _read_pin_text(args: argparse.Namespace) -> tuple[str, str | None]:
+    """The PIN and its repetition (None when there is none) from ``--pin-file``, piped input or the terminal."""
     from pathlib import Path
 
     from core.errors import SheerError
 
-    if args.allow_short_pin and not args.set_pin:
-        raise SheerError("--allow-short-pin goes with --set-pin")
-    if args.set_pin or args.snapshot_dir:
-        import getpass
+    if args.pin_file:
+        from core.files import read_bounded
 
-        from app.kiosk_config import KioskConfig, hash_pin
+        try:
+            text = read_bounded(Path(args.pin_file), _PIN_INPUT_BYTES, "PIN file", SheerError).decode("utf-8")
+        except UnicodeDecodeError:
+            raise SheerError(f"{args.pin_file}: the PIN file is not text; nothing was changed") from None
+        lines = text.splitlines()
+        return (lines[0].strip() if lines else ""), None
+    if sys.stdin is not None and not sys.stdin.isatty():
+        lines = sys.stdin.read(_PIN_INPUT_BYTES).splitlines()
+        if not lines:
+            raise SheerError("--set-pin: standard input is empty; pipe the PIN in (e.g. `echo PIN | sheer kiosk "
+                             "--set-pin`) or use --pin-file FILE; nothing was changed")
+        again = lines[1].strip() if len(lines) > 1 and lines[1].strip() else None
+        return lines[0].strip(), again
+    import getpass
+
+    pin = getpass.getpass("New administrator PIN (digits): ")
+    return pin, getpass.getpass("Again: ")
+
+
+def _new_pin_hash(args: argparse.Namespace) -> str:
+    """Read, check and hash the new PIN (SheerError, naming what is wrong, when it is refused)."""
+    from app.kiosk_config import hash_pin
+    from core.errors import SheerError
+
+    pin, again = _read_pin_text(args)
+    shortest = MIN_SHORT_PIN if args.allow_short_pin else MIN_PIN
+    if not pin.isdigit() or len(pin) > MAX_PIN:
+        raise SheerError(f"the PIN must be {shortest} to {MAX_PIN} digits (0-9 only); nothing was changed")
+    if len(pin) < shortest:
+        raise SheerError(f"the PIN has {len(pin)} digits; use at least {shortest}"
+                         + ("" if args.allow_short_pin else
+                            f" (a shorter one can be guessed within weeks despite the lockout; "
+                            f"--allow-short-pin accepts {MIN_SHORT_PIN})") + "; nothing was changed")
+    if again is not None and again != pin:
+        raise SheerError("the two PINs differ; nothing was changed")
+    return hash_pin(pin)
+
+
+def _calibrated_light(path: str, reflectance: float) -> dict[str, object]:
+    """The mirror-ball photograph's analysis as the configuration stores it."""
+    from capture.pipeline import read_photo
+    from capture.probe import ProbeError, analyse_probe
+
+    if not 0.0 < reflectance <= 1.0:  # NaN fails too
+        raise ProbeError(f"--probe-reflectance must be in (0, 1], got {reflectance}")
+    probe = analyse_probe(read_photo(path), source=path, reflectance=reflectance)
+    light = probe.to_json()
+    light["source"] = str(path)
+    return light
+
+
+def run(args: argparse.Namespace) -> int:
+    """Store the set-up options given (PIN, snapshot folder, light, camera, watched folder), or run the kiosk."""
+    from pathlib import Path
+
+    from core.errors import SheerError
+
+    if (args.allow_short_pin or args.pin_file) and not args.set_pin:
+        raise SheerError("--allow-short-pin and --pin-file go with --set-pin")
+    if args.probe_reflectance != 1.0 and not args.calibrate_light:
+        raise SheerError("--probe-reflectance goes with --calibrate-light (the mirror ball it describes)")
+    setting_up = (args.set_pin, args.snapshot_dir, args.calibrate_light, args.camera is not None,
+                  args.watch_dir is not None)
+    if any(setting_up):
+        from app.kiosk_config import KioskConfig
 
         path = Path(args.config) if args.config else None
         cfg = KioskConfig.load(path)
+        # everything is checked before anything is stored: a refused option changes nothing
         if args.set_pin:
-            pin = getpass.getpass("New administrator PIN (digits): ")
-            shortest = MIN_SHORT_PIN if args.allow_short_pin else MIN_PIN
-            if not pin.isdigit() or len(pin) > MAX_PIN:
-                raise SheerError(f"the PIN must be {shortest} to {MAX_PIN} digits (0-9 only); nothing was changed")
-            if len(pin) < shortest:
-                raise SheerError(f"the PIN has {len(pin)} digits; use at least {shortest}"
-                                 + ("" if args.allow_short_pin else
-                                    f" (a shorter one can be guessed within weeks despite the lockout; "
-                                    f"--allow-short-pin accepts {MIN_SHORT_PIN})") + "; nothing was changed")
-            if getpass.getpass("Again: ") != pin:
-                raise SheerError("the two PINs differ; nothing was changed")
-            cfg.pin_hash = hash_pin(pin)
+            cfg.pin_hash = _new_pin_hash(args)
+        if args.calibrate_light:
+            cfg.light = _calibrated_light(args.calibrate_light, args.probe_reflectance)
         if args.snapshot_dir:
             cfg.snapshot_dir = str(Path(args.snapshot_dir).expanduser().resolve())
+        if args.camera is not None:
+            cfg.camera = args.camera.strip() or "auto"
+        if args.watch_dir is not None:
+            cfg.watch_dir = str(Path(args.watch_dir).expanduser().resolve()) if args.watch_dir else ""
         print(f"kiosk configuration saved to {cfg.save(path)}")
+        if args.calibrate_light:
+            light = cfg.light
+            print(f"kiosk light: θ={float(light['theta_deg']):.1f}° φ={float(light['phi_deg']):.1f}° from the camera's "  # type: ignore[arg-type]
+                  f"axis, flash colour {[round(float(v), 3) for v in light['flash_rgb']]}")  # type: ignore[attr-defined]
         return 0
     from app.kiosk import run_kiosk
 
