@@ -68,7 +68,7 @@ class LightweightRenderer:
 
     Attributes (set, then :meth:`render`): ``camera`` (:class:`OrbitCamera`), ``lights`` (≤ 8
     :class:`Light`; intensities in the photograph's units, 1 = the capture's flash), ``environment``,
-    ``exposure``, ``shadows_on``, ``eye_highlights``, ``makeup`` (an object with ``bind(unit)`` binding
+    ``exposure``, ``ambient`` (None: the capture's k·A), ``shadows_on``, ``eye_highlights``, ``makeup`` (an object with ``bind(unit)`` binding
     R_top, T, R_bottom — e.g. a :class:`render.km_pass.KMTextureSpace` — or None).
     """
 
@@ -88,6 +88,8 @@ class LightweightRenderer:
         self.shadows_on = True
         self.eye_highlights = True
         self.makeup: Any = None
+        #: linear RGB ambient irradiance (photograph units) instead of the capture's k·A, or None
+        self.ambient: tuple[float, float, float] | None = None
         self.pcf_radius = 2.5
         self.cull_back_faces = True
         #: lay down depth first, then shade each visible pixel once; None = when ≥ 2 lights cast per-pixel
@@ -194,7 +196,8 @@ class LightweightRenderer:
         self._set(prog, "u_diffuse", tuple(float(x) for x in p.diffuse))
         self._set(prog, "u_spec", float(p.specular))
         self._set(prog, "u_shininess", float(p.exponent))
-        self._set(prog, "u_ambient", tuple(float(x) for x in p.ambient_scale * p.ambient_rgb))
+        ambient = p.ambient_scale * np.asarray(p.ambient_rgb) if self.ambient is None else self.ambient
+        self._set(prog, "u_ambient", tuple(float(x) for x in ambient))
         self._set(prog, "u_eye", eye)
         self._set(prog, "u_exposure", float(self.exposure))
         self._upload_lights(prog)

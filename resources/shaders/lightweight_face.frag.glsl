@@ -10,6 +10,7 @@
 #include "lightweight.glsl"
 #include "common.glsl"
 #include "lighting.glsl"
+#include "km_compose.glsl"
 in vec2 v_uv;
 in vec3 v_e0;
 in vec3 v_s0;
@@ -58,7 +59,7 @@ void main() {
     vec3 rt = texture(u_r_top, v_uv).rgb;
     vec3 T = texture(u_transmittance, v_uv).rgb;
     vec3 Rb = texture(u_r_bottom, v_uv).rgb;
-    albedo = rt + albedo * T * T / max(vec3(1.0) - Rb * albedo, vec3(1e-4));
+    albedo = km_over_albedo(rt, T, Rb, albedo);
     spec *= T * T;
 #endif
     vec3 c = (E * albedo + spec) * u_exposure;

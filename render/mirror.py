@@ -1,0 +1,366 @@
+"""Two views of a captured shopper (issue 15): the *mirror* and the *relight* view.
+
+**Mirror** (:class:`MirrorView`): her photograph in its own pose, size and light, with the makeup
+composited physically on the face. The head the capture fitted is drawn with the photograph's camera
+(:func:`render.pinhole.pinhole_camera`); per pixel the capture's fitted Phong model (Paris et al. 2003,
+:mod:`capture.phong`) gives the diffuse irradiance E = k·A + F·max(n·l, 0) and the specular
+S = i_s·F·max(r·v, 0)^s; the skin's albedo is a = (photograph − S) / E; the document's cosmetic layers —
+the physical renderer's texture-space Kubelka–Munk pass (:class:`render.km_pass.KMTextureSpace`, the
+same spectral evaluation) — go over it as the physical renderer composes them (``km_compose.glsl``);
+the result is shaded again with E and S (the skin's highlight through the layers, T², plus the layers'
+own Kelemen lobes under the flash). It is written as the photograph plus the difference the makeup
+makes, so where there is no makeup the photograph comes back byte for byte; the difference fades out
+over :data:`EDGE_FEATHER_MM` at the mesh's open boundary and towards its silhouette. Outside the face
+the photograph is untouched. See ``mirror_face.frag.glsl``.
+
+**Relight** (:class:`RelightView`): the lightweight engine (:class:`render.lightweight.LightweightRenderer`,
+Phong × the detail texture) on the captured head, from the photograph's camera orbited by up to
+:data:`MAX_TURN_DEG` about the neck (:func:`render.pinhole.turn_pivot`), under the captured flash or a
+kiosk light preset (:meth:`RelightView.set_preset`), with the same layers.
+
+Both hold a ``km`` (:class:`KMTextureSpace`) and ``set_layers``, so a
+:class:`render.binding.DocumentBinding` keeps either in sync with a document. The document's paint maps
+must be in the head's own UVs (a head whose layout is not ``"mesh"`` is not supported here).
+
+render/ may not import capture/: the face is duck-typed (``params`` — a ``capture.phong.PhongParams`` —,
+``detail``, ``data`` with face.json's ``camera`` and ``light_dir_world``), as in :mod:`render.lightweight`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from render.errors import RenderError
+from render.glutil import set_uniform, write_uniform
+from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput
+from render.lights import Light
+from render.pinhole import pinhole_camera, turn_pivot
+from render.settings import RenderSettings
+from render.shaders import ShaderLibrary
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from painting.head import Head
+    from render.camera import OrbitCamera
+
+#: The relight view's largest turn from the photograph's view, degrees (yaw and pitch each).
+MAX_TURN_DEG = 25.0
+#: Over how many millimetres from the mesh's open boundary the makeup fades in (mirror view).
+EDGE_FEATHER_MM = 4.0
+#: n·v below which the makeup fades out towards the silhouette (mirror view).
+EDGE_NV = 0.2
+
+
+def face_camera(face: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """face.json's camera as (K (3, 3) pixels, R (3, 3), t (3,) mesh units, width, height pixels).
+
+    Raises:
+        RenderError: the face has no usable ``camera``.
+    """
+    cam = getattr(face, "data", {}).get("camera")
+    try:
+        K, R, t = (np.asarray(cam[k], dtype=float) for k in ("K", "R", "t"))  # type: ignore[index]
+        w, h = int(cam["width"]), int(cam["height"])  # type: ignore[index]
+    except (KeyError, TypeError, ValueError):
+        raise RenderError("the face has no usable 'camera' in its face.json (K, R, t, width, height)") from None
+    if K.shape != (3, 3) or R.shape != (3, 3) or t.shape != (3,) or w < 1 or h < 1 \
+            or not (np.all(np.isfinite(K)) and np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+        raise RenderError("the face's 'camera' is malformed (K and R 3×3, t 3, a positive size)")
+    return K, R, t, w, h
+
+
+def face_light_dir(face: Any) -> np.ndarray:
+    """The captured flash's direction (unit (3,), towards the flash, mesh coordinates).
+
+    Raises:
+        RenderError: face.json has no usable ``light_dir_world``.
+    """
+    d = np.asarray(getattr(face, "data", {}).get("light_dir_world", []), dtype=float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-9:
+        raise RenderError("the face has no usable 'light_dir_world' in its face.json")
+    return d / np.linalg.norm(d)
+
+
+def edge_weights(vertices: np.ndarray, faces: np.ndarray, mm_per_unit: float,
+                 feather_mm: float = EDGE_FEATHER_MM) -> np.ndarray:
+    """Per vertex, 0 on the mesh's open boundary rising smoothly to 1 at ``feather_mm`` from it (N,).
+
+    Vertices at the same position (UV seams split them) are merged first, so a seam is not a boundary;
+    a closed mesh gives 1 everywhere. Distances are straight-line, to the nearest boundary vertex.
+    """
+    from scipy.spatial import cKDTree
+
+    v = np.asarray(vertices, dtype=float)
+    f = np.asarray(faces, dtype=np.int64)
+    scale = max(float(np.ptp(v, axis=0).max()), 1e-12)
+    _, ids = np.unique(np.round(v / scale * 1e6).astype(np.int64), axis=0, return_inverse=True)
+    ids = ids.ravel()
+    e = np.sort(np.concatenate([ids[f[:, [0, 1]]], ids[f[:, [1, 2]]], ids[f[:, [2, 0]]]]), axis=1)
+    e = e[e[:, 0] != e[:, 1]]
+    uniq, counts = np.unique(e, axis=0, return_counts=True)
+    boundary_ids = np.unique(uniq[counts == 1])
+    if len(boundary_ids) == 0:
+        return np.ones(len(v))
+    boundary = np.isin(ids, boundary_ids)
+    dist, _ = cKDTree(v[boundary]).query(v, k=1)
+    x = np.clip(dist * float(mm_per_unit) / feather_mm, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+class _Layers:
+    """The cosmetic layers of a view: its own :class:`KMTextureSpace`, or one shared with another view."""
+
+    def _init_layers(self, ctx: moderngl.Context, shaders: ShaderLibrary, km: KMTextureSpace | None) -> None:
+        self._own_km = km is None
+        self.km = km if km is not None else KMTextureSpace(ctx, shaders)
+        #: False shows the face without makeup (before/after) without touching the layers
+        self.show_makeup = True
+
+    def set_layers(self, layers: list[LayerInput]) -> None:
+        """The cosmetic layers, bottom first (evaluated now, in texture space); ``[]`` = bare."""
+        self.km.set_layers(layers)
+
+    @property
+    def has_makeup(self) -> bool:
+        """Layers are set, visible, and :attr:`show_makeup` is on."""
+        return self.show_makeup and bool(self.km.active)
+
+    def _release_layers(self) -> None:
+        if self._own_km:
+            self.km.release()
+
+
+class MirrorView(_Layers):
+    """The photograph with the makeup composited on the face (see the module docstring).
+
+    Args:
+        ctx: a GL 4.5 context.
+        head: the head the face was captured on (mesh units, its own UVs for the paint maps).
+        face: the captured face (``capture.face.Face``: fitted ``params``, ``data`` with the camera and the
+            flash's direction).
+        photo: the photograph, uint8 sRGB (H, W, 3) of the camera's size (as shot; its bytes come back
+            unchanged where there is no makeup).
+        shaders: a shader library to share, or None.
+        km: a KM pass to share with another view (not released by this one), or None for its own.
+
+    Attributes: ``size`` (width, height pixels), ``camera`` (the photograph's, a
+    :class:`render.camera.OrbitCamera`), ``spec_intensity`` (ρ_s of the layers' own lobes, the physical
+    renderer's default), ``show_makeup``.
+    """
+
+    def __init__(self, ctx: moderngl.Context, head: Head, face: Any, photo: np.ndarray,
+                 shaders: ShaderLibrary | None = None, km: KMTextureSpace | None = None) -> None:
+        K, R, t, w, h = face_camera(face)
+        img = np.asarray(photo)
+        if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
+            raise RenderError(f"the photograph must be uint8 RGB (H, W, 3), got {img.dtype} {img.shape}")
+        if img.shape[:2] != (h, w):
+            raise RenderError(f"the photograph is {img.shape[1]}×{img.shape[0]} but the face was captured "
+                              f"from a {w}×{h} one")
+        self.ctx = ctx
+        self.head = head
+        self.face = face
+        self.size = (w, h)
+        self.shaders = shaders or ShaderLibrary()
+        self.camera: OrbitCamera = pinhole_camera(K, R, t, w, h, head.vertices)
+        self.light_dir = face_light_dir(face)
+        self.spec_intensity = RenderSettings().spec_intensity
+        self._init_layers(ctx, self.shaders, km)
+        rgba = np.concatenate([img[::-1, :, :3], np.full((h, w, 1), 255, np.uint8)], axis=2)
+        self.photo = ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes())
+        self.photo.filter = (ctx.NEAREST, ctx.NEAREST)
+        v = np.asarray(head.vertices, dtype="f4")
+        n = np.asarray(head.normals, dtype=np.float64)
+        n = (n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)).astype("f4")
+        edge = edge_weights(head.vertices, head.faces, float(head.mm_per_unit)).astype("f4")
+        self._buffers = [ctx.buffer(v.tobytes()), ctx.buffer(n.tobytes()),
+                         ctx.buffer(np.asarray(head.uv, dtype="f4").tobytes()), ctx.buffer(edge.tobytes())]
+        self._index = ctx.buffer(np.asarray(head.faces, dtype="u4").tobytes())
+        self._background = self.shaders.program(ctx, "fullscreen.vert", "mirror_photo.frag")
+        self._background_vao = ctx.vertex_array(self._background, [])
+        self._programs: dict[int, tuple[Any, Any]] = {}
+        self._offscreen: tuple[Any, Any, Any] | None = None
+
+    def _program(self, n_layers: int) -> tuple[Any, Any]:
+        """The face program (and its vertex array) for ``n_layers`` specular lobes, compiled once."""
+        if n_layers not in self._programs:
+            prog = self.shaders.program(self.ctx, "mirror_face.vert", "mirror_face.frag", {"MV_NL": n_layers})
+            b = self._buffers
+            vao = self.ctx.vertex_array(prog, [(b[0], "3f", "in_position"), (b[1], "3f", "in_normal"),
+                                               (b[2], "2f", "in_uv"), (b[3], "1f", "in_edge")], self._index)
+            self._programs[n_layers] = (prog, vao)
+        return self._programs[n_layers]
+
+    def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
+        """Draw the frame into ``fbo`` (8-bit RGBA with a depth attachment; the photograph's size).
+
+        ``viewport`` must be the photograph's size (the photograph is fetched per pixel); default all of ``fbo``.
+        """
+        ctx = self.ctx
+        vx, vy, w, h = viewport if viewport is not None else (0, 0, *fbo.size)
+        if (w, h) != self.size:
+            raise RenderError(f"the mirror view draws at the photograph's size {self.size[0]}×{self.size[1]}, "
+                              f"not {w}×{h}")
+        fbo.use()
+        fbo.viewport = (vx, vy, w, h)
+        fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        ctx.disable(ctx.DEPTH_TEST | ctx.BLEND | ctx.CULL_FACE)
+        self.photo.use(0)
+        set_uniform(self._background, "u_photo", 0)
+        self._background_vao.render(mode=ctx.TRIANGLES, vertices=3)
+        if not self.has_makeup:
+            return
+        km = self.km
+        n_layers = len(km.active)
+        prog, vao = self._program(n_layers)
+        p = self.face.params
+        vp = self.camera.view_projection(w / h)
+        write_uniform(prog, "u_view_proj", vp.T.reshape(1, 16))
+        set_uniform(prog, "u_eye", tuple(float(x) for x in self.camera.eye()))
+        set_uniform(prog, "u_light_dir", tuple(float(x) for x in self.light_dir))
+        set_uniform(prog, "u_ambient", tuple(float(x) for x in p.ambient_scale * np.asarray(p.ambient_rgb)))
+        set_uniform(prog, "u_flash", tuple(float(x) for x in p.flash_rgb))
+        set_uniform(prog, "u_spec", float(p.specular))
+        set_uniform(prog, "u_shininess", float(p.exponent))
+        set_uniform(prog, "u_edge_nv", EDGE_NV)
+        set_uniform(prog, "u_rho", float(self.spec_intensity))
+        spec = np.zeros((MAX_LAYERS, 4), np.float32)
+        spec[:n_layers] = km.layer_spec[:n_layers]
+        inv_m2 = (1.0 / np.maximum(spec[:, 0], 0.05) ** 2).astype(np.float32)
+        write_uniform(prog, "u_layer_spec", spec)
+        write_uniform(prog, "u_layer_inv_m2", inv_m2)
+        for name, unit in (("u_photo", 0), ("u_r_top", 1), ("u_transmittance", 2), ("u_r_bottom", 3),
+                           ("u_spec0", 4), ("u_spec1", 5)):
+            set_uniform(prog, name, unit)
+        km.bind(1)
+        km.bind_spec(4, 5)
+        ctx.enable(ctx.DEPTH_TEST)
+        vao.render()
+        ctx.disable(ctx.DEPTH_TEST)
+
+    def render_image(self) -> np.ndarray:
+        """The frame at the photograph's size, uint8 sRGB (H, W, 3), top row first."""
+        w, h = self.size
+        if self._offscreen is None:
+            color = self.ctx.renderbuffer((w, h), 4)
+            depth = self.ctx.depth_renderbuffer((w, h))
+            self._offscreen = (self.ctx.framebuffer(color_attachments=[color], depth_attachment=depth), color, depth)
+        fbo = self._offscreen[0]
+        self.render(fbo)
+        return np.frombuffer(fbo.read(components=3), np.uint8).reshape(h, w, 3)[::-1].copy()
+
+    def release(self) -> None:
+        """Release every GPU object this view owns (the context current)."""
+        from render.glutil import release_all
+
+        progs = [o for pair in self._programs.values() for o in pair[::-1]]
+        self._programs = {}
+        release_all(self.ctx, (*(self._offscreen or ()), *progs, self._background_vao, self._background,
+                               *self._buffers, self._index, self.photo))
+        self._offscreen = None
+        self._buffers = []
+        self._release_layers()
+
+
+class RelightView(_Layers):
+    """The captured face relit by the lightweight engine, turnable about the neck (module docstring).
+
+    Args:
+        ctx, head, face, shaders, km: as :class:`MirrorView`.
+        shadow_size: the shadow map's side, texels.
+
+    Attributes: ``yaw``, ``pitch`` (degrees from the photograph's view, each within ±:data:`MAX_TURN_DEG`;
+    positive yaw shows more of her left cheek, positive pitch looks from above), ``lights`` (≤ 8
+    :class:`Light`, photograph units: intensity 1 = the captured flash), ``ambient`` (linear RGB
+    irradiance added to every light, photograph units; default the capture's k·A), ``exposure``,
+    ``engine`` (the :class:`LightweightRenderer`), ``size`` (the photograph's, pixels), ``show_makeup``.
+    """
+
+    def __init__(self, ctx: moderngl.Context, head: Head, face: Any, shaders: ShaderLibrary | None = None,
+                 km: KMTextureSpace | None = None, shadow_size: int = 1024) -> None:
+        from render.lightweight import LightweightRenderer
+
+        self._K, self._R, self._t, w, h = face_camera(face)
+        self.size = (w, h)
+        self.ctx = ctx
+        self.head = head
+        self.face = face
+        self.shaders = shaders or ShaderLibrary()
+        self._init_layers(ctx, self.shaders, km)
+        self.engine = LightweightRenderer(ctx, head, face, self.shaders, shadow_size=shadow_size)
+        self.pivot = turn_pivot(head.vertices, head.metadata.landmarks, float(head.mm_per_unit))
+        self.yaw = 0.0
+        self.pitch = 0.0
+        self.exposure = 1.0
+        self.lights: list[Light] = []
+        self.ambient: tuple[float, float, float] | None = None
+        self.use_capture_light()
+
+    def use_capture_light(self) -> None:
+        """Light her as the photograph did: the captured flash (intensity 1) and the captured ambient."""
+        d = face_light_dir(self.face)
+        self.lights = [Light("directional", tuple(float(x) for x in d),  # type: ignore[arg-type]
+                             tuple(float(x) for x in self.face.params.flash_rgb), 1.0, True)]  # type: ignore[arg-type]
+        self.ambient = None
+
+    def set_preset(self, azimuth: float, elevation: float, colour: tuple[float, float, float], intensity: float,
+                   ambient: tuple[float, float, float]) -> None:
+        """Light her with a kiosk preset (``app.settings.LIGHT_PRESETS``: degrees, colour, intensity, ambient).
+
+        The presets are in the physical renderer's display units; here they are scaled by one factor so
+        that a surface facing the photograph's camera receives the same luminance irradiance as under the
+        captured flash and ambient (the photograph's exposure), keeping the preset's direction, colours and
+        key-to-ambient ratio.
+        """
+        lum = np.array([0.2126, 0.7152, 0.0722])
+        to_cam = -self._R[2]  # the camera's forward axis, world coordinates, negated: towards the camera
+        key = Light.directional(azimuth, elevation, intensity, tuple(float(c) for c in colour))  # type: ignore[arg-type]
+        e_preset = intensity * max(float(np.dot(key.vector, to_cam)), 0.0) * float(lum @ np.asarray(colour)) \
+            + float(lum @ np.asarray(ambient, dtype=float))
+        p = self.face.params
+        e_capture = max(float(np.dot(face_light_dir(self.face), to_cam)), 0.0) * float(lum @ p.flash_rgb) \
+            + float(lum @ (p.ambient_scale * np.asarray(p.ambient_rgb)))
+        if e_preset <= 0:
+            raise RenderError("a light preset must light the face (its key and ambient are both dark)")
+        s = e_capture / e_preset
+        self.lights = [Light.directional(azimuth, elevation, intensity * s,
+                                         tuple(float(c) for c in colour))]  # type: ignore[arg-type]
+        self.ambient = tuple(float(c) * s for c in ambient)  # type: ignore[assignment]
+
+    def camera(self) -> OrbitCamera:
+        """The photograph's camera orbited by :attr:`yaw`, :attr:`pitch` about the neck.
+
+        Raises:
+            RenderError: a turn beyond ±:data:`MAX_TURN_DEG` or not finite.
+        """
+        for name, value in (("yaw", self.yaw), ("pitch", self.pitch)):
+            if not (np.isfinite(value) and abs(value) <= MAX_TURN_DEG):
+                raise RenderError(f"the relight view turns at most ±{MAX_TURN_DEG:g}° ({name} {value!r})")
+        w, h = self.size
+        return pinhole_camera(self._K, self._R, self._t, w, h, self.head.vertices, self.yaw, self.pitch, self.pivot)
+
+    def _prepare(self) -> None:
+        lw = self.engine
+        lw.camera = self.camera()
+        lw.lights = list(self.lights)
+        lw.ambient = self.ambient
+        lw.exposure = self.exposure
+        lw.makeup = self.km if self.has_makeup else None
+
+    def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
+        """Draw the frame into ``fbo`` (with a depth attachment), any size of the photograph's aspect."""
+        self._prepare()
+        self.engine.render(fbo, viewport)
+
+    def render_image(self, size: tuple[int, int] | None = None) -> np.ndarray:
+        """The frame, uint8 sRGB (H, W, 3) top row first, at ``size`` (width, height; default the photograph's)."""
+        self._prepare()
+        return self.engine.render_image(size or self.size)
+
+    def release(self) -> None:
+        """Release every GPU object this view owns (the context current)."""
+        self.engine.release()
+        self._release_layers()
