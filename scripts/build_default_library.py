@@ -107,7 +107,51 @@ SHADES: tuple[tuple[str, str, str, str], ...] = (
     ("Eyeshadow Navy", "eyeshadow", "#2E3A5C", "matte navy"),
     ("Eyeliner Black", "eyeliner", "#1C1B1D", "carbon black"),
     ("Eyeliner Brown", "eyeliner", "#3E2A20", "dark brown"),
+    ("Lipstick Red Matte", "lipstick", "#B3192A", "the classic blue-red in a matte formula"),
+    ("Lipstick Red Satin", "lipstick", "#B3192A", "the classic blue-red in a satin formula"),
+    ("Lipstick Red Gloss", "lipstick", "#B3192A", "the classic blue-red in a glossy formula"),
+    ("Lipstick Sheer Red", "lipstick", "#B3192A", "a sheer red tint (a tinted balm): the lip shows through"),
 )
+
+
+@dataclass(frozen=True)
+class Finish:
+    """A surface finish: the layer's specular lobe (Kelemen, Beckmann roughness ``roughness``) and its IOR."""
+
+    roughness: float
+    ior: float
+    why: str
+
+
+#: The finishes a material states. A material's finish is the one its roughness falls in
+#: (:func:`finish_of`): matte ≥ 0.4, gloss < 0.12, satin between.
+FINISHES: dict[str, Finish] = {
+    "matte": Finish(0.45, 1.50, "a broad, dim sheen and no sharp highlight"),
+    "satin": Finish(0.20, 1.50, "a soft highlight"),
+    "gloss": Finish(0.07, 1.55, "a sharp, bright highlight (the oily base's index of refraction 1.55)"),
+}
+#: Shades whose finish is not their category's usual one (name -> finish).
+SHADE_FINISHES: dict[str, str] = {
+    "Lipstick Red Matte": "matte", "Lipstick Red Satin": "satin", "Lipstick Red Gloss": "gloss",
+    "Lipstick Sheer Red": "satin",
+}
+#: Shades whose hiding power is not their category's (name -> criterion).
+SHADE_HIDING: dict[str, Hiding] = {
+    "Lipstick Red Matte": Hiding(0.92, 15.0, "a matte lipstick is the most pigmented: hides 92 % of the lip "
+                                 "contrast at 15 µm"),
+    "Lipstick Sheer Red": Hiding(0.25, 15.0, "a sheer tint lets the lip show: hides only 25 % of the lip "
+                                 "contrast at 15 µm"),
+}
+
+
+def finish_of(roughness: float) -> str:
+    """The finish a Beckmann roughness reads as: "matte" (≥ 0.4), "gloss" (< 0.12) or "satin"."""
+    return "matte" if roughness >= 0.4 else "gloss" if roughness < 0.12 else "satin"
+
+
+def hiding_for(name: str, category: str) -> Hiding:
+    """The hiding criterion of shade ``name`` (its own, else its category's)."""
+    return SHADE_HIDING.get(name, HIDING[category])
 
 
 def black_card() -> np.ndarray:
@@ -175,7 +219,7 @@ def build_material(name: str, category: str, hex_colour: str, note: str, weights
     """One modelled material (see the module docstring for the route)."""
     from km.optics import invert_sk, ks_from_r_inf, layer_rt, over
 
-    hiding = HIDING[category]
+    hiding = hiding_for(name, category)
     r_inf = round_sig(reflectance_from_hex(hex_colour), SIGNIFICANT_DIGITS_MEASUREMENT)
     ks = ks_from_r_inf(r_inf)
     s_model = scattering_for_hiding(ks, hiding, weights)
@@ -193,6 +237,11 @@ def build_material(name: str, category: str, hex_colour: str, note: str, weights
     s = round_sig(s, SIGNIFICANT_DIGITS_SK)
     k = round_sig(k, SIGNIFICANT_DIGITS_SK)
     thickness, max_thickness, roughness, ior = CATEGORY_DEFAULTS[category]
+    if name in SHADE_FINISHES:
+        roughness, ior = FINISHES[SHADE_FINISHES[name]].roughness, FINISHES[SHADE_FINISHES[name]].ior
+    finish = finish_of(roughness)
+    finish_text = (f"Finish: {finish} (Beckmann roughness {roughness:g}, index of refraction {ior:g}: "
+                   f"{FINISHES[finish].why})")
     thinner = "" if d_mm == MEASUREMENT_D_MM[0] else (
         f" (D = {d_mm:g} mm rather than 0.15 mm, because a 0.15 mm layer of this shade would be opaque to "
         "within 0.1 % and R would carry no information)")
@@ -204,8 +253,8 @@ def build_material(name: str, category: str, hex_colour: str, note: str, weights
         f"between backgrounds of reflectance {CONTRAST_BACKGROUNDS[0]:g} and {CONTRAST_BACKGROUNDS[1]:g}) -> "
         f"synthetic measurement: R_inf, R over a matte black card (Rg 0.040-0.048) at D = {d_mm:g} mm{thinner}, "
         f"rounded to {SIGNIFICANT_DIGITS_MEASUREMENT} significant digits -> S, K re-derived from that triplet "
-        "with km.invert_sk (Huang et al. 2013, Eq. 6-7). Roughness and index of refraction are typical values "
-        "for the category, not measured. Built by scripts/build_default_library.py."
+        f"with km.invert_sk (Huang et al. 2013, Eq. 6-7). {finish_text}; the roughness and index of refraction "
+        "are typical values for the finish, not measured. Built by scripts/build_default_library.py."
     )
     measurement = Measurement(WAVELENGTHS, r_inf, r, rg, d_mm, instrument="none (synthetic, modelled)",
                               illuminant="D65")

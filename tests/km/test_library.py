@@ -340,7 +340,7 @@ def test_build_script_reproduces_the_file(monkeypatch: pytest.MonkeyPatch) -> No
     assert Library.load(path).dumps() == text
     builder = _load_builder(monkeypatch)
     assert [m[0] for m in builder.SHADES] == km.default_library().names()
-    assert len(builder.SHADES) == 26
+    assert len(builder.SHADES) == 30
 
 
 def _check_library(path: Path) -> subprocess.Popen[str]:
@@ -353,7 +353,7 @@ def _check_library(path: Path) -> subprocess.Popen[str]:
 @pytest.mark.slow
 def test_build_script_check_rebuilds_every_shade_byte_for_byte(tmp_path: Path) -> None:
     """The README's claim: ``scripts/build_default_library.py --check`` rebuilds the default library byte
-    for byte (all 26 shades, ~4 s). It passes on the shipped file and fails on a copy where one number
+    for byte (all 30 shades, ~4 s). It passes on the shipped file and fails on a copy where one number
     of one shade differs in its seventh digit (both runs in parallel)."""
     shipped = resource_path("materials", "default.json")
     data = json.loads(shipped.read_text(encoding="utf-8"))
@@ -376,7 +376,7 @@ def test_default_library_meets_its_hiding_criteria(monkeypatch: pytest.MonkeyPat
     weights = builder.luminance_weights()
     assert builder.HIDING["foundation"].fraction == 0.5 and builder.HIDING["foundation"].at_um == 20.0
     for m in km.default_library():
-        hiding = builder.HIDING[m.category]
+        hiding = builder.hiding_for(m.name, m.category)
         passed = builder.contrast_passed(m.S, m.K, hiding.at_um / 1000.0, weights)
         assert passed == pytest.approx(1.0 - hiding.fraction, abs=1e-4), m.name
 
@@ -388,3 +388,19 @@ def test_special_files_are_refused(tmp_path: Path) -> None:
         Library.load(fifo)
     with pytest.raises(LibraryError, match="not a regular file"):
         Library.load("/dev/zero")
+
+
+def test_every_material_states_its_finish(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each default material's provenance states its finish, the one its roughness reads as, with the
+    roughness and IOR it is rendered with; the red lipstick comes in matte, satin and gloss, and the
+    gloss is the smoothest (issue #16)."""
+    builder = _load_builder(monkeypatch)
+    lib = km.default_library()
+    for m in lib:
+        finish = builder.finish_of(m.roughness)
+        assert f"Finish: {finish} (Beckmann roughness {m.roughness:g}, index of refraction {m.ior:g}" \
+            in m.provenance, m.name
+    reds = {f: lib.get(f"Lipstick Red {f.title()}") for f in ("matte", "satin", "gloss")}
+    assert [builder.finish_of(m.roughness) for m in reds.values()] == ["matte", "satin", "gloss"]
+    assert reds["gloss"].roughness < reds["satin"].roughness < reds["matte"].roughness
+    assert builder.finish_of(0.4) == "matte" and builder.finish_of(0.119) == "gloss"
