@@ -7,7 +7,9 @@ repeat starts a new ``LocalCluster`` (its start is timed apart: ``cluster_start_
 new folder, so every worker starts cold (context, head, look, shaders) as in a real run. Keys:
 
 - ``images_per_s_1_worker``, ``images_per_s_2_workers``: images / wall time of ``run_catalogue`` (cluster
-  already up), median over the repeats; ``scaling_2_vs_1``: their ratio (the issue asks ≥ 1.6).
+  already up; the workers' warm-up, :mod:`catalogue.warmup`, starts with them and may still be running),
+  median over the repeats; ``scaling_2_vs_1``: their ratio (the issue asks ≥ 1.6);
+  ``scaling_2_vs_1_with_cluster_start``: the ratio of cluster start + run (the whole wait).
 - ``speedup_vs_separate_processes``: seconds per image of ``sheer render`` processes (one per image, run
   one after another) over seconds per image of the 1-worker catalogue (≥ 3).
 - ``resume_noop_s``: a rerun of the finished catalogue (no cluster is started), and ``resume_noop_ratio``
@@ -133,6 +135,10 @@ def main(argv: list[str]) -> int:
         "images": n, "size": "640x640", "mode": "fast",
         "images_per_s_1_worker": round(ips[1], 3), "images_per_s_2_workers": round(ips[2], 3),
         "scaling_2_vs_1": round(ips[2] / ips[1], 3),
+        # the same ratio over what the user waits for: the cluster's start (which includes starting the
+        # workers' warm-up, catalogue.warmup) and the run
+        "scaling_2_vs_1_with_cluster_start": round(float(np.median([c + s for c, s, _ in runs[1]]))
+                                                   / float(np.median([c + s for c, s, _ in runs[2]])), 3),
         **spread("run_s_1_worker", [s for _, s, _ in runs[1]]), **spread("run_s_2_workers", [s for _, s, _ in runs[2]]),
         **spread("cluster_start_s", [c for c, _, _ in runs[1] + runs[2]]),
         **spread("separate_process_s_per_image", separate),

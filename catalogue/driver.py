@@ -106,10 +106,14 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         finally:
             client.close()
         return
+    from catalogue.warmup import PRELOAD
+
     n = workers or os.cpu_count() or 1
-    # ":0": the scheduler's HTTP server (and dashboard, with bokeh) on a free port, never a clash on 8787
+    # ":0": the scheduler's HTTP server (and dashboard, with bokeh) on a free port, never a clash on 8787;
+    # the preload warms each worker (GL context, shaders) while the cluster starts (catalogue.warmup)
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=":0", silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+                      dashboard_address=":0", silence_logs=logging.ERROR,
+                      preload=[PRELOAD]) as cluster, Client(cluster) as client:
         yield client
 
 

@@ -61,15 +61,18 @@ def library_copy(tmp_path: Path) -> Path:
 
 @pytest.fixture(scope="session")
 def dask_client() -> Iterator[object]:
-    """A real LocalCluster of 2 worker processes (one thread each), on 127.0.0.1, shared by the session.
+    """A real LocalCluster of 2 worker processes (one thread each, warmed by the catalogue's preload, as
+    ``sheer catalogue``'s own cluster is), on 127.0.0.1, shared by the session.
 
     Its workers keep the renderer version of the code they loaded and refuse jobs named for another: an
     edit of the renderer's sources while these tests run fails them (correctly); run them on a tree at rest.
     """
     from distributed import Client, LocalCluster
 
+    from catalogue.warmup import PRELOAD
+
     cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=":0", silence_logs=logging.CRITICAL)
+                           dashboard_address=":0", silence_logs=logging.CRITICAL, preload=[PRELOAD])
     client = Client(cluster)
     yield client
     client.close()

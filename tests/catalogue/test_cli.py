@@ -56,7 +56,8 @@ def dask_processes(tmp_path: Path) -> Iterator[str]:
             procs.append(subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port),
                                            "--no-dashboard"], stdout=fh, stderr=fh, start_new_session=True))
             procs.append(subprocess.Popen([DASK, "worker", address, "--host", "127.0.0.1", "--nworkers", "1",
-                                           "--nthreads", "1", "--no-dashboard", "--local-directory", str(tmp_path)],
+                                           "--nthreads", "1", "--no-dashboard", "--local-directory", str(tmp_path),
+                                           "--preload", "catalogue.warmup"],
                                           stdout=fh, stderr=fh, start_new_session=True))
             from distributed import Client
 

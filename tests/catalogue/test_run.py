@@ -85,6 +85,42 @@ def test_run_manifest_sheets_and_same_bytes_on_every_run_and_worker(dask_client,
            {j.out: (tmp_path / "b" / j.out).read_bytes() for j in jobs if j.kind == "glb"}
 
 
+def _warmed() -> tuple[bool, int]:
+    """(this worker's GL context exists, jobs it ran): run on each Dask worker."""
+    from catalogue.worker import worker_state
+
+    return worker_state().ctx is not None, worker_state().counters["jobs"]
+
+
+def test_workers_warm_up_as_they_start_and_a_warm_worker_draws_a_cold_ones_bytes(write_spec, tmp_path) -> None:
+    """The preload makes each worker's context before any job; the images equal a cold process's."""
+    import logging
+    import time
+
+    from distributed import Client, LocalCluster
+
+    from catalogue.warmup import PRELOAD
+    from catalogue.worker import WorkerState
+
+    spec = load_spec(write_spec())
+    jobs = expand(spec)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=":0",
+                      silence_logs=logging.CRITICAL, preload=[PRELOAD]) as cluster, Client(cluster) as client:
+        client.wait_for_workers(1, timeout=60)
+        deadline = time.monotonic() + 60
+        while not all(ready for ready, _ in client.run(_warmed).values()) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert list(client.run(_warmed).values()) == [(True, 0)]  # warm, and no job has run yet
+        result = run_catalogue(spec, tmp_path / "warm", jobs=jobs, client=client)
+    assert result.rendered == len(jobs) and not result.failed
+    cold = WorkerState()  # this test's own process: a fresh context, nothing warmed
+    try:
+        for job in jobs:
+            assert cold.render(job) == (tmp_path / "warm" / job.out).read_bytes(), job.out
+    finally:
+        cold.reset()
+
+
 def test_interrupted_run_then_rerun_renders_only_the_missing(dask_client, write_spec, tmp_path) -> None:
     spec = load_spec(write_spec(lights='[[lights]]\nname = "key"\npreset = "key"'))
     jobs = expand(spec)
