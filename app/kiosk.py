@@ -1,9 +1,13 @@
 """The customer kiosk: full screen, no menus and no file dialogs, large touch targets.
 
-Looks, product swaps per category, light presets, drag to turn, before/after, snapshots to a configured
-folder, an idle attract mode, and an administrator PIN (stored hashed) guarding every way out:
-window-manager close / Alt+F4 (``closeEvent``), Esc and Ctrl+Q. Any error returns to the start screen with
-a friendly message and is logged; a traceback is never shown.
+The start screen is the attract mode: the sample face turning and the looks cycling, with the invitation
+on top (Start, and "Try it on me" when a camera or a watched folder is configured). The try-on screen has
+looks, product swaps per category, light presets, drag to turn, before/after, snapshots to a configured
+folder; "Try it on me" (:mod:`app.kiosk_tryon`) puts the shopper's own face there. An administrator PIN
+(stored hashed) guards every way out: window-manager close / Alt+F4 (``closeEvent``), Esc and Ctrl+Q.
+Any error returns to the start screen with a friendly message and is logged; a traceback is never shown.
+A shopper's session (from leaving the start screen until Done or the idle timeout) keeps everything
+derived from her in memory or a private temporary folder, removed when it ends.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from PySide6.QtCore import QEvent, QObject, Qt, QTimer
+from PySide6.QtCore import QEvent, QObject, QPoint, Qt, QTimer
 from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
     QGridLayout,
@@ -28,8 +32,11 @@ from PySide6.QtWidgets import (
 )
 
 from app.actions import KIOSK_ACTIONS
+from app.kiosk_camera_page import PRIVACY_LINE
 from app.kiosk_config import KioskConfig, require_pin
+from app.kiosk_parts import KioskEngines, ShopperSession
 from app.kiosk_shades import FoundationFinder
+from app.kiosk_tryon import TryOn
 from app.pin_lock import PinGuard
 from app.pin_pad import PinPad, big_button
 from app.session import Session
@@ -41,7 +48,6 @@ if TYPE_CHECKING:
     from types import TracebackType
 
     import numpy as np
-    from PySide6.QtGui import QMouseEvent
 
     from app.viewport import Viewport
     from capture.face import Face
@@ -54,40 +60,37 @@ CATEGORIES: tuple[str, ...] = ("foundation", "lipstick", "blush", "eyeshadow")
 KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
 #: What the start screen says after an error (the error itself is only logged).
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
+#: The invitation on the start screen.
+INVITATION = "Try on makeup — touch to start"
 
 
 class _ActivityFilter(QObject):
     """Any touch, click or key counts as activity (resets the idle timer, ends attract mode).
 
-    ``on_activity`` returns True when the event only woke the kiosk from its attract mode: the event is
-    then consumed, so the touch that shows the start screen is not also a touch on it.
+    ``on_activity`` gets the press's global position (None for a key) and returns True when the event
+    only woke the kiosk from its attract mode: the event is then consumed, so the touch that starts the
+    try-on is not also a touch on what lies under it.
     """
 
-    def __init__(self, on_activity: Callable[[], bool]) -> None:
+    def __init__(self, on_activity: Callable[[QPoint | None], bool]) -> None:
         super().__init__()
         self.on_activity = on_activity
 
     def eventFilter(self, obj: QObject, event: QEvent) -> bool:  # noqa: N802
         """Report presses and key presses as activity; consume the one that ends the attract mode."""
-        if event.type() in (QEvent.Type.MouseButtonPress, QEvent.Type.TouchBegin, QEvent.Type.KeyPress,
-                            QEvent.Type.TabletPress):
-            return self.on_activity()
+        t = event.type()
+        if t in (QEvent.Type.MouseButtonPress, QEvent.Type.TabletPress):
+            return self.on_activity(event.globalPosition().toPoint())  # type: ignore[attr-defined]
+        if t == QEvent.Type.TouchBegin:
+            points = event.points()  # type: ignore[attr-defined]
+            return self.on_activity(points[0].globalPosition().toPoint() if points else None)
+        if t == QEvent.Type.KeyPress:
+            return self.on_activity(None)
         return False
 
 
-class _TouchPage(QWidget):
-    """A page that reacts to a touch anywhere on it."""
-
-    def __init__(self, on_touch: Callable[[], object]) -> None:
-        super().__init__()
-        self.on_touch = on_touch
-
-    def mousePressEvent(self, event: QMouseEvent) -> None:  # noqa: N802
-        self.on_touch()
-
-
-class KioskWindow(QWidget):
-    """Start screen → try-on screen; PIN screen on any exit attempt; attract mode when idle.
+class KioskWindow(KioskEngines, ShopperSession, QWidget):
+    """Start screen (attract mode) → try-on screen (the sample face or hers); PIN screen on any exit attempt.
 
     Args:
         config: the kiosk's configuration; it must hold an administrator PIN (else ``SheerError``).
@@ -108,6 +111,7 @@ class KioskWindow(QWidget):
         # a shopper's session (try-on screen → start screen) writes its cache entries here, removed after
         self.private_cache = PrivateCache()
         self.session = session if session is not None else Session.open(resolution=config.resolution)
+        self.stock_session = self.session  # the sample head's (or the project's); hers replaces it a while
         self.library = self.session.library
         self.doc = self.session.document
         self.look = "natural"
@@ -120,12 +124,12 @@ class KioskWindow(QWidget):
         self._load_face()
         self.viewport.frame_drawn.connect(self._watch_frame_time)
         self.stack = QStackedWidget()
-        self.start_page = self._build_start()
+        self.tryon = TryOn(self)
         self.main_page = self._build_main()
         self.pin_pad = PinPad(PinGuard.for_config(config))  # the lockout's state beside the config file
         self.pin_pad.accepted.connect(self._pin_accepted)
         self.pin_pad.cancelled.connect(self._pin_cancelled)
-        for page in (self.start_page, self.main_page, self.pin_pad):
+        for page in (self.main_page, self.tryon.camera_page, self.tryon.busy_page, self.pin_pad):
             self.stack.addWidget(page)
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
@@ -155,7 +159,7 @@ class KioskWindow(QWidget):
 
         QApplication.instance().installEventFilter(self._filter)
         self.guard(lambda: self._load(project))()
-        self.show_start()
+        self.show_start()  # the attract mode from the start: the face turning under the invitation
 
     # ------------------------------------------------------------------ construction
     def _make_viewport(self) -> Viewport:
@@ -167,79 +171,39 @@ class KioskWindow(QWidget):
         vp.gl_failed.connect(lambda msg: self.fail(msg))
         return vp
 
-    def _load_face(self) -> None:
-        """The configured captured face (for the lightweight engine); a broken one is logged, not shown."""
-        if not self.config.face_dir:
-            if self.config.engine == "lightweight":
-                log.warning("kiosk: engine 'lightweight' needs face_dir in the configuration; using physical")
-            return
-        from capture.face import load_face
-
-        try:
-            self.face = load_face(self.config.face_dir)
-        except Exception as exc:
-            log.warning("kiosk: the captured face %s could not be read (%s); using the physical renderer",
-                        self.config.face_dir, exc)
-            return
-        if self.config.engine == "lightweight":
-            self.use_engine("lightweight")
-
-    def use_engine(self, engine: str) -> None:
-        """Draw with ``"physical"`` (render.Renderer, fast mode) or ``"lightweight"`` (the captured face)."""
-        if engine == "lightweight" and self.face is None:
-            engine = "physical"
-        self.engine = engine
-        self.viewport.face = self.face if engine == "lightweight" else None
-        self.viewport.mode = "lightweight" if engine == "lightweight" else "fast"
-        self.viewport.update()
-
-    def _watch_frame_time(self, _ms: float) -> None:
-        """Switch to the lightweight engine when the physical renderer is too slow (``engine: auto``).
-
-        After 5 new frames of the physical renderer whose median is over ``max_frame_ms`` (ms), when a
-        captured face is configured.
-        """
-        vp = self.viewport
-        if self.config.engine != "auto" or self.engine != "physical" or self.face is None:
-            return
-        if vp.renderer_frames == getattr(self, "_seen_frames", 0):
-            return  # a ring-only redraw (none in the kiosk) or nothing new
-        self._seen_frames = vp.renderer_frames
-        if vp.renderer_frames <= 1:
-            return  # the first frame also builds shadow maps and caches
-        self._frame_samples.append(vp.render_ms)
-        if len(self._frame_samples) >= 5:
-            import statistics
-
-            median = statistics.median(self._frame_samples[-5:])
-            if median > self.config.max_frame_ms:
-                log.info("kiosk: physical frames take %.0f ms (> %.0f): switching to the lightweight engine",
-                         median, self.config.max_frame_ms)
-                self.use_engine("lightweight")
-
-    def _build_start(self) -> QWidget:
-        page = _TouchPage(self.guard(self.show_main))
+    def _build_invite(self) -> QWidget:
+        """The invitation over the turning face: the title, a line, Start and "Try it on me"."""
+        box = QWidget()
         title = QLabel("Sheer")
         title.setStyleSheet("font-size: 64px; font-weight: 300;")
         title.setAlignment(Qt.AlignmentFlag.AlignCenter)
-        self.start_message = QLabel("Try on makeup — touch to start")
+        self.start_message = QLabel(INVITATION)
         self.start_message.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.start_message.setWordWrap(True)
-        self.start_button = big_button("Start", 120)
-        self.start_button.setMaximumWidth(640)
+        self.start_button = big_button("Start", 110)
+        self.start_button.setMaximumWidth(520)
         self.start_button.clicked.connect(self.guard(self.show_main))
-        lay = QVBoxLayout(page)
-        lay.addStretch(2)
+        self.tryon_button = big_button("Try it on me", 110)
+        self.tryon_button.setMaximumWidth(520)
+        self.tryon_button.clicked.connect(self.guard(self.tryon.start))
+        self.tryon_button.setVisible(self.config.can_try_on)
+        buttons = QHBoxLayout()
+        buttons.addStretch(1)
+        buttons.addWidget(self.start_button, 2)
+        buttons.addWidget(self.tryon_button, 2)
+        buttons.addStretch(1)
+        lay = QVBoxLayout(box)
         lay.addWidget(title)
         lay.addWidget(self.start_message)
-        lay.addWidget(self.start_button, 0, Qt.AlignmentFlag.AlignHCenter)
-        lay.addStretch(3)
-        return page
+        lay.addLayout(buttons)
+        return box
 
     def _build_main(self) -> QWidget:
         page = QWidget()
+        self.invite = self._build_invite()
         self.look_buttons: dict[str, QPushButton] = {}
-        looks = QHBoxLayout()
+        self.looks_bar = QWidget()
+        looks = QHBoxLayout(self.looks_bar)
         for name in KIOSK_LOOKS:
             b = big_button(name.replace("-", " ").title())
             b.setCheckable(True)
@@ -275,18 +239,41 @@ class KioskWindow(QWidget):
         self.split.valueChanged.connect(self.guard(self._split_changed))
         self.snapshot_button = big_button("Save Photo")
         self.snapshot_button.clicked.connect(self.guard(self.snapshot))
+        self.done_button = big_button("Done")
+        self.done_button.clicked.connect(self.guard(self.show_start))
         self.toast = QLabel("")
-        side = QVBoxLayout()
+        self.view_buttons: dict[str, QPushButton] = {}
+        views = QHBoxLayout()
+        for name, text in (("mirror", "Mirror"), ("relight", "Turn and relight")):
+            b = big_button(text, 64)
+            b.setCheckable(True)
+            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_view(n)))
+            views.addWidget(b)
+            self.view_buttons[name] = b
+        self.views_bar = QWidget()
+        self.views_bar.setLayout(views)
+        self.views_bar.hide()
+        self.privacy_label = QLabel(PRIVACY_LINE)
+        self.privacy_label.setWordWrap(True)
+        self.privacy_label.setStyleSheet("color: #b8b0a8; font-size: 14px;")
+        self.privacy_label.hide()
+        self.side_panel = QWidget()
+        side = QVBoxLayout(self.side_panel)
+        side.setContentsMargins(0, 0, 0, 0)
+        side.addWidget(self.views_bar)
         side.addLayout(products)
         side.addWidget(QLabel("Light"))
         side.addLayout(lights)
         side.addWidget(QLabel("Before  ◀▶  After"))
         side.addWidget(self.split)
         side.addWidget(self.snapshot_button)
-        self.foundation_finder = FoundationFinder(self.library, self.doc, lambda: self.face, self._sync,
-                                                  self.guard)
+        self.foundation_finder = FoundationFinder(
+            self.library, self.doc, lambda: self.tryon.shopper.face if self.tryon.shopper else self.face, self._sync,
+            self.guard)
         side.addWidget(self.foundation_finder)
         side.addWidget(self.toast)
+        side.addWidget(self.done_button)
+        side.addWidget(self.privacy_label)
         side.addStretch(1)
         # the head scan's licence (CC BY) asks for its credit wherever it is shown
         credit = self.doc.head.credit
@@ -295,11 +282,15 @@ class KioskWindow(QWidget):
             self.credit_label.setWordWrap(True)
             self.credit_label.setStyleSheet("color: #9a9a9a; font-size: 12px;")
             side.addWidget(self.credit_label)
+        self.face_stack = QStackedWidget()
+        self.face_stack.addWidget(self.viewport)
+        self.face_stack.addWidget(self.tryon.shopper_view)
         body = QHBoxLayout()
-        body.addWidget(self.viewport, 3)
-        body.addLayout(side, 2)
+        body.addWidget(self.face_stack, 3)
+        body.addWidget(self.side_panel, 2)
         lay = QVBoxLayout(page)
-        lay.addLayout(looks)
+        lay.addWidget(self.invite)
+        lay.addWidget(self.looks_bar)
         lay.addLayout(body, 1)
         return page
 
@@ -317,13 +308,17 @@ class KioskWindow(QWidget):
 
         return run
 
-    def fail(self, detail: str) -> None:
-        """Log an error and return to the start screen with the friendly message (``detail`` is kept in ``last_error``)."""
+    def fail(self, detail: str, message: str = FRIENDLY) -> None:
+        """Log an error and return to the start screen with a friendly ``message``.
+
+        ``detail`` is kept in ``last_error``; the shopper's session ends. An error in the attract mode
+        itself stops it (no face turning on after a failure).
+        """
         self.last_error = detail
         log.error("kiosk: %s", detail)
-        self.stop_attract()  # an error in the attract mode must not leave it turning behind the start screen
-        self.start_message.setText(FRIENDLY)
-        self.show_start()
+        broke_attract = self.attract
+        self.show_start(attract=not broke_attract)
+        self.start_message.setText(message)
 
     # ------------------------------------------------------------------ state
     def _load(self, project: str | None) -> None:
@@ -378,16 +373,26 @@ class KioskWindow(QWidget):
         self._sync()
 
     def set_light(self, name: str) -> None:
-        """Light the face with the preset ``name`` (a key of ``app.settings.LIGHT_PRESETS``)."""
+        """Light the face with the preset ``name`` (a key of ``app.settings.LIGHT_PRESETS``).
+
+        Her face turns to the relit view.
+        """
         p = LIGHT_PRESETS[name]
+        for n, b in self.light_buttons.items():
+            b.setChecked(n == name)
+        if self.tryon.active:
+            self.tryon.set_light(p)
+            self._show_view_buttons()
+            return
         lt = self.viewport.lighting
         lt.azimuth, lt.elevation = p["azimuth"], p["elevation"]
         lt.colour, lt.intensity, lt.ambient = p["colour"], p["intensity"], p["ambient"]
-        for n, b in self.light_buttons.items():
-            b.setChecked(n == name)
         self.viewport.update()
 
     def _split_changed(self, v: int) -> None:
+        if self.tryon.active:
+            self.tryon.refresh(layers=False)
+            return
         self.viewport.split = v / 100.0
         self.viewport.update()
 
@@ -398,6 +403,8 @@ class KioskWindow(QWidget):
         for cat, label in self.product_labels.items():
             i = self._layer_for(cat)
             label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
+        if self.tryon.active:
+            self.tryon.refresh()
 
     def snapshot(self) -> Path:
         """Save the view as a PNG in the configured snapshot folder; returns the file.
@@ -408,7 +415,9 @@ class KioskWindow(QWidget):
         folder = Path(self.config.snapshot_dir)
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / f"sheer-{time.strftime('%Y%m%d-%H%M%S')}-{len(self.snapshots):03d}.png"
-        if not self.viewport.grabFramebuffer().save(str(path)):
+        if self.tryon.active:
+            self.tryon.save_image(path)  # her face as shown: the one thing of hers that is written
+        elif not self.viewport.grabFramebuffer().save(str(path)):
             raise OSError(f"could not write the photo to {folder}")
         self.snapshots.append(path)
         self.toast.setText("Photo saved")
@@ -426,41 +435,62 @@ class KioskWindow(QWidget):
         self.setGeometry(screen.geometry())
         self.showFullScreen()
 
-    def show_start(self) -> None:
-        """Show the start screen (the shopper's session ends: its private cache is removed)."""
-        self.stack.setCurrentWidget(self.start_page)
-        self.private_cache.close()
+    def show_start(self, attract: bool = True) -> None:
+        """The start screen: the shopper's session ends (nothing of hers is kept).
+
+        The face turns and the looks cycle under the invitation (``attract``).
+        """
+        self.end_private_session()
+        self.stop_attract()
+        self.start_message.setText(INVITATION)
+        self.invite.show()
+        self.looks_bar.hide()
+        self.side_panel.hide()
+        self.stack.setCurrentWidget(self.main_page)
+        if attract:
+            self.attract = True
+            self.spin_timer.start()
+            self.look_timer.start(int(self.config.look_seconds * 1000))
+        self.viewport.update()
 
     def show_main(self) -> None:
         """Show the try-on screen (and count it as activity); a shopper's session uses a private cache."""
-        self.private_cache.open()
-        self.start_message.setText("Try on makeup — touch to start")
+        self.begin_private_session()
+        self.invite.hide()
+        self.looks_bar.show()
+        self.side_panel.show()
         self.stack.setCurrentWidget(self.main_page)
         self.viewport.update()
         self.activity()
 
-    def activity(self) -> bool:
-        """A touch, click or key: restart the idle timer; in the attract mode, back to the start screen.
+    def activity(self, pos: QPoint | None = None) -> bool:
+        """A touch, click or key: restart the idle timer; in the attract mode a touch starts the try-on screen.
+
+        A press on "Try it on me" (``pos``, global pixels) is left to the button.
 
         Returns:
-            True when this ended the attract mode.
+            True when this ended the attract mode (the event is then consumed).
         """
-        woke = self.attract
+        woke = self.attract and pos is not None  # a key (an administrator's) does not start a try-on
         if woke:
-            self.stop_attract()
-            self.show_start()
+            from PySide6.QtWidgets import QApplication
+
+            under = QApplication.widgetAt(pos) if pos is not None else None
+            if under is not None and (under is self.tryon_button or self.tryon_button.isAncestorOf(under)):
+                woke = False
+            else:
+                self.show_main()
         self.idle_timer.start(int(self.config.idle_seconds * 1000))
         return woke
 
     def start_attract(self) -> None:
-        """Idle: turn the head and cycle the looks on the try-on screen (not while the PIN pad is up)."""
+        """Idle: the shopper has gone; her session ends, the start screen turns the face.
+
+        Not while the PIN pad is up.
+        """
         if self.stack.currentWidget() is self.pin_pad:
             return
-        self.private_cache.close()  # idle: the shopper has gone, and so does their session's cache
-        self.attract = True
-        self.stack.setCurrentWidget(self.main_page)
-        self.spin_timer.start()
-        self.look_timer.start(int(self.config.look_seconds * 1000))
+        self.show_start()
 
     def stop_attract(self) -> None:
         """End the attract mode (the screen stays as it is)."""
@@ -478,6 +508,7 @@ class KioskWindow(QWidget):
         """Every way out (close, Alt+F4, Esc, Ctrl+Q) ends here: the PIN pad; the right PIN closes the kiosk."""
         self.stop_attract()
         self._before_pin = self.stack.currentWidget()
+        self.tryon.camera_page.stop()
         self.pin_pad.reset()
         self.stack.setCurrentWidget(self.pin_pad)
 
@@ -488,7 +519,12 @@ class KioskWindow(QWidget):
 
     def _pin_cancelled(self) -> None:
         before = getattr(self, "_before_pin", None)
-        self.stack.setCurrentWidget(before if before is not None and before is not self.pin_pad else self.start_page)
+        if before is None or before is self.pin_pad or (before is self.main_page and not self.invite.isHidden()):
+            self.show_start()
+        elif before is self.tryon.camera_page:
+            self.tryon.start()  # the preview was stopped for the PIN pad
+        else:
+            self.stack.setCurrentWidget(before)
 
     def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802
         """Refuse to close without the PIN (show the PIN pad); after it, stop the timers and release GL."""
@@ -504,7 +540,7 @@ class KioskWindow(QWidget):
         from app.workers import wait_all
 
         wait_all(20000)
-        self.private_cache.close()
+        self.end_private_session()
         self.viewport.shutdown()
         event.accept()
 

@@ -48,6 +48,11 @@ def drive(kiosk: Any, qtbot: Any, seen: dict[str, Any]) -> None:
                           text=True, timeout=20).stdout
     seen["x_geometry"] = info  # the X server's view of the window ("Position: 0,0 … Geometry: 1920x1080")
 
+    # on launch: the attract mode (the face turning, looks cycling) under the invitation
+    yaw0, look0 = kiosk.viewport.camera.yaw, kiosk.look
+    qtbot.waitUntil(lambda: kiosk.viewport.camera.yaw != yaw0 and kiosk.look != look0, timeout=15000)
+    seen["launch"] = (kiosk.screen_name, kiosk.attract, kiosk.invite.isVisible(), kiosk.start_button.isVisible())
+
     kiosk.activateWindow()
     qtbot.waitUntil(kiosk.isActiveWindow, timeout=5000)
     xdotool("key", "--clearmodifiers", "alt+F4")
@@ -55,18 +60,19 @@ def drive(kiosk: Any, qtbot: Any, seen: dict[str, Any]) -> None:
     seen["alt_f4_pin_pad"] = kiosk.stack.currentWidget() is kiosk.pin_pad
     seen["alt_f4_visible"] = kiosk.isVisible()
     touch(kiosk.pin_pad.cancel_button, qtbot)
-    seen["cancel_back_to_start"] = kiosk.stack.currentWidget() is kiosk.start_page
+    seen["cancel_back_to_start"] = kiosk.screen_name == "start"
 
     touch(kiosk.start_button, qtbot)
-    seen["started"] = kiosk.stack.currentWidget() is kiosk.main_page
+    seen["started"] = kiosk.screen_name == "tryon"
     yaw, look = kiosk.viewport.camera.yaw, kiosk.look
     qtbot.wait(int(IDLE_S * 1000 * 0.6))
     seen["attract_too_early"] = kiosk.attract
     qtbot.waitUntil(lambda: kiosk.attract, timeout=int(IDLE_S * 1000 * 2))
+    seen["idle_start_screen"] = kiosk.screen_name
     qtbot.waitUntil(lambda: kiosk.viewport.camera.yaw != yaw and kiosk.look != look, timeout=15000)
     seen["attract_turns_and_changes_looks"] = (kiosk.viewport.camera.yaw != yaw, look, kiosk.look)
     touch(kiosk.viewport, qtbot)
-    seen["touch_ends_attract"] = (kiosk.attract, kiosk.stack.currentWidget() is kiosk.start_page)
+    seen["touch_ends_attract"] = (kiosk.attract, kiosk.screen_name)
 
     xdotool("key", "Escape")
     qtbot.waitUntil(lambda: kiosk.stack.currentWidget() is kiosk.pin_pad, timeout=5000)
@@ -127,8 +133,9 @@ def test_sheer_kiosk_with_a_pin_comes_up_full_screen_and_guards_its_way_out(
     # Alt+F4 is refused: the PIN pad instead of closing
     assert seen["alt_f4_pin_pad"] and seen["alt_f4_visible"] and seen["cancel_back_to_start"]
     # idle → attract after the configured idle time, not before; it turns the head and changes looks
-    assert seen["started"] and not seen["attract_too_early"]
+    assert seen["started"] and not seen["attract_too_early"] and seen["idle_start_screen"] == "start"
     turned, first, then = seen["attract_turns_and_changes_looks"]
     assert turned and first != then
-    assert seen["touch_ends_attract"] == (False, True)
+    assert seen["touch_ends_attract"] == (False, "tryon")  # the touch that wakes it starts the try-on
+    assert seen["launch"] == ("start", True, True, True)
     kiosk.deleteLater()

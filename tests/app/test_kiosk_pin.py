@@ -74,6 +74,7 @@ def kiosk(shared_kiosk: tuple[KioskWindow, KioskConfig]) -> KioskWindow:
     win.split.setValue(0)
     win.last_error = None
     win.show_start()
+    win.stop_attract()
     return win
 
 
@@ -96,7 +97,7 @@ def test_pin_is_stored_hashed() -> None:
 
 def test_looks_products_and_snapshot(kiosk: object, qtbot: object) -> None:
     kiosk.start_button.click()
-    assert kiosk.stack.currentWidget() is kiosk.main_page
+    assert kiosk.screen_name == "tryon"
     qtbot.waitUntil(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready, timeout=60000)
     kiosk.look_buttons["evening"].click()
     assert kiosk.look == "evening"
@@ -115,15 +116,19 @@ def test_the_head_scan_is_credited_on_screen(kiosk: object) -> None:
     assert "Lee Perry-Smith" in kiosk.credit_label.text() and kiosk.credit_label.isVisibleTo(kiosk)
 
 
-def test_attract_mode_and_touch_returns_to_start(kiosk: object, qtbot: object) -> None:
+def test_attract_mode_and_a_touch_starts_the_try_on(kiosk: object, qtbot: object) -> None:
+    """Idle: the start screen with the face turning and the invitation on top; a touch starts the try-on."""
+    kiosk.show_main()
     kiosk.start_attract()
+    assert kiosk.screen_name == "start" and kiosk.invite.isVisible() and kiosk.viewport.isVisible()
+    assert not kiosk.side_panel.isVisible()
     yaw = kiosk.viewport.camera.yaw
     qtbot.waitUntil(lambda: kiosk.viewport.camera.yaw != yaw, timeout=3000)
     from PySide6.QtCore import Qt
 
     qtbot.mouseClick(kiosk.viewport, Qt.MouseButton.LeftButton)
     assert not kiosk.attract
-    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.screen_name == "tryon" and kiosk.side_panel.isVisible() and not kiosk.invite.isVisible()
 
 
 def test_a_shoppers_session_writes_its_cache_privately_and_removes_it(kiosk: KioskWindow) -> None:
@@ -154,7 +159,7 @@ def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
 
     kiosk.show_main()
     kiosk.guard(lambda: kiosk.set_look("no-such-look"))()
-    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.screen_name == "start"
     assert kiosk.start_message.text() == FRIENDLY
     assert "no-such-look" in (kiosk.last_error or "")
 
@@ -165,7 +170,7 @@ def test_an_error_in_the_attract_mode_stops_it(kiosk: object) -> None:
     kiosk.start_attract()
     assert kiosk.attract and kiosk.spin_timer.isActive()
     kiosk.guard(lambda: kiosk.set_look("no-such-look"))()
-    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.screen_name == "start"
     assert not kiosk.attract and not kiosk.spin_timer.isActive() and not kiosk.look_timer.isActive()
 
 
@@ -182,7 +187,7 @@ def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
     bad.write_bytes(b"PK\x03\x04 definitely not a project")
     kiosk.show_main()
     kiosk.guard(lambda: kiosk._load(str(bad)))()
-    assert kiosk.stack.currentWidget() is kiosk.start_page
+    assert kiosk.screen_name == "start"
     assert kiosk.start_message.text() == FRIENDLY
 
 

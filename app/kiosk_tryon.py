@@ -1,0 +1,358 @@
+"""The kiosk's "Try it on me": from the camera (or a watched folder) to the shopper's own made-up face.
+
+The flow (:class:`TryOn`, one per kiosk):
+
+1. **Camera screen** (:class:`app.kiosk_camera_page.CameraPage`): live preview, framing oval, the quality
+   gate's messages as prompts, a countdown, the shutter.
+2. **Capture** in the thread pool (:func:`prepare_shopper`): :func:`capture.auto.capture_auto` builds her
+   head and face folder in the session's private folder (``core.cache.PrivateCache``: mode 0700 under the
+   temporary directory, removed when the session ends), with the kiosk's calibrated light
+   (:func:`capture_probe`) or the flash-on-axis default; then a document on her head with the look on
+   screen replayed (built-in looks are strokes at landmarks) or, for a project, transferred
+   (:func:`painting.transfer.transfer_layers`). A refusal by the quality gate goes back to the camera
+   screen with its friendly message; anything else back to the start screen.
+3. **Her face** on the try-on screen, in place of the sample head: the mirror view (her photograph
+   with the makeup) or the relit view (turnable, under the light presets), drawn by
+   :class:`app.kiosk_shopper.ShopperRenderer`; the looks, product swaps, foundation finder, light presets
+   and before/after act on her document. Done or the idle timeout ends the session: her views, document,
+   photograph and private folder are dropped. Only Save Photo writes anything (the rendered image).
+
+:attr:`TryOn.timings` records ``tryon_first_frame_s``: the shutter to her first made-up frame on screen.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from PySide6.QtCore import QObject, Qt, Signal
+from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
+
+from app.kiosk_camera_page import PRIVACY_LINE, CameraPage
+from app.kiosk_shopper import FrameRequest, ShopperRenderer, ShopperView, snapshot_layers
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from app.kiosk import KioskWindow
+    from app.kiosk_config import KioskConfig
+    from app.session import Session
+    from capture.probe import ProbeAnalysis
+    from km.library import Library
+    from painting import Document
+
+log = logging.getLogger("sheer.kiosk")
+
+#: The largest thickness-map resolution of her document (texels per side): her face is small on screen.
+SHOPPER_RESOLUTION = 1024
+#: What the start screen says when the camera stops or cannot be opened.
+CAMERA_TROUBLE = "Sorry, the camera is not working right now. Please ask a member of staff."
+
+
+def capture_probe(config: KioskConfig) -> ProbeAnalysis | None:
+    """The light the capture assumes: the kiosk's calibrated light, or None (a white flash on the axis)."""
+    return config.probe()
+
+
+@dataclass
+class Shopper:
+    """Her capture, in memory and in the session's private folder.
+
+    Attributes:
+        face: her captured face (``capture.face.Face``); head: her head; session: her document.
+        photo: her photograph as captured (uint8 sRGB, the face's camera size).
+        folder: the face folder (inside the private folder).
+        timings: seconds per step ("capture_s", "document_s", "look_s").
+    """
+
+    face: Any
+    head: Any
+    session: Session
+    photo: np.ndarray
+    folder: Path
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | None, library: Library,
+                    resolution: int, look: str, source_doc: Document | None = None,
+                    progress: Callable[[str], None] | None = None) -> Shopper:
+    """Capture her face from ``photo`` into ``folder`` and make her document with ``look`` on it.
+
+    Args:
+        photo: uint8 sRGB (H, W, 3).
+        folder: the face folder to write (inside a private folder; it must not exist yet).
+        probe: the kiosk's light, or None.
+        library: the kiosk's materials.
+        resolution: texels per side of her thickness maps.
+        look: a built-in look name to replay, or "project" to transfer ``source_doc``'s layers.
+        source_doc: the document on screen (for "project", and when a look cannot be replayed on her head).
+        progress: called with one line per step.
+
+    Raises:
+        capture.quality.QualityError: the photo is refused (its ``issues`` say why, kindly).
+        core.errors.SheerError: anything else that went wrong, in one line.
+    """
+    from app.session import Session
+    from capture.auto import capture_auto
+    from core.errors import SheerError
+    from painting import Document
+
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    face = capture_auto(photo, folder, probe=probe, progress=progress)
+    timings["capture_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    head = face.load_head()
+    shot = photo
+    photo_path = getattr(face, "photo_path", None)
+    if photo_path is not None and Path(photo_path).is_file():
+        from PIL import Image
+
+        with Image.open(photo_path) as im:
+            shot = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    doc = Document(head, resolution=resolution, library=library)
+    session = Session(library, doc)
+    timings["document_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    if look in ("", "project") and source_doc is not None:
+        from painting.transfer import transfer_layers
+
+        transfer_layers(source_doc, doc)
+        doc.clear_history()
+    elif look:
+        try:
+            session.apply_look(look)
+        except SheerError as exc:
+            if source_doc is None:
+                raise
+            log.warning("kiosk: the look %s could not be replayed on her face (%s); transferring it", look, exc)
+            from painting.transfer import transfer_layers
+
+            transfer_layers(source_doc, doc)
+            doc.clear_history()
+    timings["look_s"] = time.perf_counter() - t
+    return Shopper(face, head, session, shot, Path(folder), timings)
+
+
+class _BusyPage(QWidget):
+    """"Making your try-on…" while the capture runs."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.label = QLabel("Making your try-on…")
+        self.label.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.label.setStyleSheet("font-size: 40px;")
+        self.step = QLabel("")
+        self.step.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        privacy = QLabel(PRIVACY_LINE)
+        privacy.setWordWrap(True)
+        privacy.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        privacy.setStyleSheet("color: #b8b0a8; font-size: 16px;")
+        lay = QVBoxLayout(self)
+        lay.addStretch(1)
+        lay.addWidget(self.label)
+        lay.addWidget(self.step)
+        lay.addStretch(1)
+        lay.addWidget(privacy)
+
+
+class _Progress(QObject):
+    line = Signal(str)
+
+
+class TryOn(QObject):
+    """"Try it on me" for one kiosk window (see the module docstring).
+
+    Attributes:
+        shopper: her capture while her session lasts, else None.
+        view: "mirror" or "relight".
+        light: the light preset of the relit view (None: the photograph's light).
+        timings: the last try-on's seconds: ``tryon_first_frame_s`` (shutter → first made-up frame shown),
+            and the capture's steps.
+        last_refusal: the quality gate's last message after a shutter ("" for none).
+    """
+
+    def __init__(self, kiosk: KioskWindow) -> None:
+        super().__init__()
+        self.kiosk = kiosk
+        self.camera_page = CameraPage()
+        self.camera_page.shot.connect(kiosk.guard(self.captured))
+        self.camera_page.failed.connect(kiosk.guard(self.camera_failed))
+        self.camera_page.cancelled.connect(kiosk.guard(self.cancel))
+        self.busy_page = _BusyPage()
+        self.shopper_view = ShopperView()
+        self.shopper_view.turned.connect(kiosk.guard(lambda _y, _p: self.refresh(layers=False)))
+        self.shopper: Shopper | None = None
+        self.renderer: ShopperRenderer | None = None
+        self.view = "mirror"
+        self.light: dict[str, Any] | None = None
+        self.timings: dict[str, float] = {}
+        self.last_refusal = ""
+        self._shutter: float | None = None
+        self._task: Any = None
+        self._progress = _Progress()
+        self._progress.line.connect(self.busy_page.step.setText)
+
+    @property
+    def active(self) -> bool:
+        """Her face is on the try-on screen."""
+        return self.shopper is not None
+
+    # ------------------------------------------------------------------ the camera
+    def start(self) -> None:
+        """Open the camera (or the watched folder) and show the camera screen; a private session starts."""
+        from app.camera_source import CameraError, open_source
+
+        cfg = self.kiosk.config
+        try:
+            source = open_source(cfg.camera, cfg.watch_dir)
+        except CameraError as exc:
+            self.camera_failed(str(exc))
+            return
+        self.kiosk.begin_private_session()
+        self.kiosk.stack.setCurrentWidget(self.camera_page)
+        self.camera_page.start(source)
+
+    def camera_failed(self, detail: str) -> None:
+        """The camera is missing or went away: log it, end the session, the start screen says so kindly."""
+        log.error("kiosk: camera: %s", detail)
+        self.kiosk.fail(detail, message=CAMERA_TROUBLE)
+
+    def cancel(self) -> None:
+        """Cancel on the camera screen: back to the start screen, nothing kept."""
+        self.kiosk.show_start()
+
+    # ------------------------------------------------------------------ the capture
+    def captured(self, photo: np.ndarray) -> None:
+        """The shutter: capture her face in the thread pool, then show it."""
+        from app.workers import run_task
+
+        self._shutter = time.perf_counter()
+        self.timings = {}
+        root = self.kiosk.begin_private_session()
+        folder = Path(root) / f"face-{int(time.time() * 1000)}"
+        kiosk = self.kiosk
+        probe = capture_probe(kiosk.config)
+        resolution = min(int(kiosk.config.resolution), SHOPPER_RESOLUTION)
+        look = kiosk.look
+        source_doc = kiosk.stock_doc
+        self.busy_page.step.setText("")
+        kiosk.stack.setCurrentWidget(self.busy_page)
+        emit = self._progress.line.emit
+
+        def job(_progress: Any, _cancelled: Any) -> Shopper | Exception:
+            from capture.quality import QualityError
+
+            try:
+                return prepare_shopper(photo, folder, probe=probe, library=kiosk.library, resolution=resolution,
+                                       look=look, source_doc=source_doc, progress=emit)
+            except QualityError as exc:
+                return exc
+
+        self._task = run_task(None, "", job, kiosk.guard(self._prepared), kiosk.guard(self._prepare_failed),
+                              show_progress=False)
+
+    def _prepare_failed(self, message: str) -> None:
+        self._task = None
+        self.kiosk.fail(message)
+
+    def _prepared(self, result: Shopper | Exception) -> None:
+        self._task = None
+        if self.kiosk.stack.currentWidget() is not self.busy_page:  # the session ended meanwhile
+            if isinstance(result, Shopper):
+                result.photo = np.zeros((0, 0, 3), np.uint8)
+            self.kiosk.end_private_session()
+            return
+        if isinstance(result, Exception):  # the quality gate refused the photo: try again
+            issues = getattr(result, "issues", [])
+            self.last_refusal = issues[0].message if issues else str(result)
+            self.start()
+            self.camera_page.say(self.last_refusal)
+            return
+        self.timings.update(result.timings)
+        self.shopper = result
+        self.kiosk.wear_shopper(result.session)
+        self.renderer = ShopperRenderer(result.head, result.face, result.photo)
+        self.renderer.frame.connect(self.kiosk.guard(self._frame))
+        self.renderer.failed.connect(self.kiosk.guard(self.kiosk.fail))
+        self.view = "mirror"
+        self.light = None
+        self.shopper_view.yaw = self.shopper_view.pitch = 0.0
+        self.refresh()
+
+    # ------------------------------------------------------------------ her face on screen
+    def _frame(self, image: np.ndarray, ms: float, req: FrameRequest) -> None:
+        if self.shopper is None:
+            return
+        self.shopper_view.show_image(image)
+        if self._shutter is not None:
+            self.timings["tryon_first_frame_s"] = time.perf_counter() - self._shutter
+            self.timings["first_frame_ms"] = ms
+            log.info("kiosk: try-on: shutter to her first made-up frame %.2f s", self.timings["tryon_first_frame_s"])
+            self._shutter = None
+
+    def refresh(self, layers: bool = True) -> None:
+        """Ask for a frame of her face as the kiosk's controls say (``layers``: the document changed)."""
+        if self.renderer is None:
+            return
+        from render.binding import layer_inputs
+
+        kiosk = self.kiosk
+        self.shopper_view.turnable = self.view == "relight"
+        self.renderer.request(FrameRequest(
+            view=self.view,
+            layers=snapshot_layers(layer_inputs(kiosk.doc, kiosk.library)) if layers else None,
+            light=self.light, yaw=self.shopper_view.yaw if self.view == "relight" else 0.0,
+            pitch=self.shopper_view.pitch if self.view == "relight" else 0.0,
+            split=kiosk.split.value() / 100.0))
+
+    def set_view(self, view: str) -> None:
+        """Show the mirror ("mirror") or the relit ("relight") view."""
+        self.view = view
+        self.refresh(layers=False)
+
+    def set_light(self, preset: dict[str, Any] | None) -> None:
+        """Light her relit face with a preset (None: the photograph's light); shows the relit view."""
+        self.light = preset
+        self.view = "relight"
+        self.refresh(layers=False)
+
+    def save_image(self, path: Path) -> None:
+        """Write her face as shown (PNG).
+
+        Raises:
+            OSError: it could not be written; SheerError: no frame is shown yet.
+        """
+        from core.errors import SheerError
+
+        img = self.shopper_view.image
+        if img is None:
+            raise SheerError("her try-on is not on screen yet")
+        import io
+
+        from PIL import Image
+
+        from core.atomicio import atomic_write_bytes
+
+        buf = io.BytesIO()
+        Image.fromarray(img).save(buf, format="PNG")
+        atomic_write_bytes(path, buf.getvalue())
+
+    def end(self) -> None:
+        """Drop everything of hers: the camera, the views (GPU), the document and the photograph."""
+        self.camera_page.stop()
+        if self._task is not None:
+            self._task.cancel()
+        if self.renderer is not None:
+            self.renderer.close()
+            self.renderer.deleteLater()
+            self.renderer = None
+        self.shopper_view.clear_image()
+        if self.shopper is not None:
+            self.shopper.photo = np.zeros((0, 0, 3), np.uint8)
+            self.shopper = None
+        self._shutter = None
