@@ -198,6 +198,82 @@ def _albedo_blob(head: Head, tex: _Texels, box: np.ndarray, dark: bool = False) 
     return np.asarray(ndimage.binary_fill_holes(blob), bool).reshape(-1)[tex.flat] & box
 
 
+#: The lash line's band: from this far below the lids' slit (mm) …
+LASH_BELOW_MM = 0.3
+#: … to this far above it at the inner corner, widening linearly by LASH_WIDEN_MM to the outer corner (mm).
+LASH_ABOVE_MM = 1.0
+LASH_WIDEN_MM = 1.2
+#: A column's upper lid must stand at least this far in front of the lid below it to mark the slit (mm).
+SLIT_MIN_STEP_MM = 0.8
+
+
+def front_depth(head: Head, frame: FaceFrame, box: tuple[float, float, float, float], step_mm: float = 0.1
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The mesh's frontmost face-frame Z (mm) on a grid over ``box`` = (x0, x1, y0, y1) (face-frame mm).
+
+    An orthographic z-buffer of the triangles seen from the front, ``step_mm`` apart (−inf where no
+    triangle covers a point). Hand-written rather than ray-cast (trimesh's rays without Embree take
+    seconds for the ~10⁵ points of an eye box; the few hundred triangles there rasterise in ~0.2 s).
+
+    Returns:
+        (xs (W,), ys (H,), Z (H, W)) in mm.
+    """
+    x0, x1, y0, y1 = box
+    xs = np.arange(x0, x1, step_mm) + 0.5 * step_mm
+    ys = np.arange(y0, y1, step_mm) + 0.5 * step_mm
+    depth = np.full((len(ys), len(xs)), -np.inf)
+    tri = frame.mm(head.vertices)[np.asarray(head.faces)]
+    keep = ((tri[:, :, 0].max(1) >= x0) & (tri[:, :, 0].min(1) <= x1) & (tri[:, :, 1].max(1) >= y0)
+            & (tri[:, :, 1].min(1) <= y1))
+    for (ax, ay, az), (bx, by, bz), (cx, cy, cz) in tri[keep]:
+        det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy)
+        if abs(det) < 1e-12:
+            continue  # seen edge-on
+        i0, i1 = np.searchsorted(xs, [min(ax, bx, cx), max(ax, bx, cx)])
+        j0, j1 = np.searchsorted(ys, [min(ay, by, cy), max(ay, by, cy)])
+        if i1 <= i0 or j1 <= j0:
+            continue
+        gx, gy = np.meshgrid(xs[i0:i1], ys[j0:j1])
+        l1 = ((by - cy) * (gx - cx) + (cx - bx) * (gy - cy)) / det
+        l2 = ((cy - ay) * (gx - cx) + (ax - cx) * (gy - cy)) / det
+        l3 = 1.0 - l1 - l2
+        z = np.where((l1 >= 0) & (l2 >= 0) & (l3 >= 0), l1 * az + l2 * bz + l3 * cz, -np.inf)
+        np.maximum(depth[j0:j1, i0:i1], z, out=depth[j0:j1, i0:i1])
+    return xs, ys, depth
+
+
+def lid_slit(head: Head, frame: FaceFrame, inner: np.ndarray, outer: np.ndarray) -> np.polynomial.Polynomial | None:
+    """The closed lids' slit of one eye: its face-frame Y (mm) as a cubic in s (0 at ``inner``, 1 at ``outer``).
+
+    Along every 0.1 mm column between the eye corners, the front depth (:func:`front_depth`) is read
+    from 5 mm below the corners' line to 3 mm above it: the upper lid's margin overhangs the lower lid,
+    so the depth rises by a step there (the Z minimum just below the step is the crease between the
+    lids). The slit is the middle of the largest step (at least :data:`SLIT_MIN_STEP_MM`); a cubic is
+    fitted to the columns that have one. None when fewer than half the columns do (no slit in the
+    geometry: an open eye, or a mesh without lids).
+    """
+    s_cols = np.linspace(0.0, 1.0, max(int(abs(outer[0] - inner[0]) / 0.1), 8))
+    x_cols = inner[0] + s_cols * (outer[0] - inner[0])
+    y_line = inner[1] + s_cols * (outer[1] - inner[1])
+    xs, ys, depth = front_depth(head, frame, (float(x_cols.min()) - 0.2, float(x_cols.max()) + 0.2,
+                                              float(y_line.min()) - 5.0, float(y_line.max()) + 3.0))
+    found_s, found_y = [], []
+    for s, x, yc in zip(s_cols, x_cols, y_line):
+        col = depth[:, min(int(np.searchsorted(xs, x)), len(xs) - 1)]
+        win = (ys >= yc - 5.0) & (ys <= yc + 3.0) & np.isfinite(col)
+        if win.sum() < 10:
+            continue
+        z, y = col[win], ys[win]
+        rise = np.diff(z)
+        k = int(np.argmax(rise))
+        if rise[k] >= SLIT_MIN_STEP_MM:
+            found_s.append(s)
+            found_y.append(0.5 * (y[k] + y[k + 1]))
+    if len(found_s) < 0.5 * len(s_cols):
+        return None
+    return np.polynomial.Polynomial.fit(found_s, found_y, 3)
+
+
 def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tuple[np.ndarray, str]]:
     """Hard masks (bool (R, R)) and their sources from the sidecar's landmarks (face-frame mm)."""
     lm = {k: frame.mm(np.asarray(v, float)) for k, v in head.metadata.landmarks.items()}
@@ -236,6 +312,8 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
     parts: dict[str, np.ndarray] = {k: np.zeros(len(x), bool) for k in
                                     ("eyes", "upper_eyelid", "crease", "brow_bone", "under_eye", "brows")}
     brow_src = "a 10 mm band through the brow landmark"
+    lash_line = np.zeros(len(x), bool)
+    slits = 0
     for side in ("left", "right"):
         inner, outer, brow = lm[f"{side}_eye_inner"], lm[f"{side}_eye_outer"], lm[f"{side}_brow"]
         out_dir = np.sign(outer[0] - inner[0])
@@ -262,6 +340,21 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
         parts["brow_bone"] |= front & (h >= 0.0) & (e_cr > 1.0) & (y < brow_line - 5.0) & \
             (np.sqrt(ex2 / 1.15 ** 2 + (h / 30.0) ** 2) <= 1.0)
         parts["under_eye"] |= front & (h < -2.5) & (np.sqrt(ex2 + (h / 12.0) ** 2) <= 1.0)
+        slit = lid_slit(head, frame, inner, outer)
+        if slit is not None:
+            slits += 1
+            sc = np.clip(s, 0.0, 1.0)
+            above_slit = y - slit(sc)
+            lash_line |= front & (s >= -0.02) & (s <= 1.04) & (above_slit >= -LASH_BELOW_MM) & \
+                (above_slit <= LASH_ABOVE_MM + LASH_WIDEN_MM * sc)
+    if slits == 2:
+        out["lash_line"] = (tex.image(lash_line), src + f": the closed lids' slit (the step in the front depth "
+                            f"where the upper lid overhangs the lower, a cubic between the eye corners), from "
+                            f"{LASH_BELOW_MM:g} mm below it to {LASH_ABOVE_MM:g} mm above at the inner corner, "
+                            f"{LASH_ABOVE_MM + LASH_WIDEN_MM:g} mm at the outer")
+    else:
+        out["lash_line"] = (tex.image(np.zeros(len(x), bool)), "no slit between closed lids in the geometry (no "
+                            "step in the front depth between the eye corners)")
     eye_src = (src + ": lash line through the eye corners; lid/crease/brow bone nested half-ellipses "
                "10/14 mm high; under-eye 12 mm")
     for k, sel in parts.items():
@@ -322,8 +415,8 @@ def _contour_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tup
         "lower_lip": (tex.image(lower), src.format("lipsLowerOuter − lipsLowerInner")),
         "lips": (tex.image(upper | lower), src.format("outer lip contour − inner lip contour")),
     }
-    parts = {k: np.zeros(len(x), bool) for k in ("eyes", "upper_eyelid", "crease", "brow_bone", "under_eye",
-                                                  "brows")}
+    parts = {k: np.zeros(len(x), bool) for k in ("eyes", "lash_line", "upper_eyelid", "crease", "brow_bone",
+                                                  "under_eye", "brows")}
     for side in ("left", "right"):
         s = side
         eye = poly((f"{s}EyeUpper0", False), (f"{s}EyeLower0", True))
@@ -336,12 +429,16 @@ def _contour_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tup
         for a, b in zip(up2[:-1], up2[1:]):
             crease |= _capsule(x, y, a, b, 2.0)
         parts["eyes"] |= eye
+        up0 = v[CONTOURS[f"{s}EyeUpper0"]]
+        for a, b in zip(up0[:-1], up0[1:]):  # a 1.6 mm band centred on the upper lid's margin
+            parts["lash_line"] |= _capsule(x, y, a, b, 0.8) & front
         parts["upper_eyelid"] |= lid_top & ~eye & ~crease
         parts["crease"] |= crease & front & ~eye
         parts["brows"] |= brow
         parts["brow_bone"] |= above_lid & ~crease & ~brow
         parts["under_eye"] |= poly((f"{s}EyeLower0", False), (f"{s}EyeLower3", True)) & ~eye
-    sources = {"eyes": "EyeUpper0/EyeLower0", "upper_eyelid": "EyeUpper0 to EyeUpper2, less the crease",
+    sources = {"eyes": "EyeUpper0/EyeLower0", "lash_line": "a 1.6 mm band on EyeUpper0",
+               "upper_eyelid": "EyeUpper0 to EyeUpper2, less the crease",
                "crease": "a 4 mm band on EyeUpper2", "brows": "EyebrowUpper/EyebrowLower",
                "brow_bone": "EyeUpper2 to EyebrowLower", "under_eye": "EyeLower0 to EyeLower3"}
     for k, sel in parts.items():
@@ -398,8 +495,8 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
     soft: dict[str, np.ndarray] = {}
     for name in REGION_NAMES:  # "skin" last: it needs the others' soft masks
         if name not in shapes or not shapes[name][0].any():
-            out.missing[name] = "no texels matched its shape on this head" if name in shapes else \
-                "needs the sidecar's landmarks"
+            out.missing[name] = f"no texels matched its shape on this head ({shapes[name][1]})" if name in shapes \
+                else "needs the sidecar's landmarks"
             continue
         hard, source = shapes[name]
         f = DEFAULT_FEATHER_MM[name]

@@ -43,6 +43,7 @@ REGION_NAMES: dict[str, str] = {
     "lips": "both lips' vermilion",
     "lip_line": "a band 1.5 mm wide on the vermilion border (for liner)",
     "eyes": "the eye opening / lash line (closed lids: the lid margin)",
+    "lash_line": "the upper lash line: a band on the upper lid's margin, widening outwards (for liner)",
     "upper_eyelid": "the mobile lid, from the lash line to the crease",
     "crease": "the crease band above the mobile lid",
     "brow_bone": "between the crease and the brows",
@@ -58,8 +59,8 @@ REGION_NAMES: dict[str, str] = {
 }
 #: Default feather (full ramp width, mm) per region.
 DEFAULT_FEATHER_MM: dict[str, float] = {
-    "upper_lip": 0.5, "lower_lip": 0.5, "lips": 0.5, "lip_line": 0.5, "eyes": 1.0, "upper_eyelid": 1.0,
-    "crease": 1.0, "brow_bone": 3.0, "under_eye": 3.0, "brows": 1.5, "cheek_apple": 10.0, "cheekbone": 10.0,
+    "upper_lip": 0.5, "lower_lip": 0.5, "lips": 0.5, "lip_line": 0.5, "eyes": 1.0, "lash_line": 0.5,
+    "upper_eyelid": 1.0, "crease": 1.0, "brow_bone": 3.0, "under_eye": 3.0, "brows": 1.5, "cheek_apple": 10.0, "cheekbone": 10.0,
     "nose_bridge": 3.0, "forehead": 6.0, "t_zone": 6.0, "jawline": 6.0, "skin": 3.0,
 }
 #: Bump when the stored region format changes.
