@@ -207,8 +207,12 @@ def _residuals(params: np.ndarray, x: np.ndarray, X: np.ndarray, pp: tuple[float
 
 
 def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: int,
-              source: str = "correspondences", free_principal_point: bool = False) -> Camera:
+              source: str = "correspondences", free_principal_point: bool = False,
+              good_enough_px: float | None = None) -> Camera:
     """A camera from ≥ 6 2D (pixels) ↔ 3D (mesh units) correspondences: DLT, then refinement.
+
+    ``good_enough_px``: stop at the first start whose refined RMS error is below it (pixels; None: try
+    every start — the automatic capture's own mesh fits its points exactly from the DLT).
 
     The principal point is held at the image centre unless ``free_principal_point`` (a handful of face
     landmarks cannot separate it from the rotation: left free it drifts to far off-axis cameras).
@@ -227,10 +231,12 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
     if sv[2] < 1e-6 * sv[0]:
         raise CameraError(f"{source}: the 3D points are coplanar or collinear; pick points at several depths")
     starts = []
-    P = dlt(x, X)
-    cam0 = Camera.from_projection(P, width, height)
-    f0 = float(0.5 * (cam0.K[0, 0] + cam0.K[1, 1]))
-    if np.all(np.isfinite(cam0.K)) and f0 > 0:
+    try:  # an affine (orthographic) DLT solution has a singular 3×3 block: then only the axis starts below
+        cam0: Camera | None = Camera.from_projection(dlt(x, X), width, height)
+    except CameraError:
+        cam0 = None
+    f0 = float(0.5 * (cam0.K[0, 0] + cam0.K[1, 1])) if cam0 is not None else 0.0
+    if cam0 is not None and np.all(np.isfinite(cam0.K)) and f0 > 0:
         starts.append(np.concatenate([[f0, cam0.K[0, 2], cam0.K[1, 2]], Rotation.from_matrix(cam0.R).as_rotvec(),
                                       cam0.t]))
     # With few, nearly planar points (a face's landmarks) the DLT can land on the mirror solution behind
@@ -258,6 +264,8 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
             continue  # the points must lie in front of the camera
         if best is None or r.cost < best.cost:
             best = r
+        if good_enough_px is not None and np.sqrt(2.0 * r.cost / len(x)) < good_enough_px:
+            break
     if best is None:
         raise CameraError(f"{source}: the correspondences do not determine a camera with the points in front of it")
     res = best

@@ -30,6 +30,9 @@ from .phong import PhongParams, delta_e2000
 from .pipeline import DETAIL_DOUBLINGS, UNSEEN_FADE_MM, CaptureError, linear_to_srgb8, to_uint8
 
 if TYPE_CHECKING:
+    from painting.head import Head
+
+    from .camera import Camera
     from .pipeline import CaptureResult
 
 #: face.json's ``schema_version``.
@@ -105,13 +108,14 @@ def face_json(result: CaptureResult) -> dict[str, Any]:
 REPORT_DE_WHITE = 25.5
 
 
-def report_image(result: CaptureResult) -> np.ndarray:
+def report_image(result: CaptureResult, landmarks: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """The report image of a capture, uint8 RGB (H + caption, 4W, 3) for an H × W photograph.
 
-    Photograph | fitted Phong render (no detail) | difference (ΔE2000 as grey, white at
-    ``REPORT_DE_WHITE`` and above, skin pixels) | the detail texture in UV space (× ½), with the texels
-    the photograph did not see (filled, see :func:`capture.pipeline.bake_detail`) tinted magenta; a
-    caption strip above names each panel and its scale.
+    Photograph (with ``landmarks``, name → pixel (x, y), drawn as green dots when given) | fitted Phong
+    render (no detail) | difference (ΔE2000 as grey, white at ``REPORT_DE_WHITE`` and above, skin
+    pixels) | the detail texture in UV space (× ½), with the texels the photograph did not see (filled,
+    see :func:`capture.pipeline.bake_detail`) tinted magenta; a caption strip above names each panel and
+    its scale.
     """
     from PIL import Image, ImageDraw, ImageFont
 
@@ -125,11 +129,13 @@ def report_image(result: CaptureResult) -> np.ndarray:
     tint = ~result.detail_valid
     det[tint] = (0.5 * det[tint] + 0.5 * np.array([255, 0, 255])).astype(np.uint8)
     det = np.asarray(Image.fromarray(det).resize((w, h), Image.Resampling.NEAREST))
-    panels = np.concatenate([linear_to_srgb8(photo), linear_to_srgb8(result.fitted_render),
-                             to_uint8(diff), det], axis=1)
+    shown = linear_to_srgb8(photo)
+    if landmarks:
+        shown = _draw_points(shown, landmarks)
+    panels = np.concatenate([shown, linear_to_srgb8(result.fitted_render), to_uint8(diff), det], axis=1)
     mean_de = float(de[m].mean()) if m.any() else 0.0
     # ASCII only: Pillow's built-in font has no Δ, × or ½.
-    captions = ["photograph", "fitted Phong, no detail", f"dE2000 0-{REPORT_DE_WHITE:g} (skin mean {mean_de:.1f})",
+    captions = ["photograph" + (f" + {len(landmarks)} landmarks" if landmarks else ""), "fitted Phong, no detail", f"dE2000 0-{REPORT_DE_WHITE:g} (skin mean {mean_de:.1f})",
                 "detail x0.5 (magenta: unseen)"]
     size = max(8, min(w // 20, 24))
     strip = Image.new("RGB", (4 * w, size + size // 2), (32, 32, 32))
@@ -142,11 +148,26 @@ def report_image(result: CaptureResult) -> np.ndarray:
     return np.concatenate([np.asarray(strip), panels], axis=0)
 
 
-def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None) -> Path:
+def _draw_points(image: np.ndarray, points: dict[str, np.ndarray]) -> np.ndarray:
+    """``image`` (uint8 RGB) with each point (pixels, x right, y down) drawn as a green dot ringed in black."""
+    from PIL import Image, ImageDraw
+
+    im = Image.fromarray(image)
+    draw = ImageDraw.Draw(im)
+    r = max(1.5, min(image.shape[:2]) / 200)
+    for x, y in points.values():
+        draw.ellipse((x - r, y - r, x + r, y + r), fill=(40, 255, 80), outline=(0, 0, 0))
+    return np.asarray(im)
+
+
+def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path | None = None,
+               landmarks: dict[str, np.ndarray] | None = None, extra: dict[str, Any] | None = None) -> Path:
     """Write the face folder of ``result`` into ``out_dir`` (created; see the module docstring).
 
-    ``head_path`` is recorded in face.json (``head``). Returns the folder; :class:`CaptureError` when it
-    cannot be created.
+    ``head_path`` is recorded in face.json (``head``; a relative path is inside the folder). ``landmarks``
+    (name → pixel (x, y)) are drawn on the report's photograph; ``extra`` keys are added to face.json
+    (automatic capture: ``landmarks``, ``quality``, ``photo``…, see :mod:`capture.auto`). Returns the
+    folder; :class:`CaptureError` when it cannot be created.
     """
     import OpenEXR
     from PIL import Image
@@ -160,10 +181,11 @@ def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path
         raise CaptureError(f"{out}: cannot create the output folder: {exc.strerror}") from None
     hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     OpenEXR.File(hdr, {"RGB": np.ascontiguousarray(result.detail, dtype=np.float32)}).write(str(out / "detail.exr"))
-    Image.fromarray(report_image(result)).save(out / "report.png")
+    Image.fromarray(report_image(result, landmarks)).save(out / "report.png")
     Image.fromarray((result.skin_mask * 255).astype(np.uint8)).save(out / "skin_mask.png")
     data = face_json(result)
     data["head"] = None if head_path is None else str(head_path)
+    data.update(extra or {})
     atomic_write_text(out / "face.json", json.dumps(data, indent=2))
     return out
 
@@ -176,11 +198,45 @@ class Face:
         params: the fitted Phong parameters (linear RGB, photograph units).
         detail: float32 (H, W, 3) the detail texture in the head's UV space (top row first), [0, 8].
         data: face.json as read (JSON types).
+        folder: the face folder it was read from (None for one made in memory).
     """
 
     params: PhongParams
     detail: np.ndarray
     data: dict[str, Any]
+    folder: Path | None = None
+
+    def _file(self, key: str) -> Path | None:
+        value = self.data.get(key)
+        if not isinstance(value, str) or not value:
+            return None
+        p = Path(value)
+        return p if p.is_absolute() or self.folder is None else self.folder / p
+
+    @property
+    def head_path(self) -> Path | None:
+        """The head's mesh file (face.json ``head``; a relative path is inside the folder), or None."""
+        return self._file("head")
+
+    @property
+    def photo_path(self) -> Path | None:
+        """The photograph as captured (automatic capture's ``photo.png``), or None."""
+        return self._file("photo")
+
+    def load_head(self) -> Head:
+        """The head the face was captured on (:func:`painting.head.load_head`; None in face.json: the sample head)."""
+        from painting.head import load_head
+
+        return load_head(self.head_path)
+
+    def camera(self) -> Camera:
+        """The photograph's camera (face.json ``camera``: K, R, t in the head's mesh units, the photo's size)."""
+        from .camera import Camera
+
+        c = self.data["camera"]
+        return Camera(K=np.asarray(c["K"], float), R=np.asarray(c["R"], float), t=np.asarray(c["t"], float),
+                      width=int(c["width"]), height=int(c["height"]),
+                      reprojection_error_px=c.get("reprojection_error_px"))
 
 
 def face_albedo(face: Face) -> np.ndarray:
@@ -220,5 +276,5 @@ def load_face(folder: str | Path) -> Face:
         params = PhongParams.from_json(data["phong"])
     except (KeyError, TypeError, ValueError) as exc:
         raise CaptureError(f"{folder / 'face.json'}: missing or malformed Phong parameters ({exc!r})") from None
-    return Face(params=params, detail=detail, data=data)
+    return Face(params=params, detail=detail, data=data, folder=folder)
 

@@ -1,0 +1,308 @@
+"""Automatic capture: one photograph in, a face folder with the person's own head out (issue #15).
+
+:func:`capture_auto` reads the photograph (:func:`read_photo_srgb8`: any Pillow image; EXIF rotation
+applied; CMYK converted; grey-scale, truncated and unreadable files refused in one line; more than
+:data:`MAX_PHOTO_SIDE` pixels on the long side downscaled, and said), finds the face
+(:func:`capture.landmarks.detect_faces`), passes it through the quality gate
+(:func:`capture.quality.assess`; refusals raise :class:`capture.quality.QualityError` before anything is
+written), builds the person's head (:func:`capture.person.person_head`) — or takes the head it is given
+—, fits the photograph's camera to the 2D–3D correspondences (:func:`capture.camera.calibrate`: the DLT
+and its refinement; all 468 face-mesh points for the person's own head, the named standard landmarks
+for a given head), computes the skin mask (the person's head: the canonical topology's ``skin`` region
+seen by the camera, refined by the skin-hue model of :func:`capture.mask.refine_by_skin_colour`; a given
+head: :func:`capture.pipeline.compute_skin_mask`), runs the Paris pipeline (:func:`capture.pipeline.capture`)
+and writes the face folder (:func:`capture.face.write_face` plus the head's files and ``photo.png``).
+
+Nothing half-written: the folder is assembled in a hidden sibling folder and renamed into place at the
+end (an existing face folder at ``out_dir`` is replaced only then); any error removes the partial folder.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+import uuid
+import warnings
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .pipeline import CaptureError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from painting.head import Head
+
+    from .camera import Camera
+    from .face import Face
+    from .landmarks import FaceLandmarks
+    from .pipeline import PixelData
+    from .probe import ProbeAnalysis
+
+#: Photographs with a longer side than this (pixels) are downscaled to it before the capture (the face
+#: needs ≥ 30 % of the frame's height, so ≥ 480 px of face at this size; more costs time, not accuracy).
+MAX_PHOTO_SIDE = 1600
+#: The photograph, as captured (after any downscale), in the face folder.
+PHOTO_FILE = "photo.png"
+#: Standard landmarks needed to fit a given head's camera.
+MIN_CORRESPONDENCES = 6
+
+
+def _say(progress: Callable[[str], None] | None, msg: str) -> None:
+    if progress is not None:
+        progress(msg)
+
+
+def read_photo_srgb8(path: str | Path) -> tuple[np.ndarray, list[str]]:
+    """A photograph file as uint8 sRGB (H, W, 3), with notes on what was done to it.
+
+    EXIF orientation is applied; CMYK is converted to RGB by Pillow (no colour management: a note says
+    so); 16-bit images are scaled to 8 bits. Raises :class:`CaptureError` (one line, naming the file) for a
+    missing, unreadable or truncated file, a decompression bomb, or a grey-scale photograph (the capture
+    measures the skin's colour).
+    """
+    from PIL import Image, ImageOps, UnidentifiedImageError
+
+    notes: list[str] = []
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", Image.DecompressionBombWarning)
+            with Image.open(path) as im:
+                im.load()  # decode now: a truncated file fails here
+                mode = im.mode
+                im = ImageOps.exif_transpose(im)
+                if mode in ("1", "L", "LA", "I", "I;16", "I;16B", "I;16L", "F"):
+                    raise CaptureError(f"{path}: a grey-scale photo ({mode}); the capture measures the skin's "
+                                       f"colour: use a colour photograph")
+                if mode == "CMYK":
+                    notes.append("CMYK photo converted to RGB without colour management (colours approximate)")
+                rgb = im.convert("RGB")
+                arr = np.array(rgb, dtype=np.uint8)
+    except CaptureError:
+        raise
+    except FileNotFoundError:
+        raise CaptureError(f"{path}: photo not found") from None
+    except (Image.DecompressionBombError, Image.DecompressionBombWarning) as exc:
+        raise CaptureError(f"{path}: the image is too large to decode safely ({exc})") from None
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError) as exc:
+        raise CaptureError(f"{path}: cannot read the image (truncated or not an image): {exc}") from None
+    return arr, notes
+
+
+def prepare_photo(photo_srgb8: np.ndarray, source: str = "photo") -> tuple[np.ndarray, dict[str, Any] | None]:
+    """Check a uint8 (H, W, 3) sRGB photograph, downscale it to :data:`MAX_PHOTO_SIDE` if larger.
+
+    Returns the image and the downscale record for face.json (None when kept as it is). Grey content in an
+    RGB array (every pixel R = G = B) is refused like a grey-scale file.
+    """
+    from PIL import Image
+
+    from .landmarks import check_photo_array
+
+    arr = check_photo_array(photo_srgb8)
+    step = max(1, arr.shape[0] // 256)
+    sample = arr[::step, ::step].astype(np.int16)
+    if np.all(sample[..., 0] == sample[..., 1]) and np.all(sample[..., 1] == sample[..., 2]):
+        raise CaptureError(f"{source}: a grey-scale photo (R = G = B); the capture measures the skin's colour: "
+                           f"use a colour photograph")
+    h, w = arr.shape[:2]
+    if max(h, w) <= MAX_PHOTO_SIDE:
+        return arr, None
+    k = MAX_PHOTO_SIDE / max(h, w)
+    size = (max(1, round(w * k)), max(1, round(h * k)))
+    small = np.asarray(Image.fromarray(arr).resize(size, Image.Resampling.LANCZOS, reducing_gap=3.0))
+    return small, {"from": [w, h], "to": list(size), "factor": round(k, 6),
+                   "why": f"longer side over {MAX_PHOTO_SIDE} px"}
+
+
+def correspondences(face: FaceLandmarks, head: Head, person: bool) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """2D (pixels) ↔ 3D (mesh units) points for the camera, and their names.
+
+    The person's own head: face-mesh vertices ↔ their detected points (every third and the standard ones). A given head: the standard
+    landmarks its sidecar names (:class:`CaptureError` with fewer than :data:`MIN_CORRESPONDENCES`).
+    """
+    from .landmarks import N_MESH, STANDARD_LANDMARKS
+
+    if person:
+        # every third vertex and the standard landmarks' (the fit's cost grows with the points; 3× fewer
+        # change the camera by well under a pixel)
+        idx = sorted(set(range(0, N_MESH, 3)) | {i for v in STANDARD_LANDMARKS.values() for i in v})
+        return face.xy[idx].copy(), np.asarray(head.vertices, dtype=np.float64)[idx], [f"mesh {i}" for i in idx]
+    names = [n for n in STANDARD_LANDMARKS if n in head.metadata.landmarks and n != "gnathion"]
+    if len(names) < MIN_CORRESPONDENCES:
+        raise CaptureError(f"head '{head.name}': its sidecar names {len(names)} of the standard landmarks "
+                           f"({', '.join(STANDARD_LANDMARKS)}); the camera needs at least {MIN_CORRESPONDENCES}")
+    x = np.stack([face.point(n) for n in names])
+    X = np.stack([np.asarray(head.metadata.landmarks[n], dtype=np.float64) for n in names])
+    return x, X, names
+
+
+def region_skin_mask(head: Head, camera: Camera, photo_lin: np.ndarray, pix: PixelData) -> np.ndarray:
+    """The person's skin pixels in the photograph, bool (H, W).
+
+    The canonical topology's ``skin`` region (≥ 0.5) on the head's pixels facing the camera (n·v > 0.25),
+    refined by the skin-hue model.
+    """
+    from painting.regions import decode_regions, regions_file
+
+    from .mask import refine_by_skin_colour
+    from .pipeline import sample_texture
+
+    sidecar = head.path.with_name(head.path.name + ".sheer-head.json")
+    blob = regions_file(sidecar).read_bytes() if regions_file(sidecar).is_file() else None
+    if blob is None:
+        from core.assets import resource_path
+
+        from .person import CANONICAL_REGIONS
+
+        blob = resource_path("heads", CANONICAL_REGIONS).read_bytes()
+    skin = decode_regions(blob, "canonical face regions").get("skin").mask
+    on_skin = sample_texture(skin[..., None], pix.uv)[:, 0] >= 0.5
+    facing = np.einsum("pc,pc->p", pix.normals, pix.view) > 0.25
+    cand = np.zeros(photo_lin.shape[:2], dtype=bool)
+    cand[pix.rows[on_skin & facing], pix.cols[on_skin & facing]] = True
+    if cand.sum() < 200:
+        raise CaptureError("the face's skin region is too small in this photograph (under 200 pixels)")
+    return refine_by_skin_colour(photo_lin, cand)
+
+
+def _check_out_dir(out: Path) -> None:
+    """``out`` must be absent, empty, or a face folder (it is then replaced); :class:`CaptureError` otherwise."""
+    if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "face.json").is_file())):
+        raise CaptureError(f"{out}: exists and is not a face folder; choose a new or empty folder")
+
+
+def _move_into_place(tmp: Path, out: Path) -> None:
+    """Rename the finished ``tmp`` folder to ``out``, replacing an existing (face) folder there."""
+    old = None
+    if out.exists():
+        old = out.with_name(f".{out.name}.old-{uuid.uuid4().hex[:8]}")
+        os.replace(out, old)
+    os.replace(tmp, out)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: str | Path | Head | None = None,
+                 probe: ProbeAnalysis | str | Path | None = None, allow_closed_eyes: bool = False,
+                 progress: Callable[[str], None] | None = None, texture_size: int = 1024) -> Face:
+    """Capture a face from one photograph, automatically (see the module docstring).
+
+    Args:
+        photo: a photograph file, or uint8 (H, W, 3) sRGB.
+        out_dir: the face folder to write (absent, empty, or a face folder, which is replaced).
+        head: None builds the person's own head; a head (or its mesh file) is fitted instead.
+        probe: the light: None (a white flash on the camera's axis), a probe analysis, or a mirror-ball
+            photograph's file (analysed with reflectance 1).
+        allow_closed_eyes: let closed eyes through the quality gate.
+        progress: called with one line per step.
+        texture_size: the detail texture's side (texels, 16–8192).
+
+    Returns:
+        The face folder read back (:func:`capture.face.load_face`).
+
+    Raises:
+        QualityError: the photograph fails the quality gate (nothing written).
+        CaptureError: an unreadable photograph or probe, an unusable output folder, a head without
+            enough landmarks, a capture that cannot proceed (nothing written).
+    """
+    from km.srgb import srgb_decode
+    from painting.head import load_head
+
+    from .camera import calibrate
+    from .face import face_albedo, load_face, write_face
+    from .landmarks import detect_faces
+    from .person import HEAD_FILE, person_head, write_person_head
+    from .pipeline import capture, pixel_data
+    from .probe import analyse_probe
+    from .quality import QualityError, assess, eyes_open
+
+    if not 16 <= int(texture_size) <= 8192:
+        raise CaptureError(f"texture_size must be between 16 and 8192, got {texture_size}")
+    timings: dict[str, float] = {}
+    t_all = time.perf_counter()
+    out = Path(out_dir)
+    _check_out_dir(out)
+    notes: list[str] = []
+    if isinstance(photo, (str, Path)):
+        srgb8, notes = read_photo_srgb8(photo)
+        source = str(photo)
+    else:
+        srgb8, source = np.asarray(photo), "photo"
+    srgb8, downscale = prepare_photo(srgb8, source)
+    for n in notes:
+        _say(progress, f"note: {n}")
+    if downscale is not None:
+        _say(progress, f"photo {downscale['from'][0]}×{downscale['from'][1]} downscaled to "
+                       f"{downscale['to'][0]}×{downscale['to'][1]} (longer side over {MAX_PHOTO_SIDE} px)")
+    h, w = srgb8.shape[:2]
+
+    t = time.perf_counter()
+    faces = detect_faces(srgb8)
+    timings["landmarks"] = time.perf_counter() - t
+    report = assess(srgb8, faces, allow_closed_eyes=allow_closed_eyes)
+    if not report.ok:
+        raise QualityError(report.issues, report)
+    face = faces[0]
+    m = report.measured
+    _say(progress, f"face found: yaw {m['yaw_deg']:+.1f}°, roll {m['roll_deg']:+.1f}°, "
+                   f"{100 * m['face_height_ratio']:.0f} % of the frame's height; quality gate passed")
+
+    probe_analysis = None
+    if probe is not None:
+        probe_analysis = probe if not isinstance(probe, (str, Path)) else analyse_probe(
+            srgb_decode(read_photo_srgb8(probe)[0] / 255.0), source=str(probe))
+
+    person = head is None
+    t = time.perf_counter()
+    if person:
+        the_head = person_head(face, out, eyes_open(report))
+        _say(progress, f"person's head: {len(the_head.vertices)} vertices; {the_head.metadata.scale_note.split('; ')[0]}")
+    elif isinstance(head, (str, Path)):
+        the_head = load_head(head)
+    else:
+        the_head = head
+    timings["head"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    x, X, _ = correspondences(face, the_head, person)
+    camera = calibrate(x, X, w, h, source="the detected landmarks", good_enough_px=0.5 if person else None)
+    timings["camera"] = time.perf_counter() - t
+    _say(progress, f"camera from {len(x)} detected landmarks: RMS reprojection error "
+                   f"{camera.reprojection_error_px:.2f} px")
+
+    photo_lin = srgb_decode(srgb8 / 255.0)
+    mask = None
+    if person:
+        mask = region_skin_mask(the_head, camera, photo_lin, pixel_data(the_head, camera))
+    result = capture(the_head, photo_lin, camera, probe=probe_analysis, mask=mask, texture_size=int(texture_size),
+                     progress=progress)
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.partial-{uuid.uuid4().hex[:8]}")
+    try:
+        tmp.mkdir()
+        if person:
+            from .face import Face as FaceRecord
+
+            albedo = face_albedo(FaceRecord(params=result.params, detail=result.detail, data={}))
+            write_person_head(the_head, tmp, albedo)
+        from PIL import Image
+
+        Image.fromarray(srgb8).save(tmp / PHOTO_FILE)
+        timings["total"] = time.perf_counter() - t_all
+        extra = {"photo": PHOTO_FILE, "source_photo": source, "downscale": downscale, "notes": notes,
+                 "landmarks": {**face.to_json(), "points_px": np.round(face.points, 2).tolist()},
+                 "quality": report.to_json(), "head_kind": "person" if person else "given",
+                 "auto_timings_s": {k: round(v, 4) for k, v in timings.items()}}
+        write_face(result, tmp, head_path=HEAD_FILE if person else the_head.path,
+                   landmarks=face.standard(), extra=extra)
+        _move_into_place(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    _say(progress, f"wrote {out} in {time.perf_counter() - t_all:.1f} s")
+    return load_face(out)
