@@ -1,0 +1,117 @@
+"""The capture behind the kiosk's "Try it on me", without Qt (the bench times it too).
+
+:func:`prepare_shopper` turns her photograph into her face folder (:func:`capture.auto.capture_auto`,
+with the kiosk's calibrated light from :func:`capture_probe`) and her document with the look on screen.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from app.kiosk_config import KioskConfig
+    from app.session import Session
+    from capture.probe import ProbeAnalysis
+    from km.library import Library
+    from painting import Document
+
+log = logging.getLogger("sheer.kiosk")
+
+#: The largest thickness-map resolution of her document (texels per side): her face in a camera frame is a few
+#: hundred pixels across, and replaying a look costs about 4x more at 1024 (2.4 s measured).
+SHOPPER_RESOLUTION = 512
+#: The side of her detail texture (texels): her face fills at most a screen's height.
+SHOPPER_TEXTURE = 512
+
+
+def capture_probe(config: KioskConfig) -> ProbeAnalysis | None:
+    """The light the capture assumes: the kiosk's calibrated light, or None (a white flash on the axis)."""
+    return config.probe()
+
+
+@dataclass
+class Shopper:
+    """Her capture, in memory and in the session's private folder.
+
+    Attributes:
+        face: her captured face (``capture.face.Face``); head: her head; session: her document.
+        photo: her photograph as captured (uint8 sRGB, the face's camera size).
+        folder: the face folder (inside the private folder).
+        timings: seconds per step ("capture_s", "document_s", "look_s").
+    """
+
+    face: Any
+    head: Any
+    session: Session
+    photo: np.ndarray
+    folder: Path
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | None, library: Library,
+                    resolution: int, look: str, source_doc: Document | None = None,
+                    progress: Callable[[str], None] | None = None) -> Shopper:
+    """Capture her face from ``photo`` into ``folder`` and make her document with ``look`` on it.
+
+    Args:
+        photo: uint8 sRGB (H, W, 3).
+        folder: the face folder to write (inside a private folder; it must not exist yet).
+        probe: the kiosk's light, or None.
+        library: the kiosk's materials.
+        resolution: texels per side of her thickness maps.
+        look: a built-in look name to replay, or "project" to transfer ``source_doc``'s layers.
+        source_doc: the document on screen (for "project", and when a look cannot be replayed on her head).
+        progress: called with one line per step.
+
+    Raises:
+        capture.quality.QualityError: the photo is refused (its ``issues`` say why, kindly).
+        core.errors.SheerError: anything else that went wrong, in one line.
+    """
+    from app.session import Session
+    from capture.auto import capture_auto
+    from core.errors import SheerError
+    from painting import Document
+
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    face = capture_auto(photo, folder, probe=probe, progress=progress, texture_size=SHOPPER_TEXTURE)
+    timings["capture_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    head = face.load_head()
+    shot = photo
+    photo_path = getattr(face, "photo_path", None)
+    if photo_path is not None and Path(photo_path).is_file():
+        from PIL import Image
+
+        with Image.open(photo_path) as im:
+            shot = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    doc = Document(head, resolution=resolution, library=library)
+    session = Session(library, doc)
+    timings["document_s"] = time.perf_counter() - t
+    t = time.perf_counter()
+    if look in ("", "project") and source_doc is not None:
+        from painting.transfer import transfer_layers
+
+        transfer_layers(source_doc, doc)
+        doc.clear_history()
+    elif look:
+        try:
+            session.apply_look(look)
+        except SheerError as exc:
+            if source_doc is None:
+                raise
+            log.warning("kiosk: the look %s could not be replayed on her face (%s); transferring it", look, exc)
+            from painting.transfer import transfer_layers
+
+            transfer_layers(source_doc, doc)
+            doc.clear_history()
+    timings["look_s"] = time.perf_counter() - t
+    return Shopper(face, head, session, shot, Path(folder), timings)
