@@ -146,6 +146,7 @@ class Viewport(QWidget):
         self.brush_radius_units = 0.2
         self.paint_enabled = True
         self.pick_next = False  # the next left click on the head picks a point (surface_picked), no stroke
+        self.after_frame: Callable[[Any], None] | None = None  # drawn over each frame, e.g. the Regions overlay
         self.environment = "none"
         #: the document shown (see :meth:`set_document`) and the library its materials come from
         self.document: Document | None = None
@@ -400,6 +401,8 @@ class Viewport(QWidget):
             drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting.key_light(),
                                         split=self.split, debug=self.debug, mode=frame_mode, ring=ring,
                                         interactive=interactive, scale=scale)
+            if self.after_frame is not None:  # (app.region_picker's Regions overlay, issue #16)
+                self.after_frame(fbo)
         except Exception as exc:  # never a traceback: say so once; another mode falls back to fast
             import logging
 
