@@ -61,7 +61,7 @@ FACE_OVAL = (10, 338, 297, 332, 284, 251, 389, 356, 454, 323, 361, 288, 397, 365
 
 #: The friendly message of each code (``{value}`` filled in where it helps).
 MESSAGES: dict[str, str] = {
-    "no_face": "No face found: look straight at the camera, with your whole face in the frame and well lit.",
+    "no_face": "No face found: come close enough to fill the frame, look straight at the camera, in good light.",
     "two_faces": "More than one face in the picture: only one person at a time, please.",
     "turned": "Your head is turned {value:.0f}° to the side: please face the camera.",
     "tilted": "Your head is tilted {value:.0f}°: please hold it upright and look straight ahead.",

@@ -1,7 +1,17 @@
 """``sheer capture``: a relightable face from a flash photograph of a face and its 3D head (Paris et al. 2003).
 
+    sheer capture --photo PATH --out FACE_DIR [--head PATH] [--allow-closed-eyes] [--probe PATH]   (automatic)
     sheer capture --head PATH --photo PATH (--camera FILE | --points FILE) [--probe PATH] [--mask PATH]
                   --out FACE_DIR
+
+**Automatic** (no ``--camera``/``--points``): MediaPipe finds the face's 478 landmarks, the quality gate
+refuses a photo with no face or several, a turned or tilted head, a small face, closed eyes (unless
+``--allow-closed-eyes``), blur, clipped or dark skin (each with its reason, in one line); the person's
+own head is built from the face mesh (canonical topology, metric from the iris) and written into
+FACE_DIR (head.obj, its sidecar, albedo.png, regions) with photo.png; the camera comes from the
+landmarks. ``--head PATH`` fits that head instead of building one (its sidecar's standard landmarks).
+face.json then also holds the detected landmarks (named, pixels) and the quality report; report.png
+draws the landmarks. Photos over 1600 px on the longer side are downscaled (said).
 
 - ``--camera FILE``: JSON ``{"P": [[…4], […4], […4]]}``, the 3×4 projection matrix (pixels ← mesh units).
 - ``--points FILE``: JSON ``{"points": [{"name": …, "image": [x, y], "mesh": [x, y, z]}, …]}`` (≥ 6);
@@ -26,6 +36,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,9 +48,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head")
     p.add_argument("--photo", required=True, metavar="PATH", help="the flash photograph (PNG/JPEG, sRGB)")
-    cam = p.add_mutually_exclusive_group(required=True)
-    cam.add_argument("--camera", metavar="FILE", help="projection matrix JSON")
-    cam.add_argument("--points", metavar="FILE", help="2D-3D correspondences JSON (at least 6)")
+    cam = p.add_mutually_exclusive_group()
+    cam.add_argument("--camera", metavar="FILE", help="projection matrix JSON (else: automatic)")
+    cam.add_argument("--points", metavar="FILE", help="2D-3D correspondences JSON (at least 6; else: automatic)")
+    p.add_argument("--allow-closed-eyes", action="store_true",
+                   help="automatic capture: let closed eyes through the quality gate (e.g. the sample head's scan)")
     p.add_argument("--probe", metavar="PATH", help="mirror-ball photograph, cropped to the ball")
     p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
                    help="the ball's reflectance, 0 < R ≤ 1 (default 1, a perfect mirror; chrome ≈ 0.5–0.7)")
@@ -69,6 +85,10 @@ def run(args: argparse.Namespace) -> int:
     def say(msg: str) -> None:
         print(f"capture: {msg}", file=sys.stderr, flush=True)
 
+    if not args.camera and not args.points:
+        return run_auto(args, say)
+    if args.allow_closed_eyes:
+        raise CaptureError("--allow-closed-eyes is for the automatic capture (without --camera/--points)")
     head = load_head(args.head)
     say(f"head {head.name}: {len(head.faces)} triangles, {head.mm_per_unit:g} mm per unit")
     photo = read_photo(args.photo)
@@ -88,4 +108,32 @@ def run(args: argparse.Namespace) -> int:
                      progress=say, robustness_starts=args.starts)
     out = write_face(result, args.out, head_path=head.path)
     say(f"wrote {out}/face.json, detail.exr, report.png, skin_mask.png")
+    return 0
+
+
+def run_auto(args: argparse.Namespace, say: Callable[[str], None]) -> int:
+    """The automatic capture (:func:`capture.auto.capture_auto`) for ``args``; returns 0."""
+    from capture.auto import capture_auto
+    from capture.pipeline import CaptureError, read_photo
+    from capture.probe import analyse_probe
+
+    if args.mask:
+        raise CaptureError("--mask is for a capture with --camera or --points (the automatic one computes it)")
+    if args.starts:
+        raise CaptureError("--starts is for a capture with --camera or --points")
+    probe = None
+    if args.probe:
+        probe = analyse_probe(read_photo(args.probe), source=args.probe, reflectance=args.probe_reflectance)
+    from capture.quality import QualityError
+
+    try:
+        face = capture_auto(args.photo, args.out, head=args.head, probe=probe,
+                            allow_closed_eyes=args.allow_closed_eyes, progress=say, texture_size=args.texture_size)
+    except QualityError as exc:
+        codes = ", ".join(i.code for i in exc.issues)
+        raise CaptureError(f"{args.photo}: refused by the quality gate ({codes}): {exc}") from None
+    files = "face.json, detail.exr, report.png, skin_mask.png, photo.png"
+    if face.data.get("head_kind") == "person":
+        files += ", head.obj (+ sidecar, albedo.png, regions)"
+    say(f"wrote {args.out}/: {files}")
     return 0
