@@ -261,6 +261,8 @@ class LightweightRenderer:
 
     def _release_offscreen(self) -> None:
         if self._offscreen is not None:
+            # moderngl re-binds the last used framebuffer when it creates one: never leave a deleted one bound
+            self.ctx.detect_framebuffer(0).use()
             for obj in self._offscreen:
                 obj.release()
             self._offscreen = None

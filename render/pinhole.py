@@ -78,10 +78,13 @@ def pinhole_camera(K: np.ndarray, R: np.ndarray, t: np.ndarray, width: int, heig
 
     Args:
         K: (3, 3) intrinsics, pixels of a ``width`` × ``height`` image.
-        R: (3, 3) rotation world → camera; t: (3,) translation, mesh units.
-        width, height: the image the camera was made for, pixels (any size of this aspect ratio renders).
+        R: (3, 3) rotation world → camera.
+        t: (3,) translation, mesh units.
+        width: the width of the image the camera was made for, pixels (any size of its aspect renders).
+        height: that image's height, pixels.
         vertices: the head's vertices (N, 3), mesh units: the depth range is fitted to them.
-        yaw, pitch: degrees the camera orbits about ``pivot`` (see :func:`turn_matrix`); 0, 0 = the photograph.
+        yaw: degrees the camera orbits about ``pivot`` about +Y (see :func:`turn_matrix`); 0 = the photograph.
+        pitch: degrees it orbits about +X; 0 = the photograph.
         pivot: the orbit's centre, mesh units (default: the vertices' bounding-box centre).
 
     Its ``view()`` is GL's eye space (y up, looking along −z); ``eye()`` is the camera's centre (mesh

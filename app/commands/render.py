@@ -14,6 +14,17 @@ the ambient light the capture measured is always part of the face. ``--camera FI
 projection matrix (JSON ``{"P": …}``, pixels ← mesh units, as ``sheer capture --camera``) and
 ``--yaw``/``--pitch`` an orbit camera instead.
 
+Two views of a captured shopper (issue 15), ``--view`` with ``--face``:
+
+- ``--view mirror``: her photograph (face.json's ``photo`` in the face folder, or ``--photo PATH``) at its
+  own size and pose, the makeup composited on the face (the photograph ÷ the capture's fitted shading, the
+  layers over it, shaded again: where there is no makeup the photograph comes back unchanged).
+  Takes no camera, size, light or environment options: the photograph fixes them.
+- ``--view relight``: the lightweight engine from the capture's camera, turned by ``--yaw``/``--pitch``
+  (degrees, each within ±25) about the neck, under ``--light`` (photograph units), a kiosk preset
+  (``--light-preset daylight|office|evening|warm indoor``, scaled to the photograph's exposure) or, by
+  default, the captured flash.
+
 Defaults: intensity 1.2 and exposure 0.85 for the physical modes (display units: a white Lambert surface
 facing a light of intensity 1 shows 1.0 before exposure); intensity 1 and exposure 1 for the lightweight
 engine (photograph units).
@@ -135,6 +146,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    choices=("none", "albedo", "thickness", "r_top", "transmittance", "irradiance", "unlit"))
     p.add_argument("--debug-layer", type=int, default=0, help="layer index for --debug-view thickness")
     p.add_argument("--resolution", type=int, default=1024, help="thickness-map resolution for --look")
+    p.add_argument("--view", choices=("mirror", "relight"),
+                   help="with --face: 'mirror' (the photograph with the makeup composited on the face, at its own "
+                        "size) or 'relight' (the lightweight engine, --yaw/--pitch turn it up to ±25°)")
+    p.add_argument("--photo", metavar="PATH",
+                   help="--view mirror: the photograph the face was captured from (default: the face folder's)")
+    p.add_argument("--light-preset", metavar="NAME",
+                   help="--view relight: a kiosk light preset (daylight, office, evening, warm indoor)")
     p.add_argument("--out", required=True, metavar="FILE.png", help="output PNG")
     p.set_defaults(func=run)
 
@@ -179,45 +197,28 @@ def run(args: argparse.Namespace) -> int:
         raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
     if args.light and FROM_CAPTURE in args.light and not args.face:
         raise SheerError(f"--light {FROM_CAPTURE} needs --face FACE_DIR (the capture whose flash to reuse)")
+    if args.view is None and (args.photo or args.light_preset):
+        raise SheerError("--photo and --light-preset need --view (mirror or relight) and --face")
     face = None
     if args.face:  # issue 7: a captured face (lightweight engine, or its albedo in the physical one)
         from capture.face import load_face
 
         face = load_face(args.face)
+    elif args.view:
+        raise SheerError(f"--view {args.view} needs --face FACE_DIR (a folder written by 'sheer capture')")
+    head_path = args.head if args.head or face is None else _captured_head_path(face, args.face)
+    if args.view:
+        from app.commands.render_views import run_view
+
+        image = run_view(args, face, head_path)
+        _write_png(out, image)
+        print(f"wrote {out} ({image.shape[1]}×{image.shape[0]}, {args.view} view)", file=sys.stderr)
+        return 0
     lightweight = mode == "lightweight"
     exposure = args.exposure if args.exposure is not None else (1.0 if lightweight else 0.85)
-    head_path = args.head if args.head or face is None else _captured_head_path(face)
     photo_camera = _photo_camera(args, face)
     size = _image_size(args.size, photo_camera)
-
-    from painting.head import load_head
-
-    doc = None
-    if args.project:
-        from project.document import document_from_project
-        from project.io import open_project
-
-        doc = document_from_project(open_project(args.project, head_path=head_path), head_path=head_path)
-        head = doc.head
-    elif args.look and args.look != "bare":
-        from painting import Document
-        from painting.looks import apply_look, load_look
-
-        look = load_look(args.look)  # unknown look: a clear error before the slow head set-up
-        head = load_head(head_path)
-        _check_head(head)
-        lib = _library()
-        for lay in look.layers:
-            lib.get(lay.material)  # unknown material: a clear error now
-        doc = Document(head, resolution=args.resolution, library=lib)
-        apply_look(doc, look)
-    else:
-        if args.look == "bare":
-            from painting.looks import load_look
-
-            load_look("bare")
-        head = load_head(head_path)
-        _check_head(head)
+    doc, head = load_document(args, head_path)
 
     if face is not None and not lightweight:
         import dataclasses
@@ -229,7 +230,6 @@ def run(args: argparse.Namespace) -> int:
             doc.head = head
 
     import moderngl
-    from PIL import Image
 
     from render import DocumentBinding, Renderer
 
@@ -278,6 +278,17 @@ def run(args: argparse.Namespace) -> int:
             renderer.release()
     finally:
         ctx.release()
+    _write_png(out, image)
+    print(f"wrote {out} ({size[0]}×{size[1]}, {mode})", file=sys.stderr)
+    return 0
+
+
+def _write_png(out: Path, image: np.ndarray) -> None:
+    """Write ``image`` (uint8 (H, W, 3)) to ``out`` as a PNG, atomically (a temporary file renamed)."""
+    from PIL import Image
+
+    from core.errors import SheerError
+
     tmp = out.with_name(out.name + ".tmp.png")
     try:
         Image.fromarray(image).save(tmp, format="PNG")
@@ -285,16 +296,57 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise SheerError(f"{out}: cannot write the image: {exc.strerror or exc}") from None
-    print(f"wrote {out} ({size[0]}×{size[1]}, {mode})", file=sys.stderr)
-    return 0
 
 
-def _captured_head_path(face: Face) -> str | None:
-    """The head a face was captured on (face.json's ``head``) when that file still exists, else None."""
+def load_document(args: argparse.Namespace, head_path: str | None) -> tuple[Document | None, Head]:
+    """The document ``--project``/``--look`` describe (None: bare) and its head, checked.
+
+    Raises a ``core.errors.SheerError`` for an unknown look or material, a head without albedo or a
+    non-manifold mesh.
+    """
+    from painting.head import load_head
+
+    doc = None
+    if args.project:
+        from project.document import document_from_project
+        from project.io import open_project
+
+        doc = document_from_project(open_project(args.project, head_path=head_path), head_path=head_path)
+        head = doc.head
+    elif args.look and args.look != "bare":
+        from painting import Document
+        from painting.looks import apply_look, load_look
+
+        look = load_look(args.look)  # unknown look: a clear error before the slow head set-up
+        head = load_head(head_path)
+        _check_head(head)
+        lib = _library()
+        for lay in look.layers:
+            lib.get(lay.material)  # unknown material: a clear error now
+        doc = Document(head, resolution=args.resolution, library=lib)
+        apply_look(doc, look)
+    else:
+        if args.look == "bare":
+            from painting.looks import load_look
+
+            load_look("bare")
+        head = load_head(head_path)
+        _check_head(head)
+    return doc, head
+
+
+def _captured_head_path(face: Face, folder: str) -> str | None:
+    """The head a face was captured on, when that file still exists, else None.
+
+    face.json's ``head``; a relative path is inside the face ``folder``.
+    """
     from pathlib import Path
 
     recorded = face.data.get("head")
-    return recorded if isinstance(recorded, str) and Path(recorded).is_file() else None
+    if not isinstance(recorded, str):
+        return None
+    path = Path(folder) / recorded  # an absolute path stays as it is
+    return str(path) if path.is_file() else None
 
 
 def _photo_camera(args: argparse.Namespace, face: Face | None) -> Camera | None:
@@ -405,42 +457,13 @@ def _captured_flash(face: Face | None) -> Light:
 
 
 def _projection_camera(camera: Camera, vertices: np.ndarray, size: tuple[int, int]) -> OrbitCamera:
-    """An orbit camera that renders exactly what the pinhole ``camera`` sees, at ``size`` (same aspect).
+    """An orbit camera that renders exactly what the pinhole ``camera`` sees, at any ``size`` of its aspect.
 
-    Its view is the camera's [R | t] turned to GL's eye space (y up, looking along −z) and its projection
-    :meth:`capture.camera.Camera.clip_from_world` (the image scaled to ``size``), depth range from the
-    head's vertices; eye, target, distance and vertical field of view follow, for what reads them.
+    :func:`render.pinhole.pinhole_camera` with the camera's K, R, t; depth range from the head's vertices.
     """
-    import math
+    from render.pinhole import pinhole_camera
 
-    import numpy as np
-
-    from render.camera import OrbitCamera
-
-    scale = size[0] / camera.width
-    depths = camera.to_camera(np.asarray(vertices))[:, 2]
-    near, far = max(1e-3, 0.5 * float(depths.min())), 2.0 * float(depths.max())
-    flip = np.diag([1.0, -1.0, -1.0, 1.0])
-    view = flip.copy()
-    view[:3, :3] = flip[:3, :3] @ camera.R
-    view[:3, 3] = flip[:3, :3] @ camera.t
-    proj = camera.clip_from_world(near, far, scale) @ np.linalg.inv(view)
-    centre = np.asarray(vertices).mean(axis=0)
-
-    class ProjectionCamera(OrbitCamera):
-        def eye(self) -> np.ndarray:
-            return camera.centre
-
-        def view(self) -> np.ndarray:
-            return view
-
-        def projection(self, aspect: float) -> np.ndarray:
-            return proj
-
-    cam = ProjectionCamera(fov_y=math.degrees(2 * math.atan(camera.height / (2 * float(camera.K[1, 1])))),
-                           target=centre, near=near, far=far)
-    cam.distance = float(np.linalg.norm(camera.centre - centre))
-    return cam
+    return pinhole_camera(camera.K, camera.R, camera.t, camera.width, camera.height, vertices)
 
 
 def _render_lightweight(ctx: moderngl.Context, head: Head, face: object, renderer: Renderer,

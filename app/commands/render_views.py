@@ -1,0 +1,120 @@
+"""``sheer render --face DIR --view mirror|relight``: the two views of a captured shopper (issue 15).
+
+Called by :mod:`app.commands.render` (not a command of its own): see that module's help for the options.
+The views themselves are :class:`render.mirror.MirrorView` and :class:`render.mirror.RelightView`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import argparse
+
+    import numpy as np
+
+    from capture.face import Face
+
+#: Options the mirror view refuses: the photograph fixes its camera, size and light.
+MIRROR_REFUSES = ("size", "camera", "yaw", "pitch", "light", "light_color", "light_preset", "env", "mode",
+                  "exposure")
+#: Options the relight view refuses (it has its own camera and lighting model).
+RELIGHT_REFUSES = ("camera", "env", "mode", "photo")
+
+
+def _refuse(args: argparse.Namespace, names: tuple[str, ...]) -> None:
+    from core.errors import SheerError
+
+    for name in names:
+        if getattr(args, name, None) is not None:
+            raise SheerError(f"--{name.replace('_', '-')} does not apply to --view {args.view}")
+    if args.debug_view != "none":
+        raise SheerError(f"--debug-view does not apply to --view {args.view}")
+
+
+def photo_path(args: argparse.Namespace, face: Face) -> str:
+    """The photograph the face was captured from: ``--photo``, else face.json's ``photo`` (in the folder)."""
+    from pathlib import Path
+
+    from core.errors import SheerError
+
+    if args.photo:
+        return str(args.photo)
+    recorded = face.data.get("photo")
+    if not isinstance(recorded, str):
+        raise SheerError(f"{args.face}: the face folder names no photograph (face.json 'photo'): give --photo PATH")
+    path = Path(args.face) / recorded
+    if not path.is_file():
+        raise SheerError(f"{path}: the face's photograph is missing: give --photo PATH")
+    return str(path)
+
+
+def read_photo_srgb8(path: str) -> np.ndarray:
+    """A photograph as uint8 sRGB (H, W, 3); a clear one-line error when it cannot be read."""
+    import numpy as np
+    from PIL import Image, UnidentifiedImageError
+
+    from core.errors import SheerError
+
+    try:
+        with Image.open(path) as im:
+            return np.asarray(im.convert("RGB"), dtype=np.uint8)
+    except FileNotFoundError:
+        raise SheerError(f"{path}: photo not found") from None
+    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
+        raise SheerError(f"{path}: cannot read the image: {exc}") from None
+
+
+def run_view(args: argparse.Namespace, face: Face, head_path: str | None) -> np.ndarray:
+    """Render ``--view`` mirror or relight for ``face`` with the look/project of ``args``; uint8 (H, W, 3)."""
+    import moderngl
+
+    from types import SimpleNamespace
+
+    from app.commands.render import _image_size, _lights, load_document
+    from core.errors import SheerError
+    from render.binding import layer_inputs
+    from render.mirror import MirrorView, RelightView
+
+    _refuse(args, MIRROR_REFUSES if args.view == "mirror" else RELIGHT_REFUSES)
+    photo = read_photo_srgb8(photo_path(args, face)) if args.view == "mirror" else None
+    if args.light_preset is not None:
+        from app.settings import LIGHT_PRESETS
+
+        if args.light_preset not in LIGHT_PRESETS:
+            raise SheerError(f"--light-preset {args.light_preset!r}: one of {', '.join(LIGHT_PRESETS)}")
+        if args.light:
+            raise SheerError("--light and --light-preset exclude each other")
+    doc, head = load_document(args, head_path)
+    try:
+        ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    except Exception as exc:
+        raise SheerError(f"cannot create an OpenGL 4.5 context (EGL): {exc}") from None
+    try:
+        view: MirrorView | RelightView
+        if photo is not None:
+            view = MirrorView(ctx, head, face, photo)
+        else:
+            view = RelightView(ctx, head, face)
+        try:
+            if doc is not None:
+                view.set_layers(layer_inputs(doc))
+            if isinstance(view, MirrorView):
+                return view.render_image()
+            view.yaw, view.pitch = args.yaw or 0.0, args.pitch or 0.0
+            view.camera()  # a turn beyond the limit: the error before any drawing
+            if args.light_preset is not None:
+                from app.settings import LIGHT_PRESETS
+
+                view.set_preset(**LIGHT_PRESETS[args.light_preset])
+            lights = _lights(args.light, args.light_color, face, 1.0)
+            if lights is not None:
+                view.lights = lights
+            if args.exposure is not None:
+                view.exposure = args.exposure
+            w, h = view.size
+            return view.render_image(_image_size(args.size, SimpleNamespace(width=w, height=h)))  # type: ignore[arg-type]
+        finally:
+            view.release()
+    finally:
+        ctx.release()

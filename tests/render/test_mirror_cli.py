@@ -1,0 +1,117 @@
+"""``sheer render --face DIR --view mirror|relight`` (issue 15), driven through the CLI in process, on a small
+face folder written by hand (the sample head, a 320×240 camera looking at the face, a flash from the upper
+left, a photograph of noise: the mirror view must give back whatever photograph it is given)."""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pytest
+from PIL import Image
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+pytestmark = pytest.mark.gl
+W, H = 320, 240
+
+
+@pytest.fixture(scope="module")
+def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    import OpenEXR
+
+    from capture.camera import look_at
+    from capture.face import FACE_SCHEMA_VERSION
+    from capture.phong import PhongParams
+    from painting.head import load_head
+
+    head = load_head()
+    lm = head.metadata.landmarks
+    mouth = (np.asarray(lm["mouth_left"]) + np.asarray(lm["mouth_right"])) / 2
+    d = tmp_path_factory.mktemp("face")
+    p = PhongParams(diffuse=np.array([0.5, 0.35, 0.3]), specular=0.1, exponent=20.0, ambient_scale=1.0,
+                    ambient_rgb=np.full(3, 0.02))
+    eye = mouth + np.array([0.0, 0.0, 30.0])
+    cam = look_at(eye, mouth, np.array([0.0, 1.0, 0.0]), 20.0, W, H)
+    light = np.array([0.3, 0.3, 1.0]) / np.linalg.norm([0.3, 0.3, 1.0])
+    (d / "face.json").write_text(json.dumps({"schema_version": FACE_SCHEMA_VERSION, "phong": p.to_json(),
+                                             "camera": cam.to_json(), "light_dir_world": light.tolist(),
+                                             "photo": "photo.png"}))
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(hdr, {"RGB": np.ones((64, 64, 3), np.float32)}).write(str(d / "detail.exr"))
+    rng = np.random.default_rng(7)
+    Image.fromarray(rng.integers(0, 256, (H, W, 3), dtype=np.uint8)).save(d / "photo.png")
+    Image.fromarray(rng.integers(0, 256, (H // 2, W // 2, 3), dtype=np.uint8)).save(d / "small.png")
+    return d
+
+
+def _render(*args: str) -> tuple[int, np.ndarray | None, str]:
+    import contextlib
+    import io
+
+    from app.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["render", *args])
+    out = next((a for i, a in enumerate(args) if i and args[i - 1] == "--out"), None)
+    img = np.asarray(Image.open(out)) if code == 0 and out else None
+    return code, img, err.getvalue()
+
+
+def test_mirror_bare_is_the_photograph_and_lipstick_changes_the_mouth(face_dir: Path, tmp_path: Path) -> None:
+    photo = np.asarray(Image.open(face_dir / "photo.png"))
+    code, bare, err = _render("--face", str(face_dir), "--view", "mirror", "--out", str(tmp_path / "a.png"))
+    assert code == 0, err
+    assert bare is not None and np.array_equal(bare, photo)  # face.json's photo, its own size
+    code, lips, err = _render("--face", str(face_dir), "--view", "mirror", "--look", "red-lip",
+                              "--photo", str(face_dir / "photo.png"), "--out", str(tmp_path / "b.png"))
+    assert code == 0, err
+    assert lips is not None and lips.shape == (H, W, 3)
+    changed = np.abs(lips.astype(int) - photo.astype(int)).max(axis=2) > 2
+    assert changed.sum() > 200
+    rows, cols = np.nonzero(changed)
+    # the camera looks at the mouth: the change is around the middle of the frame (lips, and the foundation)
+    assert abs(np.median(rows) - H / 2) < H / 4 and abs(np.median(cols) - W / 2) < W / 4
+    assert not changed[:, :10].any() and not changed[:10].any()  # the background is untouched
+
+
+def test_relight_turns_and_takes_presets_and_lights(face_dir: Path, tmp_path: Path) -> None:
+    code, front, err = _render("--face", str(face_dir), "--view", "relight", "--out", str(tmp_path / "a.png"))
+    assert code == 0, err
+    assert front is not None and front.shape == (H, W, 3)
+    code, turned, err = _render("--face", str(face_dir), "--view", "relight", "--yaw", "-20", "--pitch", "10",
+                                "--light-preset", "evening", "--look", "red-lip", "--out", str(tmp_path / "b.png"))
+    assert code == 0, err
+    assert turned is not None and not np.array_equal(turned, front)
+    code, big, err = _render("--face", str(face_dir), "--view", "relight", "--size", "640x480", "--light",
+                             "-30,10,1.2,#ffddbb", "--out", str(tmp_path / "c.png"))
+    assert code == 0 and big is not None and big.shape == (480, 640, 3), err
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--view", "relight", "--yaw", "30"], "at most ±25°"),
+    (["--view", "mirror", "--size", "100x100"], "--size does not apply to --view mirror"),
+    (["--view", "mirror", "--light", "10,10"], "--light does not apply"),
+    (["--view", "mirror", "--photo", "SMALL"], "but the face was captured from a 320×240"),
+    (["--view", "mirror", "--photo", "MISSING"], "photo not found"),
+    (["--view", "relight", "--light-preset", "disco"], "--light-preset 'disco': one of daylight"),
+    (["--view", "relight", "--light-preset", "office", "--light", "0,0"], "exclude each other"),
+    (["--light-preset", "office"], "need --view"),
+])
+def test_bad_input_is_one_line(face_dir: Path, tmp_path: Path, args: list[str], message: str,
+                               capsys: pytest.CaptureFixture[str]) -> None:
+    args = [str(face_dir / "small.png") if a == "SMALL" else str(tmp_path / "nope.png") if a == "MISSING" else a
+            for a in args]
+    code, _, err = _render("--face", str(face_dir), *args, "--out", str(tmp_path / "x.png"))
+    err += capsys.readouterr().err
+    assert code == 2
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_view_needs_a_face(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = _render("--view", "mirror", "--out", str(tmp_path / "x.png"))
+    assert code == 2 and "needs --face" in err + capsys.readouterr().err
