@@ -25,19 +25,15 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from PySide6.QtCore import QObject, Qt, Signal
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
 from app.kiosk_camera_page import PRIVACY_LINE, CameraPage
-from app.kiosk_capture import SHOPPER_RESOLUTION, Shopper, capture_probe, prepare_shopper
+from app.kiosk_capture import SHOPPER_RESOLUTION, Shopper, capture_probe, prepare_shopper, warm_up
 from app.kiosk_shopper import FrameRequest, ShopperRenderer, ShopperView, snapshot_layers
-
-if TYPE_CHECKING:
-
-    from app.kiosk import KioskWindow
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -83,7 +79,7 @@ class TryOn(QObject):
         last_refusal: the quality gate's last message after a shutter ("" for none).
     """
 
-    def __init__(self, kiosk: KioskWindow) -> None:
+    def __init__(self, kiosk: Any) -> None:  # an app.kiosk.KioskWindow (which imports this module)
         super().__init__()
         self.kiosk = kiosk
         self.camera_page = CameraPage()
@@ -103,6 +99,11 @@ class TryOn(QObject):
         self._task: Any = None
         self._progress = _Progress()
         self._progress.line.connect(self.busy_page.step.setText)
+        if kiosk.config.can_try_on:
+            from app.workers import run_task
+
+            run_task(None, "", lambda _p, _c: warm_up(), lambda _r: None,
+                     lambda m: log.warning("kiosk: warming up the capture failed: %s", m), show_progress=False)
 
     @property
     def active(self) -> bool:
