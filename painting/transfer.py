@@ -7,13 +7,13 @@ in the canonical face-mesh topology) has other UVs and another shape. The transf
    ``nose_tip``, eye and mouth corners…) fit a thin-plate spline with an affine part
    (``scipy.interpolate.RBFInterpolator``) from B's space onto A's, in millimetres (each head's
    ``mm_per_unit``). Landmarks that coincide on either head (e.g. the canonical face's ``chin`` and
-   ``gnathion``, both vertex 152) are dropped, as they would make the spline singular.
+   ``gnathion`` if both were vertex 152) are dropped, as they would make the spline singular.
 2. **Closest point** (:class:`Correspondence`): every covered texel of B's atlas is warped into A's space
    and snapped to A's surface (the closest point on the nearest few of A's triangles, found through a
    k-d tree over A's texels); its barycentric coordinates there give a UV on A. A texel with no
-   counterpart — farther than ``max_gap_mm`` from A's surface, or facing more than
-   ``max_angle_deg`` away from it (e.g. the scalp, ears and neck of a whole head when A is only a face)
-   — gets nothing (zero thickness, a neutral mask).
+   counterpart — farther than ``max_gap_mm`` from A's surface, snapped onto A's open border from
+   beyond it, or facing more than ``max_angle_deg`` away from it (e.g. the scalp, ears and neck of a
+   whole head when A is only a face) — gets nothing (zero thickness, a neutral mask).
 3. **Resampling** (:meth:`Correspondence.resample`): A's map is sampled bilinearly at those UVs, using
    only the texels of the chart the UV lies in (so nothing bleeds across A's UV seams), and B's padding
    texels copy their chart's border texel, as :func:`painting.atlas.bake` does (so B's seams stay
@@ -51,7 +51,9 @@ DUPLICATE_LANDMARK_MM = 1.0
 #: A texel whose warped position is farther than this from the other surface has no counterpart (mm).
 DEFAULT_MAX_GAP_MM = 10.0
 #: … or whose warped normal is more than this from the other surface's (degrees).
-DEFAULT_MAX_ANGLE_DEG = 60.0
+DEFAULT_MAX_ANGLE_DEG = 100.0
+#: A texel that snaps onto the source's open border from farther than this (mm) lies beyond it.
+BORDER_SLACK_MM = 0.5
 #: Candidate triangles per texel for the closest point (the triangles of the nearest source texels).
 _CANDIDATES = 4
 #: Resolution of the source bake whose texels index the candidate triangles.
@@ -154,6 +156,22 @@ class LandmarkWarp:
 
 # ------------------------------------------------------------------------------------------- correspondence
 
+def _open_edges(layout: Any) -> np.ndarray:
+    """Whether the edge opposite each corner of a layout triangle is on the open border: bool (F, 3).
+
+    Vertices are welded by position first, so the layout's UV seams (split vertices) are not borders.
+    """
+    import trimesh
+
+    extent = float(np.ptp(layout.vertices, axis=0).max()) or 1.0
+    _, inverse = trimesh.grouping.unique_rows(layout.vertices, digits=max(0, int(-np.floor(np.log10(extent))) + 7))
+    welded = np.asarray(inverse)[layout.faces]
+    edges = np.sort(np.stack([welded[:, [1, 2]], welded[:, [2, 0]], welded[:, [0, 1]]], axis=1).reshape(-1, 2), axis=1)
+    _, which, counts = np.unique(edges[:, 0] * (int(welded.max()) + 1) + edges[:, 1], return_inverse=True,
+                                 return_counts=True)
+    return np.asarray(counts[which] == 1).reshape(-1, 3)
+
+
 @dataclass
 class Correspondence:
     """For each covered texel of the target's bake at ``resolution``, where it lies on the source.
@@ -222,9 +240,11 @@ class Correspondence:
         face_n = trimesh.triangles.normals(tris[best_f])[0]
         facing = np.einsum("ij,ij->i", face_n, qn) >= np.cos(np.radians(max_angle_deg))
         gap = best_d * warp.source_mm
-        ok = facing & (gap <= max_gap_mm)
-        bary = trimesh.triangles.points_to_barycentric(tris[best_f[ok]], best_p[ok])
-        uv = np.einsum("ij,ijk->ik", bary, layout.uv[layout.faces[best_f[ok]]])
+        bary = trimesh.triangles.points_to_barycentric(tris[best_f], best_p)
+        # Snapped onto the source's open border from beyond it: past the source's edge, no counterpart.
+        beyond = np.any((bary < 1e-6) & _open_edges(layout)[best_f], axis=1) & (gap > BORDER_SLACK_MM)
+        ok = facing & (gap <= max_gap_mm) & ~beyond
+        uv = np.einsum("ij,ijk->ik", bary[ok], layout.uv[layout.faces[best_f[ok]]])
         return cls(resolution=int(resolution), flat=covered_near[ok], source_uv=uv,
                    source_chart=layout.chart_of_face[best_f[ok]].astype(np.int32), source_point=best_p[ok],
                    gap_mm=gap[ok].astype(np.float32), covered=len(covered), target=atlas)
