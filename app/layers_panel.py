@@ -1,7 +1,9 @@
 """The layers panel: a view of the document's layers that sends commands back (it holds no truth).
 
 Top of the list = top layer. Drag to reorder, double-click to rename, tick to show/hide; opacity,
-maximum thickness, material, delete, import/export of the thickness map; a swatch of each material.
+maximum thickness, material, delete, import/export of the thickness map; a swatch of each material; the
+selected layer's mask (:class:`app.mask_editor.MaskEditor`, once :meth:`LayersPanel.attach_document`
+has named the document).
 """
 
 from __future__ import annotations
@@ -26,8 +28,10 @@ from PySide6.QtWidgets import (
 )
 
 if TYPE_CHECKING:
+    from app.mask_editor import MaskEditor
     from km.library import Library
     from km.material import Material
+    from painting import Document
     from painting.layer import Layer
 
 
@@ -163,11 +167,13 @@ class LayersPanel(QWidget):
         buttons = QHBoxLayout()
         for b in (self.delete_button, self.import_button, self.export_button):
             buttons.addWidget(b)
+        self.mask_editor: MaskEditor | None = None
         lay = QVBoxLayout(self)
         lay.addLayout(top)
         lay.addWidget(self.list, 1)
         lay.addLayout(form)
         lay.addLayout(buttons)
+        self._box = lay
         self.add_button.clicked.connect(lambda: self.add_requested.emit(self.material.currentText()))
         self.delete_button.clicked.connect(lambda: self._emit_current(self.remove_requested))
         self.import_button.clicked.connect(lambda: self._emit_current(self.import_requested))
@@ -175,6 +181,7 @@ class LayersPanel(QWidget):
         self.list.moved.connect(lambda a, b: self.move_requested.emit(self.doc_index(a), self.doc_index(b)))
         self.list.itemChanged.connect(self._item_changed)
         self.list.currentRowChanged.connect(lambda r: self.selection_changed.emit(self.doc_index(r)))
+        self.list.currentRowChanged.connect(lambda _r: self._updating or self._refresh_mask())
         # one undo step per gesture: while the handle is dragged, only its release counts
         self.opacity.sliderReleased.connect(
             lambda: self._emit_current(self.opacity_requested, self.opacity.value() / 100.0))
@@ -184,6 +191,25 @@ class LayersPanel(QWidget):
             lambda: self._emit_current(self.max_thickness_requested, float(self.max_thickness.value())))
         self.layer_material.activated.connect(
             lambda _i: self._emit_current(self.material_requested, self.layer_material.currentText()))
+
+    def attach_document(self, doc: Document) -> MaskEditor:
+        """Edit the selected layer's mask in ``doc`` (adds the mask editor below the layer's controls)."""
+        from app.mask_editor import MaskEditor
+
+        if self.mask_editor is None:
+            self.mask_editor = MaskEditor(doc, self.current_index)
+            self._box.addWidget(self.mask_editor)
+        self._refresh_mask()
+        return self.mask_editor
+
+    @property
+    def paint_mask(self) -> bool:
+        """Strokes paint the selected layer's mask (the mask editor's "Paint mask"), not its thickness."""
+        return self.mask_editor is not None and self.mask_editor.paint_mask
+
+    def _refresh_mask(self) -> None:
+        if self.mask_editor is not None:
+            self.mask_editor.refresh()
 
     def doc_index(self, row: int) -> int:
         """The document index (0 = bottom) of list row ``row`` (0 = top); -1 for no row."""
@@ -257,3 +283,4 @@ class LayersPanel(QWidget):
                   self.max_thickness, self.layer_material):
             w.setEnabled(self._count > 0)
         self._updating = False
+        self._refresh_mask()

@@ -110,6 +110,7 @@ class StudioWindow(QMainWindow):
         self.layers_panel = LayersPanel()
         self.layers_panel.set_materials(self.library)
         self._wire_layers_panel()
+        self.layers_panel.attach_document(self.doc)  # the selected layer's mask (issue #16)
         skin = self._skin_colour()
         self.library_dock = LibraryDock(self.library, skin)
         self.library_dock.material_changed.connect(self._material_changed)
@@ -275,6 +276,7 @@ class StudioWindow(QMainWindow):
         tb.addWidget(self.mirror_check)
         self.region_picker = RegionPicker(self.doc)  # stay inside / avoid / fill a facial region (issue #16)
         tb.addWidget(self.region_picker)
+        self.region_picker.attach_overlay(self.viewport)  # its Regions menu outlines regions on the face
         self.region_picker.fill_requested.connect(
             lambda name: self.doc.layers and self._layer_cmd(
                 lambda: self.doc.fill_region(self.doc.layers[self.selected_layer], name)))
@@ -584,7 +586,8 @@ class StudioWindow(QMainWindow):
         brush = Brush(radius_mm=float(s.brush_radius_mm), hardness=float(s.brush_hardness),
                       strength=float(s.brush_strength), mode=s.brush_mode, mirror=bool(s.brush_mirror),
                       **self.region_picker.brush_options())
-        self._stroke = self.doc.stroke(lay, brush).__enter__()
+        target = self.doc.mask_stroke if self.layers_panel.paint_mask else self.doc.stroke  # (issue #16)
+        self._stroke = target(lay, brush).__enter__()
         self._stroke_move(point, pressure)
 
     def _stroke_move(self, point: np.ndarray, pressure: float) -> None:

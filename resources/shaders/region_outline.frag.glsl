@@ -1,0 +1,27 @@
+#version 450 core
+// Facial regions' outlines over a kept frame (with mesh.vert; render/region_overlay.py, issue #16).
+// u_masks: the shown regions' soft masks in the paint atlas's UV space (one layer each, row 0 = v 0, as
+// the thickness maps); each outline is the mask's 0.5 level, about 2 pixels wide at any zoom (the width
+// is measured with the mask's screen-space derivative), over a faint tint of the region's inside.
+// u_depth: the depth of the same mesh drawn with the same matrix, so hidden surface is left alone.
+uniform sampler2DArray u_masks;
+uniform sampler2D u_depth;
+uniform int u_count;
+uniform vec4 u_colours[16];  // rgb, inside tint alpha
+in vec2 v_uv_paint;
+out vec4 f_color;
+void main() {
+    if (gl_FragCoord.z > texelFetch(u_depth, ivec2(gl_FragCoord.xy), 0).r + 1e-6) discard;
+    vec4 acc = vec4(0.0);
+    for (int i = 0; i < u_count; ++i) {
+        float m = texture(u_masks, vec3(v_uv_paint, float(i))).r;
+        float px = abs(m - 0.5) / max(fwidth(m), 1e-4);  // pixels from the 0.5 level
+        float line = 1.0 - smoothstep(0.6, 1.6, px);
+        float a = max(line, step(0.5, m) * u_colours[i].a);
+        // "over" compositing, front to back in list order
+        acc.rgb += (1.0 - acc.a) * a * u_colours[i].rgb;
+        acc.a += (1.0 - acc.a) * a;
+    }
+    if (acc.a <= 0.0) discard;
+    f_color = vec4(acc.rgb / acc.a, acc.a);
+}
