@@ -2,7 +2,8 @@
 
 :func:`capture_auto` reads the photograph (:func:`read_photo_srgb8`: any Pillow image; EXIF rotation
 applied; CMYK converted; grey-scale, truncated and unreadable files refused in one line; more than
-:data:`MAX_PHOTO_SIDE` pixels on the long side downscaled, and said), finds the face
+:data:`MAX_PHOTO_SIDE` pixels on the long side downscaled, and said; then, once the face is found, a
+face taller than :data:`MAX_FACE_PX` too), finds the face
 (:func:`capture.landmarks.detect_faces`), passes it through the quality gate
 (:func:`capture.quality.assess`; refusals raise :class:`capture.quality.QualityError` before anything is
 written), builds the person's head (:func:`capture.person.person_head`) — or takes the head it is given
@@ -45,6 +46,8 @@ if TYPE_CHECKING:
 #: Photographs with a longer side than this (pixels) are downscaled to it before the capture (the face
 #: needs ≥ 30 % of the frame's height, so ≥ 480 px of face at this size; more costs time, not accuracy).
 MAX_PHOTO_SIDE = 1600
+#: Photographs whose face (the face mesh's height) is taller than this (pixels) are downscaled so it is not.
+MAX_FACE_PX = 280
 #: The photograph, as captured (after any downscale), in the face folder.
 PHOTO_FILE = "photo.png"
 #: Standard landmarks needed to fit a given head's camera.
@@ -98,8 +101,6 @@ def prepare_photo(photo_srgb8: np.ndarray, source: str = "photo") -> tuple[np.nd
     Returns the image and the downscale record for face.json (None when kept as it is). Grey content in an
     RGB array (every pixel R = G = B) is refused like a grey-scale file.
     """
-    from PIL import Image
-
     from .landmarks import check_photo_array
 
     arr = check_photo_array(photo_srgb8)
@@ -112,10 +113,42 @@ def prepare_photo(photo_srgb8: np.ndarray, source: str = "photo") -> tuple[np.nd
     if max(h, w) <= MAX_PHOTO_SIDE:
         return arr, None
     k = MAX_PHOTO_SIDE / max(h, w)
-    size = (max(1, round(w * k)), max(1, round(h * k)))
-    small = np.asarray(Image.fromarray(arr).resize(size, Image.Resampling.LANCZOS, reducing_gap=3.0))
-    return small, {"from": [w, h], "to": list(size), "factor": round(k, 6),
+    small = _resized(arr, k)
+    return small, {"from": [w, h], "to": [small.shape[1], small.shape[0]], "factor": round(k, 6),
                    "why": f"longer side over {MAX_PHOTO_SIDE} px"}
+
+
+def _resized(arr: np.ndarray, k: float) -> np.ndarray:
+    """``arr`` (uint8 (H, W, 3)) scaled by ``k`` < 1 (Lanczos), sizes rounded."""
+    from PIL import Image
+
+    h, w = arr.shape[:2]
+    size = (max(1, round(w * k)), max(1, round(h * k)))
+    return np.asarray(Image.fromarray(arr).resize(size, Image.Resampling.LANCZOS, reducing_gap=3.0))
+
+
+def fit_face_size(photo_srgb8: np.ndarray, face: FaceLandmarks,
+                  downscale: dict[str, Any] | None) -> tuple[np.ndarray, FaceLandmarks, dict[str, Any] | None]:
+    """Downscale a photograph whose face is taller than :data:`MAX_FACE_PX`, with its landmarks.
+
+    The capture's cost grows with the skin's pixels; beyond :data:`MAX_FACE_PX` of face the detail texture
+    (the face spans ≈ 700 of its 1024 texels) gains nothing. Returns the image, the landmarks scaled with
+    it, and the downscale record (the earlier one, ``downscale``, composed with this one).
+    """
+    from .landmarks import FaceLandmarks
+
+    x0, y0, x1, y1 = face.box()
+    if y1 - y0 <= MAX_FACE_PX:
+        return photo_srgb8, face, downscale
+    h, w = photo_srgb8.shape[:2]
+    small = _resized(photo_srgb8, MAX_FACE_PX / (y1 - y0))
+    kx, ky = small.shape[1] / w, small.shape[0] / h
+    pts = face.points * np.array([kx, ky, kx])
+    scaled = FaceLandmarks(points=pts, width=small.shape[1], height=small.shape[0])
+    first = downscale["from"] if downscale else [w, h]
+    record = {"from": first, "to": [small.shape[1], small.shape[0]], "factor": round(small.shape[1] / first[0], 6),
+              "why": (downscale["why"] + "; " if downscale else "") + f"face taller than {MAX_FACE_PX} px"}
+    return small, scaled, record
 
 
 def correspondences(face: FaceLandmarks, head: Head, person: bool) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -238,7 +271,6 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     if downscale is not None:
         _say(progress, f"photo {downscale['from'][0]}×{downscale['from'][1]} downscaled to "
                        f"{downscale['to'][0]}×{downscale['to'][1]} (longer side over {MAX_PHOTO_SIDE} px)")
-    h, w = srgb8.shape[:2]
 
     t = time.perf_counter()
     faces = detect_faces(srgb8)
@@ -246,7 +278,10 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     report = assess(srgb8, faces, allow_closed_eyes=allow_closed_eyes)
     if not report.ok:
         raise QualityError(report.issues, report)
-    face = faces[0]
+    face, before = faces[0], srgb8.shape[:2]
+    srgb8, face, downscale = fit_face_size(srgb8, face, downscale)
+    if srgb8.shape[:2] != before:
+        _say(progress, f"photo downscaled to {srgb8.shape[1]}×{srgb8.shape[0]} (the face taller than {MAX_FACE_PX} px)")
     m = report.measured
     _say(progress, f"face found: yaw {m['yaw_deg']:+.1f}°, roll {m['roll_deg']:+.1f}°, "
                    f"{100 * m['face_height_ratio']:.0f} % of the frame's height; quality gate passed")
@@ -256,6 +291,7 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         probe_analysis = probe if not isinstance(probe, (str, Path)) else analyse_probe(
             srgb_decode(read_photo_srgb8(probe)[0] / 255.0), source=str(probe))
 
+    h, w = srgb8.shape[:2]
     person = head is None
     t = time.perf_counter()
     if person:
