@@ -269,7 +269,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         side.addWidget(self.snapshot_button)
         self.foundation_finder = FoundationFinder(
             self.library, self.doc, lambda: self.tryon.shopper.face if self.tryon.shopper else self.face, self._sync,
-            self.guard)
+            self.guard, skin_source=self.tryon.her_skin)
+        self.foundation_finder.found.connect(self.guard(self.tryon.preview_shades))
         side.addWidget(self.foundation_finder)
         side.addWidget(self.toast)
         side.addWidget(self.done_button)

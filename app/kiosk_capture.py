@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from app.session import Session
     from capture.probe import ProbeAnalysis
     from km.library import Library
+    from km.skin_photo import PhotoSkin
     from painting import Document
 
 log = logging.getLogger("sheer.kiosk")
@@ -62,6 +63,7 @@ class Shopper:
         photo: her photograph as captured (uint8 sRGB, the face's camera size).
         folder: the face folder (inside the private folder).
         timings: seconds per step ("capture_s", "document_s", "look_s").
+        skin: her skin read from her photograph, (linear sRGB, note), once read (``()``: unreadable).
     """
 
     face: Any
@@ -70,6 +72,7 @@ class Shopper:
     photo: np.ndarray
     folder: Path
     timings: dict[str, float] = field(default_factory=dict)
+    skin: tuple[Any, ...] | None = None
 
 
 def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | None, library: Library,
@@ -131,3 +134,36 @@ def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | N
             doc.clear_history()
     timings["look_s"] = time.perf_counter() - t
     return Shopper(face, head, session, shot, Path(folder), timings)
+
+
+def shopper_skin(face: Any) -> PhotoSkin | None:
+    """Her skin colour read from her photograph (:func:`km.skin_photo.skin_from_photo`), or None.
+
+    The region is a band across both cheeks at the height of her ``left_cheek`` / ``right_cheek``
+    landmarks (±0.15 of the eyes' distance around them; the luminance percentiles drop the nose's
+    highlight and shadows); a ColorChecker in the frame corrects the camera. None when the face folder
+    has no photograph or landmarks (the caller then uses the fitted diffuse colour).
+    """
+    from km.skin_photo import PhotoError, skin_from_photo
+
+    photo_path = getattr(face, "photo_path", None)
+    try:
+        std = face.data["landmarks"]["standard"]
+        (lx, ly), (rx, ry) = std["left_cheek"], std["right_cheek"]
+        (ex1, ey1), (ex2, ey2) = std["left_eye"], std["right_eye"]
+    except (KeyError, TypeError, ValueError):
+        return None
+    if photo_path is None or not Path(photo_path).is_file():
+        return None
+    iod = float(np.hypot(ex1 - ex2, ey1 - ey2))
+    pad = 0.15 * iod
+    w, h = int(face.data["camera"]["width"]), int(face.data["camera"]["height"])
+    x0, x1 = max(0, int(min(lx, rx) - pad)), min(w, int(np.ceil(max(lx, rx) + pad)))
+    y0, y1 = max(0, int(min(ly, ry) - pad)), min(h, int(np.ceil(max(ly, ry) + pad)))
+    if x1 - x0 < 4 or y1 - y0 < 4:
+        return None
+    try:
+        return skin_from_photo(photo_path, region=(x0, y0, x1 - x0, y1 - y0))
+    except PhotoError as exc:
+        log.warning("kiosk: her skin could not be read from her photograph (%s)", exc)
+        return None

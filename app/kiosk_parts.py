@@ -150,6 +150,7 @@ class ShopperSession:
         self._stock_looks, self._look_cache = self._look_cache, {}
         self.session, self.doc = session, session.document
         self.foundation_finder.doc = self.doc
+        self.foundation_finder.reset()
         self.look = session.look or self.look
         for n, b in self.look_buttons.items():
             b.setChecked(n == self.look)
@@ -168,6 +169,7 @@ class ShopperSession:
         self.session, self.doc = self.stock_session, self.stock_session.document
         self._look_cache = getattr(self, "_stock_looks", {})
         self.foundation_finder.doc = self.doc
+        self.foundation_finder.reset()
         self.face_stack.setCurrentWidget(self.viewport)
         self.views_bar.hide()
         self.privacy_label.hide()

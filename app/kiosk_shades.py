@@ -1,11 +1,14 @@
 """The kiosk's "Find my foundation": the three best foundations on the shopper's skin, tap one to wear it.
 
-Her skin is the captured face's fitted diffuse colour when the kiosk has one (``sheer capture``), else the
-head's albedo (the median of its middle third). It is fitted with the skin model and the library's
+Her skin is read from her own photograph after "Try it on me" (``skin_source``: the cheeks of her
+photograph, colour-corrected when a ColorChecker is in the frame — :mod:`km.skin_photo`), else the
+configured captured face's fitted diffuse colour, else the head's albedo (the median of its middle
+third). The reading and the match run in the thread pool (a checker search takes seconds). It is fitted with the skin model and the library's
 foundations ranked on it (:func:`km.shade.match_shades`: own skin as the target, daylight, with the
 metamerism check under the store's light F11 and warm indoor light A). Three touch-sized buttons show
 the shades over her skin; a line says in plain words which of them change under the shop's light.
-Tapping one gives the look's foundation layer that shade.
+Tapping one gives the look's foundation layer that shade. The ``found`` signal names the three, so the
+kiosk can show each on her face (:meth:`FoundationFinder.set_preview` puts the picture on its button).
 """
 
 from __future__ import annotations
@@ -13,6 +16,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from PySide6.QtCore import QSize, Signal
+from PySide6.QtGui import QIcon, QImage, QPixmap
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
 from app.pin_pad import big_button
@@ -58,16 +63,27 @@ class FoundationFinder(QWidget):
         face: returns the captured face (None without one).
         worn: called after a shade was put on (the kiosk refreshes its labels).
         guard: the kiosk's error guard for handlers.
+        skin_source: returns her skin read from her photograph (linear sRGB (3,) and a note), or None.
 
     Attributes:
         shades: the shades shown, best first.
+        note: what the reading of her skin assumes (e.g. an sRGB camera), or "".
+
+    Signals:
+        found(list[str]): the names of the shades shown, best first.
     """
 
+    found = Signal(list)
+
     def __init__(self, library: Library, doc: Document, face: Callable[[], Face | None], worn: Callable[[], Any],
-                 guard: Callable[[Callable[..., Any]], Callable[..., Any]]) -> None:
+                 guard: Callable[[Callable[..., Any]], Callable[..., Any]],
+                 skin_source: Callable[[], tuple[np.ndarray, str] | None] | None = None) -> None:
         super().__init__()
         self.library, self.doc, self.face, self.worn = library, doc, face, worn
+        self.guard, self.skin_source = guard, skin_source
         self.shades: list[ShadeMatch] = []
+        self.note = ""
+        self.busy = False
         self.find_button = big_button("Find my foundation")
         self.find_button.clicked.connect(guard(self.find))
         self.shade_buttons = [big_button("", 64) for _ in range(SHOWN)]
@@ -84,19 +100,48 @@ class FoundationFinder(QWidget):
         lay.addWidget(self.message)
 
     def skin_rgb(self) -> np.ndarray:
-        """Her skin, linear sRGB: the captured face's diffuse colour, else the head's albedo."""
+        """Her skin, linear sRGB: from her photograph, else the captured face's diffuse colour, else the head's albedo."""
+        read = self.skin_source() if self.skin_source is not None else None
+        if read is not None:
+            self.note = read[1]
+            return np.asarray(read[0], dtype=np.float64)
+        self.note = ""
         face = self.face()
         if face is not None:
             return np.asarray(face.params.diffuse, dtype=np.float64)
         return head_skin_rgb(self.doc.head.albedo)
 
     def find(self) -> None:
-        """Rank the foundations on her skin and show the three best."""
-        from km.shade import ShadeBank, foundations, match_shades
-        from km.skin import fit_skin
+        """Read her skin and rank the foundations on it in the thread pool; then show the three best."""
+        if self.busy:
+            return
+        from app.workers import run_task
 
-        fit = fit_skin(linear_rgb=self.skin_rgb())
-        ranked = match_shades(fit.reflectance, fit.reflectance, ShadeBank.from_materials(foundations(self.library)))
+        self.busy = True
+        self.find_button.setEnabled(False)
+        self.message.setText("Reading your skin…")
+        for b in self.shade_buttons:
+            b.hide()
+
+        def job(_progress: Any, _cancelled: Any) -> tuple[list[ShadeMatch], bool]:
+            from km.shade import ShadeBank, foundations, match_shades
+            from km.skin import fit_skin
+
+            fit = fit_skin(linear_rgb=self.skin_rgb())
+            bank = ShadeBank.from_materials(foundations(self.library))
+            return match_shades(fit.reflectance, fit.reflectance, bank), bool(fit.out_of_gamut)
+
+        run_task(None, "", job, self.guard(self._show), self.guard(self._failed), show_progress=False)
+
+    def _failed(self, message: str) -> None:
+        self.busy = False
+        self.find_button.setEnabled(True)
+        raise RuntimeError(f"Find my foundation: {message}")
+
+    def _show(self, result: tuple[list[ShadeMatch], bool]) -> None:
+        ranked, out_of_gamut = result
+        self.busy = False
+        self.find_button.setEnabled(True)
         self.shades = ranked[:SHOWN]
         for b, s in zip(self.shade_buttons, self.shades):
             b.setText(f"{s.name}  ·  ΔE {s.de2000:.1f}")
@@ -106,7 +151,27 @@ class FoundationFinder(QWidget):
         for b in self.shade_buttons[len(self.shades):]:
             b.hide()
         warnings = [w for w in (plain_warning(s) for s in self.shades) if w]
-        self.message.setText(" ".join(warnings) or "These match in daylight, in the shop and at home.")
+        words = " ".join(warnings) or "These match in daylight, in the shop and at home."
+        if out_of_gamut:
+            words += " Your skin is hard to read in this photo: please ask us to confirm the shade."
+        self.message.setText(words)
+        self.found.emit([s.name for s in self.shades])
+
+    def reset(self) -> None:
+        """Forget the shades shown (a new shopper)."""
+        self.shades = []
+        self.note = ""
+        for b in self.shade_buttons:
+            b.setIcon(QIcon())
+            b.hide()
+        self.message.setText("")
+
+    def set_preview(self, index: int, image: QImage) -> None:
+        """Show shade ``index`` on her face: ``image`` as the icon of its button."""
+        b = self.shade_buttons[index]
+        side = max(48, b.height() - 12)
+        b.setIcon(QIcon(QPixmap.fromImage(image)))
+        b.setIconSize(QSize(side, side))
 
     def wear(self, index: int) -> None:
         """Give the look's foundation layer the shade of button ``index``."""

@@ -52,6 +52,8 @@ class FrameRequest:
             photograph's own light.
         yaw, pitch: the relit face's turn from the photograph's view, degrees (within ±25).
         split: before/after: the left ``split`` fraction of the frame (0..1) shows her without makeup.
+        previews: other sets of layers to draw her with first (mirror view), each returned in the
+            ``previewed`` signal (e.g. each of the shades the foundation finder proposes), or None.
     """
 
     view: str = "mirror"
@@ -60,6 +62,7 @@ class FrameRequest:
     yaw: float = 0.0
     pitch: float = 0.0
     split: float = 0.0
+    previews: list[list[LayerInput]] | None = None
     made: float = field(default_factory=time.perf_counter)
 
 
@@ -93,10 +96,12 @@ class ShopperRenderer(QObject):
 
     Signals:
         frame(image, ms, request): a frame drawn (uint8 (H, W, 3)), its drawing time in ms and its request.
+        previewed(images): the request's ``previews`` drawn (uint8 (H, W, 3) each, in order).
         failed(message): the GL context or a view could not be made, or a frame failed.
     """
 
     frame = Signal(object, float, object)
+    previewed = Signal(list)
     failed = Signal(str)
 
     def __init__(self, head: Head, face: Any, photo: np.ndarray) -> None:
@@ -130,6 +135,8 @@ class ShopperRenderer(QObject):
                 return None
             if nxt.layers is None:
                 nxt.layers = req.layers
+            if nxt.previews is None:
+                nxt.previews = req.previews
             req = nxt
         return req
 
@@ -151,11 +158,21 @@ class ShopperRenderer(QObject):
             self._drain()
             self._release(ctx, mirror, relight)
             return
+        main_layers: list[LayerInput] = []
         while True:
             req = self._take()
             if req is None:
                 break
             try:
+                if req.previews:
+                    shots = []
+                    for layers in req.previews:
+                        mirror.set_layers(layers)
+                        shots.append(np.asarray(mirror.render_image()))
+                    mirror.set_layers(req.layers if req.layers is not None else main_layers)
+                    self.previewed.emit(shots)
+                if req.layers is not None:
+                    main_layers = req.layers
                 t = time.perf_counter()
                 img = self._draw(mirror, relight, req)
                 self.frames += 1

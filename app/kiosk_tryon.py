@@ -32,10 +32,31 @@ from PySide6.QtCore import QObject, Qt, Signal
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
 from app.kiosk_camera_page import PRIVACY_LINE, CameraPage
-from app.kiosk_capture import SHOPPER_RESOLUTION, Shopper, capture_probe, prepare_shopper, warm_up
+from app.kiosk_capture import (
+    SHOPPER_RESOLUTION,
+    Shopper,
+    capture_probe,
+    prepare_shopper,
+    shopper_skin,
+    warm_up,
+)
 from app.kiosk_shopper import FrameRequest, ShopperRenderer, ShopperView, snapshot_layers
 
 log = logging.getLogger("sheer.kiosk")
+
+
+def face_box(face: Any, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1) pixels of her face in her photograph: her landmarks' box, a fifth wider each way."""
+    h, w = shape[:2]
+    try:
+        pts = np.array(list(face.data["landmarks"]["standard"].values()), dtype=float).reshape(-1, 2)
+    except (KeyError, TypeError, ValueError):
+        return 0, 0, w, h
+    (ax, ay), (bx, by) = pts.min(axis=0), pts.max(axis=0)
+    px, py = 0.2 * (bx - ax), 0.2 * (by - ay)
+    x0, y0 = max(0, int(ax - px)), max(0, int(ay - py))
+    x1, y1 = min(w, int(np.ceil(bx + px))), min(h, int(np.ceil(by + py)))
+    return (x0, y0, x1, y1) if x1 - x0 > 4 and y1 - y0 > 4 else (0, 0, w, h)
 
 #: What the start screen says when the camera stops or cannot be opened.
 CAMERA_TROUBLE = "Sorry, the camera is not working right now. Please ask a member of staff."
@@ -95,6 +116,7 @@ class TryOn(QObject):
         self.light: dict[str, Any] | None = None
         self.timings: dict[str, float] = {}
         self.last_refusal = ""
+        self.previews_shown = 0
         self._shutter: float | None = None
         self._task: Any = None
         self._progress = _Progress()
@@ -186,6 +208,7 @@ class TryOn(QObject):
         self.kiosk.wear_shopper(result.session)
         self.renderer = ShopperRenderer(result.head, result.face, result.photo)
         self.renderer.frame.connect(self.kiosk.guard(self._frame))
+        self.renderer.previewed.connect(self.kiosk.guard(self._previewed))
         self.renderer.failed.connect(self.kiosk.guard(self.kiosk.fail))
         self.view = "mirror"
         self.light = None
@@ -217,6 +240,57 @@ class TryOn(QObject):
             light=self.light, yaw=self.shopper_view.yaw if self.view == "relight" else 0.0,
             pitch=self.shopper_view.pitch if self.view == "relight" else 0.0,
             split=kiosk.split.value() / 100.0))
+
+    def her_skin(self) -> tuple[np.ndarray, str] | None:
+        """Her skin read from her photograph (linear sRGB, the reading's note), or None.
+
+        None without a shopper or a reading (the finder then uses the fitted diffuse colour). Read once
+        per shopper, in the finder's worker (it only reads her face folder).
+        """
+        shopper = self.shopper
+        if shopper is None:
+            return None
+        if shopper.skin is None:
+            read = shopper_skin(shopper.face)
+            shopper.skin = (read.linear_rgb, read.note) if read is not None else ()
+        return shopper.skin or None
+
+    def preview_shades(self, names: list[str]) -> None:
+        """Draw her face wearing each foundation of ``names`` for the finder's buttons.
+
+        Each on the look's foundation layer, in the mirror view, cropped to her face.
+        """
+        if self.renderer is None:
+            return
+        from render.binding import layer_inputs
+
+        kiosk = self.kiosk
+        base = layer_inputs(kiosk.doc, kiosk.library)
+        found = [i for i, lay in enumerate(base) if lay.material.category == "foundation"]
+        if not found:
+            return
+        previews = []
+        for name in names:
+            layers = snapshot_layers(base)
+            layers[found[0]].material = kiosk.library.get(name)
+            previews.append(layers)
+        self.renderer.request(FrameRequest(
+            view=self.view, layers=None, light=self.light, yaw=self.shopper_view.yaw if self.view == "relight" else 0.0,
+            pitch=self.shopper_view.pitch if self.view == "relight" else 0.0, split=kiosk.split.value() / 100.0,
+            previews=previews))
+
+    def _previewed(self, images: list[np.ndarray]) -> None:
+        if self.shopper is None:
+            return
+        from PySide6.QtGui import QImage
+
+        x0, y0, x1, y1 = face_box(self.shopper.face, images[0].shape)
+        for i, img in enumerate(images):
+            crop = np.ascontiguousarray(img[y0:y1, x0:x1])
+            h, w = crop.shape[:2]
+            self.kiosk.foundation_finder.set_preview(i, QImage(crop.data, w, h, 3 * w,
+                                                               QImage.Format.Format_RGB888).copy())
+        self.previews_shown = len(images)
 
     def set_view(self, view: str) -> None:
         """Show the mirror ("mirror") or the relit ("relight") view."""

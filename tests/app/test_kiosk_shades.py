@@ -33,10 +33,12 @@ def kiosk(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Ki
         yield win
 
 
-def test_find_my_foundation_shows_three_and_a_tap_wears_one(kiosk: KioskWindow) -> None:
+def test_find_my_foundation_shows_three_and_a_tap_wears_one(kiosk: KioskWindow, qtbot: object) -> None:
     finder = kiosk.foundation_finder
     assert finder.find_button.text() == "Find my foundation" and finder.isVisibleTo(kiosk)
-    finder.find_button.click()
+    finder.find_button.click()  # read and matched in the thread pool
+    assert finder.message.text() == "Reading your skin…" and not finder.find_button.isEnabled()
+    qtbot.waitUntil(lambda: len(finder.shades) == SHOWN, timeout=30000)
     expected = match_shades(*(2 * [fit_skin(linear_rgb=finder.skin_rgb()).reflectance]),
                             ShadeBank.from_materials(foundations(kiosk.library)))[:SHOWN]
     assert [s.name for s in finder.shades] == [s.name for s in expected]

@@ -202,19 +202,41 @@ def test_looks_products_lights_and_before_after_on_her_face(shopper: dict[str, A
 
 @capturing
 def test_her_foundation_from_her_photograph_on_her_face(shopper: dict[str, Any]) -> None:
-    """#17 in the kiosk: "Find my foundation" after "Try it on me" matches her captured skin and a tap
-    puts the shade on her face."""
-    kiosk = shopper["kiosk"]
+    """#17 in the kiosk: "Find my foundation" after "Try it on me" reads her skin from her photograph
+    (her cheeks, km.skin_photo), shows the three best shades on her face, and a tap puts one on."""
+    from km.shade import ShadeBank, foundations, match_shades
+    from km.skin import fit_skin
+    from km.skin_photo import skin_from_photo
+
+    kiosk, qtbot = shopper["kiosk"], shopper["qtbot"]
     kiosk.set_look("natural")
     finder = kiosk.foundation_finder
     assert finder.doc is kiosk.doc and kiosk.doc is not kiosk.stock_doc
-    her = np.asarray(kiosk.tryon.shopper.face.params.diffuse, dtype=float)
-    assert np.allclose(finder.skin_rgb(), her)
+    face = kiosk.tryon.shopper.face
     finder.find_button.click()
-    assert len(finder.shades) == 3 and all(b.isVisible() for b in finder.shade_buttons)
-    choice = finder.shades[1].name
+    qtbot.waitUntil(lambda: len(finder.shades) == 3, timeout=60000)
+    assert all(b.isVisible() for b in finder.shade_buttons)
+    # her skin is her photograph's cheeks (the band between her cheek landmarks), as km.skin_photo reads it
+    std = face.data["landmarks"]["standard"]
+    (lx, ly), (rx, ry) = std["left_cheek"], std["right_cheek"]
+    read = kiosk.tryon.shopper.skin
+    assert read and "sRGB camera" in read[1] and finder.note == read[1]
+    cheeks = np.array([skin_from_photo(face.photo_path, region=(int(x) - 6, int(y) - 6, 12, 12)).linear_rgb
+                       for x, y in ((lx, ly), (rx, ry))])  # her lit and her shaded cheek
+    assert np.all(read[0] >= cheeks.min(axis=0) - 0.05) and np.all(read[0] <= cheeks.max(axis=0) + 0.05), (
+        read[0], cheeks)
+    assert not np.allclose(read[0], np.asarray(face.params.diffuse), atol=1e-3)  # not the fitted diffuse
+    fit = fit_skin(linear_rgb=read[0])
+    expected = match_shades(fit.reflectance, fit.reflectance, ShadeBank.from_materials(foundations(kiosk.library)))
+    assert [s.name for s in finder.shades] == [s.name for s in expected[:3]]
+    # each shade on her face: a picture of her face on its button
+    qtbot.waitUntil(lambda: kiosk.tryon.previews_shown == 3, timeout=30000)
+    assert all(not b.icon().isNull() for b in finder.shade_buttons)
+    worn = kiosk.product_labels["foundation"].text()
+    pick = next(i for i, s in enumerate(finder.shades) if s.name != worn)
+    choice = finder.shades[pick].name
     before = kiosk.tryon.shopper_view.image.copy()
-    after = next_frame(shopper, lambda: finder.shade_buttons[1].click())
+    after = next_frame(shopper, lambda: finder.shade_buttons[pick].click())
     assert kiosk.product_labels["foundation"].text() == choice
     assert mean_diff(before, after) > 0.01
 
