@@ -15,6 +15,10 @@ Two sweeps, printed as one JSON object:
   (the fraction analysed, not refused), ``probe_error_deg_median`` / ``_max`` (the light direction's
   error of those accepted), and each refusal's message.
 
+- **further sections** (:data:`SECTIONS`: name → ``"module:function"``, each called with ``quick`` and
+  returning its fields): ``auto`` — the automatic capture (issue #15, :mod:`bench.capture_auto`):
+  ``landmarks_ms``, ``capture_auto_s``. Other views add their own line there.
+
 ``--quick`` runs a third of the exponent grid and 60 probes; ``--placements N`` sets the probes and
 ``--cases N`` takes N cases spread over the exponent grid.
 """
@@ -36,6 +40,11 @@ YAWS = (-30.0, 0.0, 30.0)
 FLASHES = {"above": (8.0, 0.0), "beside": (0.0, 8.0), "off-axis": (-5.7, 5.7)}
 ENVIRONMENTS = ("city", "lobby", "night", "studio", "sunset", "warehouse")
 PROBE_SIZES = (256, 512, 1024)
+#: Further sections of the benchmark: name (for ``--skip``) → ``"module:function"``, the function taking
+#: ``quick`` (bool) and returning a dict of JSON fields (medians with p90 and max, see :mod:`bench.stats`).
+SECTIONS: dict[str, str] = {
+    "auto": "bench.capture_auto:measure",
+}
 
 
 def spot_core_deg(diameter_deg: float, gain: float = 50.0) -> float:
@@ -146,7 +155,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--cases", type=int, default=None, help="exponent cases, spread over the grid (default all)")
     parser.add_argument("--camera", choices=("noisy", "given"), default="noisy",
                         help="the exponent sweep's camera: from landmarks with 1 px of noise (default) or the true one")
-    parser.add_argument("--skip", choices=("exponent", "probe"), action="append", default=[],
+    parser.add_argument("--skip", choices=("exponent", "probe", *SECTIONS), action="append", default=[],
                         help="leave out a sweep (repeatable)")
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
     try:
@@ -163,6 +172,12 @@ def main(argv: list[str]) -> int:
         out.update(probe_acceptance(placements))
     if "exponent" not in args.skip:
         out.update(exponent_sweep(args.quick, args.cases, args.camera))
+    for name, target in SECTIONS.items():
+        if name not in args.skip:
+            import importlib
+
+            module, func = target.split(":")
+            out.update(getattr(importlib.import_module(module), func)(args.quick))
     out["seconds"] = round(time.perf_counter() - t0, 1)
     out["load_average"] = [round(x, 2) for x in os.getloadavg()]
     print(json.dumps(out, indent=2))
