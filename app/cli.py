@@ -32,6 +32,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.project",
     "app.commands.capture",
     "app.commands.head",
+    "app.commands.look",
     "app.commands.shade",
     "app.commands.cache",
     "bench.cli",
