@@ -41,6 +41,8 @@ class ActionSpec:
 STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("file.new", "&New Project", "File", "Ctrl+N"),
     ActionSpec("file.open", "&Open Project…", "File", "Ctrl+O"),
+    ActionSpec("file.new_from_photo", "New from &Photo…", "File", "",
+               tip="capture a face from a portrait and paint the current layers on it (app.new_from_photo)"),
     ActionSpec("file.save", "&Save Project", "File", "Ctrl+S"),
     ActionSpec("file.save_as", "Save Project &As…", "File", "Ctrl+Shift+S"),
     ActionSpec("file.open_face", "Open Captured &Face…", "File", "",

@@ -33,6 +33,7 @@ from app.catalogue_dialog import CatalogueDialog
 from app.export_actions import ExportActions
 from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
+from app.new_from_photo import NewFromPhoto
 from app.project_files import ProjectFiles
 from app.region_picker import RegionPicker
 from app.session import BACKENDS
@@ -174,6 +175,7 @@ class StudioWindow(QMainWindow):
         handlers = {
             "file.new": lambda: self.files.offer_to_save() and self.files.new_project(),
             "file.open": lambda: self.files.offer_to_save() and self.files.open_project(),
+            "file.new_from_photo": lambda: NewFromPhoto.ask_for(self),
             "file.save": self.files.save_project, "file.save_as": lambda: self.files.save_project(ask=True),
             "file.export_maps": self.exports.ask_export_maps,
             "file.export_maps_exr": lambda: self.exports.ask_export_maps("exr"),
