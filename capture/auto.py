@@ -76,13 +76,13 @@ def read_photo_srgb8(path: str | Path) -> tuple[np.ndarray, list[str]]:
             with Image.open(path) as im:
                 im.load()  # decode now: a truncated file fails here
                 mode = im.mode
-                im = ImageOps.exif_transpose(im)
+                upright = ImageOps.exif_transpose(im)
                 if mode in ("1", "L", "LA", "I", "I;16", "I;16B", "I;16L", "F"):
                     raise CaptureError(f"{path}: a grey-scale photo ({mode}); the capture measures the skin's "
                                        f"colour: use a colour photograph")
                 if mode == "CMYK":
                     notes.append("CMYK photo converted to RGB without colour management (colours approximate)")
-                rgb = im.convert("RGB")
+                rgb = upright.convert("RGB")
                 arr = np.array(rgb, dtype=np.uint8)
     except CaptureError:
         raise
@@ -219,6 +219,22 @@ def _move_into_place(tmp: Path, out: Path) -> None:
         shutil.rmtree(old, ignore_errors=True)
 
 
+def warm_up() -> None:
+    """Load what the first capture would (MediaPipe's detector, the canonical topology, trimesh, OpenEXR…).
+
+    For a kiosk to call at start-up, so a shopper's first capture is as fast as the next ones
+    (``sheer bench capture``: ``capture_auto_first_s`` against ``capture_auto_s``).
+    """
+    import OpenEXR  # noqa: F401  (the face folder's detail texture)
+    import scipy.optimize  # noqa: F401  (the camera's refinement, the Phong fit)
+
+    from .landmarks import _get_detector
+    from .person import canonical_topology
+
+    _get_detector()
+    canonical_topology()
+
+
 def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: str | Path | Head | None = None,
                  probe: ProbeAnalysis | str | Path | None = None, allow_closed_eyes: bool = False,
                  progress: Callable[[str], None] | None = None, texture_size: int = 1024) -> Face:
@@ -294,12 +310,14 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     h, w = srgb8.shape[:2]
     person = head is None
     t = time.perf_counter()
+    the_head: Head
     if person:
         the_head = person_head(face, out, eyes_open(report))
         _say(progress, f"person's head: {len(the_head.vertices)} vertices; {the_head.metadata.scale_note.split('; ')[0]}")
     elif isinstance(head, (str, Path)):
         the_head = load_head(head)
     else:
+        assert head is not None
         the_head = head
     timings["head"] = time.perf_counter() - t
 
