@@ -33,11 +33,15 @@ from painting.regions import (
     decode_regions,
     feather,
     local_texel_mm,
+    mesh_digest,
     regions_file,
     spread_to_padding,
+    stored_mesh,
 )
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from painting.atlas import Atlas
     from painting.head import Head
 
@@ -461,7 +465,7 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
         head_uv: the layout is the head's own UVs (the albedo and skin mask can be read per texel);
             False for an unwrapped layout (no albedo refinement, no skin mask).
     """
-    out = RegionSet(head_name=head.name)
+    out = RegionSet(head_name=head.name, mesh=mesh_digest(head.vertices, head.faces, head.uv))
     if not head_uv:
         from dataclasses import replace
 
@@ -525,6 +529,16 @@ def _skin_mask(head: Head, atlas: Atlas) -> np.ndarray:
     return head.skin_mask[rows][:, cols] & atlas.coverage
 
 
+def shipped_regions_file(digest: str) -> Path | None:
+    """The region file in ``resources/heads`` recording the mesh ``digest`` (:func:`mesh_digest`), or None."""
+    from core.assets import resource_path
+
+    for path in sorted(resource_path("heads").glob("*.regions.png")):
+        if stored_mesh(path) == digest:
+            return path
+    return None
+
+
 def regions_for(head: Head, atlas: Atlas | None = None, head_uv: bool = True) -> RegionSet:
     """The regions of ``head`` (see the module docstring for where they come from).
 
@@ -540,12 +554,14 @@ def regions_for(head: Head, atlas: Atlas | None = None, head_uv: bool = True) ->
     from core.files import read_bounded
     from painting.head import MAX_HEAD_FILE_BYTES, find_sidecar
 
-    sidecar = find_sidecar(head.path) if head.path.parent.name != "<embedded>" else None
-    if sidecar is not None:
-        stored = regions_file(sidecar)
-        if stored.is_file():
-            blob = read_bounded(stored, MAX_HEAD_FILE_BYTES, "region masks", RegionError)
-            return decode_regions(blob, str(stored), head.name)
+    if head.path.parent.name != "<embedded>":
+        sidecar = find_sidecar(head.path)
+        stored = None if sidecar is None else regions_file(sidecar)
+    else:  # embedded in a project: the shipped region file of this very mesh, if there is one
+        stored = shipped_regions_file(mesh_digest(head.vertices, head.faces, head.uv))
+    if stored is not None and stored.is_file():
+        blob = read_bounded(stored, MAX_HEAD_FILE_BYTES, "region masks", RegionError)
+        return decode_regions(blob, str(stored), head.name)
     if atlas is None:
         return RegionSet(head_name=head.name, missing=dict.fromkeys(REGION_NAMES, "no atlas to derive them on"))
     return derive_regions(head, atlas, head_uv=head_uv)

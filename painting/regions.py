@@ -8,7 +8,10 @@ atlas's local texel size) centred on the hard outline, so the mask reaches 0 hal
 Where regions come from (:func:`painting.region_shapes.regions_for`):
 
 - a head whose sidecar ships region files (``<sidecar stem>.regions.png`` beside it, e.g. the sample
-  head in ``resources/heads/``): read from there (rebuilt byte-exactly by ``resources/heads/build_regions.py``);
+  head in ``resources/heads/``): read from there (rebuilt byte-exactly by ``scripts/build_head_regions.py``);
+- a head embedded in a project (no files on disk): the shipped region file that records the same mesh
+  (:func:`mesh_digest` of its vertices, faces and UVs), so a self-contained project of the sample head
+  paints with the very masks of the same project with the head by path;
 - a face-mesh head (MediaPipe's 468/478-point topology, e.g. the canonical face): from its lip, eye and
   brow contours (:mod:`painting.region_shapes`), exact for every such face;
 - any other head with the sidecar's landmarks: from the landmarks and the geometry;
@@ -96,11 +99,14 @@ class RegionSet:
         regions: name → :class:`Region`.
         missing: name → why it could not be derived.
         head_name: the head's display name (for messages).
+        mesh: the :func:`mesh_digest` of the head they were derived on ("" when unknown).
     """
 
     regions: dict[str, Region] = field(default_factory=dict)
     missing: dict[str, str] = field(default_factory=dict)
     head_name: str = ""
+    #: :func:`mesh_digest` of the head the regions were derived on ("" when unknown)
+    mesh: str = ""
     _resampled: dict[tuple[str, int], np.ndarray] = field(default_factory=dict, repr=False)
 
     def names(self) -> list[str]:
@@ -131,6 +137,17 @@ class RegionSet:
             return ""
         parts = [f"{n} ({why})" for n, why in self.missing.items()]
         return f"head '{self.head_name}': regions not derived: {'; '.join(parts)}"
+
+
+def mesh_digest(vertices: np.ndarray, faces: np.ndarray, uv: np.ndarray) -> str:
+    """Hex SHA-256 of a mesh's geometry and UVs (float64 / int64, little-endian): which mesh regions fit."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for arr, dtype in ((vertices, "<f8"), (faces, "<i8"), (uv, "<f8")):
+        a = np.ascontiguousarray(arr, dtype=dtype)
+        h.update(str(a.shape).encode() + a.tobytes())
+    return h.hexdigest()
 
 
 def check_region_name(name: object) -> str:
@@ -221,6 +238,21 @@ def spread_to_padding(mask: np.ndarray, atlas: Atlas) -> np.ndarray:
 
 
 # ------------------------------------------------------------------------------------- files
+def stored_mesh(path: Path) -> str:
+    """The :func:`mesh_digest` a region file records ("" when none, or the file is unreadable).
+
+    Reads the PNG's text chunk only (written before the pixels), not the masks.
+    """
+    from PIL import Image
+
+    try:
+        with Image.open(path) as im:
+            text = im.text.get("sheer-regions", "") if hasattr(im, "text") else ""
+        return str(json.loads(text).get("mesh", "")) if text else ""
+    except Exception:  # Pillow and json raise many types for bad files: then it records nothing
+        return ""
+
+
 def regions_file(sidecar: Path) -> Path:
     """Where a sidecar's region masks are stored: ``<sidecar stem>.regions.png`` beside it."""
     return sidecar.with_name(sidecar.stem + ".regions.png")
@@ -241,6 +273,8 @@ def encode_regions(regions: RegionSet) -> bytes:
             "regions": [{"name": n, "feather_mm": regions.regions[n].feather_mm,
                          "source": regions.regions[n].source} for n in names],
             "missing": regions.missing}
+    if regions.mesh:
+        meta["mesh"] = regions.mesh
     info = PngImagePlugin.PngInfo()
     info.add_text("sheer-regions", json.dumps(meta, sort_keys=True))
     buf = io.BytesIO()
@@ -269,7 +303,8 @@ def decode_regions(blob: bytes, where: str, head_name: str = "") -> RegionSet:
     if pixels.shape != (res * len(entries), res):
         raise RegionError(f"{where}: region image is {pixels.shape[1]}×{pixels.shape[0]}, expected "
                           f"{res}×{res * len(entries)} for {len(entries)} regions of {res}²")
-    out = RegionSet(head_name=head_name, missing={str(k): str(v) for k, v in dict(meta.get("missing", {})).items()})
+    out = RegionSet(head_name=head_name, missing={str(k): str(v) for k, v in dict(meta.get("missing", {})).items()},
+                    mesh=str(meta.get("mesh", "")))
     for i, e in enumerate(entries):
         name = check_region_name(e.get("name"))
         mask = (pixels[i * res:(i + 1) * res].astype(np.float32) / np.float32(255.0))
