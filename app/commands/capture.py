@@ -46,7 +46,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     """Add ``sheer capture`` and its options to the sub-command parsers ``sub``."""
     p = sub.add_parser("capture", help="capture a relightable face from a photograph and a head",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); default: the sample head")
+    p.add_argument("--head", metavar="PATH", help="head mesh (glTF/GLB, OBJ, PLY); with --camera/--points default "
+                   "the sample head; automatic: fit this head instead of building the person's own")
     p.add_argument("--photo", required=True, metavar="PATH", help="the flash photograph (PNG/JPEG, sRGB)")
     cam = p.add_mutually_exclusive_group()
     cam.add_argument("--camera", metavar="FILE", help="projection matrix JSON (else: automatic)")
