@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from painting.head import Head
 
     from .camera import Camera
+    from .landmarks import FaceLandmarks
     from .pipeline import CaptureResult
 
 #: face.json's ``schema_version``.
@@ -228,6 +229,16 @@ class Face:
         from painting.head import load_head
 
         return load_head(self.head_path)
+
+    def landmarks(self) -> FaceLandmarks | None:
+        """The detected landmarks of an automatic capture (face.json ``landmarks``, pixels of photo.png), or None."""
+        from .landmarks import FaceLandmarks
+
+        lm = self.data.get("landmarks")
+        if not isinstance(lm, dict) or "points_px" not in lm:
+            return None
+        return FaceLandmarks(points=np.asarray(lm["points_px"], dtype=np.float64), width=int(lm["width"]),
+                             height=int(lm["height"]))
 
     def camera(self) -> Camera:
         """The photograph's camera (face.json ``camera``: K, R, t in the head's mesh units, the photo's size)."""

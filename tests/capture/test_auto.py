@@ -68,6 +68,9 @@ def test_camera_reprojects_the_detected_points(hopper_face) -> None:  # type: ig
     detected = np.asarray(face.data["landmarks"]["points_px"])[:468, :2]
     assert np.all(z > 0)
     assert float(np.sqrt(np.mean(np.sum((px - detected) ** 2, axis=1)))) < 1.0  # measured 0.00 px
+    lm = face.landmarks()
+    assert lm is not None and (lm.width, lm.height) == (cam.width, cam.height)
+    assert np.allclose(lm.xy[:468], detected) and set(lm.standard()) == set(face.data["landmarks"]["standard"])
     # the Paris pipeline reproduces the photograph (measured 1.07 with this 256² detail texture, 0.29 at 1024²)
     assert face.data["residual"]["reproduction_mean_de2000_skin"] < 2.0
 
