@@ -54,6 +54,10 @@ DEFAULT_MAX_GAP_MM = 10.0
 DEFAULT_MAX_ANGLE_DEG = 100.0
 #: A texel that snaps onto the source's open border from farther than this (mm) lies beyond it.
 BORDER_SLACK_MM = 0.5
+#: Layers finer than this (texels per side) are put in correspondence at this resolution, then upsampled
+#: bilinearly in the target's UV space (1024² on a face is ~0.25 mm per texel, finer than any brush edge;
+#: the correspondence's cost grows with the texels: measured 2048² ≈ 4× 1024²).
+MAX_CORRESPONDENCE_RESOLUTION = 1024
 #: Candidate triangles per texel for the closest point (the triangles of the nearest source texels).
 _CANDIDATES = 4
 #: Resolution of the source bake whose texels index the candidate triangles.
@@ -146,10 +150,14 @@ class LandmarkWarp:
         out: np.ndarray = self._rbf(pts * self.target_mm) / self.source_mm
         return out
 
-    def directions(self, points: np.ndarray, normals: np.ndarray, step_mm: float = 1.0) -> np.ndarray:
-        """Unit directions (N, 3) the warp gives the target's ``normals`` at ``points`` (finite difference)."""
+    def directions(self, points: np.ndarray, normals: np.ndarray, warped: np.ndarray | None = None,
+                   step_mm: float = 1.0) -> np.ndarray:
+        """Unit directions (N, 3) the warp gives the target's ``normals`` at ``points`` (finite difference).
+
+        ``warped``: ``self(points)`` if already known.
+        """
         step = step_mm / self.target_mm
-        d = self(np.asarray(points) + step * np.asarray(normals)) - self(points)
+        d = self(np.asarray(points) + step * np.asarray(normals)) - (self(points) if warped is None else warped)
         n = np.linalg.norm(d, axis=1, keepdims=True)
         return np.asarray(d / np.maximum(n, 1e-12))
 
@@ -214,8 +222,9 @@ class Correspondence:
         warp = warp or LandmarkWarp.fit(source.head, target.head)
         atlas = target.atlas_at(resolution)
         covered = np.flatnonzero(atlas.coverage.reshape(-1))
-        q = warp(atlas.position.reshape(-1, 3)[covered])
-        qn = warp.directions(atlas.position.reshape(-1, 3)[covered], atlas.normal.reshape(-1, 3)[covered])
+        points = atlas.position.reshape(-1, 3)[covered]
+        q = warp(points)
+        qn = warp.directions(points, atlas.normal.reshape(-1, 3)[covered], q)
         layout = source.layout
         search = source.atlas_at(_SEARCH_RESOLUTION)
         s_flat = np.flatnonzero(search.coverage.reshape(-1))
@@ -229,14 +238,21 @@ class Correspondence:
         k = np.where(np.isfinite(dist[near]), k, k[:, :1])
         candidates = search.face.reshape(-1)[s_flat][k]
         tris = layout.vertices[layout.faces]
-        best_d = np.full(len(q), np.inf)
-        best_p = np.zeros_like(q)
-        best_f = np.zeros(len(q), dtype=np.int64)
-        for j in range(candidates.shape[1]):
-            p = trimesh.triangles.closest_point(tris[candidates[:, j]], q)
-            d = np.linalg.norm(p - q, axis=1)
-            better = d < best_d
-            best_d[better], best_p[better], best_f[better] = d[better], p[better], candidates[better, j]
+        best_f = candidates[:, 0].copy()
+        best_p = trimesh.triangles.closest_point(tris[best_f], q)
+        best_d = np.linalg.norm(best_p - q, axis=1)
+        face_n = trimesh.triangles.normals(tris[best_f])[0]
+        # Where the nearest texel's triangle holds the point's orthogonal projection, that is the closest
+        # point; the other candidates are tried only where it fell on the triangle's edge.
+        plane_d = np.abs(np.einsum("ij,ij->i", q - tris[best_f, 0], face_n))
+        edge = np.flatnonzero(best_d > plane_d + 1e-9 * float(np.ptp(layout.vertices, axis=0).max()))
+        for j in range(1, candidates.shape[1]):
+            rows = edge[candidates[edge, j] != best_f[edge]]
+            p = trimesh.triangles.closest_point(tris[candidates[rows, j]], q[rows])
+            d = np.linalg.norm(p - q[rows], axis=1)
+            better = rows[d < best_d[rows]]
+            keep = d < best_d[rows]
+            best_d[better], best_p[better], best_f[better] = d[keep], p[keep], candidates[better, j]
         face_n = trimesh.triangles.normals(tris[best_f])[0]
         facing = np.einsum("ij,ij->i", face_n, qn) >= np.cos(np.radians(max_angle_deg))
         gap = best_d * warp.source_mm
@@ -333,14 +349,36 @@ def _mask_recipe_fits(target: Document, mask: Any) -> bool:
     return True
 
 
+def upsample(values: np.ndarray, atlas: Atlas, fill: float = 0.0) -> np.ndarray:
+    """A target map at a coarser resolution → the bake ``atlas``'s, float32 (bilinear at texel centres).
+
+    Texels outside the charts and their padding get ``fill``; padding texels copy their source texel.
+    """
+    from painting.regions import resample as bilinear
+
+    out = bilinear(values, atlas.resolution).reshape(-1)
+    out[~(atlas.coverage | atlas.padded).reshape(-1)] = fill
+    out[atlas.pad_dst] = out[atlas.pad_src]
+    return out.reshape(atlas.shape)
+
+
+def _move(corr: Correspondence, values: np.ndarray, source: Document, target: Document, fill: float = 0.0) -> np.ndarray:
+    """A source map (its layer's resolution) onto the target at the same resolution, through ``corr``."""
+    res = int(values.shape[0])
+    out = corr.resample(values, source.atlas_at(res), fill)
+    return out if res == corr.resolution else upsample(out, target.atlas_at(res), fill)
+
+
 def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | None = None,
                     max_gap_mm: float = DEFAULT_MAX_GAP_MM, max_angle_deg: float = DEFAULT_MAX_ANGLE_DEG,
+                    max_resolution: int = MAX_CORRESPONDENCE_RESOLUTION,
                     progress: Callable[[str, float], None] | None = None) -> TransferReport:
     """Add every layer of ``source`` on top of ``target``'s, resampled onto the target's head.
 
     Each added layer is one undo step per edit on the target (clear its history if it is new). Layers
     keep their resolution; materials come from ``target.library`` by name (give the target the
-    source's library to be sure they exist).
+    source's library to be sure they exist). Layers finer than ``max_resolution`` are put in
+    correspondence at ``max_resolution`` and upsampled (:func:`upsample`).
 
     Raises:
         TransferError: the heads cannot be put in correspondence (see :meth:`LandmarkWarp.fit`).
@@ -359,13 +397,13 @@ def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | 
     layers = source.layers
     for i, lay in enumerate(layers):
         res = lay.resolution
-        if res not in corrs:
-            corrs[res] = Correspondence.build(source, target, res, warp, max_gap_mm=max_gap_mm,
-                                              max_angle_deg=max_angle_deg)
-        corr = corrs[res]
-        src_atlas = source.atlas_at(res)
+        work = min(res, int(max_resolution))
+        if work not in corrs:
+            corrs[work] = Correspondence.build(source, target, work, warp, max_gap_mm=max_gap_mm,
+                                               max_angle_deg=max_angle_deg)
+        corr = corrs[work]
         new = target.add_layer(lay.material, resolution=res, name=lay.name, max_thickness=lay.max_thickness)
-        thickness = np.clip(corr.resample(lay.thickness, src_atlas), 0.0, None)
+        thickness = np.clip(_move(corr, lay.thickness, source, target), 0.0, None)
         if np.any(thickness):
             target.set_thickness(new, thickness, detail="transfer")
         target.set_layer(new, visible=lay.visible, opacity=lay.opacity)
@@ -373,7 +411,7 @@ def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | 
                                                                                                   source, target)})
         report_progress("transfer", (i + 1) / len(layers))
     if corrs:
-        first = corrs[layers[0].resolution]
+        first = corrs[min(layers[0].resolution, int(max_resolution))]
         report.matched_fraction = first.matched_fraction
         if len(first.gap_mm):
             report.gap_median_mm = float(np.median(first.gap_mm))
@@ -389,23 +427,23 @@ def _transfer_mask(lay: Layer, new: Layer, corr: Correspondence, source: Documen
         return "none"
     from painting.mask import CHANNEL_MAX, CHANNEL_NEUTRAL
 
-    src_atlas = source.atlas_at(lay.resolution)
     if lay.mask is not None and not _mask_recipe_fits(target, lay.mask):
         # The target lacks a region of the recipe: carry the mask as rendered, as a channel with no recipe.
         values = source.mask_values(lay)
         assert values is not None
-        channel = np.clip(corr.resample(values, src_atlas, fill=CHANNEL_NEUTRAL), 0.0, 1.0)
+        channel = np.clip(_move(corr, values, source, target, CHANNEL_NEUTRAL), 0.0, 1.0)
         target.set_layer_mask(new, None, channel)
         return "baked"
     channel = None
     if lay.mask_channel is not None:
-        channel = np.clip(corr.resample(lay.mask_channel, src_atlas, fill=CHANNEL_NEUTRAL), 0.0, CHANNEL_MAX)
+        channel = np.clip(_move(corr, lay.mask_channel, source, target, CHANNEL_NEUTRAL), 0.0, CHANNEL_MAX)
     target.set_layer_mask(new, lay.mask, channel)
     return "recipe" if lay.mask is not None else "channel"
 
 
 def transfer_document(source: Document, target_head: Head, *, max_gap_mm: float = DEFAULT_MAX_GAP_MM,
                       max_angle_deg: float = DEFAULT_MAX_ANGLE_DEG,
+                      max_resolution: int = MAX_CORRESPONDENCE_RESOLUTION,
                       progress: Callable[[str, float], None] | None = None,
                       **doc_kwargs: Any) -> tuple[Document, TransferReport]:
     """A new document on ``target_head`` holding ``source``'s layers, transferred (no undo history).
@@ -421,6 +459,6 @@ def transfer_document(source: Document, target_head: Head, *, max_gap_mm: float 
     doc_kwargs.setdefault("progress", progress)
     target = Document(target_head, **doc_kwargs)
     report = transfer_layers(source, target, warp=warp, max_gap_mm=max_gap_mm, max_angle_deg=max_angle_deg,
-                             progress=progress)
+                             max_resolution=max_resolution, progress=progress)
     target.clear_history()
     return target, report
