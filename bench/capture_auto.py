@@ -4,7 +4,7 @@
   a render of the sample head, the detector already loaded (a kiosk's steady state), median / p90 / max
   over the runs; ``landmarks_first_ms``: the first call in the process (MediaPipe's import and model load).
 - ``capture_auto_s`` (target ≤ 10): :func:`capture.auto.capture_auto` from Grace Hopper's portrait file to
-  a written face folder (the person's own head, a 1024² detail texture), median / p90 / max;
+  a written face folder (the person's own head, the default 512² detail texture), median / p90 / max;
   ``capture_auto_first_s``: the first one in the process (the imports of trimesh, OpenEXR… included);
   ``capture_auto_cpu_s``: the process's CPU seconds per capture (median; on a loaded machine the wall
   time grows with the load average, this does not).

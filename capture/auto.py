@@ -48,6 +48,10 @@ if TYPE_CHECKING:
 MAX_PHOTO_SIDE = 1600
 #: Photographs whose face (the face mesh's height) is taller than this (pixels) are downscaled so it is not.
 MAX_FACE_PX = 280
+#: The detail texture's default side (texels): the face spans about 70 % of the canonical UV atlas, so
+#: 512 texels give at least one per photograph pixel of a face :data:`MAX_FACE_PX` tall (1024 cost 25 % more
+#: CPU for detail the photograph does not have).
+AUTO_TEXTURE_SIZE = 512
 #: The photograph, as captured (after any downscale), in the face folder.
 PHOTO_FILE = "photo.png"
 #: Standard landmarks needed to fit a given head's camera.
@@ -237,7 +241,7 @@ def warm_up() -> None:
 
 def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: str | Path | Head | None = None,
                  probe: ProbeAnalysis | str | Path | None = None, allow_closed_eyes: bool = False,
-                 progress: Callable[[str], None] | None = None, texture_size: int = 1024) -> Face:
+                 progress: Callable[[str], None] | None = None, texture_size: int = AUTO_TEXTURE_SIZE) -> Face:
     """Capture a face from one photograph, automatically (see the module docstring).
 
     Args:
@@ -248,7 +252,7 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
             photograph's file (analysed with reflectance 1).
         allow_closed_eyes: let closed eyes through the quality gate.
         progress: called with one line per step.
-        texture_size: the detail texture's side (texels, 16–8192).
+        texture_size: the detail texture's side (texels, 16–8192; default :data:`AUTO_TEXTURE_SIZE`).
 
     Returns:
         The face folder read back (:func:`capture.face.load_face`).

@@ -58,7 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
                    help="the ball's reflectance, 0 < R ≤ 1 (default 1, a perfect mirror; chrome ≈ 0.5–0.7)")
     p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
-    p.add_argument("--texture-size", type=int, default=1024, metavar="N", help="detail texture side (texels)")
+    p.add_argument("--texture-size", type=int, default=None, metavar="N",
+                   help="detail texture side (texels; default 1024, automatic 512: its face is at most 280 px tall)")
     p.add_argument("--starts", type=int, default=0, metavar="N",
                    help="also run the Phong fit from N random starts and report the spread (paper: 200)")
     p.add_argument("--out", required=True, metavar="FACE_DIR", help="output folder")
@@ -67,6 +68,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``sheer capture`` with the parsed ``args``; returns the exit status (0, or 2 for bad input)."""
+    from capture.auto import AUTO_TEXTURE_SIZE
     from capture.camera import load_camera, load_points
     from capture.face import write_face
     from capture.mask import load_mask
@@ -74,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     from capture.probe import analyse_probe
     from painting.head import load_head
 
+    if args.texture_size is None:
+        args.texture_size = 1024 if (args.camera or args.points) else AUTO_TEXTURE_SIZE
     if not 16 <= args.texture_size <= 8192:
         raise CaptureError(f"--texture-size must be between 16 and 8192, got {args.texture_size}")
     if args.starts < 0:
