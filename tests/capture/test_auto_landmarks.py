@@ -112,6 +112,6 @@ def test_sample_head_physical_renders_match_the_sidecar(yaw: float, tmp_path: Pa
         faces = detect_faces(np.asarray(im.convert("RGB")))
     assert len(faces) == 1
     err = _errors_pct(faces[0].standard(), truth_points(yaw), list(STANDARD_LANDMARKS))
-X
+    # measured (−15°, 0°, +15°): standard-set medians 3.5 / 2.1 / 2.1 %; worst of all 23 7.0 / 7.0 / 6.0 % (right brow)
     assert np.median([err[n] for n in STANDARD]) <= 5.0, err
     assert max(err.values()) <= 10.0, err
