@@ -26,7 +26,7 @@ def test_list(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys, "list")
     assert code == 0 and "Foundation Porcelain" in out and "Eyeliner Black" in out
     code, out, _ = run(capsys, "list", "--category", "lipstick")
-    assert code == 0 and "7 materials" in out and "Foundation" not in out
+    assert code == 0 and "11 materials" in out and "Foundation" not in out
     code, _, err = run(capsys, "list", "--category", "glitter")
     assert code == 2 and err.count("\n") == 1 and "no materials in category 'glitter'" in err
 
