@@ -2,7 +2,7 @@
 
 Steps (Paris et al. 2003, Fig. 3): rasterise the head as the camera sees it; the skin mask; the light
 from the probe; the reflectance map from the skin pixels; the specular exponent; the Phong fit; the
-detail texture (photograph / shaded model) baked into the head's UV space. :mod:`capture.face` writes
+detail texture (photograph / fitted model) baked into the head's UV space. :mod:`capture.face` writes
 the result as a face folder and reads it back.
 """
 from __future__ import annotations
@@ -313,7 +313,7 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
 
     # Detail texture.
     t = time.perf_counter()
-    detail, valid = bake_detail(head, camera, photo_lin, pix.depth, rmap, texture_size)
+    detail, valid = bake_detail(head, camera, photo_lin, pix.depth, fitted_shading(p, light_world), texture_size)
     timings["detail_texture"] = time.perf_counter() - t
     _log(progress, f"detail texture {texture_size}² baked ({100 * valid.mean():.1f} % of texels seen)")
 
@@ -361,14 +361,36 @@ def _texels_per_unit_uv(head: Head) -> float:
     return float(np.sqrt(np.median(a2[ok] / a3[ok]))) if ok.any() else 1.0
 
 
-def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.ndarray, rmap: ReflectanceMap,
-                size: int) -> tuple[np.ndarray, np.ndarray]:
+def fitted_shading(params: PhongParams, light_world: np.ndarray) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """The capture's fitted Phong model as a :func:`bake_detail` shading: (normals, view) → linear RGB, unclipped.
+
+    ``params`` and the flash towards ``light_world`` (unit, mesh coordinates); the normals and the
+    directions to the camera are unit (P, 3) in mesh coordinates.
+    """
+    def shading(normals: np.ndarray, view: np.ndarray) -> np.ndarray:
+        return shade(params, Geometry.from_vectors(normals, view, light_world), clip=False)
+
+    return shading
+
+
+def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.ndarray,
+                shading: Callable[[np.ndarray, np.ndarray], np.ndarray], size: int) -> tuple[np.ndarray, np.ndarray]:
     """The detail texture and the texels the photograph sees.
 
     Returns the photograph / shaded model per texel, float32 (size, size, 3) in [0, 8] (``size`` texels
-    square, the head's UV space, top row first), and bool (size, size), the texels seen. The shaded
-    model is the reflectance map ``rmap`` at the texel's camera-space normal; ``depth`` is the camera's
-    depth image (:class:`PixelData`), mesh units.
+    square, the head's UV space, top row first), and bool (size, size), the texels seen. ``shading``
+    gives the model's linear RGB (P, 3) from the texels' unit normals and unit directions to the camera
+    (P, 3, mesh coordinates); the capture passes :func:`fitted_shading`, the fitted Phong model
+    unclipped — exactly what the lightweight engine multiplies the detail by, so the photograph's own
+    view under its own light comes back. ``depth`` is the camera's depth image (:class:`PixelData`),
+    mesh units.
+
+    (Issue 14: the paper divides by the reflectance map, indexed by the camera-space normal. On a face
+    turned from the camera the map also absorbs the regional albedo that correlates with the normal —
+    the periphery is darker and redder — and the detail does not give that back: the reproduction of a
+    face turned 15–30° was ΔE2000 2.0–2.9 on GPU-drawn photographs. Against the fitted model it is
+    0.16–0.51 on all of them, turned or not; tests/capture/test_detail.py measures the gain away from
+    the photograph's view.)
 
     Texels of the head the photograph does not see (its sides and back, under the chin) carry no
     measurement. Each takes the seen detail low-passed (a normalised Gaussian convolution over the
@@ -408,7 +430,7 @@ def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.nda
         raise CaptureError("no texel of the head is visible in the photograph")
     photo = np.stack([ndimage.map_coordinates(photo_lin[..., c], [px[vis, 1] - 0.5, px[vis, 0] - 0.5], order=1,
                                               mode="nearest") for c in range(3)], axis=1)
-    shaded = rmap.sample(nrm[vis] @ camera.R.T)
+    shaded = shading(nrm[vis], view[vis] / np.linalg.norm(view[vis], axis=1, keepdims=True))
     ratio = np.clip(photo / np.maximum(shaded, SHADED_FLOOR), 0.0, float(2 ** DETAIL_DOUBLINGS))
     detail = np.zeros((size, size, 3), dtype=np.float32)
     valid = np.zeros((size, size), dtype=bool)

@@ -178,7 +178,15 @@ class MirrorView(_Layers):
         edge = edge_weights(head.vertices, head.faces, float(head.mm_per_unit)).astype("f4")
         self._buffers = [ctx.buffer(v.tobytes()), ctx.buffer(n.tobytes()),
                          ctx.buffer(np.asarray(head.uv, dtype="f4").tobytes()), ctx.buffer(edge.tobytes())]
-        self._index = ctx.buffer(np.asarray(head.faces, dtype="u4").tobytes())
+        self._faces = np.asarray(head.faces, dtype="u4")
+        self._index = ctx.buffer(reserve=max(self._faces.nbytes, 12))
+        self._all_index = ctx.buffer(self._faces.tobytes())
+        # the whole head's depth first (colour kept), so a triangle with makeup stays hidden behind one without
+        self._depth = self.shaders.program(ctx, "mirror_face.vert", "depth_only.frag")
+        self._depth_vao = ctx.vertex_array(self._depth, [(self._buffers[0], "3f", "in_position")], self._all_index)
+        uv = np.asarray(head.uv, dtype=np.float64)[self._faces]  # (F, 3, 2)
+        self._tri_uv_box = (uv.min(axis=1), uv.max(axis=1))
+        self._drawn: tuple[int, int] = (-1, 0)  # (km.version the index buffer was made for, triangles in it)
         self._background = self.shaders.program(ctx, "fullscreen.vert", "mirror_photo.frag")
         self._background_vao = ctx.vertex_array(self._background, [])
         self._programs: dict[int, tuple[Any, Any]] = {}
@@ -193,6 +201,36 @@ class MirrorView(_Layers):
                                                (b[2], "2f", "in_uv"), (b[3], "1f", "in_edge")], self._index)
             self._programs[n_layers] = (prog, vao)
         return self._programs[n_layers]
+
+    def _triangles_with_makeup(self) -> int:
+        """Fill the index buffer with the triangles whose UV box meets a 64² tile holding makeup; their count.
+
+        The KM pass tracks which tiles of its maps any layer is non-zero in (``km.present``); a triangle
+        elsewhere would only add a difference of 0, so only these are drawn (a lipstick: a few hundred
+        of the head's triangles). Rebuilt when the layers change (``km.version``).
+        """
+        km = self.km
+        if self._drawn[0] == km.version:
+            return self._drawn[1]
+        from painting.tiles import TILE
+
+        present = km.present.any(axis=0) if km.present.size else np.zeros((1, 1), bool)
+        rows, cols = present.shape
+        w, h = km.size
+        sat = np.zeros((rows + 1, cols + 1), np.int64)  # summed-area table of the tiles holding makeup
+        sat[1:, 1:] = present.cumsum(0).cumsum(1)
+        lo, hi = self._tri_uv_box
+        # one texel of margin (bilinear filtering), then the tile range of each triangle's UV box
+        c0 = np.clip(((lo[:, 0] * w - 1) // TILE).astype(np.int64), 0, cols - 1)
+        c1 = np.clip(((hi[:, 0] * w + 1) // TILE).astype(np.int64), 0, cols - 1)
+        r0 = np.clip(((lo[:, 1] * h - 1) // TILE).astype(np.int64), 0, rows - 1)
+        r1 = np.clip(((hi[:, 1] * h + 1) // TILE).astype(np.int64), 0, rows - 1)
+        count = sat[r1 + 1, c1 + 1] - sat[r0, c1 + 1] - sat[r1 + 1, c0] + sat[r0, c0]
+        faces = self._faces[count > 0]
+        if len(faces):
+            self._index.write(np.ascontiguousarray(faces).tobytes())
+        self._drawn = (km.version, len(faces))
+        return len(faces)
 
     def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
         """Draw the frame into ``fbo`` (8-bit RGBA with a depth attachment; the photograph's size).
@@ -212,6 +250,9 @@ class MirrorView(_Layers):
         set_uniform(self._background, "u_photo", 0)
         self._background_vao.render(mode=ctx.TRIANGLES, vertices=3)
         if not self.has_makeup:
+            return
+        n_triangles = self._triangles_with_makeup()
+        if n_triangles == 0:
             return
         km = self.km
         n_layers = len(km.active)
@@ -238,7 +279,17 @@ class MirrorView(_Layers):
         km.bind(1)
         km.bind_spec(4, 5)
         ctx.enable(ctx.DEPTH_TEST)
-        vao.render()
+        write_uniform(self._depth, "u_view_proj", vp.T.reshape(1, 16))
+        # colour kept by blending (ZERO, ONE): a framebuffer's colour mask only applies while moderngl
+        # thinks it is bound
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.ZERO, ctx.ONE
+        self._depth_vao.render()
+        ctx.disable(ctx.BLEND)
+        ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
+        ctx.depth_func = "<="
+        vao.render(vertices=3 * n_triangles)
+        ctx.depth_func = "<"
         ctx.disable(ctx.DEPTH_TEST)
 
     def render_image(self) -> np.ndarray:
@@ -259,7 +310,8 @@ class MirrorView(_Layers):
         progs = [o for pair in self._programs.values() for o in pair[::-1]]
         self._programs = {}
         release_all(self.ctx, (*(self._offscreen or ()), *progs, self._background_vao, self._background,
-                               *self._buffers, self._index, self.photo))
+                               self._depth_vao, self._depth, *self._buffers, self._index, self._all_index,
+                               self.photo))
         self._offscreen = None
         self._buffers = []
         self._release_layers()
@@ -349,6 +401,36 @@ class RelightView(_Layers):
         lw.ambient = self.ambient
         lw.exposure = self.exposure
         lw.makeup = self.km if self.has_makeup else None
+
+    def _triangles_with_makeup(self) -> int:
+        """Fill the index buffer with the triangles whose UV box meets a 64² tile holding makeup; their count.
+
+        The KM pass tracks which tiles of its maps any layer is non-zero in (``km.present``); a triangle
+        elsewhere would only add a difference of 0, so only these are drawn (a lipstick: a few hundred
+        of the head's triangles). Rebuilt when the layers change (``km.version``).
+        """
+        km = self.km
+        if self._drawn[0] == km.version:
+            return self._drawn[1]
+        from painting.tiles import TILE
+
+        present = km.present.any(axis=0) if km.present.size else np.zeros((1, 1), bool)
+        rows, cols = present.shape
+        w, h = km.size
+        sat = np.zeros((rows + 1, cols + 1), np.int64)  # summed-area table of the tiles holding makeup
+        sat[1:, 1:] = present.cumsum(0).cumsum(1)
+        lo, hi = self._tri_uv_box
+        # one texel of margin (bilinear filtering), then the tile range of each triangle's UV box
+        c0 = np.clip(((lo[:, 0] * w - 1) // TILE).astype(np.int64), 0, cols - 1)
+        c1 = np.clip(((hi[:, 0] * w + 1) // TILE).astype(np.int64), 0, cols - 1)
+        r0 = np.clip(((lo[:, 1] * h - 1) // TILE).astype(np.int64), 0, rows - 1)
+        r1 = np.clip(((hi[:, 1] * h + 1) // TILE).astype(np.int64), 0, rows - 1)
+        count = sat[r1 + 1, c1 + 1] - sat[r0, c1 + 1] - sat[r1 + 1, c0] + sat[r0, c0]
+        faces = self._faces[count > 0]
+        if len(faces):
+            self._index.write(np.ascontiguousarray(faces).tobytes())
+        self._drawn = (km.version, len(faces))
+        return len(faces)
 
     def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
         """Draw the frame into ``fbo`` (with a depth attachment), any size of the photograph's aspect."""

@@ -208,9 +208,15 @@ def run(args: argparse.Namespace) -> int:
         raise SheerError(f"--view {args.view} needs --face FACE_DIR (a folder written by 'sheer capture')")
     head_path = args.head if args.head or face is None else _captured_head_path(face, args.face)
     if args.view:
-        from app.commands.render_views import run_view
+        from types import SimpleNamespace
 
-        image = run_view(args, face, head_path)
+        from app.commands.render_views import check_view_args, run_view
+
+        check_view_args(args)  # before the slow set-up
+        doc, head = load_document(args, head_path)
+        lights = _lights(args.light, args.light_color, face, 1.0)
+        image = run_view(args, face, doc, head, lights,
+                         lambda w, h: _image_size(args.size, SimpleNamespace(width=w, height=h)))  # type: ignore[arg-type]
         _write_png(out, image)
         print(f"wrote {out} ({image.shape[1]}×{image.shape[0]}, {args.view} view)", file=sys.stderr)
         return 0

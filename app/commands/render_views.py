@@ -10,10 +10,14 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     import argparse
+    from collections.abc import Callable
 
     import numpy as np
 
     from capture.face import Face
+    from painting import Document
+    from painting.head import Head
+    from render.lights import Light
 
 #: Options the mirror view refuses: the photograph fixes its camera, size and light.
 MIRROR_REFUSES = ("size", "camera", "yaw", "pitch", "light", "light_color", "light_preset", "env", "mode",
@@ -22,14 +26,22 @@ MIRROR_REFUSES = ("size", "camera", "yaw", "pitch", "light", "light_color", "lig
 RELIGHT_REFUSES = ("camera", "env", "mode", "photo")
 
 
-def _refuse(args: argparse.Namespace, names: tuple[str, ...]) -> None:
+def check_view_args(args: argparse.Namespace) -> None:
+    """Refuse the options ``--view`` does not take, in one line (a ``core.errors.SheerError``)."""
     from core.errors import SheerError
 
-    for name in names:
+    for name in MIRROR_REFUSES if args.view == "mirror" else RELIGHT_REFUSES:
         if getattr(args, name, None) is not None:
             raise SheerError(f"--{name.replace('_', '-')} does not apply to --view {args.view}")
     if args.debug_view != "none":
         raise SheerError(f"--debug-view does not apply to --view {args.view}")
+    if args.light_preset is not None:
+        from app.settings import LIGHT_PRESETS
+
+        if args.light_preset not in LIGHT_PRESETS:
+            raise SheerError(f"--light-preset {args.light_preset!r}: one of {', '.join(LIGHT_PRESETS)}")
+        if args.light:
+            raise SheerError("--light and --light-preset exclude each other")
 
 
 def photo_path(args: argparse.Namespace, face: Face) -> str:
@@ -65,37 +77,32 @@ def read_photo_srgb8(path: str) -> np.ndarray:
         raise SheerError(f"{path}: cannot read the image: {exc}") from None
 
 
-def run_view(args: argparse.Namespace, face: Face, head_path: str | None) -> np.ndarray:
-    """Render ``--view`` mirror or relight for ``face`` with the look/project of ``args``; uint8 (H, W, 3)."""
+def run_view(args: argparse.Namespace, face: Face, doc: Document | None, head: Head, lights: list[Light] | None,
+             size_for: Callable[[int, int], tuple[int, int]]) -> np.ndarray:
+    """Render ``--view`` mirror or relight of ``face``; uint8 (H, W, 3).
+
+    Args:
+        args: the command's options (checked by :func:`check_view_args`).
+        face: the captured face.
+        doc: the look or project on ``head`` (None: bare).
+        head: the head the face was captured on.
+        lights: ``--light`` as lights (photograph units), or None.
+        size_for: the relight image's size for a photograph of (width, height) pixels (``--size``, checked).
+    """
     import moderngl
 
-    from types import SimpleNamespace
-
-    from app.commands.render import _image_size, _lights, load_document
     from core.errors import SheerError
     from render.binding import layer_inputs
     from render.mirror import MirrorView, RelightView
 
-    _refuse(args, MIRROR_REFUSES if args.view == "mirror" else RELIGHT_REFUSES)
     photo = read_photo_srgb8(photo_path(args, face)) if args.view == "mirror" else None
-    if args.light_preset is not None:
-        from app.settings import LIGHT_PRESETS
-
-        if args.light_preset not in LIGHT_PRESETS:
-            raise SheerError(f"--light-preset {args.light_preset!r}: one of {', '.join(LIGHT_PRESETS)}")
-        if args.light:
-            raise SheerError("--light and --light-preset exclude each other")
-    doc, head = load_document(args, head_path)
     try:
         ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     except Exception as exc:
         raise SheerError(f"cannot create an OpenGL 4.5 context (EGL): {exc}") from None
     try:
-        view: MirrorView | RelightView
-        if photo is not None:
-            view = MirrorView(ctx, head, face, photo)
-        else:
-            view = RelightView(ctx, head, face)
+        view: MirrorView | RelightView = MirrorView(ctx, head, face, photo) if photo is not None \
+            else RelightView(ctx, head, face)
         try:
             if doc is not None:
                 view.set_layers(layer_inputs(doc))
@@ -107,13 +114,11 @@ def run_view(args: argparse.Namespace, face: Face, head_path: str | None) -> np.
                 from app.settings import LIGHT_PRESETS
 
                 view.set_preset(**LIGHT_PRESETS[args.light_preset])
-            lights = _lights(args.light, args.light_color, face, 1.0)
             if lights is not None:
                 view.lights = lights
             if args.exposure is not None:
                 view.exposure = args.exposure
-            w, h = view.size
-            return view.render_image(_image_size(args.size, SimpleNamespace(width=w, height=h)))  # type: ignore[arg-type]
+            return view.render_image(size_for(*view.size))
         finally:
             view.release()
     finally:

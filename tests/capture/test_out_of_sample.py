@@ -22,26 +22,26 @@ skin; "noisy": calibrated from landmarks with 1 px of noise):
 case               what changes (validation: s 24, i_s 0.18,   light   s               i_s              D    repr.
                    flash 4° up 3° right, warehouse, sample)
 ================== =========================================== ======= =============== ================ ==== ====
-gpu-photo          the renderer only                           0.14°   25.08 (+4.5 %)  0.1740 (−3.3 %)  0.52 1.55
-clicked-camera     camera from 22 landmarks clicked to ±0.5 px 0.44°   24.90 (+3.7 %)  0.1732 (−3.8 %)  0.54 1.55
-s12-irradiance     s 12, flash 10° up 7° left, studio, E(n)/π  0.15°   11.51 (−4.1 %)  0.1709 (−5.1 %)  0.43 1.63
-s60-dark-skin      s 60, i_s 0.10, dark skin, city, flash 6°   0.06°   59.26 (−1.2 %)  0.1031 (+3.1 %)  0.12 1.42
+gpu-photo          the renderer only                           0.14°   25.08 (+4.5 %)  0.1740 (−3.3 %)  0.52 0.43
+clicked-camera     camera from 22 landmarks clicked to ±0.5 px 0.44°   24.90 (+3.7 %)  0.1732 (−3.8 %)  0.54 0.44
+s12-irradiance     s 12, flash 10° up 7° left, studio, E(n)/π  0.15°   11.51 (−4.1 %)  0.1709 (−5.1 %)  0.43 0.43
+s60-dark-skin      s 60, i_s 0.10, dark skin, city, flash 6°   0.06°   59.26 (−1.2 %)  0.1031 (+3.1 %)  0.12 0.39
                    down 9° right
-s8                 s 8                                         0.14°   7.43 (−7.1 %)   0.1775 (−1.4 %)  0.35 1.71
-flash-above        flash 10° up 1° right                       0.04°   24.13 (+0.5 %)  0.1725 (−4.2 %)  0.55 1.46
-canonical-face     s 30, i_s 0.25, lobby, flash 5° up 4° left  0.15°   29.57 (−1.4 %)  0.2531 (+1.2 %)  0.20 1.24
-coarse-head        s 16, i_s 0.15, night, flash 3° up 5° left  0.10°   16.21 (+1.3 %)  0.1488 (−0.8 %)  0.19 1.58
-yaw-30-s40-beside  s 40, turned −30°, flash 8° right, sunset   0.44°   38.68 (−3.3 %)  0.1744 (−3.1 %)  0.40 2.20
+s8                 s 8                                         0.14°   7.43 (−7.1 %)   0.1775 (−1.4 %)  0.35 0.43
+flash-above        flash 10° up 1° right                       0.04°   24.13 (+0.5 %)  0.1725 (−4.2 %)  0.55 0.43
+canonical-face     s 30, i_s 0.25, lobby, flash 5° up 4° left  0.15°   29.57 (−1.4 %)  0.2531 (+1.2 %)  0.20 0.16
+coarse-head        s 16, i_s 0.15, night, flash 3° up 5° left  0.10°   16.21 (+1.3 %)  0.1488 (−0.8 %)  0.19 0.51
+yaw-30-s40-beside  s 40, turned −30°, flash 8° right, sunset   0.44°   38.68 (−3.3 %)  0.1744 (−3.1 %)  0.40 0.48
                    sky, noisy
-yaw+30-s24-above   turned +30°, flash 8° above, lobby sky,     0.32°   24.53 (+2.2 %)  0.1856 (+3.1 %)  0.98 2.82
+yaw+30-s24-above   turned +30°, flash 8° above, lobby sky,     0.32°   24.53 (+2.2 %)  0.1856 (+3.1 %)  0.98 0.47
                    noisy
-yaw+15-s12-near    s 12, turned +15° at 1.2 m, flash 6° above, 0.62°   11.85 (−1.3 %)  0.1675 (−6.9 %)  0.20 2.04
+yaw+15-s12-near    s 12, turned +15° at 1.2 m, flash 6° above, 0.62°   11.85 (−1.3 %)  0.1675 (−6.9 %)  0.20 0.45
                    city sky, noisy
-yaw-15-s8-off-axis s 8, turned −15°, flash 7° down 7° left,    1.12°   7.15 (−10.6 %)  0.1760 (−2.2 %)  0.25 2.41
+yaw-15-s8-off-axis s 8, turned −15°, flash 7° down 7° left,    1.12°   7.15 (−10.6 %)  0.1760 (−2.2 %)  0.25 0.44
                    studio sky, noisy
-s60-beside-far     s 60 at 4 m, flash 10° left, warehouse      0.07°   62.64 (+4.4 %)  0.1609 (−10.6 %) 0.34 1.55
+s60-beside-far     s 60 at 4 m, flash 10° left, warehouse      0.07°   62.64 (+4.4 %)  0.1609 (−10.6 %) 0.34 0.44
                    sky, noisy
-sensor-noise-vign. s 24, flash 6° up 2° right, city sky, noisy, 2.19°   22.36 (−6.8 %)  0.1507 (−16.3 %) 0.56 1.98
+sensor-noise-vign. s 24, flash 6° up 2° right, city sky, noisy, 2.19°   22.36 (−6.8 %)  0.1507 (−16.3 %) 0.56 0.90
                    40 % vignetting, photon and read noise
 ================== =========================================== ======= =============== ================ ==== ====
 
@@ -52,8 +52,10 @@ were exact — the skin's texture under the lobe was read as part of it. Now s a
 photograph high-passed at 2 px (:func:`capture.phong.specular_from_detail`). From the true camera the
 noisy cases give s within 5 % (7.86, 24.26, 11.64, 62.90 and 24.62 for 8, 24, 12, 60 and 24 with the
 sensor's noise) and i_s within 6.3 %: the
-misses left are the landmarks' noise (which turns the flash and misplaces a narrow lobe) and the
-reproduction of a face turned 15–30° (the detail texture, photograph / reflectance map, from one view).
+misses left are the landmarks' noise (which turns the flash and misplaces a narrow lobe). The
+reproduction of a face turned 15–30° was ΔE2000 2.04–2.82 while the detail texture was the photograph ÷
+the paper's reflectance map; it is the photograph ÷ the fitted model since issue 15 (0.16–0.51 on every
+case here, 0.90 with the sensor's noise, which the detail cannot follow; tests/capture/test_detail.py).
 The error distribution over 45 such scenes is ``sheer bench capture`` (the README).
 The probe alone, flash on a 6° grid within 12° of the lens: all 25 positions found (the flash on the
 lens's axis was refused before), within 0.3°.
@@ -129,20 +131,20 @@ def measure(ctx: moderngl.Context, name: str) -> Figures:
 QUANTITIES = ("light_deg", "s", "i_s", "diffuse_de", "reproduction_de")
 #: Bounds just above today's figures (the module docstring), each within its target.
 BOUNDS: dict[str, dict[str, float]] = {
-    "gpu-photo": {"light_deg": 0.2, "s": 0.05, "i_s": 0.035, "diffuse_de": 0.6, "reproduction_de": 1.7},
-    "clicked-camera": {"light_deg": 0.6, "s": 0.045, "i_s": 0.045, "diffuse_de": 0.6, "reproduction_de": 1.7},
-    "s12-irradiance": {"light_deg": 0.2, "s": 0.05, "diffuse_de": 0.5, "reproduction_de": 1.75},
-    "s60-dark-skin": {"light_deg": 0.1, "s": 0.02, "i_s": 0.035, "diffuse_de": 0.2, "reproduction_de": 1.55},
-    "s8": {"light_deg": 0.2, "s": 0.08, "i_s": 0.02, "diffuse_de": 0.4, "reproduction_de": 1.8},
-    "flash-above": {"light_deg": 0.1, "s": 0.01, "i_s": 0.045, "diffuse_de": 0.6, "reproduction_de": 1.55},
-    "canonical-face": {"light_deg": 0.2, "s": 0.02, "i_s": 0.02, "diffuse_de": 0.25, "reproduction_de": 1.3},
-    "coarse-head": {"light_deg": 0.15, "s": 0.02, "i_s": 0.01, "diffuse_de": 0.25, "reproduction_de": 1.65},
-    "yaw-30-s40-beside": {"light_deg": 0.5, "s": 0.04, "i_s": 0.035, "diffuse_de": 0.45},
-    "yaw+30-s24-above": {"light_deg": 0.35, "s": 0.03, "i_s": 0.035, "diffuse_de": 1.0},
-    "yaw+15-s12-near": {"light_deg": 0.65, "s": 0.02, "diffuse_de": 0.25},
-    "yaw-15-s8-off-axis": {"light_deg": 1.15, "i_s": 0.025, "diffuse_de": 0.3},
-    "s60-beside-far": {"light_deg": 0.1, "s": 0.05, "diffuse_de": 0.4, "reproduction_de": 1.6},
-    "sensor-noise-vignetting": {"s": 0.075, "diffuse_de": 0.6, "reproduction_de": 2.0},
+    "gpu-photo": {"light_deg": 0.2, "s": 0.05, "i_s": 0.035, "diffuse_de": 0.6, "reproduction_de": 0.5},
+    "clicked-camera": {"light_deg": 0.6, "s": 0.045, "i_s": 0.045, "diffuse_de": 0.6, "reproduction_de": 0.5},
+    "s12-irradiance": {"light_deg": 0.2, "s": 0.05, "diffuse_de": 0.5, "reproduction_de": 0.5},
+    "s60-dark-skin": {"light_deg": 0.1, "s": 0.02, "i_s": 0.035, "diffuse_de": 0.2, "reproduction_de": 0.45},
+    "s8": {"light_deg": 0.2, "s": 0.08, "i_s": 0.02, "diffuse_de": 0.4, "reproduction_de": 0.5},
+    "flash-above": {"light_deg": 0.1, "s": 0.01, "i_s": 0.045, "diffuse_de": 0.6, "reproduction_de": 0.5},
+    "canonical-face": {"light_deg": 0.2, "s": 0.02, "i_s": 0.02, "diffuse_de": 0.25, "reproduction_de": 0.2},
+    "coarse-head": {"light_deg": 0.15, "s": 0.02, "i_s": 0.01, "diffuse_de": 0.25, "reproduction_de": 0.55},
+    "yaw-30-s40-beside": {"light_deg": 0.5, "s": 0.04, "i_s": 0.035, "diffuse_de": 0.45, "reproduction_de": 0.55},
+    "yaw+30-s24-above": {"light_deg": 0.35, "s": 0.03, "i_s": 0.035, "diffuse_de": 1.0, "reproduction_de": 0.55},
+    "yaw+15-s12-near": {"light_deg": 0.65, "s": 0.02, "diffuse_de": 0.25, "reproduction_de": 0.5},
+    "yaw-15-s8-off-axis": {"light_deg": 1.15, "i_s": 0.025, "diffuse_de": 0.3, "reproduction_de": 0.5},
+    "s60-beside-far": {"light_deg": 0.1, "s": 0.05, "diffuse_de": 0.4, "reproduction_de": 0.5},
+    "sensor-noise-vignetting": {"s": 0.075, "diffuse_de": 0.6, "reproduction_de": 0.95},
 }
 #: Targets missed today: (case, quantity) → the measured figure and the documented limitation.
 MISSED = {
@@ -157,10 +159,6 @@ MISSED = {
     ("sensor-noise-vignetting", "light_deg"): "2.19° (0.19° from the true camera): the landmarks' noise",
     ("sensor-noise-vignetting", "i_s"): "i_s 0.1507 for 0.18 (-16.3 %; -6.2 % from the true camera, -5.0 % from "
                                         "the noisy landmarks without the sensor's noise and vignetting)",
-    ("yaw-30-s40-beside", "reproduction_de"): "2.20: the detail texture (photo / reflectance map) turned 30°",
-    ("yaw+30-s24-above", "reproduction_de"): "2.82 (2.87 from the true camera): the detail texture turned 30°",
-    ("yaw+15-s12-near", "reproduction_de"): "2.04 (2.01 from the true camera) at 1.2 m, turned 15°",
-    ("yaw-15-s8-off-axis", "reproduction_de"): "2.41 (2.37 from the true camera), turned 15°",
 }
 
 

@@ -4,22 +4,24 @@ landmarks clicked with 1 px of noise — never the true camera), then ``sheer re
 from-capture`` — both through the installed ``sheer`` entry point, in their own processes — must give
 the photograph back: mean ΔE2000 over the skin pixels the capture used ≤ 2.5.
 
-Measured (mean ΔE2000 on skin, the relit image against the photograph; 512² images, the detail
-texture at the CLI's default 1024²):
+Measured (mean ΔE2000 on skin, against the photograph; 512² images, the detail texture at the CLI's
+default 1024²): ``--light from-capture`` (the lightweight engine, issue 14), and the two views of issue
+15 — ``--view relight`` (the captured flash by default; target ≤ 3.0) and ``--view mirror`` with no makeup
+(the photograph from ``--photo``; target ≤ 1.0):
 
-================= ============================================================== ======
-case              what it is                                                     ΔE
-================= ============================================================== ======
-validation-scene  s 24, i_s 0.18, flash 4° up 3° right, warehouse                1.51
-turned-15-beside  s 12, the camera turned −15°, flash 8° right, city sky          1.87
-turned-30-above   s 24, the camera turned +30°, flash 8° above, lobby sky         **2.62**
-dark-skin-s60     s 60, i_s 0.10, dark skin, city, flash 6° down 9° right         1.44
-================= ============================================================== ======
+================= ============================================================== ============ ======= ======
+case              what it is                                                     from-capture relight mirror
+================= ============================================================== ============ ======= ======
+validation-scene  s 24, i_s 0.18, flash 4° up 3° right, warehouse                0.51         0.49    0.00
+turned-15-beside  s 12, the camera turned −15°, flash 8° right, city sky          0.48         0.46    0.00
+turned-30-above   s 24, the camera turned +30°, flash 8° above, lobby sky         0.58         0.59    0.00
+dark-skin-s60     s 60, i_s 0.10, dark skin, city, flash 6° down 9° right         0.40         0.38    0.00
+================= ============================================================== ============ ======= ======
 
-The face turned 30° misses the 2.5 target (a strict expected failure): the capture's own reproduction
-(Phong × detail, its CPU model) is already 2.65 there and 2.64 with a 2048² texture — the detail texture
-(photograph / reflectance map) from a view that far round does not return the photograph under the
-same flash; the lightweight engine adds nothing to it.
+Before issue 15 the detail texture was the photograph ÷ the paper's reflectance map, and the relit
+images came back at 1.51, 1.87, 2.62 and 1.44: the face turned 30° missed the 2.5 target (the capture's
+own reproduction was 2.65 there). The detail is now the photograph ÷ the fitted model (see
+tests/capture/test_detail.py for what that gains away from the photograph's view).
 """
 
 from __future__ import annotations
@@ -46,17 +48,16 @@ pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
 #: The issue's target.
 TARGET_DE = 2.5
-#: Missed today: the case → the measured figure (the module docstring).
-MISSED = {"turned-30-above": "mean ΔE2000 2.62 (the capture's own reproduction 2.65): the detail texture of a face "
-                             "turned 30°"}
+#: The issue's targets for the two views (issue 15), mean ΔE2000 on skin.
+RELIGHT_DE, MIRROR_DE = 3.0, 1.0
 #: The case, and the bound just above its measured mean ΔE2000 (the module docstring).
 CASES = {
-    "validation-scene": (Case("sample", 24.0, camera="noisy"), 1.6),
+    "validation-scene": (Case("sample", 24.0, camera="noisy"), 0.6),
     "turned-15-beside": (Case("sample", 12.0, environment="city", light_deg=(0.0, 8.0), camera="noisy",
-                              ambient="irradiance", yaw_deg=-15.0), 2.0),
+                              ambient="irradiance", yaw_deg=-15.0), 0.6),
     "turned-30-above": (Case("sample", 24.0, environment="lobby", light_deg=(8.0, 0.0), camera="noisy",
-                             ambient="irradiance", yaw_deg=30.0), TARGET_DE),
-    "dark-skin-s60": (Case("sample", 60.0, 0.10, (0.25, 0.15, 0.11), "city", (-6.0, 9.0), camera="noisy"), 1.55),
+                             ambient="irradiance", yaw_deg=30.0), 0.7),
+    "dark-skin-s60": (Case("sample", 60.0, 0.10, (0.25, 0.15, 0.11), "city", (-6.0, 9.0), camera="noisy"), 0.5),
 }
 
 
@@ -77,9 +78,7 @@ def _points_file(path: Path, scene: object) -> None:
                                            for n, im, m in zip(names, image, mesh)]}))
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(n, marks=[pytest.mark.xfail(strict=True, reason=f"measured {MISSED[n]}")] if n in MISSED else [])
-    for n in sorted(CASES)])
+@pytest.mark.parametrize("name", sorted(CASES))
 def test_capture_then_render_from_capture_gives_the_photograph_back(name: str, gl_ctx: moderngl.Context,
                                                                     tmp_path: Path) -> None:
     case, bound = CASES[name]
@@ -100,3 +99,10 @@ def test_capture_then_render_from_capture_gives_the_photograph_back(name: str, g
     skin = np.asarray(Image.open(face / "skin_mask.png")) > 0
     de = float(delta_e2000(relit[skin], scene.photo.linear[skin]).mean())
     assert de < bound, f"{name}: mean ΔE2000 {de:.2f} on {int(skin.sum())} skin pixels"
+    for view, extra, target in (("relight", [], RELIGHT_DE), ("mirror", ["--photo", str(tmp_path / "photo.png")],
+                                                               MIRROR_DE)):
+        ren = _sheer("render", "--face", str(face), "--view", view, *extra, "--out", str(tmp_path / f"{view}.png"))
+        assert ren.returncode == 0, ren.stderr
+        img = srgb_decode(np.asarray(Image.open(tmp_path / f"{view}.png"), dtype=np.float64) / 255.0)
+        de = float(delta_e2000(img[skin], scene.photo.linear[skin]).mean())
+        assert de < min(target, bound), f"{name}, --view {view}: mean ΔE2000 {de:.2f}"
