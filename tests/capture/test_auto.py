@@ -233,3 +233,29 @@ def test_captured_head_renders_with_a_look(hopper_face, tmp_path: Path) -> None:
     assert face_px.mean() > 0.1 and 0.005 < redder.sum() / face_px.sum() < 0.10
     # the lips: in the lower part of the face (below 60 % of its height), where the reddened pixels are
     assert np.median(np.nonzero(redder)[0]) > rows.min() + 0.6 * (rows.max() - rows.min())
+
+
+def test_a_probe_file_sets_the_light(tmp_path: Path) -> None:
+    """A mirror-ball photograph (the kiosk's calibrated light) given as a file: the capture takes the light
+    from it (its direction in the photograph's camera) instead of the flash-on-axis default."""
+    from PIL import Image
+
+    from capture.auto import capture_auto
+    from capture.pipeline import linear_to_srgb8
+    from capture.probe import synthetic_probe
+    from capture.synthetic import DIM_ROOM, FLASH_RGB, env_mean_radiance, read_env
+    from core.assets import find_asset
+
+    env = read_env(str(find_asset("environments/studio.exr")))
+    light_cam = np.array([0.17, -0.26, -0.95])  # up and to the right of the lens, towards the camera
+    light_cam /= np.linalg.norm(light_cam)
+    ball = synthetic_probe(env, np.eye(3), light_cam, FLASH_RGB, size=160,
+                           env_scale=DIM_ROOM / float(env_mean_radiance(env).mean()))
+    probe = tmp_path / "ball.png"
+    Image.fromarray(linear_to_srgb8(ball)).save(probe)
+    face = capture_auto(find_asset("photos/grace_hopper.jpg"), tmp_path / "lit", probe=probe, texture_size=64)
+    assert face.data["probe"] is not None
+    found = np.asarray(face.data["probe"]["light_dir_camera"])
+    assert float(np.degrees(np.arccos(np.clip(found @ light_cam, -1, 1)))) < 2.0
+    world = np.asarray(face.data["light_dir_world"])
+    assert np.allclose(face.camera().R.T @ found, world, atol=1e-6)
