@@ -29,7 +29,6 @@ from app.workers import Cancelled, run_task
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from app.main_window import StudioWindow
     from capture.face import Face
     from painting.document import Document
     from painting.transfer import TransferReport
@@ -41,7 +40,7 @@ _CAPTURE_SHARE = 0.8
 #: Steps capture_auto reports (about; the bar advances one share per step).
 _CAPTURE_STEPS = 12
 #: The studio windows opened from photographs (kept alive until they close).
-_OPENED: list[StudioWindow] = []
+_OPENED: list[Any] = []
 
 
 def faces_dir() -> Path:
@@ -119,15 +118,19 @@ def quality_summary(face: Face) -> str:
 
 
 class NewFromPhoto:
-    """File → New from Photo… for one studio window (see the module docstring)."""
+    """File → New from Photo… for one studio window (see the module docstring).
 
-    def __init__(self, window: StudioWindow) -> None:
+    ``window`` is an :class:`app.main_window.StudioWindow` (not imported here: the window imports this
+    module for its menu).
+    """
+
+    def __init__(self, window: Any) -> None:
         self.window = window
-        #: the window opened on the captured face, once there is one
-        self.opened: StudioWindow | None = None
+        #: the window opened on the captured face (a StudioWindow of the same class), once there is one
+        self.opened: Any = None
 
     @classmethod
-    def ask_for(cls, window: StudioWindow) -> NewFromPhoto | None:
+    def ask_for(cls, window: Any) -> NewFromPhoto | None:
         """Ask for a photograph, then :meth:`start` on it; None when the user cancels the file dialog."""
         name, _ = QFileDialog.getOpenFileName(window, "New from Photo: choose a portrait", "", PHOTO_FILTER)
         if not name:
@@ -166,11 +169,10 @@ class NewFromPhoto:
 
     def _open(self, captured: Captured) -> None:
         """A studio window on the captured head with the transferred layers; the old window then closes."""
-        from app.main_window import StudioWindow
         from app.session import Session
 
         old = self.window
-        win = StudioWindow(Session(old.library, captured.document), qsettings=old.qsettings)
+        win = type(old)(Session(old.library, captured.document), qsettings=old.qsettings)  # a StudioWindow
         win.viewport.face = captured.face
         win.face_path = captured.folder
         win.files.name = f"{old.files.name} on {captured.document.head.name}"
