@@ -53,6 +53,7 @@ def test_transfer_round_trip_through_real_files(red_lip: Path, tmp_path: Path) -
                   "--out", str(face), "--embed-head")
     assert done.returncode == 0, done.stderr
     assert "2 layer(s)" in done.stdout and "MediaPipe canonical face" in done.stdout
+    assert _sheer("project", "validate", str(face)).returncode == 0  # every check of docs/FORMAT.md
     info = _sheer("project", "info", str(face), "--json")
     assert info.returncode == 0, info.stderr
     data = json.loads(info.stdout)
