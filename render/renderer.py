@@ -20,7 +20,8 @@ from render.gpu_head import GpuHead
 from render.irradiance import TextureIrradiance
 from render.km_pass import MAX_LAYERS, KMTextureSpace
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights, upload_lights
-from render.lit_cache import TextureLighting
+from render.lit_cache import MAX_LEVEL as MAX_CACHE_LEVEL
+from render.lit_cache import TexelDensity, TextureLighting, irradiance_bound, level_for
 from render.settings import DEBUG_VIEWS, RenderSettings
 from render.shaders import ShaderLibrary
 from render.sss_passes import SSSPasses
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
 KEPT_TARGET_SIZES = 3
 
 # texture units of the lit pass
-_U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_SPEC1, _U_IRR, _U_LIT = 4, 8, 9, 17, 24, 25, 28
+_U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_LIT, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 18, 24, 25
 
 
 @dataclass
@@ -85,6 +86,8 @@ class Renderer:
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
         self._irradiances: dict[int, TextureIrradiance] = {self.irradiance.size: self.irradiance}
         self.lighting = TextureLighting(ctx, self.shaders)
+        self._bound: tuple[Any, np.ndarray] | None = None  # (irradiance key, irradiance_bound of it)
+        self._density = TexelDensity(head.uv, head.vertices, head.faces)  # for the cache's level
         self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
         self._composites: dict[tuple[int, int], moderngl.Program] = {}
@@ -252,12 +255,22 @@ class Renderer:
         n = len(self.km.active)
         debug_on = DEBUG_VIEWS[s.debug_view] != 0
         cached = s.lighting_cache and self.gpu_head.paint_uv_is_mesh_uv and n > 0 and s.makeup and not debug_on
-        if cached and s.interactive and self.lighting.needs_whole(self.irradiance, self.km):
-            # the lights are moving (an interactive frame whose irradiance is not the cache's): a whole
-            # cache per frame would cost more than it saves; the direct path draws until the view settles
-            cached = False
         if cached:
-            self.lighting.update(self.km, self.irradiance, self.gpu_head)
+            # the cache's level whose texels match this frame's pixels
+            level = level_for(max(self.lighting.target_size(self.km, self.gpu_head)),
+                              self._density.median(view_proj, (w, h)), self.lighting.max_level(self.km, self.gpu_head))
+            if s.interactive and self.lighting.needs_whole(self.irradiance, self.km, level):
+                # an interactive frame never recomputes a level whole (while a light moves that would be
+                # every frame): it takes the nearest level that is up to date, or draws on the direct path
+                # until the view settles
+                current = [lv for lv in range(MAX_CACHE_LEVEL + 1)
+                           if not self.lighting.needs_whole(self.irradiance, self.km, lv)]
+                cached = bool(current)
+                level = min(current, key=lambda lv: abs(lv - level)) if current else level
+        if cached:
+            if self._bound is None or self._bound[0] != irr_key:
+                self._bound = (irr_key, irradiance_bound(self.lights, env, self.gpu_head.vertices))
+            self.lighting.update(self.km, self.irradiance, self.gpu_head, self._bound[1], level)
         elif len(self.km.dirty_tiles) > 4096:  # long unused (direct path, bare skin, debug views)
             self.km.dirty_tiles = []
             self.lighting.invalidate()  # recomputed whole when it is used again
@@ -290,7 +303,8 @@ class Renderer:
         units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
                  "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_spec0": _U_SPEC0, "u_spec1": _U_SPEC1,
                  "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2, "u_lit_diffuse": _U_LIT,
-                 "u_lit_outer": _U_LIT + 1, "u_lit_factor": _U_LIT + 2}
+                 "u_lit_outer": _U_LIT + 1, "u_lit_factor": _U_LIT + 2, "u_lit_trans": _U_LIT + 3,
+                 "u_lit_spec": _U_LIT + 4}
         for name, unit in units.items():
             self._set(prog, name, unit)
         if n and "u_layer_thick" in prog:
@@ -304,6 +318,8 @@ class Renderer:
         self._set(prog, "u_skin_f0", float(s.skin_f0))
         self._set(prog, "u_spec_intensity", float(s.spec_intensity))
         self._set(prog, "u_makeup_on", 1.0 if s.makeup and n > 0 else 0.0)
+        if cached:
+            self._set(prog, "u_lit_scale", tuple(float(x) for x in self.lighting.scale))
         gh = self.gpu_head
         self._set(prog, "u_has_maps", (int(gh.has_specular_map), int(gh.has_roughness_map),
                                        int(self.head.skin_mask is not None)))

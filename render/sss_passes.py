@@ -91,17 +91,17 @@ class SSSPasses:
         hp = self._program(self._fast, "sss_fast.frag", s.taps)
         t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
         self.draw_mask(t, hrect)
-        self._clear(t, (("half_a_fbo", (hw, hh)), ("half_b_fbo", (hw, hh))))
         self._blur_common(t, s, hp, px_per_mm, t["diffuse"], (1.0, 0.0))
         write_uniform(hp, "u_kernel", k)
         set_uniform(hp, "u_final", 0)
-        self.draw_pass(hp, t["half_a_zfbo"], (hw, hh), hrect, Z_HEAD)
-        self.draw_mask(t, hrect, vertical=True)
+        # each pass clears its target to 0 (what the pixels it skips must read) in the same draw target
+        # as it draws: one llvmpipe scene each instead of two
+        self.draw_pass(hp, t["half_a_zfbo"], (hw, hh), hrect, Z_HEAD, clear=True)
         self._blur_common(t, s, hp, px_per_mm * 0.5, t["half_a"], (0.0, 1.0))
         t["diffuse"].use(1)
         set_uniform(hp, "u_centre", 1)
         set_uniform(hp, "u_final", 1)
-        self.draw_pass(hp, t["half_b_zfbo"], (hw, hh), hrect, Z_SKIN)
+        self.draw_pass(hp, t["half_b_zfbo"], (hw, hh), hrect, Z_SKIN, clear=True)
         self._end()
         return t["half_b"], w0
 
@@ -142,8 +142,6 @@ class SSSPasses:
                 set_uniform(gp, "u_premultiplied", 0)
                 ctx.disable(ctx.BLEND)
                 self.draw_pass(gp, tmp_fbo, size, rect_, z_h)
-                if scale != 1.0 and (sigma, wt) == group[0]:  # the same alpha after every Gaussian
-                    self.draw_mask(t, hrect, vertical=True)
                 src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
                 gp = self._program(self._gauss, "sss_gauss.frag", reference_taps(sigma / mm_per_px * scale))
                 self._blur_common(t, s, gp, px_per_mm * scale, src_tex, (0.0, 1.0))
@@ -158,17 +156,18 @@ class SSSPasses:
         self._end()
         return t["accum"], w0, whalf
 
-    def draw_mask(self, t: dict[str, Any], hrect: Rect, vertical: bool = False) -> None:
-        """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into a half depth.
+    def draw_mask(self, t: dict[str, Any], hrect: Rect) -> None:
+        """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into the half depth.
 
-        Of the diffuse for the horizontal passes, of the horizontal result (``vertical``) for the others.
+        Read from the diffuse (nearest, as the horizontal passes read their centres); the vertical passes
+        test the same mask (see :func:`render.targets.frame_targets`).
         """
         ctx = self.ctx
         hw, hh = t["half_a"].size
-        t["half_a" if vertical else "diffuse"].use(0)
+        t["diffuse"].use(0)
         set_uniform(self._mask, "u_src", 0)
         set_uniform(self._mask, "u_z", 0.0)
-        fbo = t["half_mask_v_fbo" if vertical else "half_mask_fbo"]
+        fbo = t["half_mask_fbo"]
         fbo.depth_mask = True
         fbo.use()
         fbo.viewport = (0, 0, hw, hh)
@@ -179,15 +178,19 @@ class SSSPasses:
         self._quad(self._mask).render(vertices=3)
 
     def draw_pass(self, prog: moderngl.Program, fbo: moderngl.Framebuffer, size: tuple[int, int],
-                  rect: Rect, z: float) -> None:
+                  rect: Rect, z: float, clear: bool = False) -> None:
         """One full-screen SSS pass over ``rect`` of ``fbo`` (``size`` pixels).
 
-        Only where the mask's depth is below the triangle's (``z``: NDC depth, see Z_HEAD / Z_SKIN).
+        Only where the mask's depth is below the triangle's (``z``: NDC depth, see Z_HEAD / Z_SKIN); with
+        ``clear``, the colour (not the mask: the ``*_zfbo`` targets never write depth) is cleared to 0 first.
         """
         ctx = self.ctx
         set_uniform(prog, "u_z", float(z))
         fbo.use()
         fbo.viewport = (0, 0, *size)
+        if clear:
+            ctx.scissor = None
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
         ctx.scissor = rect
         ctx.enable(ctx.DEPTH_TEST)
         ctx.depth_func = ">"

@@ -49,18 +49,19 @@ def frame_targets(ctx: moderngl.Context, size: tuple[int, int]) -> dict[str, Any
     t["accum_fbo"] = ctx.framebuffer([t["accum"]])
     half = ((w + 1) // 2, (h + 1) // 2)
     # SSS pass targets with a depth mask (never written): the G-buffer's depth at full resolution,
-    # sss_mask.frag's classes at half resolution; a depth test skips the pixels a pass leaves alone
-    # two half-resolution masks: the horizontal passes' centres (the diffuse, nearest) and the vertical
-    # passes' (the horizontal result, bilinear: its alpha is what the vertical pass tests)
-    for name in ("half_depth", "half_depth_v"):
-        t[name] = ctx.depth_texture(half)
-        t[name.replace("depth", "mask") + "_fbo"] = ctx.framebuffer(depth_attachment=t[name])
+    # sss_mask.frag's classes at half resolution; a depth test skips the pixels a pass leaves alone.
+    # One half-resolution mask serves the horizontal and the vertical passes: a horizontal pass writes
+    # its centre's class (the diffuse's alpha, nearest, at the same texel the mask read) as its alpha,
+    # and leaves the pixels it skips at the cleared 0 (background), so the vertical passes' centres have
+    # the mask's classes.
+    t["half_depth"] = ctx.depth_texture(half)
+    t["half_mask_fbo"] = ctx.framebuffer(depth_attachment=t["half_depth"])
     for name in ("tmp", "accum"):
         t[name + "_zfbo"] = ctx.framebuffer([t[name]], t["depth"])
     for name in ("half_a", "half_b"):
         tex = t[name] = _colour(ctx, half)
         t[name + "_fbo"] = ctx.framebuffer([tex])
-        t[name + "_zfbo"] = ctx.framebuffer([tex], t["half_depth" if name == "half_a" else "half_depth_v"])
+        t[name + "_zfbo"] = ctx.framebuffer([tex], t["half_depth"])
     for name in ("tmp_zfbo", "accum_zfbo", "half_a_zfbo", "half_b_zfbo"):
         t[name].depth_mask = False
     t["gbuffer"].use()

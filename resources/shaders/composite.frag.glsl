@@ -29,13 +29,32 @@ out vec4 o_colour;
 #ifndef DEBUG
 #define DEBUG u_debug
 #endif
+// linear -> sRGB (IEC 61966-2-1) with three square roots instead of pow: 1.055 c^(1/2.4) - 0.055 fitted
+// (minimax) by sqrt(c), c^(1/4), c^(1/8), c and 1 over [0.0031308, 1]; off by at most 0.008/255, so the
+// 8-bit result differs from the exact curve's by one level for 0.5 % of the values. llvmpipe evaluates
+// pow as exp2(log2(x) * y), two polynomials per channel; this pass alone paid 0.35 baseline frames for it.
+vec3 linear_to_srgb_fast(vec3 c) {
+    c = clamp(c, 0.0, 1.0);
+    vec3 x = sqrt(c), y = sqrt(x), z = sqrt(y);
+    vec3 hi = 0.6539890402678461 * x + 0.6887033893170562 * y - 0.3184658216934523 * z
+              - 0.02018860699529245 * c - 0.004069313761769029;
+    return mix(c * 12.92, hi, step(vec3(0.0031308), c));
+}
+
+vec3 display_fast(vec3 linear_colour, float exposure, int tonemap) {  // display() of common.glsl, faster
+    vec3 c = linear_colour * exposure;
+    if (tonemap < 0) return c;
+    if (tonemap == 1) c = tonemap_aces(c);
+    return linear_to_srgb_fast(c);
+}
+
 void main() {
     // full-resolution inputs fetched at this pixel (no filtering: cheaper on llvmpipe)
     ivec2 p = ivec2(gl_FragCoord.xy) - u_origin;
     vec4 f = texelFetch(u_factor, p, 0);
     vec2 v_uv = (vec2(p) + 0.5) / vec2(textureSize(u_factor, 0));
     if (f.a <= 0.0) {
-        o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb(u_background), 1.0);
+        o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb_fast(u_background), 1.0);
         return;
     }
     vec3 outer = texelFetch(u_outer, p, 0).rgb;
@@ -53,5 +72,5 @@ void main() {
         }
     }
     vec3 c = d * f.rgb + outer;
-    o_colour = vec4(display(c, u_exposure, u_tonemap), 1.0);
+    o_colour = vec4(display_fast(c, u_exposure, u_tonemap), 1.0);
 }

@@ -10,7 +10,7 @@
 // (the skin mask is the albedo texture's alpha), SHADOWED and POINT_LIGHTS (bit i: light i casts
 // shadows / is a point light; an unshadowed light needs no visibility fetch, a directional one no
 // per-pixel direction or fall-off). CACHED (1: with MAKEUP and without DEBUG) takes the view-independent
-// terms (E*T*sqrt(albedo), R_top*E, the out-scatter factor, the skin mask, light 0's visibility) from the
+// terms (E*T*sqrt(albedo), R_top*E, the out-scatter factor, the skin mask, light 0's visibility, T and the smoothing roughness) from the
 // texture-space lighting cache (render/lit_cache.py, lit_cache.frag) instead of computing them here.
 #ifndef CACHED
 #define CACHED 0
@@ -54,9 +54,13 @@ uniform sampler2D u_irr;         // unit 25: texture-space irradiance E (rgb), a
 uniform sampler2D u_vis0;        // unit 26: shadow visibility of lights 1-4
 uniform sampler2D u_vis1;        // unit 27: lights 5-7
 #if CACHED
-uniform sampler2D u_lit_diffuse; // the lighting cache (units 28-30): E*T*sqrt(albedo), a: skin mask
-uniform sampler2D u_lit_outer;   // R_top*E, a: smoothing coverage
-uniform sampler2D u_lit_factor;  // sqrt(albedo)*T/(1 - R_bottom*albedo), a: light 0's visibility
+// the lighting cache (units 18-22, 32 bits a texel, colours square-root encoded: x = v*v*scale, see lit_cache.py)
+uniform sampler2D u_lit_diffuse; // E*T*sqrt(albedo) (scale u_lit_scale), a: skin mask
+uniform sampler2D u_lit_outer;   // R_top*E (scale u_lit_scale), a: smoothing coverage
+uniform sampler2D u_lit_factor;  // sqrt(albedo)*T/(1 - R_bottom*albedo) (scale 1), a: light 0's visibility
+uniform sampler2D u_lit_trans;   // T (linear), a: the smoothing layers' roughness
+uniform sampler2D u_lit_spec;    // the specular weights of layers 0-3 (spec0)
+uniform vec3 u_lit_scale;        // the bound of E the colours were encoded with
 #endif
 #if NL > 0
 uniform sampler2D u_layer_thick[NL];  // units 9.. : µm
@@ -98,11 +102,11 @@ void main() {
     vec4 c_d = texture(u_lit_diffuse, v_uv_paint);
     vec4 c_o = texture(u_lit_outer, v_uv_paint);
     vec4 c_f = texture(u_lit_factor, v_uv_paint);
-    vec4 t_full = texture(u_trans, v_uv_paint);
+    vec4 t_full = texture(u_lit_trans, v_uv_paint);
     tr = t_full.rgb;
     smooth_cov = c_o.a;
     smooth_rough = smooth_cov > 0.0 ? t_full.a : u_skin_roughness;
-    A0 = texture(u_spec0, v_uv_paint);
+    A0 = texture(u_lit_spec, v_uv_paint);
 #if NL > 4
     A1 = texture(u_spec1, v_uv_paint);
 #endif
@@ -203,9 +207,9 @@ void main() {
     }
 
 #if CACHED
-    o_diffuse = vec4(c_d.rgb, skin ? v_depth : -v_depth);
-    o_outer = vec4(c_o.rgb + spec, 1.0);
-    o_factor = vec4(c_f.rgb, v_depth);
+    o_diffuse = vec4(c_d.rgb * c_d.rgb * u_lit_scale, skin ? v_depth : -v_depth);
+    o_outer = vec4(c_o.rgb * c_o.rgb * u_lit_scale + spec, 1.0);
+    o_factor = vec4(c_f.rgb * c_f.rgb, v_depth);
 #else
     vec3 sa = sqrt(max(albedo, vec3(0.0)));
     vec3 out_factor = sa * tr / max(vec3(1.0) - rbot * albedo, vec3(1e-4));
