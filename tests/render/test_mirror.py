@@ -1,16 +1,18 @@
 """The mirror and relight views (issue 15) on real photographs: the two public-domain portraits in the assets,
 captured on the sample head from the hand-picked points in tests/data/capture/ (``sheer capture``'s
-pipeline, in process).
+pipeline, in process), and Grace Hopper's captured automatically (helper A's ``capture.auto``: her own
+face mesh from MediaPipe; the astronaut's face is too small in her portrait for the quality gate).
 
-Measured (mean ΔE2000 over the capture's skin pixels, 512² portraits, detail texture 512²):
+Measured (mean ΔE2000 over the capture's skin pixels; detail texture 512²):
 
-============ ============== ============= ==================== =====================
-portrait     mirror, bare   mirror, skin  relight, capture     relight, turned ±25°
-             vs photograph  with lipstick light vs photograph  renders, differs
-============ ============== ============= ==================== =====================
-astronaut    0.00           0.00          0.53                 yes
-grace_hopper 0.00           0.00          0.82                 yes
-============ ============== ============= ==================== =====================
+================== ============== ============= ==================== =====================
+portrait           mirror, bare   mirror, skin  relight, capture     relight, turned ±25°
+                   vs photograph  with lipstick light vs photograph  renders, differs
+================== ============== ============= ==================== =====================
+astronaut          0.00           0.00          0.87                 yes
+grace_hopper       0.00           0.00          1.46                 yes
+grace_hopper-auto  0.00           0.00          0.68                 yes
+================== ============== ============= ==================== =====================
 
 The mirror gives the photograph back byte for byte where there is no makeup (it adds the difference the
 makeup makes to the photograph); what can break that — the camera's alignment, the photograph's
@@ -33,7 +35,6 @@ from capture.phong import delta_e2000
 from km.srgb import srgb_decode
 
 if TYPE_CHECKING:
-    from capture.pipeline import CaptureResult
     from painting.head import Head
 
 pytestmark = [pytest.mark.slow, pytest.mark.gl]
@@ -44,42 +45,53 @@ RELIGHT_DE = 3.0
 
 
 class Captured:
-    """A portrait captured on the sample head: the result, the face as loaded, the photograph (uint8)."""
+    """A portrait captured: the face as loaded, its head, the photograph (uint8) and the skin pixels used.
+
+    ``name``: a portrait in ``DATA`` (``*_points.json``: fitted to the sample head from the hand-picked
+    points), or ``"<name>-auto"``: the automatic capture (:func:`capture.auto.capture_auto`, the person's
+    own face mesh from MediaPipe).
+    """
 
     def __init__(self, name: str, folder: Path) -> None:
-        self.name = name
-        from capture.camera import load_points
         from capture.face import load_face, write_face
-        from capture.pipeline import capture, read_photo
         from core.assets import find_asset
-        from painting.head import load_head
 
-        spec = json.loads((DATA / f"{name}_points.json").read_text())
+        self.name = name
+        auto = name.endswith("-auto")
+        spec = json.loads((DATA / f"{name.removesuffix('-auto')}_points.json").read_text())
         path = find_asset(spec["photo"])
-        self.head: Head = load_head()
-        photo = read_photo(path)
-        h, w = photo.shape[:2]
-        camera = load_points(DATA / f"{name}_points.json", w, h)
-        self.result: CaptureResult = capture(self.head, photo, camera, texture_size=512)
-        self.folder = write_face(self.result, folder, head_path=self.head.path)
-        self.face = load_face(self.folder)
-        self.photo_path = path
-        with Image.open(path) as im:
+        if auto:
+            from capture.auto import capture_auto
+
+            capture_auto(path, folder)
+        else:
+            from capture.camera import load_points
+            from capture.pipeline import capture, read_photo
+            from painting.head import load_head
+
+            head = load_head()
+            photo = read_photo(path)
+            camera = load_points(DATA / f"{name}_points.json", photo.shape[1], photo.shape[0])
+            write_face(capture(head, photo, camera, texture_size=512), folder, head_path=head.path)
+        self.face = load_face(folder)
+        self.head: Head = self.face.load_head()
+        with Image.open(self.face.photo_path if auto else path) as im:
             self.photo8 = np.asarray(im.convert("RGB"))
-        self.skin = self.result.skin_mask
+        with Image.open(folder / "skin_mask.png") as im:
+            self.skin = np.asarray(im) > 127
 
     def mouth_box(self, grow: float = 0.6) -> np.ndarray:
-        """Bool (H, W): the box around the projected mouth landmarks, grown by ``grow`` of its size each way."""
+        """Bool (H, W): the box around the mouth landmarks (the head's, projected), grown by ``grow`` of its size."""
         lm = self.head.metadata.landmarks
         names = [n for n in ("mouth_left", "mouth_right", "upper_lip", "lower_lip", "lip_centre") if n in lm]
-        px, _ = self.result.camera.project(np.array([lm[n] for n in names], dtype=float))
+        px, _ = self.face.camera().project(np.array([lm[n] for n in names], dtype=float))
         lo, hi = px.min(0), px.max(0)
         pad = grow * (hi - lo) + 3
         yy, xx = np.mgrid[0:self.photo8.shape[0], 0:self.photo8.shape[1]] + 0.5
         return (xx >= lo[0] - pad[0]) & (xx <= hi[0] + pad[0]) & (yy >= lo[1] - pad[1]) & (yy <= hi[1] + pad[1])
 
 
-@pytest.fixture(scope="module", params=["astronaut", "grace_hopper"])
+@pytest.fixture(scope="module", params=["astronaut", "grace_hopper", "grace_hopper-auto"])
 def captured(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Captured:
     return Captured(request.param, tmp_path_factory.mktemp(request.param))
 
@@ -165,7 +177,8 @@ def test_mirror_composites_the_km_layers_on_the_photographs_albedo(captured: Cap
     from capture.pipeline import pixel_data, sample_texture
     from render.mirror import MirrorView
 
-    res = captured.result
+    face = captured.face
+    camera = face.camera()
     mv = MirrorView(gl_ctx, captured.head, captured.face, captured.photo8)
     try:
         mv.set_layers(_lipstick_layers(captured.head))
@@ -174,15 +187,15 @@ def test_mirror_composites_the_km_layers_on_the_photographs_albedo(captured: Cap
         r_top, trans, r_bottom = mv.km.read()
     finally:
         mv.release()
-    pix = pixel_data(captured.head, res.camera)
-    p = res.params
+    pix = pixel_data(captured.head, camera)
+    p = face.params
     uv = pix.uv
     rt, tt, rb = (sample_texture(np.asarray(m, float), uv) for m in (r_top, trans, r_bottom))
     where = (rt.max(axis=1) > 0.02)  # on the lipstick
     where &= np.einsum("pc,pc->p", pix.normals, pix.view) > 0.3
     assert where.sum() > 50
     photo = srgb_decode(captured.photo8[pix.rows, pix.cols] / 255.0)
-    geo = Geometry.from_vectors(pix.normals, pix.view, res.light_dir_world)
+    geo = Geometry.from_vectors(pix.normals, pix.view, np.asarray(face.data["light_dir_world"], float))
     ndl = np.clip(geo.n_dot_l, 0, None)
     e = p.ambient_scale * p.ambient_rgb[None, :] + p.flash_rgb[None, :] * ndl[:, None]
     spec = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0, None) ** p.exponent, 0.0)
@@ -211,7 +224,7 @@ def test_relight_at_the_capture_light_reproduces_the_photograph(captured: Captur
         assert _de(lips, same, captured.skin & ~mouth) < 0.05
         changed = np.abs(lips.astype(int) - same.astype(int)).max(axis=2) > 2
         assert changed.sum() > 50 and (changed & ~mouth).sum() <= 0.01 * changed.sum()
-        frames = []
+        frames = [rv.render_image((256, 256))]
         for yaw, pitch in ((-MAX_TURN_DEG, 0.0), (MAX_TURN_DEG, 0.0), (0.0, MAX_TURN_DEG)):
             rv.yaw, rv.pitch = yaw, pitch
             frames.append(rv.render_image((256, 256)))
@@ -220,9 +233,9 @@ def test_relight_at_the_capture_light_reproduces_the_photograph(captured: Captur
             rv.render_image()
     finally:
         rv.release()
-    for f in frames:
-        assert f.shape == (256, 256, 3) and (f.max(axis=2) > 40).mean() > 0.1
-    assert not np.array_equal(frames[0], frames[1])
+    lit = [float((f.max(axis=2) > 40).mean()) for f in frames]
+    assert lit[0] > 0.05 and all(x > 0.5 * lit[0] for x in lit[1:]), lit  # the face stays in the frame turned
+    assert not np.array_equal(frames[1], frames[2])
 
 
 def test_relight_presets_keep_the_photographs_exposure(captured: Captured, gl_ctx: Any) -> None:
