@@ -115,3 +115,43 @@ def test_bad_input_is_one_line(face_dir: Path, tmp_path: Path, args: list[str], 
 def test_view_needs_a_face(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, _, err = _render("--view", "mirror", "--out", str(tmp_path / "x.png"))
     assert code == 2 and "needs --face" in err + capsys.readouterr().err
+
+
+def test_a_document_binding_drives_both_views_and_a_product_swap(face_dir: Path, gl_ctx: object) -> None:
+    """The kiosk's use: one KM pass shared by the mirror and the relight view, kept in sync with a document
+    by a DocumentBinding; a lipstick swapped for another shade changes both, as a fresh view would draw it."""
+    from capture.face import load_face
+    from km import default_library
+    from painting import Document
+    from painting.looks import apply_look, load_look
+    from render.binding import DocumentBinding, layer_inputs
+    from render.mirror import MirrorView, RelightView
+
+    face = load_face(face_dir)
+    head = face.load_head()
+    photo = np.asarray(Image.open(face_dir / "photo.png"))
+    lib = default_library()
+    doc = Document(head, resolution=512, library=lib)
+    mv = MirrorView(gl_ctx, head, face, photo)  # type: ignore[arg-type]
+    rv = RelightView(gl_ctx, head, face, km=mv.km)  # type: ignore[arg-type]
+    binding = DocumentBinding(doc, mv)  # type: ignore[arg-type]
+    try:
+        apply_look(doc, load_look("red-lip"))
+        binding.flush()
+        red, red_relit = mv.render_image(), rv.render_image()
+        i = next(k for k, lay in enumerate(doc.layers) if "Lipstick" in lay.material)
+        other = next(m.name for m in lib if m.category == "lipstick" and m.name != doc.layers[i].material)
+        doc.set_layer(i, material=other)
+        binding.flush()
+        swapped, swapped_relit = mv.render_image(), rv.render_image()
+        fresh = MirrorView(gl_ctx, head, face, photo)  # type: ignore[arg-type]
+        try:
+            fresh.set_layers(layer_inputs(doc))
+            assert np.array_equal(fresh.render_image(), swapped)
+        finally:
+            fresh.release()
+    finally:
+        binding.close()
+        rv.release()
+        mv.release()
+    assert not np.array_equal(red, swapped) and not np.array_equal(red_relit, swapped_relit)
