@@ -402,36 +402,6 @@ class RelightView(_Layers):
         lw.exposure = self.exposure
         lw.makeup = self.km if self.has_makeup else None
 
-    def _triangles_with_makeup(self) -> int:
-        """Fill the index buffer with the triangles whose UV box meets a 64² tile holding makeup; their count.
-
-        The KM pass tracks which tiles of its maps any layer is non-zero in (``km.present``); a triangle
-        elsewhere would only add a difference of 0, so only these are drawn (a lipstick: a few hundred
-        of the head's triangles). Rebuilt when the layers change (``km.version``).
-        """
-        km = self.km
-        if self._drawn[0] == km.version:
-            return self._drawn[1]
-        from painting.tiles import TILE
-
-        present = km.present.any(axis=0) if km.present.size else np.zeros((1, 1), bool)
-        rows, cols = present.shape
-        w, h = km.size
-        sat = np.zeros((rows + 1, cols + 1), np.int64)  # summed-area table of the tiles holding makeup
-        sat[1:, 1:] = present.cumsum(0).cumsum(1)
-        lo, hi = self._tri_uv_box
-        # one texel of margin (bilinear filtering), then the tile range of each triangle's UV box
-        c0 = np.clip(((lo[:, 0] * w - 1) // TILE).astype(np.int64), 0, cols - 1)
-        c1 = np.clip(((hi[:, 0] * w + 1) // TILE).astype(np.int64), 0, cols - 1)
-        r0 = np.clip(((lo[:, 1] * h - 1) // TILE).astype(np.int64), 0, rows - 1)
-        r1 = np.clip(((hi[:, 1] * h + 1) // TILE).astype(np.int64), 0, rows - 1)
-        count = sat[r1 + 1, c1 + 1] - sat[r0, c1 + 1] - sat[r1 + 1, c0] + sat[r0, c0]
-        faces = self._faces[count > 0]
-        if len(faces):
-            self._index.write(np.ascontiguousarray(faces).tobytes())
-        self._drawn = (km.version, len(faces))
-        return len(faces)
-
     def render(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int] | None = None) -> None:
         """Draw the frame into ``fbo`` (with a depth attachment), any size of the photograph's aspect."""
         self._prepare()

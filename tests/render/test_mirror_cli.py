@@ -14,6 +14,8 @@ from PIL import Image
 if TYPE_CHECKING:
     from pathlib import Path
 
+from tests.app.test_render_camera_cli import _render  # the CLI in process: (exit code, image, stderr)
+
 pytestmark = pytest.mark.gl
 W, H = 320, 240
 
@@ -45,20 +47,6 @@ def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     Image.fromarray(rng.integers(0, 256, (H, W, 3), dtype=np.uint8)).save(d / "photo.png")
     Image.fromarray(rng.integers(0, 256, (H // 2, W // 2, 3), dtype=np.uint8)).save(d / "small.png")
     return d
-
-
-def _render(*args: str) -> tuple[int, np.ndarray | None, str]:
-    import contextlib
-    import io
-
-    from app.cli import main
-
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        code = main(["render", *args])
-    out = next((a for i, a in enumerate(args) if i and args[i - 1] == "--out"), None)
-    img = np.asarray(Image.open(out)) if code == 0 and out else None
-    return code, img, err.getvalue()
 
 
 def test_mirror_bare_is_the_photograph_and_lipstick_changes_the_mouth(face_dir: Path, tmp_path: Path) -> None:
