@@ -21,10 +21,12 @@ from typing import TYPE_CHECKING, Any
 from PySide6.QtCore import QEvent, QObject, QPoint, Qt, QTimer
 from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QShortcut
 from PySide6.QtWidgets import (
+    QFrame,
     QGridLayout,
     QHBoxLayout,
     QLabel,
     QPushButton,
+    QScrollArea,
     QSlider,
     QStackedWidget,
     QVBoxLayout,
@@ -257,8 +259,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.privacy_label.setWordWrap(True)
         self.privacy_label.setStyleSheet("color: #b8b0a8; font-size: 14px;")
         self.privacy_label.hide()
-        self.side_panel = QWidget()
-        side = QVBoxLayout(self.side_panel)
+        side_box = QWidget()
+        side = QVBoxLayout(side_box)
         side.setContentsMargins(0, 0, 0, 0)
         side.addWidget(self.views_bar)
         side.addLayout(products)
@@ -274,7 +276,6 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         side.addWidget(self.foundation_finder)
         side.addWidget(self.toast)
         side.addWidget(self.done_button)
-        side.addWidget(self.privacy_label)
         side.addStretch(1)
         # the head scan's licence (CC BY) asks for its credit wherever it is shown
         credit = self.doc.head.credit
@@ -287,7 +288,16 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.face_stack.addWidget(self.viewport)
         self.face_stack.addWidget(self.tryon.shopper_view)
         body = QHBoxLayout()
-        body.addWidget(self.face_stack, 3)
+        left = QVBoxLayout()
+        left.addWidget(self.face_stack, 1)
+        left.addWidget(self.privacy_label)  # under her face, while it is shown
+        body.addLayout(left, 3)
+        # the controls scroll rather than push the window past a small screen (the foundation finder grows)
+        self.side_panel = QScrollArea()
+        self.side_panel.setWidget(side_box)
+        self.side_panel.setWidgetResizable(True)
+        self.side_panel.setFrameShape(QFrame.Shape.NoFrame)
+        self.side_panel.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
         body.addWidget(self.side_panel, 2)
         lay = QVBoxLayout(page)
         lay.addWidget(self.invite)

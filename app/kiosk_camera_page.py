@@ -85,9 +85,11 @@ class CameraPage(QWidget):
         shot(np.ndarray): the photo taken (uint8 sRGB (H, W, 3), unmirrored).
         failed(str): the camera stopped working (the message is for the log; the screen says it kindly).
         cancelled(): the shopper tapped Cancel.
+        present(): a check found her face in the frame (she is there: the kiosk is not idle).
     """
 
     shot = Signal(object)
+    present = Signal()
     failed = Signal(str)
     cancelled = Signal()
 
@@ -103,6 +105,7 @@ class CameraPage(QWidget):
         self.preview = QLabel()
         self.preview.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.preview.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Ignored)
+        self.preview.setMinimumSize(160, 120)  # not the pixmap's size: the page must fit any screen
         self.prompt = QLabel(LOOKING)
         self.prompt.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.prompt.setWordWrap(True)
@@ -217,6 +220,8 @@ class CameraPage(QWidget):
             return
         self.checks += 1
         self.issues = issues
+        if not any(code in ("no_face", "check") for code, _ in issues):
+            self.present.emit()
         if issues:
             self.prompt.setText(issues[0][1])
             if self.countdown is not None:

@@ -102,6 +102,7 @@ class ShopperSession:
     viewport: Any
     views_bar: Any
     privacy_label: Any
+    credit_label: Any
     split: Any
 
     stop_attract: Callable[[], None]  # (KioskWindow's methods)
@@ -154,9 +155,13 @@ class ShopperSession:
         self.look = session.look or self.look
         for n, b in self.look_buttons.items():
             b.setChecked(n == self.look)
+        for b in self.light_buttons.values():
+            b.setChecked(False)  # her photograph's own light, until she picks a preset
         self.face_stack.setCurrentWidget(self.tryon.shopper_view)
         self.views_bar.show()
         self.privacy_label.show()
+        if getattr(self, "credit_label", None) is not None:
+            self.credit_label.hide()  # the sample head's credit, not hers
         self._show_view_buttons()
         self.split.setValue(0)
         self.show_main()
@@ -173,4 +178,6 @@ class ShopperSession:
         self.face_stack.setCurrentWidget(self.viewport)
         self.views_bar.hide()
         self.privacy_label.hide()
+        if getattr(self, "credit_label", None) is not None:
+            self.credit_label.show()
         self._sync()

@@ -72,6 +72,7 @@ class _BusyPage(QWidget):
         self.label.setStyleSheet("font-size: 40px;")
         self.step = QLabel("")
         self.step.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.step.setWordWrap(True)
         privacy = QLabel(PRIVACY_LINE)
         privacy.setWordWrap(True)
         privacy.setAlignment(Qt.AlignmentFlag.AlignCenter)
@@ -86,6 +87,23 @@ class _BusyPage(QWidget):
 
 class _Progress(QObject):
     line = Signal(str)
+
+
+#: The capture's progress lines (technical) as the shopper reads them: (words in the line, what she sees).
+FRIENDLY_STEPS: tuple[tuple[str, str], ...] = (
+    ("face found", "Found you!"),
+    ("head", "Shaping your face in 3D…"),
+    ("skin mask", "Finding your skin…"),
+    ("probe", "Reading the light…"),
+    ("Phong fit", "Reading your skin tone…"),
+    ("detail texture", "Adding the fine detail…"),
+    ("wrote", "Putting on the look…"),
+)
+
+
+def friendly_step(line: str) -> str | None:
+    """What the busy screen says for a capture progress line (None: keep what it says)."""
+    return next((words for key, words in FRIENDLY_STEPS if key in line), None)
 
 
 class TryOn(QObject):
@@ -107,6 +125,8 @@ class TryOn(QObject):
         self.camera_page.shot.connect(kiosk.guard(self.captured))
         self.camera_page.failed.connect(kiosk.guard(self.camera_failed))
         self.camera_page.cancelled.connect(kiosk.guard(self.cancel))
+        # in front of the camera, and while her try-on is made, she is not idle
+        self.camera_page.present.connect(kiosk.guard(kiosk.activity))
         self.busy_page = _BusyPage()
         self.shopper_view = ShopperView()
         self.shopper_view.turned.connect(kiosk.guard(lambda _y, _p: self.refresh(layers=False)))
@@ -120,12 +140,17 @@ class TryOn(QObject):
         self._shutter: float | None = None
         self._task: Any = None
         self._progress = _Progress()
-        self._progress.line.connect(self.busy_page.step.setText)
+        self._progress.line.connect(self._step)
         if kiosk.config.can_try_on:
             from app.workers import run_task
 
             run_task(None, "", lambda _p, _c: warm_up(), lambda _r: None,
                      lambda m: log.warning("kiosk: warming up the capture failed: %s", m), show_progress=False)
+
+    def _step(self, line: str) -> None:
+        words = friendly_step(line)
+        if words:
+            self.busy_page.step.setText(words)
 
     @property
     def active(self) -> bool:
@@ -144,6 +169,7 @@ class TryOn(QObject):
             self.camera_failed(str(exc))
             return
         self.kiosk.begin_private_session()
+        self.kiosk.activity()
         self.kiosk.stack.setCurrentWidget(self.camera_page)
         self.camera_page.start(source)
 
@@ -163,6 +189,7 @@ class TryOn(QObject):
 
         self._shutter = time.perf_counter()
         self.timings = {}
+        self.kiosk.activity()
         root = self.kiosk.begin_private_session()
         folder = Path(root) / f"face-{int(time.time() * 1000)}"
         kiosk = self.kiosk
@@ -204,6 +231,7 @@ class TryOn(QObject):
             self.camera_page.say(self.last_refusal)
             return
         self.timings.update(result.timings)
+        self.kiosk.activity()
         self.shopper = result
         self.kiosk.wear_shopper(result.session)
         self.renderer = ShopperRenderer(result.head, result.face, result.photo)

@@ -33,8 +33,69 @@ def _screen_grab(win: object) -> object:
     return win.screen().grabWindow(win.winId())  # type: ignore[attr-defined]
 
 
+def kiosk_shots(out: Path, tmp: Path) -> None:
+    """The kiosk's pictures, written into ``out`` (``tmp``: a scratch folder).
+
+    kiosk_start.png (the attract mode under the invitation), kiosk_tryon.png (the sample face, evening
+    look, warm light), kiosk_camera.png ("Try it on me": the preview with its oval and prompt; the camera
+    is a video of the Grace Hopper portrait) and kiosk_her_face.png (her face, red lip, before/after).
+    """
+    import numpy as np
+    from PIL import Image
+
+    from app.kiosk import KioskWindow
+    from app.kiosk_config import KioskConfig, hash_pin
+
+    portrait = Path(__file__).resolve().parents[2] / "shared" / "assets" / "photos" / "grace_hopper.jpg"
+    with Image.open(portrait) as im:
+        rgb = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    import cv2
+
+    camera = tmp / "camera.avi"
+    writer = cv2.VideoWriter(str(camera), cv2.VideoWriter_fourcc(*"MJPG"), 15.0, (rgb.shape[1], rgb.shape[0]))
+    for _ in range(600):
+        writer.write(np.ascontiguousarray(rgb[:, :, ::-1]))
+    writer.release()
+    cfg = KioskConfig(pin_hash=hash_pin("0000"), snapshot_dir=str(tmp / "photos"), fullscreen=False,
+                      camera=str(camera))
+    kiosk = KioskWindow(cfg)
+    kiosk.resize(1600, 1000)
+    kiosk.show()
+    _wait(lambda: kiosk.isVisible() and kiosk.viewport.frames > 0)
+    _wait(lambda: False, 3.0)  # the face turns a little
+    _screen_grab(kiosk).save(str(out / "kiosk_start.png"))
+    kiosk.show_main()
+    kiosk.set_look("evening")
+    kiosk.set_light("warm indoor")
+    _wait(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready and kiosk.viewport.settled)
+    kiosk.viewport.repaint()
+    _wait(lambda: True)
+    _screen_grab(kiosk).save(str(out / "kiosk_tryon.png"))
+    kiosk.show_start()
+    kiosk.tryon_button.click()
+    page = kiosk.tryon.camera_page
+    _wait(lambda: page.countdown is not None)
+    _screen_grab(kiosk).save(str(out / "kiosk_camera.png"))
+    _wait(lambda: kiosk.tryon.shopper_view.image is not None, 120.0)
+    if kiosk.tryon.renderer is None:
+        raise RuntimeError(f"the try-on did not come up ({kiosk.screen_name}): "
+                           f"{kiosk.last_error or kiosk.tryon.last_refusal}")
+    frames = kiosk.tryon.renderer.frames
+    kiosk.set_look("red-lip")
+    kiosk.split.setValue(40)
+    _wait(lambda: kiosk.tryon.renderer.frames > frames)  # (the two requests may be drawn as one frame)
+    _wait(lambda: False, 2.0)
+    _screen_grab(kiosk).save(str(out / "kiosk_her_face.png"))
+    print(f"try-on: shutter to her first made-up frame {kiosk.tryon.timings.get('tryon_first_frame_s', 0):.2f} s")
+    kiosk._allow_close = True
+    kiosk.close()
+
+
 def main(argv: list[str]) -> int:
-    """Write studio_*.png and kiosk_*.png into ``argv[0]`` (default docs/images) and list them; returns 0."""
+    """Write studio_*.png and kiosk_*.png into ``argv[0]`` (default docs/images) and list them; returns 0.
+
+    ``--kiosk`` after the folder: the kiosk's pictures only.
+    """
     out = Path(argv[0] if argv else "docs/images")
     out.mkdir(parents=True, exist_ok=True)
     from PySide6.QtCore import QSettings
@@ -42,12 +103,14 @@ def main(argv: list[str]) -> int:
     from app.studio_app import make_application
 
     make_application()
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import KioskConfig, hash_pin
+    tmp = Path(tempfile.mkdtemp(prefix="sheer-shots-"))
+    if "--kiosk" in argv[1:]:
+        kiosk_shots(out, tmp)
+        print("\n".join(str(p) for p in sorted(out.glob("kiosk_*.png"))))
+        return 0
     from app.main_window import StudioWindow
     from app.session import Session
 
-    tmp = Path(tempfile.mkdtemp(prefix="sheer-shots-"))
     os.environ["SHEER_RECOVERY_DIR"] = str(tmp / "recovery")  # no recovery offer in the pictures
     win = StudioWindow(Session.open(look="natural"), qsettings=QSettings(str(tmp / "s.ini"), QSettings.Format.IniFormat))
     win.resize(1600, 1000)
@@ -70,21 +133,7 @@ def main(argv: list[str]) -> int:
     win._set(split=0.0)
     win.close()
 
-    cfg = KioskConfig(pin_hash=hash_pin("0000"), snapshot_dir=str(tmp / "photos"), fullscreen=False)
-    kiosk = KioskWindow(cfg)
-    kiosk.resize(1600, 1000)
-    kiosk.show()
-    _wait(lambda: kiosk.isVisible())
-    _screen_grab(kiosk).save(str(out / "kiosk_start.png"))
-    kiosk.show_main()
-    kiosk.set_look("evening")
-    kiosk.set_light("warm indoor")
-    _wait(lambda: kiosk.viewport.frames > 0 and kiosk.viewport.full_quality_ready and kiosk.viewport.settled)
-    kiosk.viewport.repaint()
-    _wait(lambda: True)
-    _screen_grab(kiosk).save(str(out / "kiosk_tryon.png"))
-    kiosk._allow_close = True
-    kiosk.close()
+    kiosk_shots(out, tmp)
     print("\n".join(str(p) for p in sorted(out.glob("*_*.png")) if p.name.startswith(("studio_", "kiosk_"))))
     return 0
 
