@@ -1,0 +1,81 @@
+"""The geometry under the mirror and relight views (no GL): the photograph's camera as a render camera
+(:mod:`render.pinhole`), its turn about the neck, and the mirror's soft edge (:func:`render.mirror.edge_weights`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from render.mirror import edge_weights
+from render.pinhole import pinhole_camera, turn_pivot
+
+
+def _camera() -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    from capture.camera import look_at
+
+    cam = look_at(np.array([3.0, 2.0, 40.0]), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0]), 25.0, 320, 240)
+    return cam.K, cam.R, cam.t, cam.width, cam.height
+
+
+def _pixels(cam: object, points: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Window pixels (x right, y down, top-left corner 0) where the render camera draws ``points``."""
+    clip = cam.view_projection(size[0] / size[1]) @ np.c_[points, np.ones(len(points))].T  # type: ignore[attr-defined]
+    ndc = clip[:3] / clip[3]
+    return np.stack([(ndc[0] + 1) / 2 * size[0], (1 - ndc[1]) / 2 * size[1]], axis=1)
+
+
+def test_the_render_camera_draws_where_the_photographs_camera_projects() -> None:
+    from capture.camera import Camera
+
+    K, R, t, w, h = _camera()
+    points = np.random.default_rng(1).uniform(-5, 5, (50, 3))
+    truth, _ = Camera(K=K, R=R, t=t, width=w, height=h).project(points)
+    for size in ((w, h), (2 * w, 2 * h)):
+        cam = pinhole_camera(K, R, t, w, h, points)
+        np.testing.assert_allclose(_pixels(cam, points, size), truth * size[0] / w, atol=1e-6)
+    np.testing.assert_allclose(cam.eye(), -R.T @ t, atol=1e-9)
+
+
+def test_a_turn_orbits_the_camera_about_the_pivot() -> None:
+    K, R, t, w, h = _camera()
+    points = np.random.default_rng(2).uniform(-5, 5, (20, 3))
+    pivot = np.array([0.0, 1.0, -9.0])
+    front = pinhole_camera(K, R, t, w, h, points, pivot=pivot)
+    turned = pinhole_camera(K, R, t, w, h, points, yaw=20.0, pitch=-10.0, pivot=pivot)
+    # the camera keeps its distance to the pivot, and moves to the subject's left (+x) and down (−y)
+    assert np.linalg.norm(turned.eye() - pivot) == pytest.approx(np.linalg.norm(front.eye() - pivot))
+    d = turned.eye() - front.eye()
+    assert d[0] > 0 and d[1] < 0
+    # the pivot itself stays where it was in the image
+    np.testing.assert_allclose(_pixels(turned, pivot[None], (w, h)), _pixels(front, pivot[None], (w, h)), atol=1e-6)
+
+
+def test_the_turn_pivot_is_behind_the_nose() -> None:
+    lm = {"nose_tip": (0.0, 0.0, 10.0), "chin": (0.0, -6.0, 8.0), "forehead": (0.0, 6.0, 8.0)}
+    p = turn_pivot(np.zeros((3, 3)), lm, mm_per_unit=10.0)
+    np.testing.assert_allclose(p, [0.0, 0.0, 10.0 - 9.0])
+
+
+def test_edge_weights_fade_at_an_open_boundary_and_ignore_seams() -> None:
+    # a 21×21 grid, 1 mm apart, split down the middle into two charts (duplicated vertices: a UV seam)
+    n = 21
+    xs, ys = np.meshgrid(np.arange(n, dtype=float), np.arange(n, dtype=float))
+    v = np.c_[xs.ravel(), ys.ravel(), np.zeros(n * n)]
+    idx = np.arange(n * n).reshape(n, n)
+    quads = [(idx[i, j], idx[i, j + 1], idx[i + 1, j + 1], idx[i + 1, j]) for i in range(n - 1) for j in range(n - 1)]
+    faces = np.array([f for a, b, c, d in quads for f in ((a, b, c), (a, c, d))])
+    seam = np.nonzero(xs.ravel() == 10)[0]
+    v2 = np.r_[v, v[seam]]  # the right chart uses copies of the seam's vertices
+    remap = np.arange(n * n)
+    remap[seam] = n * n + np.arange(len(seam))
+    right = (v[faces][:, :, 0].max(axis=1) > 10)
+    faces2 = faces.copy()
+    faces2[right] = remap[faces[right]]
+    w = edge_weights(v2, faces2, mm_per_unit=1.0, feather_mm=4.0)
+    grid = w[:n * n].reshape(n, n)
+    assert np.all(grid[0] == 0) and np.all(grid[:, 0] == 0)  # the open boundary
+    assert grid[10, 10] == 1.0 and np.all(w[n * n:] == grid[:, 10])  # the seam's middle is inside
+    assert 0 < grid[10, 2] < 1 and grid[10, 2] < grid[10, 3]  # a smooth rise over 4 mm
+    # a closed mesh (a tetrahedron): 1 everywhere
+    tet = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+    assert np.all(edge_weights(tet, np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]), 1.0) == 1.0)
