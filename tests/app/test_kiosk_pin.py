@@ -23,9 +23,10 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
 @contextlib.contextmanager
-def open_kiosk(qapp: object, folder: Path) -> Iterator[KioskWindow]:
-    """An 800×600 kiosk window (PIN 2468, snapshots under ``folder``), shown; closed with the PIN's
-    permission on exit if a test has not closed it."""
+def open_kiosk(qapp: object, folder: Path, size: tuple[int, int] = (800, 600),
+               **config: object) -> Iterator[KioskWindow]:
+    """A kiosk window of ``size`` (PIN 2468, snapshots under ``folder``, other ``config`` fields given),
+    shown; closed with the PIN's permission on exit if a test has not closed it."""
     from pytestqt.qtbot import QtBot
 
     from app.kiosk import KioskWindow
@@ -33,9 +34,9 @@ def open_kiosk(qapp: object, folder: Path) -> Iterator[KioskWindow]:
 
     # 512²: fast; the resolution is not what these tests are about
     cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
-                      fullscreen=False, resolution=512)
+                      fullscreen=False, resolution=512, **config)  # type: ignore[arg-type]
     win = KioskWindow(cfg)
-    win.resize(800, 600)
+    win.resize(*size)
     win.show()
     QtBot(qapp).waitUntil(lambda: win.isVisible(), timeout=5000)
     try:

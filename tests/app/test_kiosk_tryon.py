@@ -11,7 +11,6 @@ gate refuses (back to the camera screen with its message).
 
 from __future__ import annotations
 
-import contextlib
 import os
 import tempfile
 from pathlib import Path
@@ -23,6 +22,7 @@ import pytest
 from app.qt_compat import pin_singletons
 
 if TYPE_CHECKING:
+    import contextlib
     from collections.abc import Iterator
 
     from app.kiosk import KioskWindow
@@ -64,26 +64,11 @@ def tree(folder: Path) -> set[str]:
     return {str(p.relative_to(folder)) for p in folder.rglob("*")} if folder.exists() else set()
 
 
-@contextlib.contextmanager
-def tryon_kiosk(qapp: object, folder: Path, **config: Any) -> Iterator[KioskWindow]:
-    """A windowed kiosk (PIN 2468, snapshots under ``folder``/photos) with ``config`` fields set."""
-    from pytestqt.qtbot import QtBot
+def tryon_kiosk(qapp: object, folder: Path, **config: Any) -> contextlib.AbstractContextManager[KioskWindow]:
+    """A 1280×800 kiosk (PIN 2468, snapshots under ``folder``/photos) with ``config`` fields set."""
+    from tests.app.test_kiosk_pin import open_kiosk
 
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import KioskConfig, hash_pin
-
-    cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
-                      fullscreen=False, resolution=512, **config)
-    win = KioskWindow(cfg)
-    win.resize(1280, 800)
-    win.show()
-    QtBot(qapp).waitUntil(lambda: win.isVisible(), timeout=5000)
-    try:
-        yield win
-    finally:
-        win._allow_close = True
-        win.close()
-        win.deleteLater()
+    return open_kiosk(qapp, folder, (1280, 800), **config)
 
 
 @pytest.fixture(scope="module")
