@@ -8,8 +8,8 @@ few milliseconds. Each repeat starts from the photograph (MediaPipe's detector s
 first, as it does in a running kiosk; the first repeat's time, detector loading included, is
 ``tryon_cold_s``).
 
-``measure(photo, repeats)`` returns the figures; ``bench.capture`` may merge them into
-``sheer bench capture --json``.
+``measure(photo, repeats)`` returns the figures; :func:`section` is the ``tryon`` section of
+``sheer bench capture --json`` (``bench.capture.SECTIONS``).
 """
 
 from __future__ import annotations
@@ -76,6 +76,14 @@ def measure(photo: str | Path | None = None, repeats: int = 3) -> dict[str, Any]
     for key in ("capture_s", "document_s", "look_s", "views_and_frame_s"):
         out.update(spread(f"tryon_{key}", [r.get(key, float("nan")) for r in runs]))
     return out
+
+
+def section(quick: bool) -> dict[str, Any]:
+    """The ``tryon`` section of ``sheer bench capture`` (:data:`bench.capture.SECTIONS`).
+
+    One warm run with ``quick``, else 3 (and the cold one first).
+    """
+    return measure(repeats=1 if quick else 3)
 
 
 def main(argv: list[str]) -> int:
