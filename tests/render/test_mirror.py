@@ -205,8 +205,8 @@ def test_mirror_composites_the_km_layers_on_the_photographs_albedo(captured: Cap
     expected = np.clip(photo + e * (a2 - a) + s * (tt * tt - 1), 0, 1)[where]
     got = srgb_decode(made_up[pix.rows, pix.cols] / 255.0)[where]
     de = delta_e2000(got, expected)
-    # measured: median 0.2–0.3 (the two rasterisers interpolate a little differently at the lips' edges)
-    assert float(np.median(de)) < 1.0, float(np.median(de))
+    # measured: median 0.10–0.11, p90 0.17–0.20 (the two rasterisers interpolate a little differently)
+    assert float(np.median(de)) < 0.3, float(np.median(de))
 
 
 def test_relight_at_the_capture_light_reproduces_the_photograph(captured: Captured, gl_ctx: Any) -> None:
