@@ -62,7 +62,7 @@ def face_camera(face: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int
     """
     cam = getattr(face, "data", {}).get("camera")
     try:
-        K, R, t = (np.asarray(cam[k], dtype=float) for k in ("K", "R", "t"))  # type: ignore[index]
+        K, R, t = (np.asarray(cam[k], dtype=np.float64) for k in ("K", "R", "t"))  # type: ignore[index]
         w, h = int(cam["width"]), int(cam["height"])  # type: ignore[index]
     except (KeyError, TypeError, ValueError):
         raise RenderError("the face has no usable 'camera' in its face.json (K, R, t, width, height)") from None

@@ -138,8 +138,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--env", metavar="NAME", help="HDR environment (e.g. studio, city) or an EXR path")
     p.add_argument("--env-intensity", type=float, default=0.3, metavar="E", help="mean irradiance of --env")
     p.add_argument("--yaw", type=float, metavar="DEG",
-                   help="orbit camera yaw in degrees (positive: subject's left; default 0) instead of the capture's camera")
-    p.add_argument("--pitch", type=float, metavar="DEG", help="orbit camera pitch in degrees (default 0)")
+                   help="orbit camera yaw in degrees (positive: subject's left; default 0) instead of the capture's camera; "
+                        "with --view relight, the turn from the photograph's view (at most ±25)")
+    p.add_argument("--pitch", type=float, metavar="DEG",
+                   help="orbit camera pitch in degrees (default 0); with --view relight, the turn (at most ±25)")
     p.add_argument("--exposure", type=float,
                    help="exposure multiplier (default 0.85; 1 with --mode lightweight: the photograph's units)")
     p.add_argument("--debug-view", default="none",
