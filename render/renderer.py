@@ -14,6 +14,7 @@ import numpy as np
 
 from km.srgb import srgb_encode_scalar
 from render.camera import OrbitCamera
+from render.cover import CoverMesh, compute_cover, load_cover
 from render.errors import RenderError
 from render.glutil import read_depth, set_uniform, write_uniform
 from render.gpu_head import GpuHead
@@ -40,6 +41,11 @@ KEPT_TARGET_SIZES = 3
 
 # texture units of the lit pass
 _U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_LIT, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 18, 24, 25
+
+
+#: colour masks of the G-buffer's three targets: the clear writes the diffuse only, the lit pass all three
+_DIFFUSE_ONLY = ((True,) * 4, (False,) * 4, (False,) * 4)
+_ALL_THREE = ((True,) * 4,) * 3
 
 
 @dataclass
@@ -92,6 +98,9 @@ class Renderer:
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
         self._composites: dict[tuple[int, int], moderngl.Program] = {}
         self._baseline: moderngl.Program | None = None
+        self._cover: CoverMesh | None = None  # the head's convex hull for the composite (render.cover)
+        self._cover_job: list[Any] = []  # [thread, result] while the hull is computed in the background
+        self._start_cover()
         self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
         self._targets: dict[str, Any] = {}  # textures and framebuffers by name (see _ensure_targets)
         self._target_sets: dict[tuple[int, int], dict[str, Any]] = {}  # by size, least recently used first
@@ -109,6 +118,40 @@ class Renderer:
         for slot, i in enumerate(self.km.active):
             mat = self.km.layers[i].material
             self._lut_max[slot] = float(getattr(mat, "max_thickness_um", 100.0) or 100.0)
+
+    # -- the composite's cover --------------------------------------------------------------------
+    def _start_cover(self) -> None:
+        """Load the head's hull from the render cache, or compute it on a background thread.
+
+        Until it is there the composite draws the head itself (the same pixels, more triangles).
+        """
+        got = load_cover(self.gpu_head.vertices)
+        if got is not None:
+            self._cover = CoverMesh(self.ctx, *got)
+            return
+        import threading
+
+        job: list[Any] = []
+
+        def run() -> None:
+            try:
+                job.append(compute_cover(self.gpu_head.vertices))
+            except Exception:  # noqa: BLE001 — no hull (e.g. a flat mesh): the head stays the cover
+                job.append(None)
+
+        thread = threading.Thread(target=run, name="sheer-hull", daemon=True)
+        self._cover_job = [thread, job]
+        thread.start()
+
+    def _composite_cover(self) -> CoverMesh | None:
+        """The hull once the background job has made it (its GPU objects made here, on the GL thread)."""
+        if self._cover is None and self._cover_job:
+            thread, job = self._cover_job
+            if not thread.is_alive():
+                self._cover_job = []
+                if job and job[0] is not None:
+                    self._cover = CoverMesh(self.ctx, *job[0])
+        return self._cover
 
     # -- environment ------------------------------------------------------------------------------
     def set_environment(self, name_or_path: str | None, intensity: float = 0.5) -> None:
@@ -171,7 +214,7 @@ class Renderer:
         """The composite specialised for an SSS mode (0 off, 1 reference, 2 fast) and debug views."""
         key = (mode, int(debug))
         if key not in self._composites:
-            self._composites[key] = self.shaders.program(self.ctx, "mesh.vert", "composite.frag",
+            self._composites[key] = self.shaders.program(self.ctx, "composite.vert", "composite.frag",
                                                          {"MODE": mode, "DEBUG": int(debug)})
         return self._composites[key]
 
@@ -276,18 +319,18 @@ class Renderer:
             self.lighting.invalidate()  # recomputed whole when it is used again
         prog = self._frame_program(n, len(self.lights), s.makeup and n > 0, debug_on, cached)
         gb = self._targets["gbuffer"]
-        # only the diffuse (read around the head by the SSS taps and the masks) and the depth are
-        # cleared: outer and factor are read only at the head's pixels (the composite draws the same
-        # mesh), which this pass writes (a third of the clear's cost)
-        gc = self._targets["gbuffer_clear"]
-        gc.use()
-        gc.viewport = (0, 0, w, h)
-        gc.scissor = None
-        ctx.scissor = None
-        gc.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        # only the diffuse (read around the head by the SSS taps, the mask and the composite) and the depth
+        # are cleared: outer and factor are read only where the diffuse says the head is, which this pass
+        # writes (a third of the clear's cost). Cleared through the G-buffer itself with the other two
+        # masked, so that clear and draw are one llvmpipe scene (a framebuffer change ends a scene).
+        gb.color_mask = _DIFFUSE_ONLY
         gb.use()
         gb.viewport = (0, 0, w, h)
         gb.scissor = None
+        ctx.scissor = None
+        gb.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        gb.color_mask = _ALL_THREE
+        gb.use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)
         self._cull(True)
@@ -399,11 +442,19 @@ class Renderer:
         rx, ry, rw, rh = rect
         ctx.scissor = (vx + rx, vy + ry, rw, rh)
         ctx.disable(ctx.BLEND | ctx.DEPTH_TEST)
-        if rw > 0 and rh > 0:  # the head's pixels: the lit pass's geometry, transform and culling
+        if rw > 0 and rh > 0:  # the head's pixels: its hull (or the head), the lit pass's transform, culling
             self._write(prog, "u_view_proj", self.last.view_proj.T.reshape(1, 16))
-            self._write(prog, "u_view", self.last.view.T.reshape(1, 16))
+            # the cover's pixels that are not the head's show the background: exactly the clear's values
+            self._set(prog, "u_clear_colour", tuple(enc[:3]))
             self._cull(True)
-            self.gpu_head.draw(prog)
+            cover = self._composite_cover()
+            proj = self.camera.projection(w / h)
+            near = float(proj[2, 3] / (proj[2, 2] - 1.0))
+            if cover is not None and self.settings.cull_back_faces and cover.usable(
+                    self.camera.eye(), self.last.view, near):
+                cover.draw(prog)
+            else:
+                self.gpu_head.draw(prog)
             self._cull(False)
         ctx.scissor = None
 
@@ -527,4 +578,7 @@ class Renderer:
             irr.release()
         self._irradiances = {}
         self.shadows.release()
+        if self._cover is not None:
+            self._cover.release()
+            self._cover = None
         self.gpu_head.release()

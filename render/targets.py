@@ -29,11 +29,10 @@ def frame_targets(ctx: moderngl.Context, size: tuple[int, int]) -> dict[str, Any
     """Every target of a frame of ``size`` (width, height in pixels, 1..:data:`MAX_SIDE`), by name.
 
     Textures: ``diffuse``, ``outer``, ``factor`` (the G-buffer's colours), ``tmp``, ``accum`` (the
-    full-resolution SSS buffers), ``depth``; ``half_a``, ``half_b``, ``half_depth``, ``half_depth_v``
-    (half resolution). Framebuffers: ``gbuffer`` (bound on return), ``gbuffer_clear`` (the diffuse and the
-    depth only), ``tmp_fbo``, ``accum_fbo``, ``half_a_fbo``, ``half_b_fbo``, ``half_mask_fbo``,
-    ``half_mask_v_fbo``, and the ``*_zfbo`` twins of ``tmp``, ``accum``, ``half_a``, ``half_b`` that
-    depth-test against a mask they never write.
+    full-resolution SSS buffers), ``depth``; ``half_a``, ``half_b``, ``half_depth`` (half resolution).
+    Framebuffers: ``gbuffer`` (bound on return), ``tmp_fbo``, ``accum_fbo``, ``half_a_fbo``,
+    ``half_b_fbo``, ``half_mask_fbo``, and the ``*_zfbo`` twins of ``tmp``, ``accum``, ``half_a``,
+    ``half_b`` that depth-test against a mask they never write.
 
     Raises:
         RenderError: a side outside 1..:data:`MAX_SIDE`.
@@ -43,7 +42,6 @@ def frame_targets(ctx: moderngl.Context, size: tuple[int, int]) -> dict[str, Any
         raise RenderError(f"viewport size {w}×{h} is out of range (1..{MAX_SIDE})")
     t: dict[str, Any] = {name: _colour(ctx, size) for name in ("diffuse", "outer", "factor", "tmp", "accum")}
     t["depth"] = ctx.depth_texture(size)
-    t["gbuffer_clear"] = ctx.framebuffer([t["diffuse"]], t["depth"])
     t["gbuffer"] = ctx.framebuffer([t["diffuse"], t["outer"], t["factor"]], t["depth"])
     t["tmp_fbo"] = ctx.framebuffer([t["tmp"]])
     t["accum_fbo"] = ctx.framebuffer([t["accum"]])

@@ -5,8 +5,9 @@
 // Gaussian, below a pixel); 2 = fast: c^2 E + the (half-resolution, premultiplied) wide part.
 // u_debug != 0: show outer (the debug view's colour) as it is.
 #include "common.glsl"
-// Drawn with the head's mesh (mesh.vert, the lit pass's geometry and culling): only the head's pixels
-// run it; the background is the target's clear colour.
+// Drawn with the head's convex hull (render/cover.py) or the head itself (composite.vert; the lit pass's
+// transform and culling): every head pixel runs it; the hull's other pixels (no diffuse written: alpha 0)
+// write u_clear_colour, the target's clear colour, so both covers give the same image.
 uniform sampler2D u_src;      // unblurred diffuse; a = coded depth (see frame.frag)
 uniform sampler2D u_accum;    // mode 1: sum of weighted Gaussians (full res); mode 2: wide part (rgb, coverage)
 uniform sampler2D u_factor;   // rgb: out-scatter factor; a = linear depth (0 = background)
@@ -16,7 +17,7 @@ uniform sampler2D u_accum_half; // mode 1: the Gaussians summed on the half-reso
 uniform vec3 u_whalf;          // their total weight (fallback where no skin sample is near)
 uniform int u_mode;
 uniform int u_debug;
-uniform vec3 u_background;
+uniform vec3 u_clear_colour;  // the target's clear colour as stored (sRGB-encoded unless raw)
 uniform float u_exposure;
 uniform int u_tonemap;
 uniform ivec2 u_origin;       // the viewport's origin in the target framebuffer
@@ -51,15 +52,15 @@ vec3 display_fast(vec3 linear_colour, float exposure, int tonemap) {  // display
 void main() {
     // full-resolution inputs fetched at this pixel (no filtering: cheaper on llvmpipe)
     ivec2 p = ivec2(gl_FragCoord.xy) - u_origin;
-    vec4 f = texelFetch(u_factor, p, 0);
-    vec2 v_uv = (vec2(p) + 0.5) / vec2(textureSize(u_factor, 0));
-    if (f.a <= 0.0) {
-        o_colour = vec4(u_tonemap < 0 ? u_background : linear_to_srgb_fast(u_background), 1.0);
+    vec4 src = texelFetch(u_src, p, 0);  // a: coded depth, 0 where the lit pass drew nothing (cleared)
+    vec2 v_uv = (vec2(p) + 0.5) / vec2(textureSize(u_src, 0));
+    if (src.a == 0.0) {
+        o_colour = vec4(u_clear_colour, 1.0);
         return;
     }
+    vec4 f = texelFetch(u_factor, p, 0);
     vec3 outer = texelFetch(u_outer, p, 0).rgb;
     if (DEBUG != 0) { o_colour = vec4(linear_to_srgb(outer), 1.0); return; }
-    vec4 src = texelFetch(u_src, p, 0);
     vec3 d = src.rgb;
     if (src.a > 0.0) {
         if (MODE == 1) {
