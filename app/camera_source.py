@@ -219,6 +219,22 @@ class FolderSource:
         self._seen.clear()
 
 
+def camera_present(camera: str) -> bool:
+    """Whether the configured camera can be there at all, without opening it.
+
+    "auto": a ``/dev/video*`` device exists; an index N: ``/dev/videoN``; a path: the file exists; "off":
+    False. (Opening a camera takes it from whoever else uses it; the kiosk only opens it on "Try it on me".)
+    """
+    spec = camera.strip()
+    if spec.lower() == "off":
+        return False
+    if spec in ("", "auto"):
+        return any(Path("/dev").glob("video*"))
+    if spec.isdigit():
+        return Path(f"/dev/video{spec}").exists()
+    return Path(spec).exists()
+
+
 def open_source(camera: str, watch_dir: str) -> FrameSource:
     """The picture source a kiosk configuration names: its camera unless "off", else its watched folder.
 

@@ -188,7 +188,10 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.tryon_button = big_button("Try it on me", 110)
         self.tryon_button.setMaximumWidth(520)
         self.tryon_button.clicked.connect(self.guard(self.tryon.start))
-        self.tryon_button.setVisible(self.config.can_try_on)
+        from app.camera_source import camera_present
+
+        # a camera that is there, or a watched folder (a kiosk with neither offers no "Try it on me")
+        self.tryon_button.setVisible(bool(self.config.watch_dir) or camera_present(self.config.camera))
         buttons = QHBoxLayout()
         buttons.addStretch(1)
         buttons.addWidget(self.start_button, 2)

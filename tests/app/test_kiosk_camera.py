@@ -59,6 +59,17 @@ def test_a_video_device_gives_rgb_frames_then_is_gone(tmp_path: Path) -> None:
     cam.close()  # idempotent
 
 
+def test_whether_a_camera_is_there(tmp_path: Path) -> None:
+    from pathlib import Path
+
+    from app.camera_source import camera_present
+
+    assert not camera_present("off")
+    assert camera_present("auto") == any(Path("/dev").glob("video*"))
+    assert not camera_present(str(tmp_path / "no-such-device")) and not camera_present("97")
+    assert camera_present(str(write_video(tmp_path / "cam.avi")))
+
+
 def test_no_camera_is_a_clear_error(tmp_path: Path) -> None:
     with pytest.raises(CameraError, match="no camera could be opened"):
         CameraSource(str(tmp_path / "no-such-device"))

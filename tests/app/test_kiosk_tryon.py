@@ -285,6 +285,8 @@ def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: 
         assert not Path(root).exists() and kiosk.tryon.shopper is None
 
 
-def test_a_kiosk_with_the_camera_off_and_no_folder_offers_no_try_on(qapp: object, tmp_path: Path) -> None:
+def test_a_kiosk_with_no_camera_and_no_folder_offers_no_try_on(qapp: object, tmp_path: Path) -> None:
     with tryon_kiosk(qapp, tmp_path, camera="off") as kiosk:
+        assert not kiosk.tryon_button.isVisible() and kiosk.start_button.isVisible()
+    with tryon_kiosk(qapp, tmp_path, camera=str(tmp_path / "unplugged")) as kiosk:
         assert not kiosk.tryon_button.isVisible() and kiosk.start_button.isVisible()
