@@ -84,12 +84,14 @@ class CameraPage(QWidget):
     Signals:
         shot(np.ndarray): the photo taken (uint8 sRGB (H, W, 3), unmirrored).
         failed(str): the camera stopped working (the message is for the log; the screen says it kindly).
+        unreadable(str): the photo from the watched folder could not be read (truncated, not an image).
         cancelled(): the shopper tapped Cancel.
         present(): a check found her face in the frame (she is there: the kiosk is not idle).
     """
 
     shot = Signal(object)
     present = Signal()
+    unreadable = Signal(str)
     failed = Signal(str)
     cancelled = Signal()
 
@@ -171,15 +173,19 @@ class CameraPage(QWidget):
         self.cancelled.emit()
 
     def _tick(self) -> None:
-        from app.camera_source import CameraError
+        from app.camera_source import CameraError, CameraGone
 
         if self.source is None:
             return
         try:
             frame = self.source.read()
-        except CameraError as exc:
+        except CameraGone as exc:
             self.stop()
             self.failed.emit(str(exc))
+            return
+        except CameraError as exc:
+            self.stop()
+            self.unreadable.emit(str(exc))
             return
         if frame is None:
             return

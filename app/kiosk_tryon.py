@@ -60,6 +60,8 @@ def face_box(face: Any, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
 
 #: What the start screen says when the camera stops or cannot be opened.
 CAMERA_TROUBLE = "Sorry, the camera is not working right now. Please ask a member of staff."
+#: What the start screen says when the photo from the watched folder cannot be read.
+PHOTO_TROUBLE = "Sorry, that photo could not be read. Touch the screen to start again."
 
 
 class _BusyPage(QWidget):
@@ -124,6 +126,7 @@ class TryOn(QObject):
         self.camera_page = CameraPage()
         self.camera_page.shot.connect(kiosk.guard(self.captured))
         self.camera_page.failed.connect(kiosk.guard(self.camera_failed))
+        self.camera_page.unreadable.connect(kiosk.guard(lambda detail: kiosk.fail(detail, message=PHOTO_TROUBLE)))
         self.camera_page.cancelled.connect(kiosk.guard(self.cancel))
         # in front of the camera, and while her try-on is made, she is not idle
         self.camera_page.present.connect(kiosk.guard(kiosk.activity))

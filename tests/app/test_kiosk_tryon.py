@@ -285,6 +285,22 @@ def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: 
         assert not Path(root).exists() and kiosk.tryon.shopper is None
 
 
+def test_a_truncated_photo_in_the_watched_folder(qapp: object, qtbot: Any, tmp_path: Path) -> None:
+    """A clear message, the start screen, nothing kept (the file is the shopper's: deleted too)."""
+    from app.kiosk_tryon import PHOTO_TROUBLE
+
+    drop = tmp_path / "drop"
+    before = private_folders()
+    with tryon_kiosk(qapp, tmp_path, camera="off", watch_dir=str(drop)) as kiosk:
+        kiosk.tryon_button.click()
+        data = PORTRAIT.read_bytes()
+        (drop / "cut.jpg").write_bytes(data[: len(data) // 3])
+        qtbot.waitUntil(lambda: kiosk.screen_name == "start", timeout=10000)
+        assert kiosk.start_message.text() == PHOTO_TROUBLE and "cut.jpg: not a readable photo" in kiosk.last_error
+        assert not (drop / "cut.jpg").exists() and not kiosk.private_cache.is_open
+        assert private_folders() <= before
+
+
 def test_a_kiosk_with_no_camera_and_no_folder_offers_no_try_on(qapp: object, tmp_path: Path) -> None:
     with tryon_kiosk(qapp, tmp_path, camera="off") as kiosk:
         assert not kiosk.tryon_button.isVisible() and kiosk.start_button.isVisible()
