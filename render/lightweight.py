@@ -14,7 +14,9 @@ face's display value.
 
 Cosmetic layers: the skin albedo is detail × fitted diffuse; the texture-space KM outputs of the
 physical renderer (:class:`render.km_pass.KMTextureSpace`: R_top, T, R_bottom) apply as there:
-diffuse out = E·(R_top + a·T² / (1 − R_bottom·a)), the skin's specular attenuated by T².
+diffuse out = E·(R_top + a·T² / (1 − R_bottom·a)), the skin's specular attenuated by T², and — when the
+makeup is a KM pass (it has ``bind_spec``) — the layers' own Kelemen lobes per pixel and light, as the
+physical renderer adds them (``km_compose.glsl``; shadowed per pixel only in the per-pixel shadow mode).
 
 Reuses: :class:`render.gpu_head.GpuHead` (mesh upload), :class:`render.shaders.ShaderLibrary`
 (``lighting.glsl``, ``common.glsl``), :class:`render.camera.OrbitCamera`.
@@ -31,6 +33,7 @@ from render.errors import RenderError
 from render.glutil import set_uniform, write_uniform
 from render.gpu_head import GpuHead
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, upload_lights
+from render.settings import RenderSettings
 from render.shaders import ShaderLibrary
 
 if TYPE_CHECKING:
@@ -63,6 +66,20 @@ def hemisphere(radius: float, rings: int = 8, segments: int = 32) -> tuple[np.nd
     return v * radius, v.copy(), np.asarray(faces, dtype=np.int64)
 
 
+def upload_layer_lobes(prog: moderngl.Program, km: Any, rho: float) -> None:
+    """Upload the layers' specular parameters of a :class:`render.km_pass.KMTextureSpace` for ``km_compose.glsl``.
+
+    ``u_layer_spec`` (roughness, F0, smooths skin, coverage scale per active layer), ``u_layer_inv_m2``
+    (1 / max(roughness, 0.05)²) and ``u_rho`` (ρ_s, the lobes' intensity).
+    """
+    spec = np.zeros((8, 4), np.float32)
+    n = min(len(km.active), 8)
+    spec[:n] = km.layer_spec[:n]
+    write_uniform(prog, "u_layer_spec", spec)
+    write_uniform(prog, "u_layer_inv_m2", (1.0 / np.maximum(spec[:, 0], 0.05) ** 2).astype(np.float32))
+    set_uniform(prog, "u_rho", float(rho))
+
+
 class LightweightRenderer:
     """The lightweight engine for one captured face on a ``moderngl.Context``.
 
@@ -88,6 +105,8 @@ class LightweightRenderer:
         self.shadows_on = True
         self.eye_highlights = True
         self.makeup: Any = None
+        #: ρ_s of the layers' own specular lobes (the physical renderer's default)
+        self.layer_spec_intensity = RenderSettings().spec_intensity
         #: linear RGB ambient irradiance (photograph units) instead of the capture's k·A, or None
         self.ambient: tuple[float, float, float] | None = None
         self.pcf_radius = 2.5
@@ -100,7 +119,7 @@ class LightweightRenderer:
         #: shadowed lights, vertex above)
         self.shadow_mode = "auto"
         self.depth_program = self.shaders.program(ctx, "shadow.vert", "shadow.frag")
-        self._programs: dict[tuple[int, int, int, int], Any] = {}
+        self._programs: dict[tuple[int, int, int, int, int], Any] = {}
         self.eye_program = self.shaders.program(ctx, "lightweight_eye.vert", "lightweight_eye.frag")
         self.shadows = ShadowMaps(ctx, self.shaders, shadow_size)
         # Half floats (RGBA16F): [0, 8] with 11 bits of mantissa, and llvmpipe fetches them faster than RGB32F.
@@ -136,16 +155,18 @@ class LightweightRenderer:
     _set = staticmethod(set_uniform)
     _write = staticmethod(write_uniform)
 
-    def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool) -> moderngl.Program:
+    def program_for(self, n_lights: int, shadows: int, env: bool, makeup: bool, lobes: int = 0) -> moderngl.Program:
         """The face program specialised for this configuration (compiled once, cached).
 
-        ``n_lights`` 0..8; ``shadows`` 0 (off), 1 (per pixel) or 2 (per vertex).
+        ``n_lights`` 0..8; ``shadows`` 0 (off), 1 (per pixel) or 2 (per vertex); ``lobes``: the cosmetic
+        layers whose own specular lobes are added (0..8, with ``makeup``).
         """
-        key = (n_lights, int(shadows), int(env), int(makeup))
+        key = (n_lights, int(shadows), int(env), int(makeup), int(lobes) if makeup else 0)
         prog = self._programs.get(key)
         if prog is None:
             prog = self.shaders.program(self.ctx, "lightweight_face.vert", "lightweight_face.frag", {
-                "LW_NLIGHTS": n_lights, "LW_SHADOWS": key[1], "LW_ENV": key[2], "LW_MAKEUP": key[3]})
+                "LW_NLIGHTS": n_lights, "LW_SHADOWS": key[1], "LW_ENV": key[2], "LW_MAKEUP": key[3],
+                "LW_NL": key[4]})
             self._programs[key] = prog
         return prog
 
@@ -188,7 +209,9 @@ class LightweightRenderer:
             raise RenderError(f"the lightweight engine takes at most {MAX_LIGHTS} lights, got {len(self.lights)}")
         shadows = ("off", "pixel", "vertex").index(self.shadows_in_use())  # 0 off, 1 per pixel, 2 per vertex
         n_shadowed = sum(1 for lt in self.lights if lt.shadows) if self.shadows_on else 0
-        prog = self.program_for(len(self.lights), shadows, self.environment is not None, self.makeup is not None)
+        lobes = len(getattr(self.makeup, "active", ())) if hasattr(self.makeup, "bind_spec") else 0
+        prog = self.program_for(len(self.lights), shadows, self.environment is not None, self.makeup is not None,
+                                lobes)
         vp = self.camera.view_projection(w / h)
         eye = tuple(float(x) for x in self.camera.eye())
         self._write(prog, "u_view_proj", vp.T.reshape(1, 16))
@@ -213,6 +236,12 @@ class LightweightRenderer:
         self._set(prog, "u_r_bottom", 3)
         self.shadows.texture.use(4)
         self._set(prog, "u_shadow", 4)
+        if lobes:
+            upload_layer_lobes(prog, self.makeup, self.layer_spec_intensity)
+            self.makeup.bind_spec(5, 6)
+            self._set(prog, "u_spec0", 5)
+            self._set(prog, "u_spec1", 6)
+            self._set(prog, "u_eye", eye)
         prepass = self.depth_prepass
         if prepass is None:
             prepass = shadows == 1 and n_shadowed >= 2

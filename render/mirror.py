@@ -34,8 +34,9 @@ import numpy as np
 
 from render.errors import RenderError
 from render.glutil import set_uniform, write_uniform
-from render.km_pass import MAX_LAYERS, KMTextureSpace, LayerInput
+from render.km_pass import KMTextureSpace, LayerInput
 from render.lights import Light
+from render.lightweight import upload_layer_lobes
 from render.pinhole import pinhole_camera, turn_pivot
 from render.settings import RenderSettings
 from render.shaders import ShaderLibrary
@@ -267,12 +268,7 @@ class MirrorView(_Layers):
         set_uniform(prog, "u_spec", float(p.specular))
         set_uniform(prog, "u_shininess", float(p.exponent))
         set_uniform(prog, "u_edge_nv", EDGE_NV)
-        set_uniform(prog, "u_rho", float(self.spec_intensity))
-        spec = np.zeros((MAX_LAYERS, 4), np.float32)
-        spec[:n_layers] = km.layer_spec[:n_layers]
-        inv_m2 = (1.0 / np.maximum(spec[:, 0], 0.05) ** 2).astype(np.float32)
-        write_uniform(prog, "u_layer_spec", spec)
-        write_uniform(prog, "u_layer_inv_m2", inv_m2)
+        upload_layer_lobes(prog, km, self.spec_intensity)
         for name, unit in (("u_photo", 0), ("u_r_top", 1), ("u_transmittance", 2), ("u_r_bottom", 3),
                            ("u_spec0", 4), ("u_spec1", 5)):
             set_uniform(prog, name, unit)

@@ -6,8 +6,11 @@
 // are applied as in the physical renderer: out = E (R_top + a T^2 / (1 - R_bottom a)).
 // Specialised at compile time (llvmpipe runs every instruction of a fragment shader, taken or not):
 // LW_NLIGHTS (0..8), LW_SHADOWS (0 off, 1 per pixel, 2 per vertex: folded into v_e0/v_s0), LW_ENV,
-// LW_MAKEUP (0/1); defaults in lightweight.glsl.
+// LW_MAKEUP (0/1), LW_NL (the layers' own specular lobes, 0..8); defaults in lightweight.glsl.
 #include "lightweight.glsl"
+#if LW_MAKEUP
+#define KM_LOBES LW_NL
+#endif
 #include "common.glsl"
 #include "lighting.glsl"
 #include "km_compose.glsl"
@@ -25,6 +28,14 @@ uniform sampler2D u_r_bottom;
 uniform vec3 u_diffuse;            // D (linear, photograph units)
 uniform float u_spec;              // i_s
 uniform float u_exposure;
+#if LW_MAKEUP && LW_NL > 0
+in vec3 v_pos;
+in vec3 v_nrm;
+uniform sampler2D u_spec0;         // per-layer specular weights (km.frag): layers 0-3, 4-7
+uniform sampler2D u_spec1;
+uniform vec3 u_eye;
+uniform float u_rho;               // the layers' specular intensity (the renderer's rho_s)
+#endif
 out vec4 o_colour;
 
 #if LW_NLIGHTS > 0 && LW_SHADOWS == 1
@@ -61,6 +72,21 @@ void main() {
     vec3 Rb = texture(u_r_bottom, v_uv).rgb;
     albedo = km_over_albedo(rt, T, Rb, albedo);
     spec *= T * T;
+#if LW_NL > 0
+    // the layers' own lobes, per pixel and light (shadowed per pixel with LW_SHADOWS 1, else not)
+    vec4 A0 = texture(u_spec0, v_uv);
+    vec4 A1 = texture(u_spec1, v_uv);
+    vec3 N = normalize(v_nrm);
+    vec3 V = normalize(u_eye - v_pos);
+    for (int i = 0; i < LW_NLIGHTS; ++i) {
+        vec3 L = light_direction(i, v_pos);
+        vec3 Ei = light_irradiance_normal(i, v_pos);
+#if LW_SHADOWS == 1 && LW_NLIGHTS > 0
+        Ei *= lw_shadow(i);
+#endif
+        spec += Ei * (u_rho * layer_lobes(kelemen_shared(N, L, V), A0, A1) * max(dot(N, L), 0.0));
+    }
+#endif
 #endif
     vec3 c = (E * albedo + spec) * u_exposure;
     o_colour = vec4(linear_to_srgb(clamp(c, 0.0, 1.0)), 1.0);

@@ -18,6 +18,10 @@ uniform vec3 u_ambient;
 out vec2 v_uv;
 out vec3 v_e0;                 // irradiance of the ambient (+ environment) and of unshadowed lights
 out vec3 v_s0;                 // specular of unshadowed lights
+#if LW_MAKEUP && LW_NL > 0
+out vec3 v_pos;                // for the layers' own lobes, per pixel
+out vec3 v_nrm;
+#endif
 #if LW_NLIGHTS > 0 && LW_SHADOWS == 1
 out vec4 v_ls[LW_PAIRS];       // per light: n·l x falloff, (r·v)^s x falloff (two lights per vec4)
 out vec4 v_lpos[LW_NLIGHTS];   // light clip-space position (normal offset applied)
@@ -27,6 +31,10 @@ void main() {
     vec3 N = normalize(in_normal);
     vec3 V = normalize(u_eye - P);
     v_uv = in_uv;
+#if LW_MAKEUP && LW_NL > 0
+    v_pos = P;
+    v_nrm = N;
+#endif
     v_e0 = u_ambient;
     v_s0 = vec3(0.0);
 #if LW_ENV

@@ -14,6 +14,7 @@
 #ifndef MV_NL
 #define MV_NL 0
 #endif
+#define KM_LOBES MV_NL
 #include "common.glsl"
 #include "specular.glsl"
 #include "km_compose.glsl"
@@ -35,8 +36,6 @@ uniform float u_spec;               // i_s
 uniform float u_shininess;          // s
 uniform float u_edge_nv;            // n.v below which the difference fades out
 uniform float u_rho;                // the layers' specular intensity (the renderer's rho_s)
-uniform vec4 u_layer_spec[8];       // per layer: roughness, F0, smooths skin, coverage scale
-uniform float u_layer_inv_m2[8];
 out vec4 o_colour;
 
 float srgb_decode1(float c) {
@@ -61,13 +60,7 @@ void main() {
 #if MV_NL > 0
     vec4 A0 = texture(u_spec0, v_uv);
     vec4 A1 = texture(u_spec1, v_uv);
-    vec4 ksh = kelemen_shared(N, L, V);
-    float ls = 0.0;
-    for (int k = 0; k < MV_NL; ++k) {
-        float w = k < 4 ? A0[k] : A1[k - 4];
-        ls += w * kelemen_lobe(ksh, u_layer_inv_m2[k], u_layer_spec[k].y);
-    }
-    delta += u_flash * (u_rho * ls * max(ndl, 0.0));
+    delta += u_flash * (u_rho * layer_lobes(kelemen_shared(N, L, V), A0, A1) * max(ndl, 0.0));
 #endif
     float fade = v_edge * smoothstep(0.0, u_edge_nv, dot(N, V));
     o_colour = vec4(linear_to_srgb(clamp(photo + fade * delta, 0.0, 1.0)), 1.0);
