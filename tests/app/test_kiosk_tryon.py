@@ -265,11 +265,21 @@ def test_a_camera_that_disappears_mid_preview(qapp: object, qtbot: Any, tmp_path
 @capturing
 def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: object, qtbot: Any,
                                                                          tmp_path: Path) -> None:
-    """And a refused photo (a blank wall: no face) brings the camera screen back with the gate's words."""
+    """And a refused photo (a blank wall: no face) brings the camera screen back with the gate's words; the
+    kiosk's calibrated light (``sheer kiosk --calibrate-light``) is the capture's light."""
     from PIL import Image
 
+    from app.cli import main
+    from app.kiosk_config import KioskConfig
+    from tests.app.test_kiosk_light import _write_probe
+
+    light = np.array([0.2, -0.3, -1.0])
+    light /= np.linalg.norm(light)
+    _write_probe(tmp_path / "ball.png", light, np.array([1.0, 0.92, 0.8]))
+    assert main(["kiosk", "--config", str(tmp_path / "kiosk.json"), "--calibrate-light", str(tmp_path / "ball.png")]) == 0
+    stored = KioskConfig.load(tmp_path / "kiosk.json").light
     drop = tmp_path / "drop"
-    with tryon_kiosk(qapp, tmp_path, camera="off", watch_dir=str(drop)) as kiosk:
+    with tryon_kiosk(qapp, tmp_path, camera="off", watch_dir=str(drop), light=stored) as kiosk:
         assert kiosk.tryon_button.isVisible()
         kiosk.tryon_button.click()
         assert kiosk.screen_name == "camera" and "appears here" in kiosk.tryon.camera_page.prompt.text()
@@ -280,6 +290,8 @@ def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: 
         Image.fromarray(portrait()).save(drop / "shopper.jpg")
         qtbot.waitUntil(lambda: kiosk.tryon.shopper_view.image is not None, timeout=120000)
         assert not (drop / "shopper.jpg").exists() and kiosk.screen_name == "tryon"
+        used = kiosk.tryon.shopper.face.data["probe"]
+        assert used is not None and np.allclose(used["light_dir_camera"], stored["light_dir_camera"])
         root = kiosk.private_cache.root
         kiosk.start_attract()  # she walks away: the idle timeout
         assert not Path(root).exists() and kiosk.tryon.shopper is None
