@@ -18,8 +18,9 @@ Two sweeps, printed as one JSON object:
 - **further sections** (:data:`SECTIONS`: name → ``"module:function"``, each called with ``quick`` and
   returning its fields): ``auto`` — the automatic capture (issue #15, :mod:`bench.capture_auto`):
   ``landmarks_ms``, ``capture_auto_s``; ``views`` — the mirror and relight views (:mod:`bench.capture_views`):
-  ``mirror_frame_ms``, ``relight_frame_ms``, ``views_swap_ms`` against ``views_baseline_ms``. Other views add
-  their own line there.
+  ``mirror_frame_ms``, ``relight_frame_ms``, ``views_swap_ms`` against ``views_baseline_ms``; ``tryon`` — the
+  kiosk's shutter to her first made-up frame (:mod:`bench.kiosk_tryon`): ``tryon_first_frame_s`` (warm),
+  ``tryon_cold_s`` and the steps. Other views add their own line there.
 
 ``--quick`` runs a third of the exponent grid and 60 probes; ``--placements N`` sets the probes and
 ``--cases N`` takes N cases spread over the exponent grid.
@@ -47,6 +48,7 @@ PROBE_SIZES = (256, 512, 1024)
 SECTIONS: dict[str, str] = {
     "auto": "bench.capture_auto:measure",
     "views": "bench.capture_views:measure",
+    "tryon": "bench.kiosk_tryon:section",
 }
 
 

@@ -13,7 +13,8 @@ pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
 
 def test_sheer_bench_capture_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
-    assert sheer(["bench", "capture", "--json", "--placements", "2", "--cases", "1", "--skip", "auto", "--skip", "views"]) == 0
+    assert sheer(["bench", "capture", "--json", "--placements", "2", "--cases", "1", "--skip", "auto", "--skip", "views",
+                  "--skip", "tryon"]) == 0
     result = json.loads(capsys.readouterr().out)
     for key in ("probe_acceptance", "probe_error_deg_median", "probe_error_deg_max", "probe_refusals",
                 "s_error_pct", "s_error_pct_p90", "s_error_pct_max", "s_within_10pct",
