@@ -44,7 +44,10 @@ from render.shaders import ShaderLibrary
 if TYPE_CHECKING:
     import moderngl
 
+    from km.library import Library
+    from painting import Document
     from painting.head import Head
+    from render.binding import DocumentBinding
     from render.camera import OrbitCamera
 
 #: The relight view's largest turn from the photograph's view, degrees (yaw and pitch each).
@@ -123,6 +126,21 @@ class _Layers:
     def set_layers(self, layers: list[LayerInput]) -> None:
         """The cosmetic layers, bottom first (evaluated now, in texture space); ``[]`` = bare."""
         self.km.set_layers(layers)
+
+    def bind_document(self, doc: Document, library: Library | None = None) -> DocumentBinding:
+        """A :class:`render.binding.DocumentBinding` keeping this view's layers equal to ``doc``'s.
+
+        Call its ``flush()`` before each frame and ``close()`` when done. Views sharing a KM pass need one
+        binding. Raises :class:`RenderError` for a document painted in another UV layout than the head's
+        own (an xatlas unwrap): the views address the paint maps with the mesh's UVs.
+        """
+        from render.binding import DocumentBinding
+
+        source = getattr(getattr(doc, "layout", None), "source", "mesh")
+        if source != "mesh":
+            raise RenderError(f"the document is painted in a '{source}' UV layout; the mirror and relight views "
+                              f"need the head's own UVs")
+        return DocumentBinding(doc, self, library)  # type: ignore[arg-type]
 
     @property
     def has_makeup(self) -> bool:

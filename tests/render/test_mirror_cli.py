@@ -112,7 +112,8 @@ def test_a_document_binding_drives_both_views_and_a_product_swap(face_dir: Path,
     from km import default_library
     from painting import Document
     from painting.looks import apply_look, load_look
-    from render.binding import DocumentBinding, layer_inputs
+    from render.binding import layer_inputs
+    from render.errors import RenderError
     from render.mirror import MirrorView, RelightView
 
     face = load_face(face_dir)
@@ -122,7 +123,7 @@ def test_a_document_binding_drives_both_views_and_a_product_swap(face_dir: Path,
     doc = Document(head, resolution=512, library=lib)
     mv = MirrorView(gl_ctx, head, face, photo)  # type: ignore[arg-type]
     rv = RelightView(gl_ctx, head, face, km=mv.km)  # type: ignore[arg-type]
-    binding = DocumentBinding(doc, mv)  # type: ignore[arg-type]
+    binding = mv.bind_document(doc)
     try:
         apply_look(doc, load_look("red-lip"))
         binding.flush()
@@ -143,6 +144,12 @@ def test_a_document_binding_drives_both_views_and_a_product_swap(face_dir: Path,
         rv.release()
         mv.release()
     assert not np.array_equal(red, swapped) and not np.array_equal(red_relit, swapped_relit)
+
+    class Unwrapped:  # a document painted in an xatlas unwrap: refused, the views use the mesh's UVs
+        layout = type("Layout", (), {"source": "xatlas"})()
+
+    with pytest.raises(RenderError, match="'xatlas' UV layout"):
+        rv.bind_document(Unwrapped())  # type: ignore[arg-type]
 
 
 def test_relight_adds_the_layers_own_lobes(face_dir: Path, gl_ctx: object) -> None:
