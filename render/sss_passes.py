@@ -123,8 +123,10 @@ class SSSPasses:
         half = [g for g in gaussians if not s.reference_full_resolution and g[0] / mm_per_px >= 3.0]
         full = [g for g in gaussians if g not in half]
         whalf = np.sum([g[1] for g in half], axis=0) if half else np.zeros(3)
-        self._clear(t, (("accum_fbo", (w, h)), ("half_b_fbo", (hw, hh)), ("tmp_fbo", (w, h)),
-                        ("half_a_fbo", (hw, hh))))
+        # a group's targets are cleared by its first passes (one llvmpipe scene with the draw); the sum of
+        # a group with no Gaussian is read by the composite all the same
+        self._clear(t, tuple((name, size) for name, size, group in (("accum_fbo", (w, h), full),
+                                                                    ("half_b_fbo", (hw, hh), half)) if not group))
         if half:
             t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
             self.draw_mask(t, hrect)
@@ -133,7 +135,7 @@ class SSSPasses:
                 (full, t["tmp_zfbo"], t["accum_zfbo"], (w, h), (rx, ry, rw, rh), 1.0, 1.0, 1.0),
                 (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, Z_HEAD, Z_SKIN)):
             t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
-            for sigma, wt in group:
+            for i, (sigma, wt) in enumerate(group):
                 # the horizontal pass reads the full-resolution diffuse, the vertical one its result
                 gp = self._program(self._gauss, "sss_gauss.frag", reference_taps(sigma / mm_per_px))
                 self._blur_common(t, s, gp, px_per_mm, t["diffuse"], (1.0, 0.0))
@@ -141,7 +143,7 @@ class SSSPasses:
                 set_uniform(gp, "u_weight", (1.0, 1.0, 1.0))
                 set_uniform(gp, "u_premultiplied", 0)
                 ctx.disable(ctx.BLEND)
-                self.draw_pass(gp, tmp_fbo, size, rect_, z_h)
+                self.draw_pass(gp, tmp_fbo, size, rect_, z_h, clear=i == 0)
                 src_tex = t["tmp"] if scale == 1.0 else t["half_a"]
                 gp = self._program(self._gauss, "sss_gauss.frag", reference_taps(sigma / mm_per_px * scale))
                 self._blur_common(t, s, gp, px_per_mm * scale, src_tex, (0.0, 1.0))
@@ -151,7 +153,7 @@ class SSSPasses:
                 set_uniform(gp, "u_cov", 1.0 / max(len(group), 1))
                 ctx.enable(ctx.BLEND)
                 ctx.blend_func = ctx.ONE, ctx.ONE
-                self.draw_pass(gp, acc, size, rect_, z_v)
+                self.draw_pass(gp, acc, size, rect_, z_v, clear=i == 0)
         ctx.disable(ctx.BLEND)
         self._end()
         return t["accum"], w0, whalf

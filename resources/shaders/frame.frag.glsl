@@ -59,7 +59,7 @@ uniform sampler2D u_lit_diffuse; // E*T*sqrt(albedo) (scale u_lit_scale), a: ski
 uniform sampler2D u_lit_outer;   // R_top*E (scale u_lit_scale), a: smoothing coverage
 uniform sampler2D u_lit_factor;  // sqrt(albedo)*T/(1 - R_bottom*albedo) (scale 1), a: light 0's visibility
 uniform sampler2D u_lit_trans;   // T (linear), a: the smoothing layers' roughness
-uniform sampler2D u_lit_spec;    // the specular weights of layers 0-3 (spec0)
+uniform sampler2D u_lit_spec;    // the layers' highlights as one lobe: sqrt(weight / 4), m, 4 F0
 uniform vec3 u_lit_scale;        // the bound of E the colours were encoded with
 #endif
 #if NL > 0
@@ -106,10 +106,11 @@ void main() {
     tr = t_full.rgb;
     smooth_cov = c_o.a;
     smooth_rough = smooth_cov > 0.0 ? t_full.a : u_skin_roughness;
-    A0 = texture(u_lit_spec, v_uv_paint);
-#if NL > 4
-    A1 = texture(u_spec1, v_uv_paint);
-#endif
+    vec4 c_s = texture(u_lit_spec, v_uv_paint);
+    float layer_a = c_s.r * c_s.r * 4.0;
+    float layer_m = max(c_s.g, 0.05);
+    float layer_inv_m2 = 1.0 / (layer_m * layer_m);
+    float layer_f0 = c_s.b * 0.25;
     bool skin = c_d.a > 0.5;
 #else
     vec4 albedo_mask = texture(u_albedo, v_uv);
@@ -194,7 +195,10 @@ void main() {
         // highlight below attenuated by the transmittance of the layer above it
         vec4 ksh = kelemen_shared(N, L, V);
         vec3 s = tr * (skin_rho * kelemen_lobe(ksh, skin_inv_m2, u_skin_f0));
-#if NL > 0 && MAKEUP
+#if CACHED
+        // the layers' highlights merged into one lobe in the cache (lit_cache.frag)
+        s += vec3(layer_a * kelemen_lobe(ksh, layer_inv_m2, layer_f0) * u_spec_intensity);
+#elif NL > 0 && MAKEUP
         // zero-coverage layers add a * lobe = 0 (a branch would not save work on llvmpipe)
         float ls = 0.0;
         for (int k = 0; k < NL; ++k) {

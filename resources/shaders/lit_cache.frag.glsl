@@ -9,7 +9,10 @@
 //   o_outer:   R_top*E, the makeup's own diffuse reflection; a = smoothing coverage (R_top's alpha)
 //   o_factor:  sqrt(albedo)*T/(1 - R_bottom*albedo);         a = shadow visibility of light 0
 //   o_trans:   T (linear);                                   a = the smoothing layers' roughness (T's alpha)
-//   o_spec:    the specular weights of layers 0-3 (the KM pass's spec0)
+//   o_spec:    the layers' highlights as one lobe: r = sqrt(A / 4), A = the sum of their specular weights
+//              (spec0, spec1); g = the lobe's Beckmann roughness m (sqrt of the weight-averaged m^2, the
+//              lobes' mean square slope); b = 4 F0 (the weight-averaged F0); a = 0. Exact where one layer
+//              has a highlight (most texels); where layers overlap, their lobes are merged into one.
 // A coarser level of the cache (1/2, 1/4 of the side) is drawn by the same program at its own size: each
 // texel samples the inputs at its centre (for maps twice its resolution, the mean of the 2x2 texels).
 // E = the texture-space irradiance (lights with shadows + SH environment, normal-mapped), bilinear at the
@@ -20,6 +23,8 @@ uniform sampler2D u_rtop;     // KM outputs (same size as the cache)
 uniform sampler2D u_trans;
 uniform sampler2D u_rbottom;
 uniform sampler2D u_spec0;    // per-layer specular weights, layers 0-3
+uniform sampler2D u_spec1;    // layers 4-7
+uniform vec4 u_layer_spec[8]; // per layer: roughness, F0, smooths skin (1/0), coverage scale (µm)
 uniform vec2 u_size;          // the cache's size in texels
 uniform vec3 u_inv_scale;     // 1 / the bound of E (render.lit_cache.irradiance_bound), per channel
 layout(location = 0) out vec4 o_diffuse;
@@ -43,5 +48,15 @@ void main() {
     o_outer = vec4(encode(rt.rgb * e), rt.a);
     o_factor = vec4(encode(sa * tr / max(vec3(1.0) - rb * albedo, vec3(1e-4))), irr.a);
     o_trans = t;
-    o_spec = texture(u_spec0, uv);
+    vec4 a0 = texture(u_spec0, uv), a1 = texture(u_spec1, uv);
+    float A = 0.0, m2 = 0.0, f0 = 0.0;
+    for (int k = 0; k < 8; ++k) {
+        float a = k < 4 ? a0[k] : a1[k - 4];
+        float m = u_layer_spec[k].x;
+        A += a;
+        m2 += a * m * m;
+        f0 += a * u_layer_spec[k].y;
+    }
+    float inv = A > 0.0 ? 1.0 / A : 0.0;
+    o_spec = vec4(sqrt(clamp(A * 0.25, 0.0, 1.0)), sqrt(m2 * inv), clamp(4.0 * f0 * inv, 0.0, 1.0), 0.0);
 }
