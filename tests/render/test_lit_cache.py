@@ -120,3 +120,66 @@ def test_zero_thickness_layers_look_like_no_makeup_through_the_cache(
     assert r.lighting.full_updates > 0
     assert_de2000_close(bare, zeros, mask, 0.5, "zero-layers-vs-bare")
     r.set_layers(inputs(doc))
+
+
+def test_irradiance_bound_holds_the_cache_s_irradiance(renderer: Renderer, doc: Any, gl_ctx: Any) -> None:
+    """The colours are encoded against irradiance_bound: it must bound E (else they clip), not loosely."""
+    from render.lit_cache import irradiance_bound
+
+    r = renderer
+    saved = list(r.lights)
+    r.lights = [Light.directional(35.0, 25.0, 1.5), Light.directional(-45.0, 5.0, 0.35, shadows=False),
+                Light.point((3.0, 2.0, 9.0), 0.8, (1.0, 0.8, 0.6), reference_distance=8.0)]
+    r.set_environment("studio", 0.5)
+    try:
+        settled(r)
+        e = np.frombuffer(r.irradiance.textures[0].read(), np.float16).reshape(-1, 4)[:, :3].astype(float)
+        bound = irradiance_bound(r.lights, r.environment, r.gpu_head.vertices)
+        assert np.all(e.max(axis=0) <= bound), (e.max(axis=0), bound)
+        assert np.all(e.max(axis=0) >= 0.4 * bound), "the bound is so loose the 8-bit colours lose precision"
+        np.testing.assert_allclose(r.lighting.scale, bound, rtol=1e-6)
+    finally:
+        r.lights = saved
+        r.set_environment(None)
+
+
+def test_level_follows_the_frame_s_texel_density(gl_ctx: Any, doc: Any,
+                                                 assert_de2000_close: Callable[..., float]) -> None:
+    """2048² maps over a 1024² albedo: minified frames fetch the half-side level (never below the albedo's
+    texels), close-ups level 0; a dab reaches the level that is not in use when it is used again."""
+    from painting.tiles import TILE
+
+    lips = next(lay for lay in doc.layers if "ip" in lay.name)
+    thick = np.kron(np.asarray(lips.thickness), np.ones((4, 4), np.float32))
+    r = Renderer(gl_ctx, doc.head, layout=doc.layout)
+    try:
+        r.lights = [Light.directional(35.0, 25.0, 1.5)]
+        r.set_layers([LayerInput(lips.material_object, thick)])
+        assert r.lighting.max_level(r.km, r.gpu_head) == 1
+        cached = settled(r)  # 480×360: about 4 texels of 2048 a pixel
+        assert r.lighting.level == 1 and r.lighting.size == (1024, 1024)
+        mask = r.skin_pixel_mask()
+        r.settings.lighting_cache = False
+        direct = r.render_image(SIZE)
+        r.settings.lighting_cache = True
+        assert_de2000_close(cached, direct, mask, 0.5, "level1-vs-direct")
+        # a dab while level 1 is in use, then a close-up: level 0 is made whole once, then takes dabs as tiles
+        r.camera.distance *= 0.3
+        r.render_image((1280, 960))
+        assert r.lighting.level == 0
+        ys, xs = np.nonzero(thick > 0)
+        row, col = int(ys[len(ys) // 2]) // TILE, int(xs[len(xs) // 2]) // TILE
+        r.camera.distance /= 0.3
+        settled(r)
+        assert r.lighting.level == 1
+        full, tiles = r.lighting.full_updates, r.lighting.tiles_updated
+        thick[row * TILE:(row + 1) * TILE, col * TILE:(col + 1) * TILE] += 30.0
+        r.km.update_tiles(0, thick, [(row, col)])
+        r.render_image(SIZE)
+        r.camera.distance *= 0.3
+        r.render_image((1280, 960))
+        assert r.lighting.level == 0
+        assert r.lighting.full_updates == full and r.lighting.tiles_updated == tiles + 2, \
+            "each level takes the dab's tile once, neither is recomputed whole"
+    finally:
+        r.release()
