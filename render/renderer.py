@@ -99,7 +99,7 @@ class Renderer:
         self._composites: dict[tuple[int, int], moderngl.Program] = {}
         self._baseline: moderngl.Program | None = None
         self._cover: CoverMesh | None = None  # the head's convex hull for the composite (render.cover)
-        self._cover_job: list[Any] = []  # [thread, result] while the hull is computed in the background
+        self._cover_job: list[Any] | None = None  # [thread, result] while the hull is computed, [] after
         self._start_cover()
         self._lut_max = np.ones(MAX_LAYERS, np.float32)  # heat-map scale per layer (µm)
         self._targets: dict[str, Any] = {}  # textures and framebuffers by name (see _ensure_targets)
@@ -121,14 +121,17 @@ class Renderer:
 
     # -- the composite's cover --------------------------------------------------------------------
     def _start_cover(self) -> None:
-        """Load the head's hull from the render cache, or compute it on a background thread.
-
-        Until it is there the composite draws the head itself (the same pixels, more triangles).
-        """
+        """Load the head's hull from the render cache (it is computed by :meth:`_compute_cover` otherwise)."""
         got = load_cover(self.gpu_head.vertices)
         if got is not None:
             self._cover = CoverMesh(self.ctx, *got)
-            return
+
+    def _compute_cover(self) -> None:
+        """Compute the hull on a background thread (scipy's import takes half a second).
+
+        Started by the first frame that is not interactive, so it never delays a start-up's first frame;
+        until the hull is there the composite draws the head itself (the same pixels, more triangles).
+        """
         import threading
 
         job: list[Any] = []
@@ -145,6 +148,8 @@ class Renderer:
 
     def _composite_cover(self) -> CoverMesh | None:
         """The hull once the background job has made it (its GPU objects made here, on the GL thread)."""
+        if self._cover is None and self._cover_job is None and not self.settings.interactive:
+            self._compute_cover()
         if self._cover is None and self._cover_job:
             thread, job = self._cover_job
             if not thread.is_alive():
