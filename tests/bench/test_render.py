@@ -33,7 +33,12 @@ def test_sheer_bench_render_prints_one_json_object(capsys: pytest.CaptureFixture
         assert 0 < result[key] <= result[f"{key}_p90"] <= result[f"{key}_max"], key
     headline = [k for key in HEADLINE for k in ((key, f"{key}_p90", f"{key}_max") if key in MEDIANS else (key,))]
     assert list(result)[:len(headline)] == headline  # the headline figures first, each spread beside its median
-    assert result["size"] == "64x48" and result["frames"] == 3 and result["km_layers"] == 4
+    from painting import Document
+    from painting.looks import apply_look
+
+    evening = Document.from_head(resolution=256)
+    apply_look(evening, "evening")  # the bench's look (its layer count follows the look file)
+    assert result["size"] == "64x48" and result["frames"] == 3 and result["km_layers"] == len(evening.layers)
     assert result["fast_over_baseline"] == pytest.approx(result["fast_ms"] / result["baseline_ms"], rel=2e-3)
     assert 0 <= result["fast_vs_reference_de2000"] < 5 and result["skin_pixels"] > 0
     assert isinstance(result["gl_renderer"], str) and result["gl_renderer"]
