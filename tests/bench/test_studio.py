@@ -19,7 +19,7 @@ KEYS = {
     "dab_to_frame_ms_p90", "dab_to_frame_ms_max", "dab_update_ms", "dab_update_ms_p90", "dab_update_ms_max",
     "paint_resolution", "render_mode", "load_average_1min", "cpus", "renderer_frames", "note", "backends",
     "targets", "orbit_frames_presented", "orbit_input_events", "orbit_event_deliveries",
-    "orbit_interactive_scale", "settle_ms", "interactive_vs_settled_de2000", "interactive_vs_settled_de2000_p95",
+    "orbit_interactive_scale", "settle_ms", "light_settle_ms", "light_drag_fps", "interactive_vs_settled_de2000", "interactive_vs_settled_de2000_p95",
     "interactive_scale_compared", "first_dab_ms", "dabs_presented", "interactive_budget_ms",
     "interactive_scale_cap", "dab_frame_paintgl_ms", "dab_frame_paintgl_ms_p90", "dab_frame_paintgl_ms_max",
     "dab_frame_flush_ms", "dab_frame_flush_ms_p90", "dab_frame_flush_ms_max",
@@ -45,6 +45,7 @@ def test_bench_studio_prints_every_key_with_p90_and_max() -> None:
     assert 0 < result["orbit_interactive_scale"] <= result["interactive_scale_cap"] < 1.0
     # the view settled after the last input, and the interactive frame of a pose is close to the settled
     assert result["settle_ms"] > 0
+    assert result["light_settle_ms"] > 0 and result["light_drag_fps"] > 0
     assert 0 <= result["interactive_vs_settled_de2000"] <= result["interactive_vs_settled_de2000_p95"]
     assert 0 < result["interactive_scale_compared"] < 1.0
     # every dab reached the screen; the first dab of the session is timed
