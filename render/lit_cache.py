@@ -55,7 +55,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from painting.tiles import tile_rects
-from render.glutil import rect_vertices, write_uniform
+from render.glutil import rect_vertices, set_uniform, write_uniform
 
 if TYPE_CHECKING:
     import moderngl
@@ -242,9 +242,11 @@ class TextureLighting:
 
     def __init__(self, ctx: moderngl.Context, shaders: ShaderLibrary) -> None:
         self.ctx = ctx
-        self.program = shaders.program(ctx, "km_tiles.vert", "lit_cache.frag")
         self.vbo = ctx.buffer(reserve=_FULL_AFTER_TILES * 6 * 8)
-        self.vao = ctx.vertex_array(self.program, [(self.vbo, "2f", "in_pos")])
+        self.shaders = shaders
+        # the program with and without layers 4-7's specular weights (one fetch of 2048² maps fewer), each
+        # compiled when first used (not on the start-up's path: the first frame draws on the direct path)
+        self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self.levels = [_Level() for _ in range(MAX_LEVEL + 1)]
         self.level = 0
         self.version = 0
@@ -349,19 +351,24 @@ class TextureLighting:
         gpu_head.albedo.use(0)
         irradiance.textures[0].use(1)  # E (rgb) and light 0's visibility (a)
         km.bind(2)
+        spec1 = int(len(km.active) > 4)
+        if spec1 not in self._programs:
+            prog = self.shaders.program(ctx, "km_tiles.vert", "lit_cache.frag", {"SPEC1": spec1})
+            self._programs[spec1] = (prog, ctx.vertex_array(prog, [(self.vbo, "2f", "in_pos")]))
+        program, vao = self._programs[spec1]
         km.bind_spec(5, 6)
         for name, unit in (("u_albedo", 0), ("u_irr", 1), ("u_rtop", 2), ("u_trans", 3), ("u_rbottom", 4),
                            ("u_spec0", 5), ("u_spec1", 6)):
-            self.program[name].value = unit
-        write_uniform(self.program, "u_layer_spec", km.layer_spec)
-        self.program["u_size"].value = (float(lv.size[0]), float(lv.size[1]))
+            set_uniform(program, name, unit)
+        write_uniform(program, "u_layer_spec", km.layer_spec)
+        program["u_size"].value = (float(lv.size[0]), float(lv.size[1]))
         if whole:
             lv.scale = np.asarray(scale, np.float32).reshape(3)
-        self.program["u_inv_scale"].value = tuple(float(x) for x in 1.0 / lv.scale)
+        program["u_inv_scale"].value = tuple(float(x) for x in 1.0 / lv.scale)
         rects = None if whole or len(pending) > _FULL_AFTER_TILES else self._rects(lv.size, pending, km.size)
         verts = rect_vertices(rects, lv.size)
         self.vbo.write(verts.tobytes())
-        self.vao.render(mode=ctx.TRIANGLES, vertices=len(verts))
+        vao.render(mode=ctx.TRIANGLES, vertices=len(verts))
         if rects is None:
             self.full_updates += 1
         else:
@@ -385,7 +392,8 @@ class TextureLighting:
         """Free every GPU object (call with the context current)."""
         from render.glutil import release_all
 
-        objs: list[object] = [self.vao, self.vbo, self.program]
+        objs: list[object] = [o for pv in self._programs.values() for o in pv[::-1]] + [self.vbo]
+        self._programs = {}
         for lv in self.levels:
             objs += lv.release()
         release_all(self.ctx, objs)

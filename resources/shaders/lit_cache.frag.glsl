@@ -23,7 +23,7 @@ uniform sampler2D u_rtop;     // KM outputs (same size as the cache)
 uniform sampler2D u_trans;
 uniform sampler2D u_rbottom;
 uniform sampler2D u_spec0;    // per-layer specular weights, layers 0-3
-uniform sampler2D u_spec1;    // layers 4-7
+uniform sampler2D u_spec1;    // layers 4-7 (define SPEC1: with more than four layers)
 uniform vec4 u_layer_spec[8]; // per layer: roughness, F0, smooths skin (1/0), coverage scale (µm)
 uniform vec2 u_size;          // the cache's size in texels
 uniform vec3 u_inv_scale;     // 1 / the bound of E (render.lit_cache.irradiance_bound), per channel
@@ -48,7 +48,12 @@ void main() {
     o_outer = vec4(encode(rt.rgb * e), rt.a);
     o_factor = vec4(encode(sa * tr / max(vec3(1.0) - rb * albedo, vec3(1e-4))), irr.a);
     o_trans = t;
-    vec4 a0 = texture(u_spec0, uv), a1 = texture(u_spec1, uv);
+    vec4 a0 = texture(u_spec0, uv);
+#if SPEC1
+    vec4 a1 = texture(u_spec1, uv);
+#else
+    vec4 a1 = vec4(0.0);  // at most four layers: layers 4-7 have no weight
+#endif
     float A = 0.0, m2 = 0.0, f0 = 0.0;
     for (int k = 0; k < 8; ++k) {
         float a = k < 4 ? a0[k] : a1[k - 4];
