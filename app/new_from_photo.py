@@ -99,7 +99,13 @@ def capture_and_transfer(photo: Path, folder: Path, source: Document, progress: 
         progress(_CAPTURE_SHARE + (1.0 - _CAPTURE_SHARE) * float(fraction),
                  f"moving the layers onto the captured face ({stage})")
 
-    document, report = transfer_document(source, face.load_head(), progress=transfer_progress)
+    try:
+        document, report = transfer_document(source, face.load_head(), progress=transfer_progress)
+    except BaseException:  # cancelled or failed: the new face folder is not kept either
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
     return Captured(photo, folder, face, document, report)
 
 
@@ -187,4 +193,5 @@ class NewFromPhoto:
         dialogs.info(win, "New from Photo",
                      f"Captured {captured.photo.name} into {captured.folder}.\n"
                      f"Quality gate passed:\n{quality_summary(captured.face)}\n\n{captured.report.summary()}")
-        old.close()
+        if old.close():  # (it may offer to save first; Cancel keeps it open)
+            old.deleteLater()

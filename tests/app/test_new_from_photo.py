@@ -29,7 +29,7 @@ def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[t
 
 
 class ProgressWatcher:
-    """Records the label texts of every visible progress dialog (polled every 20 ms)."""
+    """Records the label texts of every progress dialog (polled every 20 ms)."""
 
     def __init__(self) -> None:
         from PySide6.QtCore import QTimer
@@ -44,7 +44,8 @@ class ProgressWatcher:
         from PySide6.QtWidgets import QApplication, QProgressDialog
 
         for w in QApplication.topLevelWidgets():
-            if isinstance(w, QProgressDialog) and w.isVisible() and (not self.labels or self.labels[-1] != w.labelText()):
+            # (also while it waits for its minimum duration before showing: a quick first step is recorded too)
+            if isinstance(w, QProgressDialog) and (not self.labels or self.labels[-1] != w.labelText()):
                 self.labels.append(w.labelText())
 
 
@@ -95,26 +96,74 @@ def test_a_refused_photo_says_why_and_changes_nothing(studio: tuple[Any, DialogD
     assert not faces.exists() or not any(faces.iterdir())  # nothing written
 
 
-def test_a_portrait_opens_her_own_head_with_the_layers(studio: tuple[Any, DialogDriver], qtbot: Any,
-                                                       tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_cancel_stops_the_capture_and_keeps_nothing(studio: tuple[Any, DialogDriver], qtbot: Any, tmp_path: Path,
+                                                   monkeypatch: pytest.MonkeyPatch) -> None:
+    from PySide6.QtWidgets import QApplication, QProgressDialog
+
+    from app import workers
     from core.assets import find_asset
 
     win, driver = studio
     driver.shown.clear()
+    faces = tmp_path / "faces"
+    _choose(monkeypatch, find_asset("photos/grace_hopper.jpg"), faces)
+    watcher = ProgressWatcher()
+    win.actions_by_id["file.new_from_photo"].trigger()
+    qtbot.waitUntil(lambda: any("quality gate passed" in label for label in watcher.labels), timeout=120000)
+
+    def progress_dialog() -> Any:
+        return next((w for w in QApplication.topLevelWidgets() if isinstance(w, QProgressDialog) and w.isVisible()),
+                    None)
+
+    qtbot.waitUntil(lambda: progress_dialog() is not None, timeout=60000)
+    dialog = progress_dialog()
+    from PySide6.QtWidgets import QPushButton
+
+    next(b for b in dialog.findChildren(QPushButton) if b.text().replace("&", "") == "Cancel").click()
+    qtbot.waitUntil(lambda: not workers._RUNNING, timeout=120000)  # the job stopped at its next step
+    watcher.timer.stop()
+    assert _studio_windows() == [win] and not driver.shown  # no window, no message: the user cancelled
+    assert not faces.exists() or not any(faces.iterdir()), list(faces.iterdir())  # nothing kept
+
+
+def test_a_portrait_opens_her_own_head_with_the_layers(studio: tuple[Any, DialogDriver], qtbot: Any,
+                                                       tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a window of its own (New from Photo closes the window it came from, and deletes it); the module's
+    driver answers the dialogs (one driver: two would race for the same box)."""
+    from PySide6.QtCore import QSettings
+
+    from app.main_window import StudioWindow
+    from app.session import Session
+    from core.assets import find_asset
+
+    monkeypatch.setenv("SHEER_RECOVERY_DIR", str(tmp_path / "recovery"))
+    driver = studio[1]
+    driver.shown.clear()
+    win = StudioWindow(Session.open(resolution=512, look="natural"),
+                       qsettings=QSettings(str(tmp_path / "studio.ini"), QSettings.Format.IniFormat))
+    win.resize(800, 600)
+    win.show()
+    qtbot.waitUntil(lambda: win.viewport.frames > 0, timeout=60000)
     layers = [(lay.name, lay.material) for lay in win.doc.layers]
     assert "Lipstick" in [name for name, _ in layers]  # the natural look
     faces = tmp_path / "faces"
     _choose(monkeypatch, find_asset("photos/grace_hopper.jpg"), faces)
     watcher = ProgressWatcher()
+    before = set(_studio_windows())
     win.actions_by_id["file.new_from_photo"].trigger()
-    qtbot.waitUntil(lambda: len(_studio_windows()) == 1 and _studio_windows()[0] is not win, timeout=240000)
+    qtbot.waitUntil(lambda: bool(set(_studio_windows()) - before), timeout=240000)
     watcher.timer.stop()
-    new = _studio_windows()[0]
+    (new,) = set(_studio_windows()) - before
     try:
-        assert not win.isVisible()  # the window it came from closed
+        old_viewport = win.viewport
+        qtbot.waitUntil(lambda: old_viewport.gl_error_at_release is not None, timeout=10000)
+        assert old_viewport.gl_error_at_release == "GL_NO_ERROR"  # the window it came from closed, GL released
         # progress followed the capture's steps, then the transfer
         text = "\n".join(watcher.labels)
-        assert "quality gate passed" in text and "moving the layers onto the captured face" in text, watcher.labels
+        # (polled: a quick step can come and go between two polls)
+        steps = ("face found", "camera from", "skin mask", "reflectance map", "specular", "detail texture")
+        assert "reading grace_hopper.jpg" in text and "moving the layers onto the captured face" in text
+        assert sum(step in text for step in steps) >= 2, watcher.labels
         # the quality report and the transfer's summary, in one message
         info = [s for s in driver.shown if s.kind == "info" and s.title == "New from Photo"]
         assert len(info) == 1 and "Quality gate passed" in info[0].text and "face height" in info[0].text
@@ -136,3 +185,4 @@ def test_a_portrait_opens_her_own_head_with_the_layers(studio: tuple[Any, Dialog
         driver.answers[:] = ["Discard"]
         new.close()
     assert not new.isVisible() and new.viewport.gl_error_at_release == "GL_NO_ERROR"
+    new.deleteLater()
