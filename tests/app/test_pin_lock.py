@@ -150,6 +150,13 @@ def test_wrong_pins_are_logged_with_a_timestamp_and_no_digits(tmp_path: Path, pi
     assert re.findall(r"\d{3,}", text) == []  # beside the timestamps only counts and seconds (< 1000)
 
 
+class _Terminal:
+    """Standard input as a terminal (the PIN is then asked with getpass)."""
+
+    def isatty(self) -> bool:
+        return True
+
+
 def test_set_pin_refuses_fewer_than_6_digits_unless_allowed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                             capsys: pytest.CaptureFixture[str]) -> None:
     import getpass
@@ -158,6 +165,8 @@ def test_set_pin_refuses_fewer_than_6_digits_unless_allowed(tmp_path: Path, monk
     from app.kiosk_config import check_pin
 
     path = tmp_path / "kiosk.json"
+
+    monkeypatch.setattr("sys.stdin", _Terminal())  # asked at a terminal (piped input is read instead)
 
     def set_pin(pin: str, *extra: str) -> int:
         answers = iter([pin, pin])
@@ -174,4 +183,4 @@ def test_set_pin_refuses_fewer_than_6_digits_unless_allowed(tmp_path: Path, monk
     assert set_pin("24680a") == 2 and set_pin("1" * 13) == 2
     assert set_pin("246801") == 0 and check_pin("246801", KioskConfig.load(path).pin_hash)
     assert main(["kiosk", "--config", str(path), "--allow-short-pin"]) == 2
-    assert "goes with --set-pin" in capsys.readouterr().err
+    assert "--allow-short-pin and --pin-file go with --set-pin" in capsys.readouterr().err
