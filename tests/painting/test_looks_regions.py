@@ -1,9 +1,10 @@
 """The built-in looks keep to the face's regions (issue #16): lipstick on the lips (all five looks), eyeshadow on the lid and
-crease, blush on the cheeks — on the sample head and on the canonical face (a face mesh)."""
+crease, blush on the cheeks — on the sample head, on the canonical face (a face mesh) and on a shopper's own head
+built from a portrait by the automatic capture (issue #15)."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
@@ -12,6 +13,9 @@ from core.assets import find_asset
 from painting import Document
 from painting.looks import apply_look
 from painting.regions import local_texel_mm, region_fit
+
+if TYPE_CHECKING:
+    from pathlib import Path
 
 #: the issue's floors: ≤ 2 % of the thickness beyond the region dilated by 0.5 mm, ≥ 95 % coverage
 MAX_OUTSIDE = 0.02
@@ -25,8 +29,24 @@ def _fit(doc: Document, layer: Any, regions: tuple[str, ...], amount: float) -> 
     return region_fit(doc.layers[doc.index_of(layer)].effective_thickness(), mask, texel, amount)
 
 
-@pytest.fixture(scope="module", params=["sample", "canonical"])
-def doc(request: pytest.FixtureRequest) -> Document:
+def _captured_head(folder: Path) -> Path:
+    """A shopper's own head as the automatic capture builds it (issue #15): Grace Hopper's face mesh from
+    MediaPipe, with the canonical face's regions, written into ``folder``."""
+    from PIL import Image
+
+    from capture.landmarks import detect_faces
+    from capture.person import person_head, write_person_head
+
+    photo = np.asarray(Image.open(find_asset("photos/grace_hopper.jpg")).convert("RGB"))
+    head = person_head(detect_faces(photo)[0], folder, eyes_open=True)
+    write_person_head(head, folder, photo)
+    return head.path
+
+
+@pytest.fixture(scope="module", params=["sample", "canonical", "captured"])
+def doc(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Document:
+    if request.param == "captured":
+        return Document.from_head(_captured_head(tmp_path_factory.mktemp("face")), resolution=1024)
     path = None if request.param == "sample" else find_asset("heads/canonical-face/canonical_face_model.obj")
     return Document.from_head(path, resolution=1024)
 
