@@ -98,18 +98,37 @@ def test_a_refused_photo_says_why_and_changes_nothing(studio: tuple[Any, DialogD
 
 def test_cancel_stops_the_capture_and_keeps_nothing(studio: tuple[Any, DialogDriver], qtbot: Any, tmp_path: Path,
                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    import threading
+
     from PySide6.QtWidgets import QApplication, QProgressDialog
 
-    from app import workers
+    from app import new_from_photo, workers
     from core.assets import find_asset
 
     win, driver = studio
     driver.shown.clear()
     faces = tmp_path / "faces"
     _choose(monkeypatch, find_asset("photos/grace_hopper.jpg"), faces)
+    # every progress message as the worker reports it (polling the dialog misses steps quicker than a poll,
+    # e.g. the gate's once MediaPipe is warm); the worker waits at the gate's step until Cancel was clicked,
+    # so the capture cannot finish first on a quick machine
+    messages: list[str] = []
+    clicked = threading.Event()
+    real = new_from_photo.capture_and_transfer
+
+    def recording(photo: Any, folder: Any, source: Any, progress: Any, cancelled: Any) -> Any:
+        def report(fraction: float, message: str) -> None:
+            messages.append(message)
+            progress(fraction, message)
+            if "quality gate passed" in message:
+                clicked.wait(120)
+
+        return real(photo, folder, source, report, cancelled)
+
+    monkeypatch.setattr(new_from_photo, "capture_and_transfer", recording)
     watcher = ProgressWatcher()
     win.actions_by_id["file.new_from_photo"].trigger()
-    qtbot.waitUntil(lambda: any("quality gate passed" in label for label in watcher.labels), timeout=120000)
+    qtbot.waitUntil(lambda: any("quality gate passed" in m for m in messages), timeout=120000)
 
     def progress_dialog() -> Any:
         return next((w for w in QApplication.topLevelWidgets() if isinstance(w, QProgressDialog) and w.isVisible()),
@@ -120,6 +139,7 @@ def test_cancel_stops_the_capture_and_keeps_nothing(studio: tuple[Any, DialogDri
     from PySide6.QtWidgets import QPushButton
 
     next(b for b in dialog.findChildren(QPushButton) if b.text().replace("&", "") == "Cancel").click()
+    clicked.set()
     qtbot.waitUntil(lambda: not workers._RUNNING, timeout=120000)  # the job stopped at its next step
     watcher.timer.stop()
     assert _studio_windows() == [win] and not driver.shown  # no window, no message: the user cancelled
