@@ -21,7 +21,8 @@ it under the issue's name, ``fast_direct_ms`` is the same frame computing every 
 
 Where a fast frame's time goes: ``fast_lit_pass_ms`` (the lit G-buffer pass), ``fast_sss_ms`` (the SSS
 passes and their masks) and ``fast_composite_ms`` (the composite and display pass), each timed with
-``ctx.finish()`` on both sides in separate frames. ``fast_floor_ms`` is the same frame with the lit pass
+``ctx.finish()`` on both sides in separate frames; ``reference_lit_pass_ms``, ``reference_sss_ms`` and
+``reference_composite_ms`` the same for the reference frame. ``fast_floor_ms`` is the same frame with the lit pass
 and the composite reduced to constant writes (the pass structure, rasterisation, targets and SSS left):
 what no shading work can go below on this machine; ``fast_floor_over_baseline`` its ratio.
 
@@ -71,8 +72,9 @@ def _times_ms(ctx: moderngl.Context, fn: Callable[[], object], frames: int, warm
     return times
 
 
-def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, frames: int) -> dict[str, float]:
-    """Times (ms: median, p90, max) of the passes of ``r``'s frames into ``fbo``.
+def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, frames: int,
+               prefix: str = "fast") -> dict[str, float]:
+    """Times (ms: median, p90, max) of the passes of ``r``'s frames into ``fbo`` (keys ``{prefix}_…``).
 
     The lit pass, the SSS passes (with their masks) and the composite, each bracketed by ``ctx.finish()``
     (so their sum exceeds a frame's time).
@@ -117,7 +119,7 @@ def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, fr
         r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask, r._to_target = saved  # type: ignore[method-assign]
     out: dict[str, float] = {}
     for k, v in per_frame.items():
-        out.update(spread(f"fast_{k}{'_pass' if k == 'lit' else ''}_ms", v, DIGITS))
+        out.update(spread(f"{prefix}_{k}{'_pass' if k == 'lit' else ''}_ms", v, DIGITS))
     return out
 
 
@@ -243,7 +245,9 @@ def main(argv: list[str] | None = None) -> int:
             out.update(spread(key, ts, DIGITS))
         out.update(spread("fast_relight_ms", _times_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1),
                           DIGITS))
-        r.settings.mode, r.settings.taps = "fast", 17
+        r.settings.mode, r.settings.taps = "reference", 17
+        out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2), "reference"))
+        r.settings.mode = "fast"
         out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2)))
         import tempfile
 
