@@ -112,9 +112,21 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
     # ":0": the scheduler's HTTP server (and dashboard, with bokeh) on a free port, never a clash on 8787;
     # the preload warms each worker (GL context, shaders) while the cluster starts (catalogue.warmup)
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=":0", silence_logs=logging.ERROR,
-                      preload=[PRELOAD]) as cluster, Client(cluster) as client:
+                      dashboard_address=":0", silence_logs=logging.ERROR, preload=[PRELOAD],
+                      env=worker_environment(n)) as cluster, Client(cluster) as client:
         yield client
+
+
+def worker_environment(workers: int) -> dict[str, str]:
+    """Environment of the local cluster's worker processes: the machine's cores shared between them.
+
+    Mesa's llvmpipe starts one rasteriser thread per core in every process (``LP_NUM_THREADS``), so N
+    workers on C cores would run N × C threads; each worker gets C // N (at least 1) instead, as Dask gives
+    each worker its share of threads. A value the user set in the environment is kept.
+    """
+    if "LP_NUM_THREADS" in os.environ:
+        return {}
+    return {"LP_NUM_THREADS": str(max(1, (os.cpu_count() or 1) // max(workers, 1)))}
 
 
 def _probe(address: str) -> None:
