@@ -70,6 +70,9 @@ class SSSPasses:
         self.mm_per_unit = float(mm_per_unit)
         self._fast: dict[int, moderngl.Program] = {}
         self._gauss: dict[int, moderngl.Program] = {}
+        self._gauss3: dict[tuple[Any, ...], moderngl.Program] = {}
+        #: full-resolution reference Gaussians per pass pair (1..3; 3 saves four of six scenes at the studio's framing)
+        self.full_per_pass = 3
         self._mask = shaders.program(ctx, "fullscreen_z.vert", "sss_mask.frag")
         self._quads: dict[int, moderngl.VertexArray] = {}
 
@@ -148,11 +151,15 @@ class SSSPasses:
         if half:
             t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
             self.draw_mask(t, hrect)
-        # full resolution: the G-buffer's depth marks the head (fragment depth 1 passes where < 1)
+        # full resolution, up to three Gaussians a pass: the G-buffer's depth marks the head (fragment depth
+        # 1 passes where < 1)
+        t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR)
+        n = self.full_per_pass
+        for i in range(0, len(full), n):
+            self._full_gaussians(t, s, full[i:i + n], (rx, ry, rw, rh), px_per_mm, mm_per_px, clear=i == 0)
         for group, tmp_fbo, acc, size, rect_, scale, z_h, z_v in (
-                (full, t["tmp_zfbo"], t["accum_zfbo"], (w, h), (rx, ry, rw, rh), 1.0, 1.0, 1.0),
-                (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, Z_HEAD, Z_SKIN)):
-            t["diffuse"].filter = (ctx.LINEAR, ctx.LINEAR) if scale == 1.0 else (ctx.NEAREST, ctx.NEAREST)
+                (half, t["half_a_zfbo"], t["half_b_zfbo"], (hw, hh), hrect, 0.5, Z_HEAD, Z_SKIN),):  # half resolution
+            t["diffuse"].filter = (ctx.NEAREST, ctx.NEAREST)
             for i, (sigma, wt) in enumerate(group):
                 # the horizontal pass reads the full-resolution diffuse, the vertical one its result
                 gp = self._program(self._gauss, "sss_gauss.frag", reference_taps(sigma / mm_per_px))
@@ -175,6 +182,53 @@ class SSSPasses:
         ctx.disable(ctx.BLEND)
         self._end()
         return t["accum"], w0, whalf
+
+    def _full_gaussians(self, t: dict[str, Any], s: RenderSettings, group: list[tuple[float, Any]], rect: Rect,
+                        px_per_mm: float, mm_per_px: float, clear: bool) -> None:
+        """Add up to three full-resolution Gaussians (σ mm, RGB weight) into ``t["accum"]`` in two passes.
+
+        One horizontal pass into ``tmp``, ``tmp2``, ``tmp3`` and one vertical pass summing them
+        (sss_gauss3.frag). ``clear``: the first group of the frame, which clears ``accum`` (else its sum is added by blending).
+        """
+        ctx = self.ctx
+        w, h = t["accum"].size
+        taps = [reference_taps(sigma / mm_per_px) for sigma, _ in group]
+        defines = {"NG": len(group), **{f"NT{j}": taps[j] if j < len(taps) else 1 for j in range(3)}}
+        progs = []
+        for vert in (0, 1):
+            key = ("gauss3", vert, *[defines[k] for k in ("NG", "NT0", "NT1", "NT2")])
+            if key not in self._gauss3:
+                self._gauss3[key] = self.shaders.program(ctx, "fullscreen_z.vert", "sss_gauss3.frag",
+                                                         {**defines, "VERT": vert})
+            progs.append(self._gauss3[key])
+        gp = progs[0]
+        sigmas = [sigma for sigma, _ in group] + [1.0] * (3 - len(group))
+        wts = np.zeros((3, 3), np.float32)
+        wts[:len(group)] = [g[1] for g in group]
+        self._blur_common(t, s, gp, px_per_mm, t["diffuse"], (1.0, 0.0))
+        set_uniform(gp, "u_src0", 0)
+        set_uniform(gp, "u_src1", 0)  # the targets are bound for the vertical pass only (no feedback loop)
+        set_uniform(gp, "u_src2", 0)
+        set_uniform(gp, "u_sigma_mm", tuple(sigmas))
+        write_uniform(gp, "u_wt", wts)
+        ctx.disable(ctx.BLEND)
+        self.draw_pass(gp, t["tmp3_zfbo"] if len(group) > 1 else t["tmp_zfbo"], (w, h), rect, 1.0, clear=clear)
+        t["tmp"].use(0)
+        gp = progs[1]
+        self._blur_common(t, s, gp, px_per_mm, t["tmp"], (0.0, 1.0))
+        set_uniform(gp, "u_src0", 0)
+        set_uniform(gp, "u_sigma_mm", tuple(sigmas))
+        write_uniform(gp, "u_wt", wts)
+        t["tmp2"].use(2)
+        t["tmp3"].use(3)
+        set_uniform(gp, "u_src1", 2)
+        set_uniform(gp, "u_src2", 3)
+        set_uniform(gp, "u_dir", (0.0, 1.0))
+        if not clear:
+            ctx.enable(ctx.BLEND)
+            ctx.blend_func = ctx.ONE, ctx.ONE
+        self.draw_pass(gp, t["accum_zfbo"], (w, h), rect, 1.0, clear=clear)
+        ctx.disable(ctx.BLEND)
 
     def draw_mask(self, t: dict[str, Any], hrect: Rect) -> None:
         """The half-resolution pixel classes of the SSS passes (see sss_mask.frag) into the half depth.
@@ -236,5 +290,6 @@ class SSSPasses:
         """Free every GPU object (call with the context current)."""
         from render.glutil import release_all
 
-        release_all(self.ctx, [*self._quads.values(), *self._fast.values(), *self._gauss.values(), self._mask])
-        self._quads, self._fast, self._gauss = {}, {}, {}
+        release_all(self.ctx, [*self._quads.values(), *self._fast.values(), *self._gauss.values(),
+                                  *self._gauss3.values(), self._mask])
+        self._quads, self._fast, self._gauss, self._gauss3 = {}, {}, {}, {}

@@ -28,10 +28,10 @@ def _colour(ctx: moderngl.Context, size: tuple[int, int]) -> moderngl.Texture:
 def frame_targets(ctx: moderngl.Context, size: tuple[int, int]) -> dict[str, Any]:
     """Every target of a frame of ``size`` (width, height in pixels, 1..:data:`MAX_SIDE`), by name.
 
-    Textures: ``diffuse``, ``outer``, ``factor`` (the G-buffer's colours), ``tmp``, ``accum`` (the
-    full-resolution SSS buffers), ``depth``; ``half_a``, ``half_b``, ``half_depth`` (half resolution).
+    Textures: ``diffuse``, ``outer``, ``factor`` (the G-buffer's colours), ``tmp``, ``tmp2``, ``tmp3``,
+    ``accum`` (the full-resolution SSS buffers), ``depth``; ``half_a``, ``half_b``, ``half_depth`` (half resolution).
     Framebuffers: ``gbuffer`` (bound on return), ``tmp_fbo``, ``accum_fbo``, ``half_a_fbo``,
-    ``half_b_fbo``, ``half_mask_fbo``, and the ``*_zfbo`` twins of ``tmp``, ``accum``, ``half_a``,
+    ``half_b_fbo``, ``half_mask_fbo``, ``tmp3_zfbo`` (``tmp``, ``tmp2``, ``tmp3``), and the ``*_zfbo`` twins of ``tmp``, ``accum``, ``half_a``,
     ``half_b`` that depth-test against a mask they never write.
 
     Raises:
@@ -40,7 +40,8 @@ def frame_targets(ctx: moderngl.Context, size: tuple[int, int]) -> dict[str, Any
     w, h = size
     if w < 1 or h < 1 or w > MAX_SIDE or h > MAX_SIDE:
         raise RenderError(f"viewport size {w}×{h} is out of range (1..{MAX_SIDE})")
-    t: dict[str, Any] = {name: _colour(ctx, size) for name in ("diffuse", "outer", "factor", "tmp", "accum")}
+    t: dict[str, Any] = {name: _colour(ctx, size) for name in ("diffuse", "outer", "factor", "tmp", "tmp2", "tmp3",
+                                                           "accum")}
     t["depth"] = ctx.depth_texture(size)
     t["gbuffer"] = ctx.framebuffer([t["diffuse"], t["outer"], t["factor"]], t["depth"])
     t["tmp_fbo"] = ctx.framebuffer([t["tmp"]])
@@ -56,11 +57,13 @@ def frame_targets(ctx: moderngl.Context, size: tuple[int, int]) -> dict[str, Any
     t["half_mask_fbo"] = ctx.framebuffer(depth_attachment=t["half_depth"])
     for name in ("tmp", "accum"):
         t[name + "_zfbo"] = ctx.framebuffer([t[name]], t["depth"])
+    # the reference mode's horizontal pass of up to three full-resolution Gaussians at once (sss_gauss3.frag)
+    t["tmp3_zfbo"] = ctx.framebuffer([t["tmp"], t["tmp2"], t["tmp3"]], t["depth"])
     for name in ("half_a", "half_b"):
         tex = t[name] = _colour(ctx, half)
         t[name + "_fbo"] = ctx.framebuffer([tex])
         t[name + "_zfbo"] = ctx.framebuffer([tex], t["half_depth"])
-    for name in ("tmp_zfbo", "accum_zfbo", "half_a_zfbo", "half_b_zfbo"):
+    for name in ("tmp_zfbo", "tmp3_zfbo", "accum_zfbo", "half_a_zfbo", "half_b_zfbo"):
         t[name].depth_mask = False
     t["gbuffer"].use()
     return t
