@@ -42,11 +42,13 @@ def warm_up() -> None:
     """
     import importlib
 
-    for name in ("capture.auto", "capture.quality", "painting.looks", "painting.transfer", "render.mirror"):
-        importlib.import_module(name)
+    from capture.auto import warm_up as warm_up_capture
     from capture.landmarks import detect_faces
 
-    detect_faces(np.zeros((64, 64, 3), np.uint8))
+    warm_up_capture()  # the capture's own: MediaPipe's detector, the canonical topology, its libraries
+    for name in ("capture.quality", "painting.looks", "painting.transfer", "render.mirror"):
+        importlib.import_module(name)
+    detect_faces(np.zeros((64, 64, 3), np.uint8))  # the detector's first call
 
 
 def capture_probe(config: KioskConfig) -> ProbeAnalysis | None:

@@ -18,6 +18,7 @@ import pytest
 
 from app.kiosk_config import KioskConfig, hash_pin
 from app.pin_lock import MAX_LOCK_S, PinGuard, lock_path_for, lock_seconds
+from tests.app.test_kiosk_config import _Terminal
 
 RIGHT, WRONG = "975318", "864297"
 REPO = Path(__file__).resolve().parents[2]
@@ -148,13 +149,6 @@ def test_wrong_pins_are_logged_with_a_timestamp_and_no_digits(tmp_path: Path, pi
     for pin in (*tried, RIGHT):
         assert pin not in text
     assert re.findall(r"\d{3,}", text) == []  # beside the timestamps only counts and seconds (< 1000)
-
-
-class _Terminal:
-    """Standard input as a terminal (the PIN is then asked with getpass)."""
-
-    def isatty(self) -> bool:
-        return True
 
 
 def test_set_pin_refuses_fewer_than_6_digits_unless_allowed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
