@@ -25,9 +25,10 @@ before/after split, lightweight mode).
 - Picking reads the depth of the last frame the renderer drew (the current view).
 - Progressive refinement (:mod:`render.progressive`): while the user orbits, pans, zooms, moves the key
   light or paints (every such input calls :meth:`Viewport.note_input`), frames are *interactive*: fast
-  mode at the internal scale that holds the frame budget (:attr:`Viewport.refine`), upscaled. When input
-  stops for :data:`SETTLE_MS`, the view *settles*: one full-resolution frame in fast mode, then, in the
-  reference mode, the reference frame. A dab's tiles are flushed before every frame, interactive or not.
+  mode at the internal scale that holds the frame budget (:attr:`Viewport.refine`), upscaled. When a
+  drag's button is released, or other input (wheel, keys, the kiosk's turns) stops for
+  :data:`SETTLE_MS`, the view *settles*: one full-resolution frame in fast mode, then, in the reference
+  mode, the reference frame. A dab's tiles are flushed before every frame, interactive or not.
 """
 
 from __future__ import annotations
@@ -157,6 +158,7 @@ class Viewport(QWidget):
         self.renderer_error: str | None = None  # the renderer failed in a frame (reported; the view stays empty)
         self._ring: np.ndarray | None = None
         self._drag: str | None = None
+        self._drag_input = False  # the current drag has moved the view, a light or the makeup (note_input)
         self._last = QPointF()
         self._pressure = 1.0
         self._tablet = False
@@ -457,9 +459,14 @@ class Viewport(QWidget):
         """Input has stopped and the last frame drawn is the full-resolution frame of the current mode."""
         return self.stage == "final" and not self.last_frame_interactive and not self._settle_timer.isActive()
 
-    def note_input(self) -> None:
-        """An input that changes the view or the makeup: draw interactive frames until it stops."""
+    def note_input(self, drag: bool = False) -> None:
+        """An input that changes the view or the makeup: draw interactive frames until it stops.
+
+        ``drag``: it comes from a mouse drag, whose button's release ends it (:meth:`mouseReleaseEvent`
+        settles at once); other inputs (the wheel, keys, the kiosk's turns) settle after :data:`SETTLE_MS`.
+        """
         self.last_input_time = time.perf_counter()
+        self._drag_input = drag
         self.stage = "interactive"
         self._settle_timer.start()
         self.update()
@@ -473,6 +480,16 @@ class Viewport(QWidget):
         if quiet_ms < SETTLE_MS:  # the timer came due behind a slow frame: wait out the rest
             self._settle_timer.start(max(int(SETTLE_MS - quiet_ms), 1))
             return
+        self.stage = "settle"
+        self.update()
+
+    def settle_now(self) -> None:
+        """The input has provably ended (a button released): the full-resolution frame next, no wait.
+
+        Exactly one full frame follows (the settle timer is stopped, so it adds none), then the reference
+        frame in that mode, as after :data:`SETTLE_MS` of quiet.
+        """
+        self._settle_timer.stop()
         self.stage = "settle"
         self.update()
 
@@ -530,6 +547,7 @@ class Viewport(QWidget):
         """Start a drag: paint on the head, orbit, pan or move the light (see the module docstring)."""
         pos = event.position()
         self._last = pos
+        self._drag_input = False
         mods = event.modifiers()
         btn = event.button()
         if btn == Qt.MouseButton.LeftButton and self.pick_next:
@@ -547,7 +565,7 @@ class Viewport(QWidget):
             if hit is not None:
                 self._drag = "paint"
                 self._ring = hit
-                self.note_input()
+                self.note_input(drag=True)
                 self.stroke_begin.emit(hit, self._pressure_now())
             else:
                 self._drag = "orbit"
@@ -567,23 +585,23 @@ class Viewport(QWidget):
         self._last = pos
         if self._drag == "orbit":
             self.camera.orbit(-dx * 0.4, dy * 0.4)
-            self.note_input()
+            self.note_input(drag=True)
         elif self._drag == "pan":
             h = max(self.height(), 1)
             self.camera.pan(dx / h, dy / h)
-            self.note_input()
+            self.note_input(drag=True)
         elif self._drag == "light":
             az = self.lighting.azimuth + dx * 0.5
             el = float(np.clip(self.lighting.elevation - dy * 0.5, -80.0, 85.0))
             self.lighting.azimuth = (az + 180.0) % 360.0 - 180.0
             self.lighting.elevation = el
-            self.note_input()
+            self.note_input(drag=True)
             self.light_moved.emit(self.lighting.azimuth, el)
         elif self._drag == "paint":
             hit = self.pick(pos)
             if hit is not None:
                 self._ring = hit
-                self.note_input()
+                self.note_input(drag=True)
                 self.stroke_move.emit(hit, self._pressure_now())
         elif self.paint_enabled:
             # hovering moves the brush ring: quick frames while the mouse moves, a full one when it rests
@@ -596,12 +614,19 @@ class Viewport(QWidget):
         self.update()
 
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:
-        """End the drag (a stroke ends here)."""
-        was = self._drag
-        self._drag = None
+        """End the drag (a stroke ends here); a drag that moved the view or the makeup settles at once.
+
+        Releasing the button is the end of the drag's input, known for certain: waiting out
+        :data:`SETTLE_MS` would only delay the full frame (the timer stays for the wheel, keys and the
+        kiosk's turns, whose end cannot be seen).
+        """
+        was, moved = self._drag, self._drag_input
+        self._drag, self._drag_input = None, False
         if was == "paint":
             self.stroke_end.emit()
-        if was is not None and self.stage == "interactive" and not self._settle_timer.isActive():
+        if moved and self.stage == "interactive":
+            self.settle_now()
+        elif was is not None and self.stage == "interactive" and not self._settle_timer.isActive():
             self._settle_timer.start()  # (it runs from the last move: releasing the button is no movement)
         self.update()
 

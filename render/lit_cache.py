@@ -201,7 +201,9 @@ class _Level:
         self.textures: list[moderngl.Texture] = []
         self.fbo: moderngl.Framebuffer | None = None
         self.scale = np.ones(3, np.float32)
-        self.key: tuple[int, int, tuple[int, int]] | None = None  # (irradiance version, KM full version, KM size)
+        #: (irradiance side, its version, KM full version, KM size): the renderer keeps an irradiance per side,
+        #: each counting its own versions, so the side tells a 512² relight from the 1024² one of the same count
+        self.key: tuple[int, int, int, tuple[int, int]] | None = None
         self.pending: set[tuple[int, int]] = set()  # KM tiles (row, col) changed since its last update
 
     def alloc(self, ctx: moderngl.Context, size: tuple[int, int]) -> None:
@@ -270,7 +272,7 @@ class TextureLighting:
 
     def needs_whole(self, irradiance: TextureIrradiance, km: KMTextureSpace, level: int = 0) -> bool:
         """Whether the next :meth:`update` of ``level`` recomputes it whole (it is out of date as a whole)."""
-        return (irradiance.version, km.full_version, km.size) != self.levels[level].key
+        return (irradiance.size, irradiance.version, km.full_version, km.size) != self.levels[level].key
 
     @staticmethod
     def target_size(km: KMTextureSpace, gpu_head: GpuHead) -> tuple[int, int]:
@@ -334,7 +336,7 @@ class TextureLighting:
                     lv.key, lv.pending = None, set()
         self.level = level
         lv = self.levels[level]
-        key = (irradiance.version, km.full_version, km.size)
+        key = (irradiance.size, irradiance.version, km.full_version, km.size)
         w0, h0 = self.target_size(km, gpu_head)
         lv.alloc(self.ctx, (max(w0 >> level, 1), max(h0 >> level, 1)))
         whole = key != lv.key

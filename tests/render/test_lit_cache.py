@@ -90,6 +90,37 @@ def test_invalidated_by_light_environment_and_material(renderer: Renderer, doc: 
     assert r.lighting.full_updates == whole + 4
 
 
+def test_a_half_side_relight_never_passes_for_the_full_side_s_cache(renderer: Renderer, gl_ctx: Any) -> None:
+    """While a light is dragged the renderer relights at half the irradiance's side; each side counts its
+    own versions, so the cache's key must name the side: when the counts meet, the interactive frame must
+    still show the moved light (the direct path), not the cache made for where the light was."""
+    r = renderer
+    key0 = r.lights[0]
+    settled(r)
+    full = r.irradiance
+    half = r._irradiance_at(full.size // 2)
+    r.settings.interactive = True
+    try:
+        az = 0.0
+        while True:  # drag the key light until the half side's count reaches the full side's
+            az += 7.0
+            r.lights[0] = Light.directional(az, 30.0, 1.5)
+            r.render_image(SIZE)
+            assert r.irradiance is half
+            if half.version >= full.version:
+                break
+        assert half.version == full.version, "the counts must meet for this test to mean anything"
+        shown = r.render_image(SIZE)  # the same frame again (nothing recomputed)
+        r.settings.lighting_cache = False
+        direct = r.render_image(SIZE)
+        assert np.array_equal(shown, direct), "an interactive relight used the cache of the old light"
+    finally:
+        r.settings.interactive = False
+        r.settings.lighting_cache = True
+        r.lights[0] = key0
+        settled(r)
+
+
 def test_a_dab_recomputes_only_its_tiles_and_shows(renderer: Renderer, doc: Any, gl_ctx: Any) -> None:
     from painting.tiles import TILE
 
