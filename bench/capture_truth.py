@@ -28,6 +28,7 @@ rendered beside the photograph.
 
 from __future__ import annotations
 
+import re
 import zlib
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
@@ -57,6 +58,11 @@ uniform float u_specular;
 uniform float u_exponent;
 uniform bool u_use_sh;
 uniform vec3 u_sh[9];
+uniform bool u_shadows;
+uniform sampler2DShadow u_shadow_map;
+uniform mat4 u_light_proj;
+uniform float u_normal_offset;
+uniform float u_depth_bias;
 in vec3 v_pos;
 in vec3 v_normal;
 in vec2 v_uv;
@@ -73,6 +79,21 @@ vec3 irradiance_over_pi(vec3 n) {
     return max(e, vec3(0.0)) / 3.14159265358979;
 }
 
+float flash_visibility(vec3 p, vec3 n) {
+    // The flash's shadow map (the head's depth seen from the flash, an orthographic view along −l), read
+    // at the fragment moved off the surface along its normal (against the surface's own depth), 3 × 3
+    // taps of the GPU's 2 × 2 comparison filter: the fraction of the flash the fragment sees.
+    if (!u_shadows) return 1.0;
+    vec4 lp = u_light_proj * vec4(p + u_normal_offset * n, 1.0);
+    vec3 c = lp.xyz * 0.5 + 0.5;
+    vec2 texel = 1.0 / vec2(textureSize(u_shadow_map, 0));
+    float lit = 0.0;
+    for (int i = -1; i <= 1; ++i)
+        for (int j = -1; j <= 1; ++j)
+            lit += texture(u_shadow_map, vec3(c.xy + vec2(i, j) * texel, c.z - u_depth_bias));
+    return lit / 9.0;
+}
+
 void main() {
     vec3 n = normalize(v_normal);
     vec3 v = normalize(u_camera_centre - v_pos);
@@ -81,11 +102,49 @@ void main() {
     float lobe = ndl > 0.0 ? pow(max(dot(r, v), 0.0), u_exponent) : 0.0;
     vec3 t = texture(u_texture, v_uv).rgb;
     vec3 ambient = u_use_sh ? irradiance_over_pi(n) : u_ambient;
-    vec3 body = u_diffuse * t * (ambient + u_flash * max(ndl, 0.0));
-    out_colour = vec4(body + u_specular * lobe * u_flash, 1.0);
-    out_texture = vec4(t, 1.0);
+    float seen = ndl > 0.0 ? flash_visibility(v_pos, n) : 0.0;
+    vec3 body = u_diffuse * t * (ambient + seen * u_flash * max(ndl, 0.0));
+    out_colour = vec4(body + seen * u_specular * lobe * u_flash, 1.0);
+    out_texture = vec4(t, seen);
 }
 """
+
+#: The flash's shadow map: the head's depth seen from the flash (orthographic along −l; written for this
+#: module, not the renderer's shadow pass).
+SHADOW_VERTEX = """
+#version 450 core
+in vec3 in_position;
+uniform mat4 u_light_proj;
+void main() { gl_Position = u_light_proj * vec4(in_position, 1.0); }
+"""
+SHADOW_FRAGMENT = """
+#version 450 core
+void main() {}
+"""
+#: The shadow map's side (texels): over the sample head's ~5 mesh units about 0.07 mm a texel, a seventh
+#: of a photograph pixel at the validation's framing.
+SHADOW_MAP_SIZE = 4096
+
+
+def light_projection(vertices: np.ndarray, light: np.ndarray) -> tuple[np.ndarray, float]:
+    """The flash's orthographic clip matrix (4, 4) framing ``vertices`` (N, 3) seen along −``light``.
+
+    Returns the matrix (row-major, clip = M·[p, 1]) and the size of one shadow-map texel in mesh units.
+    """
+    f = -np.asarray(light, dtype=np.float64) / np.linalg.norm(light)
+    up = np.array([0.0, 1.0, 0.0]) if abs(f[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(f, up)
+    u /= np.linalg.norm(u)
+    v = np.cross(u, f)
+    basis = np.stack([u, v, f])  # light space: x, y across the beam, z away from the flash
+    q = np.asarray(vertices, dtype=np.float64) @ basis.T
+    lo, hi = q.min(axis=0), q.max(axis=0)
+    centre, half = (lo + hi) / 2, (hi - lo) / 2 * 1.02 + 1e-6
+    half[:2] = half[:2].max()  # square texels
+    m = np.eye(4)
+    m[:3, :3] = basis / half[:, None]
+    m[:3, 3] = -centre / half
+    return m, float(2 * half[0] / SHADOW_MAP_SIZE)
 
 
 @dataclass(frozen=True)
@@ -124,11 +183,14 @@ class GpuPhoto:
         srgb8: uint8 (H, W, 3), the photograph as a camera stores it (clipped, 8-bit sRGB, top row first).
         texture: float64 (H, W, 3), the texture t averaged over each pixel's samples (0 off the head).
         coverage: float64 (H, W), the fraction of each pixel's samples on the head (0..1).
+        flash_seen: float64 (H, W), the fraction of the flash each pixel's head samples see, averaged
+            (0..1: 0 where the surface faces away from it or lies in a cast shadow; 0 off the head).
     """
 
     srgb8: np.ndarray
     texture: np.ndarray
     coverage: np.ndarray
+    flash_seen: np.ndarray
 
     @property
     def linear(self) -> np.ndarray:
@@ -154,7 +216,7 @@ def irradiance_sh(env: np.ndarray, scale: float) -> np.ndarray:
 def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera: Camera,
                  diffuse: np.ndarray, specular: float, exponent: float, light: np.ndarray,
                  flash: np.ndarray, ambient: np.ndarray, sh: np.ndarray | None = None,
-                 supersample: int = 3, sensor: Sensor | None = None) -> GpuPhoto:
+                 supersample: int = 3, sensor: Sensor | None = None, shadows: bool = False) -> GpuPhoto:
     """Draw the flash photograph of ``head`` (see the module docstring).
 
     Args:
@@ -171,6 +233,9 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
         sh: (9, 3) irradiance SH coefficients (:func:`irradiance_sh`) for A(n) = E(n)/π, or None.
         supersample: samples per pixel along each axis (the photograph is their linear mean).
         sensor: vignetting and noise applied before the sensor clips and quantises; None = neither.
+        shadows: the flash's cast shadows (a :data:`SHADOW_MAP_SIZE`² shadow map from the flash, read
+            3 × 3 per fragment, so a shadow's edge is soft over about a tenth of a millimetre: a flash
+            2 cm across at 2.4 m gives about as much behind the nose); the ambient is not occluded.
     """
     w, h = camera.width * supersample, camera.height * supersample
     # The head's v counts from the image's top row (painting.head) and GL puts the first row uploaded at
@@ -191,12 +256,35 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
     texture_rb = ctx.renderbuffer((w, h), 4, dtype="f4")
     depth_rb = ctx.depth_renderbuffer((w, h))
     fbo = ctx.framebuffer(color_attachments=[colour_rb, texture_rb], depth_attachment=depth_rb)
+    light = np.asarray(light, dtype=np.float64) / np.linalg.norm(light)
+    light_proj, texel_size = light_projection(head.vertices, light)
+    shadow_map = ctx.depth_texture((SHADOW_MAP_SIZE, SHADOW_MAP_SIZE) if shadows else (1, 1))
+    shadow_map.compare_func = "<="
+    shadow_map.filter = (ctx.LINEAR, ctx.LINEAR)
+    shadow_fbo = ctx.framebuffer(depth_attachment=shadow_map)
+    shadow_prog = ctx.program(vertex_shader=SHADOW_VERTEX, fragment_shader=SHADOW_FRAGMENT)
+    shadow_vao = ctx.vertex_array(shadow_prog, [(buffers[0], "3f", "in_position")], index)
     try:
+        shadow_prog["u_light_proj"].write(light_proj.T.astype("f4").tobytes())
+        shadow_fbo.use()
+        shadow_fbo.clear(depth=1.0)
+        if shadows:
+            ctx.enable(ctx.DEPTH_TEST)
+            ctx.disable(ctx.CULL_FACE | ctx.BLEND)
+            shadow_vao.render()
+        prog["u_shadows"].value = shadows
+        prog["u_light_proj"].write(light_proj.T.astype("f4").tobytes())
+        # Off the surface by two texels along the normal, and two texels of depth: enough for the
+        # surface not to shadow itself, far below a photograph pixel.
+        prog["u_normal_offset"].value = 2.0 * texel_size
+        prog["u_depth_bias"].value = float(texel_size * np.linalg.norm(light_proj[2, :3]))  # 2 texels, [0, 1] depth
+        prog["u_shadow_map"].value = 1
+        shadow_map.use(1)
         depths = camera.to_camera(head.vertices)[:, 2]
         near, far = 0.5 * float(depths.min()), 2.0 * float(depths.max())
         prog["u_view_proj"].write(camera.clip_from_world(near, far, supersample).T.astype("f4").tobytes())
         prog["u_camera_centre"].value = tuple(float(x) for x in camera.centre)
-        prog["u_light"].value = tuple(float(x) for x in np.asarray(light) / np.linalg.norm(light))
+        prog["u_light"].value = tuple(float(x) for x in light)
         prog["u_diffuse"].value = tuple(float(x) for x in diffuse)
         prog["u_flash"].value = tuple(float(x) for x in flash)
         prog["u_ambient"].value = tuple(float(x) for x in ambient)
@@ -221,12 +309,14 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
         colour, texel = read(0), read(1)
     finally:
         ctx.detect_framebuffer(0).use()
-        for obj in (fbo, colour_rb, texture_rb, depth_rb, vao, index, *buffers, prog, tex):
+        for obj in (fbo, colour_rb, texture_rb, depth_rb, vao, shadow_vao, shadow_prog, shadow_fbo, shadow_map,
+                    index, *buffers, prog, tex):
             obj.release()
     coverage = colour[..., 3]
     srgb8 = linear_to_srgb8(colour[..., :3] if sensor is None else sensor.apply(colour[..., :3]))
-    texture_px = texel[..., :3] / np.maximum(coverage, 1e-9)[..., None]
-    return GpuPhoto(srgb8=srgb8, texture=np.where(coverage[..., None] > 0, texture_px, 0.0), coverage=coverage)
+    texture_px = texel[..., :4] / np.maximum(coverage, 1e-9)[..., None]
+    return GpuPhoto(srgb8=srgb8, texture=np.where(coverage[..., None] > 0, texture_px[..., :3], 0.0),
+                    coverage=coverage, flash_seen=np.where(coverage > 0, texture_px[..., 3], 0.0))
 
 
 def truth_diffuse(diffuse: np.ndarray, photo: GpuPhoto, skin: np.ndarray) -> np.ndarray:
@@ -264,6 +354,7 @@ class Case:
             vertical field; the field follows the distance so the head keeps its size).
         noise_px: the landmarks' pixel noise (standard deviation, pixels) for "noisy".
         sensor: the camera's vignetting and noise (:class:`Sensor`), or None for neither.
+        shadows: the flash's cast shadows drawn (:func:`render_photo`).
     """
 
     head: str
@@ -278,6 +369,7 @@ class Case:
     distance_mm: float = 2362.5
     noise_px: float = 1.0
     sensor: Sensor | None = None
+    shadows: bool = False
 
 
 class Figures(NamedTuple):
@@ -372,8 +464,10 @@ def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:
         pixels = np.floor(pixels) + 0.5
     else:
         # Seeded by the case's repr; without a sensor, as it read before Case had that field (the figures
-        # measured then, in tests/capture/test_out_of_sample.py and the README, stand).
-        key = repr(case) if case.sensor is not None else repr(case).replace(", sensor=None", "")
+        # measured then, in tests/capture/test_out_of_sample.py and the README, stand); never with the
+        # shadows (a case with and without them has the same landmarks, so the two compare).
+        key = re.sub(r", shadows=(True|False)", "", repr(case))
+        key = key if case.sensor is not None else key.replace(", sensor=None", "")
         rng = np.random.default_rng(zlib.crc32(key.encode()))
         pixels = pixels + rng.normal(0.0, case.noise_px, pixels.shape)
     return calibrate(pixels, points3d, camera.width, camera.height)
@@ -427,7 +521,7 @@ def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
     first = render_photo(ctx, head, texture, camera, np.asarray(case.diffuse), supersample=1, **args)
     face = landmark_region(camera, head.metadata.landmarks, (camera.height, camera.width)) & (first.coverage > 0)
     diffuse = np.asarray(case.diffuse) / first.texture[face].mean(axis=0)
-    photo = render_photo(ctx, head, texture, camera, diffuse, sensor=case.sensor, **args)
+    photo = render_photo(ctx, head, texture, camera, diffuse, sensor=case.sensor, shadows=case.shadows, **args)
     probe = as_photographed(synthetic_probe(env, camera.R, light, FLASH_RGB, size=256, env_scale=scale))
     return Scene(head=head, camera=camera, fit_camera=calibrated_camera(head, camera, case), photo=photo,
                  probe_linear=probe, light=light, diffuse=diffuse)
