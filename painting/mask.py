@@ -143,7 +143,7 @@ def _recipe_cache_path(mask: LayerMask, regions: RegionSet, resolution: int, tex
     for name in dict.fromkeys(name for _, name in mask.regions):
         m = np.ascontiguousarray(regions.get(name).mask)
         h.update(f"|{name}|{m.dtype.str}|{m.shape}|".encode())
-        h.update(memoryview(m).cast("B"))
+        h.update(m.data)  # (contiguous: hashed without a copy)
     return cache_dir("looks") / f"mask-{h.hexdigest()}-v{_RECIPE_CACHE_VERSION}.cache"
 
 
