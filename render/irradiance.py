@@ -11,7 +11,7 @@ receives 1.0), texture sides in texels.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -44,10 +44,11 @@ class TextureIrradiance:
         self.size = size
         self.shaders = shaders
         self.programs: dict[tuple[int, ...], moderngl.Program] = {}
-        self.gather = shaders.program(ctx, "fullscreen.vert", "pad_gather.frag")
-        self.gather_quad = ctx.vertex_array(self.gather, [])
+        # the padding pass, with all three targets or E alone (IRR_ONLY, see irradiance_targets.glsl)
+        self.gathers: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self.index: moderngl.Texture | None = None  # RG32I: source texel of every texel (class docstring)
         self.sets: list[tuple[list[moderngl.Texture], moderngl.Framebuffer]] = []
+        self._irr_fbos: list[moderngl.Framebuffer] = []  # each set's E target alone
         for _ in range(2):
             texs = [ctx.texture((size, size), 4, dtype="f2"), ctx.texture((size, size), 4),
                     ctx.texture((size, size), 4)]
@@ -55,14 +56,40 @@ class TextureIrradiance:
                 t.repeat_x = t.repeat_y = False
                 t.filter = (ctx.LINEAR, ctx.LINEAR)
             self.sets.append((texs, ctx.framebuffer(texs)))
+            self._irr_fbos.append(ctx.framebuffer(texs[:1]))
         self.current = 0
         self._key: Hashable = None
         self.version = 0
 
     @property
     def textures(self) -> list[moderngl.Texture]:
-        """The padded cache: irradiance (RGBA16F; alpha = light 0's visibility), visibilities 1–4, 5–7."""
+        """The padded cache: irradiance (RGBA16F; alpha = light 0's visibility), visibilities 1–4, 5–7.
+
+        The visibilities are those of the last update with a shadowed light among lights 1–7 (an update
+        without one writes E alone: nothing reads them then, see ``irradiance_targets.glsl``).
+        """
         return self.sets[self.current][0]
+
+    def _index_path(self, uv_key: str) -> Any:
+        from core.cache import cache_dir
+
+        return cache_dir("render") / f"pad-index-{uv_key}-{self.size}-v1.cache"
+
+    def _load_index(self, uv_key: str) -> moderngl.Texture | None:
+        """The padding's index from the disk cache (see :meth:`_make_index`), or None."""
+        from core.cache import load_array
+
+        n = self.size
+        idx = load_array(self._index_path(uv_key), 1)  # None when absent or damaged (then deleted, logged)
+        if idx is None or idx.shape != (n, n, 2) or idx.dtype != np.int32 or idx.min() < 0 or idx.max() >= n:
+            return None
+        return self._index_texture(idx)
+
+    def _index_texture(self, idx: np.ndarray) -> moderngl.Texture:
+        n = self.size
+        index = self.ctx.texture((n, n), 2, np.ascontiguousarray(idx).tobytes(), dtype="i4")
+        index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        return index
 
     def _make_index(self, uv_key: str) -> moderngl.Texture:
         """The nearest covered texel of every texel, from the coverage (alpha) of the raw irradiance.
@@ -70,14 +97,11 @@ class TextureIrradiance:
         Kept on disk per mesh footprint (``uv_key``) and size: scipy's distance transform plus the
         read-back take about 0.6 s of a start-up.
         """
-        from core.cache import cache_dir, load_array, save_array
+        from core.cache import save_array
 
         n = self.size
-        path = cache_dir("render") / f"pad-index-{uv_key}-{n}-v1.cache"
-        idx = load_array(path, 1)  # None when absent or damaged (then deleted, with a log line)
-        if idx is not None and (idx.shape != (n, n, 2) or idx.dtype != np.int32 or idx.min() < 0 or idx.max() >= n):
-            idx = None
-        if idx is None:
+        index = self._load_index(uv_key)
+        if index is None:
             from scipy.ndimage import distance_transform_edt
 
             alpha = np.frombuffer(self.sets[0][0][2].read(), np.uint8).reshape(n, n, 4)[..., 3]  # irradiance.frag
@@ -87,24 +111,31 @@ class TextureIrradiance:
             else:
                 iy, ix = np.mgrid[0:n, 0:n]
             idx = np.ascontiguousarray(np.stack([ix, iy], axis=-1).astype(np.int32))
-            save_array(path, idx, 1)
-        index = self.ctx.texture((n, n), 2, idx.tobytes(), dtype="i4")
-        index.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            save_array(self._index_path(uv_key), idx, 1)
+            index = self._index_texture(idx)
         return index
 
-    def program(self, lights: list[Light], env: bool) -> moderngl.Program:
+    def program(self, lights: list[Light], env: bool, irr_only: bool = False) -> moderngl.Program:
         """``irradiance.frag`` specialised for a light rig (cached).
 
         Specialised on the light count (≤ 8), which lights cast shadows and which are point lights, and
         whether there is an environment ``env``: loops unroll, nothing is computed for what is off.
+        ``irr_only``: E alone is written (``IRR_ONLY`` in ``irradiance_targets.glsl``).
         """
         key = (len(lights), sum(1 << i for i, lt in enumerate(lights) if lt.shadows),
-               sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional"), int(env))
+               sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional"), int(env), int(irr_only))
         if key not in self.programs:
             self.programs[key] = self.shaders.program(
                 self.ctx, "uvspace.vert", "irradiance.frag",
-                {"NLIGHTS": key[0], "SHADOWED": key[1], "POINT_LIGHTS": key[2], "ENV": key[3]})
+                {"NLIGHTS": key[0], "SHADOWED": key[1], "POINT_LIGHTS": key[2], "ENV": key[3], "IRR_ONLY": key[4]})
         return self.programs[key]
+
+    def _gather(self, irr_only: bool) -> tuple[moderngl.Program, moderngl.VertexArray]:
+        """The padding pass for three targets or E alone (compiled on first use)."""
+        if irr_only not in self.gathers:
+            prog = self.shaders.program(self.ctx, "fullscreen.vert", "pad_gather.frag", {"IRR_ONLY": int(irr_only)})
+            self.gathers[irr_only] = (prog, self.ctx.vertex_array(prog, []))
+        return self.gathers[irr_only]
 
     def update(self, key: Hashable, gpu_head: GpuHead, setup: Callable[[moderngl.Program], None],
                lights: list[Light], env: bool) -> bool:
@@ -124,13 +155,20 @@ class TextureIrradiance:
             return False
         self._key = key
         ctx = self.ctx
+        if self.index is None:
+            self.index = self._load_index(gpu_head.uv_key)
+        # E alone when only light 0 casts shadows (its visibility is E's alpha) and the padding's index is
+        # at hand (else the coverage of the third target makes it): the studio's rig writes and pads one
+        # target of three
+        irr_only = self.index is not None and not any(lt.shadows for lt in lights[1:])
         texs, fbo = self.sets[0]
+        fbo = self._irr_fbos[0] if irr_only else fbo
         fbo.use()
         fbo.viewport = (0, 0, self.size, self.size)
         ctx.scissor = None
         fbo.clear(0.0, 0.0, 0.0, 0.0)
         ctx.disable(ctx.DEPTH_TEST | ctx.CULL_FACE | ctx.BLEND)
-        prog = self.program(lights, env)
+        prog = self.program(lights, env, irr_only)
         setup(prog)
         gpu_head.normal.use(1)
         prog["u_normal_map"].value = 1
@@ -138,14 +176,15 @@ class TextureIrradiance:
         if self.index is None:
             self.index = self._make_index(gpu_head.uv_key)
         self.index.use(3)
-        for i, t in enumerate(texs):
+        gather, quad = self._gather(irr_only)
+        for i, t in enumerate(texs[:1] if irr_only else texs):
             t.use(i)
-        for i in range(3):
-            self.gather[f"u_src{i}"].value = i
-        self.gather["u_index"].value = 3
-        self.sets[1][1].use()
-        self.sets[1][1].viewport = (0, 0, self.size, self.size)
-        self.gather_quad.render(vertices=3)
+            gather[f"u_src{i}"].value = i
+        gather["u_index"].value = 3
+        out = self._irr_fbos[1] if irr_only else self.sets[1][1]
+        out.use()
+        out.viewport = (0, 0, self.size, self.size)
+        quad.render(vertices=3)
         self.current = 1
         self.version += 1
         return True
@@ -162,7 +201,8 @@ class TextureIrradiance:
         """Free every GPU object (call with the context current)."""
         from render.glutil import release_all
 
-        release_all(self.ctx, [o for texs, fbo in self.sets for o in (fbo, *texs)]
-                    + [self.gather_quad, self.gather, *self.programs.values(), self.index])
-        self.programs = {}
+        release_all(self.ctx, [*self._irr_fbos, *(o for texs, fbo in self.sets for o in (fbo, *texs)),
+                               *(o for pv in self.gathers.values() for o in pv[::-1]), *self.programs.values(),
+                               self.index])
+        self.programs, self.gathers, self._irr_fbos = {}, {}, []
 

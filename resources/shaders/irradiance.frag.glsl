@@ -52,6 +52,8 @@ void main() {
         E += (point ? light_irradiance_normal(i, v_pos) : u_light_col[i].rgb) * sh * max(ndl, 0.0);
     }
     o_irr = vec4(E, vis[0]);
+#if !IRR_ONLY
     o_vis0 = vec4(vis[1], vis[2], vis[3], vis[4]);
     o_vis1 = vec4(vis[5], vis[6], vis[7], 1.0);
+#endif
 }
