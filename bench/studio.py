@@ -53,9 +53,16 @@ def main(argv: list[str]) -> int:
     p.add_argument("--json", action="store_true", help="print one JSON object (the only format)")
     p.add_argument("--orbit-seconds", type=float, default=3.0, help="length of the orbit drag (s)")
     p.add_argument("--dab-seconds", type=float, default=1.5, help="length of the painting drag (s)")
+    p.add_argument("--settles", type=int, default=6,
+                   help="drags whose settle is timed, of each kind (orbit, key light; ≥ 1): the first after the "
+                        "long drag, the others after 0.5 s drags")
     p.add_argument("--resolution", type=int, default=None,
                    help="paint resolution (texels; default: the studio's, app.settings.DEFAULT_RESOLUTION)")
     args = p.parse_args(argv)
+    if args.settles < 1:
+        from core.errors import SheerError
+
+        raise SheerError(f"--settles must be at least 1, got {args.settles}")
     if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
         xvfb = shutil.which("xvfb-run")
         if xvfb is None:
@@ -104,12 +111,20 @@ def main(argv: list[str]) -> int:
     probe = _PresentProbe(vp)
     _wait_until(lambda: vp.settled, 10.0)
     orbit = _drag(vp, probe, "orbit", args.orbit_seconds, step_px=5)
-    settle = _settle_time(vp, probe, orbit["last_event"])
+    settles = [_settle_time(vp, probe, orbit["last_event"])]
+    for k in range(1, args.settles):  # more drags, each released: settle times to spread (p90, max)
+        _wait_until(lambda: vp.settled, 10.0)
+        drag = _drag(vp, probe, "orbit", 0.5, step_px=5 * (-1) ** k)
+        settles.append(_settle_time(vp, probe, drag["last_event"]))
 
     # a key-light drag (Ctrl + left drag): the settled frame relights (shadows, irradiance, lighting cache)
     _wait_until(lambda: vp.settled, 10.0)
     light = _drag(vp, probe, "light", 1.0, step_px=3)
-    light_settle = _settle_time(vp, probe, light["last_event"])
+    light_settles = [_settle_time(vp, probe, light["last_event"])]
+    for k in range(1, args.settles):
+        _wait_until(lambda: vp.settled, 10.0)
+        drag = _drag(vp, probe, "light", 0.5, step_px=3 * (-1) ** k)
+        light_settles.append(_settle_time(vp, probe, drag["last_event"]))
 
     # the same pose, interactive and settled: how far the interactive frame is from the full one
     de_mean, de_p95, inter_scale = _interactive_vs_settled(vp)
@@ -138,9 +153,10 @@ def main(argv: list[str]) -> int:
         "orbit_input_events": orbit["events"],
         "orbit_event_deliveries": orbit["deliveries"],
         "orbit_interactive_scale": float(np.median(orbit["scales"])) if orbit["scales"] else None,
-        "settle_ms": round(settle, 1),
+        **spread("settle_ms", settles, 1),
         "light_drag_fps": round(light["fps"], 1),
-        "light_settle_ms": round(light_settle, 1),
+        **spread("light_settle_ms", light_settles, 1),
+        "settles_timed": len(settles),
         "interactive_vs_settled_de2000": round(de_mean, 3),
         "interactive_vs_settled_de2000_p95": round(de_p95, 3),
         "interactive_scale_compared": inter_scale,
@@ -165,8 +181,10 @@ def main(argv: list[str]) -> int:
                 "frame (the rest: Qt's event handling and the swap); dab_to_frame_ms = from a dab's scheduled event time to "
                 "the presentation of the first frame containing it; first_dab_ms = the session's first dab "
                 "(the stroke's press) to its frame; settle_ms = from the last input event to the "
-                "full-resolution frame presented; light_settle_ms = the same after a 1 s key-light drag (Ctrl + left "
-                "drag: the settled frame relights), light_drag_fps its frames; interactive_vs_settled_de2000 = mean ΔE2000 over skin "
+                "full-resolution frame presented (the button is released once the last move's frame is on "
+                "screen; a release settles the view at once), over settles_timed drags: a 3 s orbit, then 0.5 s "
+                "ones; light_settle_ms = the same after key-light drags (Ctrl + left drag: the settled frame "
+                "relights; 1 s, then 0.5 s ones), light_drag_fps the 1 s drag's frames; interactive_vs_settled_de2000 = mean ΔE2000 over skin "
                 "pixels of one pose drawn interactive (scale: interactive_scale_compared) and settled; "
                 "dab_update_ms = the handling of one (coalesced) move event: pick + painting the dabs; "
                 "dab_frame_paintgl_ms = paintGL of a frame while painting, dab_frame_flush_ms its share pushing "

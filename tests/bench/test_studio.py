@@ -23,13 +23,14 @@ KEYS = {
     "interactive_scale_compared", "first_dab_ms", "dabs_presented", "interactive_budget_ms",
     "interactive_scale_cap", "dab_frame_paintgl_ms", "dab_frame_paintgl_ms_p90", "dab_frame_paintgl_ms_max",
     "dab_frame_flush_ms", "dab_frame_flush_ms_p90", "dab_frame_flush_ms_max",
+    "settle_ms_p90", "settle_ms_max", "light_settle_ms_p90", "light_settle_ms_max", "settles_timed",
 }
-SERIES = ("orbit_frame_ms", "orbit_paintgl_ms", "dab_to_frame_ms", "dab_update_ms")
+SERIES = ("orbit_frame_ms", "orbit_paintgl_ms", "dab_to_frame_ms", "dab_update_ms", "settle_ms", "light_settle_ms")
 
 
 def test_bench_studio_prints_every_key_with_p90_and_max() -> None:
     proc = subprocess.run([sys.executable, "-m", "app", "bench", "studio", "--json", "--orbit-seconds", "0.6",
-                           "--dab-seconds", "0.4", "--resolution", "512"],
+                           "--dab-seconds", "0.4", "--resolution", "512", "--settles", "2"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-3000:]
     result = json.loads(proc.stdout)  # one JSON object and nothing else on stdout
@@ -44,10 +45,17 @@ def test_bench_studio_prints_every_key_with_p90_and_max() -> None:
     assert result["orbit_input_events"] == 60 and 1 <= result["orbit_event_deliveries"] <= 60
     assert 0 < result["orbit_interactive_scale"] <= result["interactive_scale_cap"] < 1.0
     # the view settled after the last input, and the interactive frame of a pose is close to the settled
-    assert result["settle_ms"] > 0
+    assert result["settle_ms"] > 0 and result["settles_timed"] == 2
     assert result["light_settle_ms"] > 0 and result["light_drag_fps"] > 0
     assert 0 <= result["interactive_vs_settled_de2000"] <= result["interactive_vs_settled_de2000_p95"]
     assert 0 < result["interactive_scale_compared"] < 1.0
     # every dab reached the screen; the first dab of the session is timed
     assert result["dabs_presented"] == 40 and result["first_dab_ms"] > 0
     assert result["backends"] == {"renderer": "render.Renderer", "library": "km", "document": "painting.Document"}
+
+
+def test_bench_studio_refuses_no_timed_settle() -> None:
+    proc = subprocess.run([sys.executable, "-m", "app", "bench", "studio", "--json", "--settles", "0"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and "--settles must be at least 1" in proc.stderr
+    assert "Traceback" not in proc.stderr and proc.stdout == ""
