@@ -111,20 +111,22 @@ def main(argv: list[str]) -> int:
     probe = _PresentProbe(vp)
     _wait_until(lambda: vp.settled, 10.0)
     orbit = _drag(vp, probe, "orbit", args.orbit_seconds, step_px=5)
-    settles = [_settle_time(vp, probe, orbit["last_event"])]
+    settle_frames: list[float] = []  # the settled frames' paintGL (ms)
+    settles = [_settle_time(vp, probe, orbit["last_event"], settle_frames)]
     for k in range(1, args.settles):  # more drags, each released: settle times to spread (p90, max)
         _wait_until(lambda: vp.settled, 10.0)
         drag = _drag(vp, probe, "orbit", 0.5, step_px=5 * (-1) ** k)
-        settles.append(_settle_time(vp, probe, drag["last_event"]))
+        settles.append(_settle_time(vp, probe, drag["last_event"], settle_frames))
 
     # a key-light drag (Ctrl + left drag): the settled frame relights (shadows, irradiance, lighting cache)
     _wait_until(lambda: vp.settled, 10.0)
     light = _drag(vp, probe, "light", 1.0, step_px=3)
-    light_settles = [_settle_time(vp, probe, light["last_event"])]
+    light_frames: list[float] = []
+    light_settles = [_settle_time(vp, probe, light["last_event"], light_frames)]
     for k in range(1, args.settles):
         _wait_until(lambda: vp.settled, 10.0)
         drag = _drag(vp, probe, "light", 0.5, step_px=3 * (-1) ** k)
-        light_settles.append(_settle_time(vp, probe, drag["last_event"]))
+        light_settles.append(_settle_time(vp, probe, drag["last_event"], light_frames))
 
     # the same pose, interactive and settled: how far the interactive frame is from the full one
     de_mean, de_p95, inter_scale = _interactive_vs_settled(vp)
@@ -157,6 +159,9 @@ def main(argv: list[str]) -> int:
         "light_drag_fps": round(light["fps"], 1),
         **spread("light_settle_ms", light_settles, 1),
         "settles_timed": len(settles),
+        "settle_frame_ms": round(float(np.median(settle_frames)), 1),
+        "light_settle_frame_ms": round(float(np.median(light_frames)), 1),
+        "light_drag_paintgl_ms": round(float(np.median(light["paint_ms"])), 1),
         "interactive_vs_settled_de2000": round(de_mean, 3),
         "interactive_vs_settled_de2000_p95": round(de_p95, 3),
         "interactive_scale_compared": inter_scale,
@@ -183,8 +188,10 @@ def main(argv: list[str]) -> int:
                 "(the stroke's press) to its frame; settle_ms = from the last input event to the "
                 "full-resolution frame presented (the button is released once the last move's frame is on "
                 "screen; a release settles the view at once), over settles_timed drags: a 3 s orbit, then 0.5 s "
-                "ones; light_settle_ms = the same after key-light drags (Ctrl + left drag: the settled frame "
-                "relights; 1 s, then 0.5 s ones), light_drag_fps the 1 s drag's frames; interactive_vs_settled_de2000 = mean ΔE2000 over skin "
+                "ones; settle_frame_ms = the settled frame's paintGL (median); light_settle_ms = the same after "
+                "key-light drags (Ctrl + left drag: the settled frame relights; 1 s, then 0.5 s ones), "
+                "light_settle_frame_ms its settled frame's paintGL, light_drag_fps and light_drag_paintgl_ms "
+                "the 1 s drag's frames; interactive_vs_settled_de2000 = mean ΔE2000 over skin "
                 "pixels of one pose drawn interactive (scale: interactive_scale_compared) and settled; "
                 "dab_update_ms = the handling of one (coalesced) move event: pick + painting the dabs; "
                 "dab_frame_paintgl_ms = paintGL of a frame while painting, dab_frame_flush_ms its share pushing "
@@ -310,8 +317,11 @@ def _drag(vp: Viewport, probe: _PresentProbe, kind: str, seconds: float, step_px
             "update_ms": update_ms if kind == "paint" else [], "first_ms": first_ms, "last_event": t_end}
 
 
-def _settle_time(vp: Viewport, probe: _PresentProbe, t_last: float) -> float:
-    """Milliseconds from the last input event (``t_last``, perf_counter) to the full frame presented."""
+def _settle_time(vp: Viewport, probe: _PresentProbe, t_last: float, frames_ms: list[float] | None = None) -> float:
+    """Milliseconds from the last input event (``t_last``, perf_counter) to the full frame presented.
+
+    The full frame's paintGL (ms) is appended to ``frames_ms`` when given.
+    """
     from core.errors import SheerError
 
     n = len([p for p in probe.presents if p[0] <= t_last])
@@ -319,6 +329,8 @@ def _settle_time(vp: Viewport, probe: _PresentProbe, t_last: float) -> float:
     settled = next((p for p in probe.presents[n:] if p[6]), None)
     if settled is None:
         raise SheerError("bench studio: the view did not settle within 5 s of the last input")
+    if frames_ms is not None:
+        frames_ms.append(settled[4])
     return (settled[0] - t_last) * 1000.0
 
 

@@ -24,6 +24,7 @@ KEYS = {
     "interactive_scale_cap", "dab_frame_paintgl_ms", "dab_frame_paintgl_ms_p90", "dab_frame_paintgl_ms_max",
     "dab_frame_flush_ms", "dab_frame_flush_ms_p90", "dab_frame_flush_ms_max",
     "settle_ms_p90", "settle_ms_max", "light_settle_ms_p90", "light_settle_ms_max", "settles_timed",
+    "settle_frame_ms", "light_settle_frame_ms", "light_drag_paintgl_ms",
 }
 SERIES = ("orbit_frame_ms", "orbit_paintgl_ms", "dab_to_frame_ms", "dab_update_ms", "settle_ms", "light_settle_ms")
 
@@ -46,6 +47,9 @@ def test_bench_studio_prints_every_key_with_p90_and_max() -> None:
     assert 0 < result["orbit_interactive_scale"] <= result["interactive_scale_cap"] < 1.0
     # the view settled after the last input, and the interactive frame of a pose is close to the settled
     assert result["settle_ms"] > 0 and result["settles_timed"] == 2
+    assert 0 < result["settle_frame_ms"] < result["settle_ms_max"]
+    assert 0 < result["light_settle_frame_ms"] < result["light_settle_ms_max"]
+    assert result["light_drag_paintgl_ms"] > 0
     assert result["light_settle_ms"] > 0 and result["light_drag_fps"] > 0
     assert 0 <= result["interactive_vs_settled_de2000"] <= result["interactive_vs_settled_de2000_p95"]
     assert 0 < result["interactive_scale_compared"] < 1.0
