@@ -3,7 +3,9 @@
 - :data:`SKIN_GAUSSIANS`: the skin diffusion profile as a sum of six Gaussians (d'Eon et al. 2007), used
   as is by the reference mode (Jimenez 2009: one separable blur per Gaussian).
 - :func:`fast_kernel`: the fast mode's pre-integrated separable kernel of that profile (Jimenez 2015).
-- :func:`reference_taps`: how many taps one reference-mode Gaussian pass needs.
+- :func:`reference_taps`: how many taps one reference-mode Gaussian pass needs (sub-texel taps).
+- :func:`integer_radius`, :func:`tent_gaussian_weights`: the reference mode's whole-texel taps and their
+  weights (the Gaussian convolved with the bilinear tent; ``sss_gauss3.frag`` computes the same per pixel).
 
 Units: variances in mm², offsets in mm, ``sigma_texels`` in source texels (pixels of the blurred image).
 """
@@ -47,6 +49,61 @@ def reference_taps(sigma_texels: float) -> int:
     n = int(math.ceil(6.0 * max(sigma_texels, 0.0) * 1.25)) + 1
     n += 1 - n % 2
     return max(5, min(REFERENCE_TAPS, n))
+
+
+#: the widest whole-texel reference Gaussian, in texels either side of the centre; a wider one (zoomed in)
+#: takes :func:`reference_taps` sub-texel taps instead, so a pass's fetches stay bounded
+INTEGER_RADIUS_MAX = 8
+#: how much larger than at the camera's target distance a Gaussian may be on the nearest skin before its
+#: whole-texel taps cut it short of ±3σ (measured: the nearest skin is 1.05× nearer than the target at the
+#: studio's framing, 1.11× at 0.45× the distance; beyond, the texels past the radius hold below 1e-4 of it)
+INTEGER_MARGIN = 1.05
+
+
+def integer_radius(sigma_texels: float) -> int | None:
+    """Whole-texel taps either side of the centre for one reference-mode Gaussian, or None when too wide.
+
+    The Gaussian, truncated at ±3σ and convolved with the bilinear tent, reaches ``ceil(3σ)`` texels;
+    :data:`INTEGER_MARGIN` covers the nearer parts of the face.
+
+    Args:
+        sigma_texels: the Gaussian's standard deviation in texels at the camera's target distance (≥ 0;
+            negative values count as 0).
+
+    Returns:
+        The radius in [1, :data:`INTEGER_RADIUS_MAX`], or None above it (use sub-texel taps).
+    """
+    r = max(1, math.ceil(3.0 * max(sigma_texels, 0.0) * INTEGER_MARGIN))
+    return r if r <= INTEGER_RADIUS_MAX else None
+
+
+def tent_gaussian_weights(sigma_texels: float, radius: int) -> np.ndarray:
+    """The whole-texel weights of a Gaussian of the bilinearly interpolated image (what sss_gauss3.frag computes).
+
+    Sampling an image between its texels interpolates it bilinearly, i.e. convolves the texels with the tent
+    ``max(0, 1 - |x|)``; the Gaussian of that interpolated image, truncated at ±3σ, is therefore a sum over
+    whole texels with weights ``W[d] = ∫_{|x| ≤ 3σ} g(x) tent(x - d) dx``, exactly (in closed form from the
+    antiderivatives of g and x·g).
+
+    Args:
+        sigma_texels: standard deviation in texels (> 0).
+        radius: texels either side of the centre (≥ 1).
+
+    Returns:
+        float64 (2·radius + 1,): the weights of offsets -radius..radius, summing to 1 (normalised).
+    """
+    s = max(float(sigma_texels), 1e-3)
+    x = np.minimum(np.abs(np.arange(-radius - 1, radius + 2, dtype=np.float64)), 3.0 * s)
+    sign = np.sign(np.arange(-radius - 1, radius + 2))
+    e = np.exp(-0.5 * (x / s) ** 2)
+    erf = np.vectorize(math.erf, otypes=[np.float64])
+    cdf = 0.5 + 0.5 * sign * erf(x / (s * math.sqrt(2.0)))  # Φ at the clamped whole texels
+    q = -s / math.sqrt(2.0 * math.pi) * e  # the antiderivative of x·g(x) (even)
+    d = np.arange(-radius, radius + 1, dtype=np.float64)
+    i = np.arange(1, 2 * radius + 2)  # index of offset d in cdf / q
+    w = ((q[i] - q[i - 1]) - (d - 1.0) * (cdf[i] - cdf[i - 1])
+         + (d + 1.0) * (cdf[i + 1] - cdf[i]) - (q[i + 1] - q[i]))
+    return np.asarray(w / w.sum())
 
 
 def fast_kernel(taps: int, width: float = 1.0, exponent: float = 2.0, core_mm: float = 0.0) -> np.ndarray:

@@ -5,7 +5,11 @@
   composite (``w0``).
 - reference (Jimenez 2009): one separable blur per Gaussian of :data:`render.sss.SKIN_GAUSSIANS` after the
   first (which the composite applies as ``w0``), summed with their weights; Gaussians at least 3 pixels
-  wide run on the half-resolution grid unless ``settings.reference_full_resolution``.
+  wide run on the half-resolution grid unless ``settings.reference_full_resolution``. The full-resolution
+  ones run up to three to a pass pair (``sss_gauss3.frag``), on whole-texel taps weighted by the Gaussian
+  convolved with the bilinear tent (:func:`render.sss.tent_gaussian_weights`: exactly the Gaussian of the
+  interpolated image, one fetch per texel for all three in the horizontal pass) where
+  :func:`render.sss.integer_radius` allows, else (zoomed in) on sub-texel taps.
 
 Each pass is a full-screen triangle depth-tested against a mask it never writes (the G-buffer's depth at
 full resolution, ``sss_mask.frag``'s pixel classes at half resolution), so the pixels whose output nothing
@@ -21,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from render.glutil import set_uniform, write_uniform
-from render.sss import SKIN_GAUSSIANS, fast_kernel, reference_taps
+from render.sss import SKIN_GAUSSIANS, fast_kernel, integer_radius, reference_taps
 
 if TYPE_CHECKING:
     import moderngl
@@ -73,6 +77,12 @@ class SSSPasses:
         self._gauss3: dict[tuple[Any, ...], moderngl.Program] = {}
         #: full-resolution reference Gaussians per pass pair (1..3; 3 saves four of six scenes at the studio's framing)
         self.full_per_pass = 3
+        #: full-resolution Gaussians on whole-texel taps where :func:`render.sss.integer_radius` allows
+        #: (sss_gauss3.frag); False: sub-texel taps for all (the quadrature of the same integral)
+        self.integer_taps = True
+        #: a fixed tap count for the full-resolution sub-texel Gaussians instead of
+        #: :func:`render.sss.reference_taps` (None); e.g. 201 with ``integer_taps`` False: a brute-force frame
+        self.subtexel_taps: int | None = None
         self._mask = shaders.program(ctx, "fullscreen_z.vert", "sss_mask.frag")
         self._quads: dict[int, moderngl.VertexArray] = {}
 
@@ -188,15 +198,21 @@ class SSSPasses:
         """Add up to three full-resolution Gaussians (σ mm, RGB weight) into ``t["accum"]`` in two passes.
 
         One horizontal pass into ``tmp``, ``tmp2``, ``tmp3`` and one vertical pass summing them
-        (sss_gauss3.frag). ``clear``: the first group of the frame, which clears ``accum`` (else its sum is added by blending).
+        (sss_gauss3.frag): whole-texel taps for the Gaussians :func:`render.sss.integer_radius` allows (the
+        narrowest, a prefix of the group: σ grows along :data:`render.sss.SKIN_GAUSSIANS`), sub-texel taps
+        for the others. ``clear``: the first group of the frame, which clears ``accum`` (else its sum is added by blending).
         """
         ctx = self.ctx
         w, h = t["accum"].size
-        taps = [reference_taps(sigma / mm_per_px) for sigma, _ in group]
-        defines = {"NG": len(group), **{f"NT{j}": taps[j] if j < len(taps) else 1 for j in range(3)}}
+        radii = [integer_radius(sigma / mm_per_px) if self.integer_taps else None for sigma, _ in group]
+        ni = next((j for j, r in enumerate(radii) if r is None), len(radii))
+        taps = [self.subtexel_taps or reference_taps(sigma / mm_per_px) for sigma, _ in group]
+        defines = {"NG": len(group), "NI": ni, "RI": max((r for r in radii[:ni] if r), default=1),
+                   **{f"NT{j}": taps[j] if ni <= j < len(taps) else 1 for j in range(3)},
+                   **{f"RI{j}": radii[j] if j < ni else 1 for j in range(3)}}
         progs = []
         for vert in (0, 1):
-            key = ("gauss3", vert, *[defines[k] for k in ("NG", "NT0", "NT1", "NT2")])
+            key = ("gauss3", vert, *defines.values())
             if key not in self._gauss3:
                 self._gauss3[key] = self.shaders.program(ctx, "fullscreen_z.vert", "sss_gauss3.frag",
                                                          {**defines, "VERT": vert})
