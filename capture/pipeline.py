@@ -31,6 +31,7 @@ from .phong import (
 )
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
+from .shadow import flash_shadow
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -259,6 +260,14 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
         ambient_rgb = np.zeros(3)
         _log(progress, "no probe: a white flash on the camera axis, no ambient light")
 
+    # The flash's cast shadows (capture/shadow.py): out of the fit, lifted out of the detail, drawn by the model.
+    t = time.perf_counter()
+    shadow = flash_shadow(head, pix.positions, pix.normals, pix.rows, pix.cols, (h, w), light_world)
+    sel &= ~shadow.fit_excluded
+    timings["shadow"] = time.perf_counter() - t
+    _log(progress, f"flash shadow: {int(shadow.shadowed.sum())} pixels ({shadow.intersector} rays), "
+                   f"{int(sel.sum())} skin pixels left")
+
     # Reflectance map.
     t = time.perf_counter()
     colours = photo_lin[pix.rows[sel], pix.cols[sel]]
@@ -313,12 +322,14 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
 
     # Detail texture.
     t = time.perf_counter()
-    detail, valid = bake_detail(head, camera, photo_lin, pix.depth, fitted_shading(p, light_world), texture_size)
+    geo_all = Geometry.from_vectors(pix.normals, pix.view, light_world)
+    detail, valid = bake_detail(head, camera, shadow.lift(photo_lin, pix.rows, pix.cols, p, geo_all, SHADED_FLOOR),
+                                pix.depth, fitted_shading(p, light_world), texture_size)
     timings["detail_texture"] = time.perf_counter() - t
     _log(progress, f"detail texture {texture_size}² baked ({100 * valid.mean():.1f} % of texels seen)")
 
     # Fitted render and reproduction (same pose).
-    geo_all = Geometry.from_vectors(pix.normals, pix.view, light_world)
+    geo_all = shadow.geometry(geo_all)
     fitted = np.zeros_like(photo_lin)
     fitted[pix.rows, pix.cols] = shade(p, geo_all)
     det_px = sample_texture(detail, pix.uv)
