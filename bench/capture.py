@@ -6,7 +6,10 @@ Two sweeps, printed as one JSON object:
   with s ∈ {8, 12, 24, 40, 60}, the camera turned −30°, 0° or +30° about the head's vertical, the flash
   straight above, beside or off-axis (8° from the lens), a different HDR environment for each (its
   irradiance E(n)/π as the ambient light, its mirror ball as the probe) and the camera calibrated from
-  landmarks with 1 px of noise (``--camera given``: the true camera); the capture's relative s and i_s errors |s / s_true − 1| in per cent:
+  landmarks with 1 px of noise (``--camera given``: the true camera), and by default drawn as a camera
+  records it (``--truth photo``: the flash's cast shadows and a sensor with 40 % vignetting in the
+  corners, photon noise at SNR 100 at 0.5 and read noise 0.002, seeded per scene; ``--truth plain``: neither,
+  the figures before the shadows and the sensor); the capture's relative s and i_s errors |s / s_true − 1| in per cent:
   ``s_error_pct`` (the median), ``s_error_pct_p90``, ``s_error_pct_max`` (the worst),
   ``s_within_10pct`` (how many cases), the same for i_s, and every case.
 - **the probe**: random flashes 0.5–3° across (the clipped spot's angular diameter), within 15° of the
@@ -42,6 +45,8 @@ EXPONENTS = (8.0, 12.0, 24.0, 40.0, 60.0)
 YAWS = (-30.0, 0.0, 30.0)
 FLASHES = {"above": (8.0, 0.0), "beside": (0.0, 8.0), "off-axis": (-5.7, 5.7)}
 ENVIRONMENTS = ("city", "lobby", "night", "studio", "sunset", "warehouse")
+#: ``--truth``: how the exponent sweep's photographs are drawn (see the module docstring).
+TRUTHS = ("photo", "plain")
 PROBE_SIZES = (256, 512, 1024)
 #: Further sections of the benchmark: name (for ``--skip``) → ``"module:function"``, the function taking
 #: ``quick`` (bool) and returning a dict of JSON fields (medians with p90 and max, see :mod:`bench.stats`).
@@ -106,24 +111,28 @@ def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PR
             "probe_refusals": refused}
 
 
-def exponent_cases(quick: bool = False, camera: str = "noisy") -> list[tuple[str, Any]]:
+def exponent_cases(quick: bool = False, camera: str = "noisy", truth: str = "photo") -> list[tuple[str, Any]]:
     """The exponent sweep's cases, named.
 
-    ``quick``: every third; ``camera``: as :class:`bench.capture_truth.Case`'s.
+    ``quick``: every third; ``camera``: as :class:`bench.capture_truth.Case`'s; ``truth``: one of
+    :data:`TRUTHS`.
     """
-    from bench.capture_truth import Case
+    from bench.capture_truth import Case, Sensor
 
     cases = []
     for i, (s, yaw, (flash, angles)) in enumerate((s, y, f) for s in EXPONENTS for y in YAWS for f in FLASHES.items()):
         env = ENVIRONMENTS[i % len(ENVIRONMENTS)]
         name = f"s{s:g} yaw {yaw:+g}° flash {flash} {env}"
+        real = truth == "photo"
+        sensor = Sensor(vignetting=0.4, shot=5e-5, read=0.002, seed=i) if real else None
         cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera=camera,
-                                 ambient="irradiance", yaw_deg=yaw)))
+                                 ambient="irradiance", yaw_deg=yaw, sensor=sensor, shadows=real)))
     return cases[::3] if quick else cases
 
 
-def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = "noisy") -> dict[str, Any]:
-    """Capture the cases of :func:`exponent_cases`; the error distribution of s and i_s as a dict.
+def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = "noisy",
+                   truth: str = "photo") -> dict[str, Any]:
+    """Capture the cases of :func:`exponent_cases`; the error distribution of s, i_s and the light as a dict.
 
     ``cases``: that many, spread over the grid (default all).
     """
@@ -135,7 +144,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
     ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     rows = []
     try:
-        grid = exponent_cases(quick, camera)
+        grid = exponent_cases(quick, camera, truth)
         if cases is not None:
             grid = [grid[int(i)] for i in np.linspace(0, len(grid) - 1, min(cases, len(grid)))]
         for name, case in grid:
@@ -147,8 +156,10 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
         ctx.release()
     s_err = [abs(r["s_error_pct"]) for r in rows]
     i_err = [abs(r["i_s_error_pct"]) for r in rows]
-    return {"cases": len(rows), "camera": camera, **spread("s_error_pct", s_err), "s_within_10pct": sum(e <= 10 for e in s_err),
-            **spread("i_s_error_pct", i_err), "exponent_cases": rows}
+    return {"cases": len(rows), "camera": camera, "truth": truth, **spread("s_error_pct", s_err),
+            "s_within_10pct": sum(e <= 10 for e in s_err), **spread("i_s_error_pct", i_err),
+            "i_s_within_10pct": sum(e <= 10 for e in i_err), **spread("light_deg", [r["light_deg"] for r in rows]),
+            "exponent_cases": rows}
 
 
 def main(argv: list[str]) -> int:
@@ -160,6 +171,9 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--cases", type=int, default=None, help="exponent cases, spread over the grid (default all)")
     parser.add_argument("--camera", choices=("noisy", "given"), default="noisy",
                         help="the exponent sweep's camera: from landmarks with 1 px of noise (default) or the true one")
+    parser.add_argument("--truth", choices=TRUTHS, default="photo",
+                        help="the exponent sweep's photographs: with the flash's shadows and a sensor's vignetting and "
+                             "noise (default) or without (the figures before them)")
     parser.add_argument("--skip", choices=("exponent", "probe", *SECTIONS), action="append", default=[],
                         help="leave out a sweep (repeatable)")
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
@@ -176,7 +190,7 @@ def main(argv: list[str]) -> int:
     if "probe" not in args.skip:
         out.update(probe_acceptance(placements))
     if "exponent" not in args.skip:
-        out.update(exponent_sweep(args.quick, args.cases, args.camera))
+        out.update(exponent_sweep(args.quick, args.cases, args.camera, args.truth))
     for name, target in SECTIONS.items():
         if name not in args.skip:
             import importlib

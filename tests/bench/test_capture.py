@@ -18,9 +18,11 @@ def test_sheer_bench_capture_prints_one_json_object(capsys: pytest.CaptureFixtur
     result = json.loads(capsys.readouterr().out)
     for key in ("probe_acceptance", "probe_error_deg_median", "probe_error_deg_max", "probe_refusals",
                 "s_error_pct", "s_error_pct_p90", "s_error_pct_max", "s_within_10pct",
-                "i_s_error_pct", "i_s_error_pct_max", "exponent_cases", "load_average"):
+                "i_s_error_pct", "i_s_error_pct_max", "i_s_within_10pct", "light_deg", "light_deg_p90",
+                "light_deg_max", "exponent_cases", "load_average"):
         assert key in result, key
     assert result["cases"] == 1 and result["probe_placements"] == 2
+    assert result["truth"] == "photo"  # the default: shadows and a sensor
     case = result["exponent_cases"][0]
     assert {"case", "s", "s_error_pct", "i_s_error_pct", "light_deg", "reproduction_de2000"} <= set(case)
 
@@ -28,3 +30,21 @@ def test_sheer_bench_capture_prints_one_json_object(capsys: pytest.CaptureFixtur
 def test_bad_options_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
     assert sheer(["bench", "capture", "--json", "--placements", "0"]) == 2
     assert "--placements and --cases must be" in capsys.readouterr().err
+
+
+def test_the_truth_option_draws_shadows_and_a_sensor_or_neither() -> None:
+    """``--truth photo`` (the default) gives every scene the flash's shadows and a sensor seeded per scene;
+    ``--truth plain`` neither (the figures before them)."""
+    from bench.capture import exponent_cases
+
+    photo = [case for _, case in exponent_cases(truth="photo")]
+    plain = [case for _, case in exponent_cases(truth="plain")]
+    assert len(photo) == len(plain) == 45
+    assert all(c.shadows and c.sensor is not None and c.sensor.vignetting > 0 for c in photo)
+    assert len({c.sensor.seed for c in photo if c.sensor is not None}) == 45
+    assert not any(c.shadows or c.sensor is not None for c in plain)
+
+
+def test_an_unknown_truth_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert sheer(["bench", "capture", "--json", "--truth", "rendered"]) == 2
+    assert "--truth" in capsys.readouterr().err
