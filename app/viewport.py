@@ -399,6 +399,9 @@ class Viewport(QWidget):
         interactive = self.stage == "interactive" and self.debug == 0
         frame_mode = "fast" if self.stage == "settle" and mode == "reference" else mode
         scale = self.refine.scale
+        # the settle frame after a relight draws on the direct path; the lighting cache is rebuilt just after
+        # it, before the next input's frames (render.Renderer.defer_cache)
+        self.renderer.r.defer_cache = self.stage == "settle"
         try:
             drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting.key_light(),
                                         split=self.split, debug=self.debug, mode=frame_mode, ring=ring,
@@ -430,6 +433,8 @@ class Viewport(QWidget):
         self.last_frame_interactive = interactive and drew
         if self.stage == "settle":  # the full fast frame is drawn: the reference frame (if any) next
             self.stage = "final"
+            self.renderer.r.defer_cache = False
+            QTimer.singleShot(0, self._build_deferred_cache)
             if mode == "reference":
                 QTimer.singleShot(0, self.update)
         self.frames += 1
@@ -492,6 +497,20 @@ class Viewport(QWidget):
         self._settle_timer.stop()
         self.stage = "settle"
         self.update()
+
+    def _build_deferred_cache(self) -> None:
+        """Rebuild the lighting cache the settle frame left out of date (between frames, context current)."""
+        if self.renderer is None or self.ctx is None or self._shut:
+            return
+        self.makeCurrent()
+        try:
+            self.renderer.r.build_deferred_cache()
+        except Exception:  # the next full frame rebuilds it anyway; never a traceback here
+            import logging
+
+            logging.getLogger("sheer.app").exception("lighting cache rebuild failed")
+        finally:
+            self.doneCurrent()
 
     def _show_notice(self, hidden: bool) -> None:
         if hidden:

@@ -93,6 +93,11 @@ class Renderer:
         self._irradiances: dict[int, TextureIrradiance] = {self.irradiance.size: self.irradiance}
         self.lighting = TextureLighting(ctx, self.shaders)
         self._bound: tuple[Any, np.ndarray] | None = None  # (irradiance key, irradiance_bound of it)
+        #: a full frame whose cache level is out of date as a whole draws on the direct path and leaves the
+        #: rebuild to :meth:`build_deferred_cache` (the studio's settle frames after a relight: the rebuild
+        #: costs more than the direct path's extra, issue #13); False: the frame rebuilds it
+        self.defer_cache = False
+        self._deferred: tuple[Any, int] | None = None  # (irradiance key, level) left to build_deferred_cache
         self._density = TexelDensity(head.uv, head.vertices, head.faces)  # for the cache's level
         self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
@@ -315,10 +320,10 @@ class Renderer:
                            if not self.lighting.needs_whole(self.irradiance, self.km, lv)]
                 cached = bool(current)
                 level = min(current, key=lambda lv: abs(lv - level)) if current else level
+            elif self.defer_cache and self.lighting.needs_whole(self.irradiance, self.km, level):
+                cached, self._deferred = False, (irr_key, level)
         if cached:
-            if self._bound is None or self._bound[0] != irr_key:
-                self._bound = (irr_key, irradiance_bound(self.lights, env, self.gpu_head.vertices))
-            self.lighting.update(self.km, self.irradiance, self.gpu_head, self._bound[1], level)
+            self._update_cache(irr_key, level)
         elif len(self.km.dirty_tiles) > 4096:  # long unused (direct path, bare skin, debug views)
             self.km.dirty_tiles = []
             self.lighting.invalidate()  # recomputed whole when it is used again
@@ -421,6 +426,24 @@ class Renderer:
         ctx.scissor = None
         fbo.scissor = None
         return self.last
+
+    def _update_cache(self, irr_key: Any, level: int) -> bool:
+        """Bring the lighting cache's ``level`` up to date with the irradiance of ``irr_key``."""
+        if self._bound is None or self._bound[0] != irr_key:
+            self._bound = (irr_key, irradiance_bound(self.lights, self.environment, self.gpu_head.vertices))
+        return self.lighting.update(self.km, self.irradiance, self.gpu_head, self._bound[1], level)
+
+    def build_deferred_cache(self) -> bool:
+        """Rebuild the cache level a :attr:`defer_cache` frame left out of date (call with the context current).
+
+        Only while the full-size irradiance of that frame is still the current one (a light that moved
+        since makes it moot). Returns True if anything was recomputed.
+        """
+        deferred, self._deferred = self._deferred, None
+        if (deferred is None or self.irradiance.size != self.settings.irradiance_size
+                or not self.irradiance.is_current(deferred[0])):
+            return False
+        return self._update_cache(*deferred)
 
     def _display_common(self, prog: moderngl.Program, tonemap: int, debug: int) -> None:
         self._targets["outer"].use(2)

@@ -71,8 +71,10 @@ def _release_settles_at_once(vp: Any, qtbot: Any, button: Qt.MouseButton, pos: Q
     settled = vp.settled_frames
     qtbot.mouseRelease(vp, button, mods, pos)
     assert vp.stage == "settle", "releasing the button must settle the view at once"
+    whole = vp.renderer.r.lighting.full_updates
     _frame_now(vp)  # drawn before the settle timer could have come due
     assert not vp.last_frame_interactive and vp.settled_frames == settled + 1
+    assert vp.renderer.r.lighting.full_updates == whole, "a settle frame never rebuilds the cache whole"
     assert tuple(vp.renderer.r.last.size) == vp.pixel_size()
     assert vp.settled
     qtbot.wait(SETTLE_MS * 3)  # nothing more follows: the timer was stopped, not left to add a frame
@@ -97,8 +99,15 @@ def test_releasing_a_light_drag_settles_and_relights_at_full_resolution(window: 
         pos = _drag(vp, qtbot, Qt.MouseButton.LeftButton, QPoint(vp.width() // 2, vp.height() // 2), 5, ctrl)
         assert vp.lighting.azimuth != az
         assert r.irradiance.size == full // 2, "a moving light is relit at half resolution"
+        whole = r.lighting.full_updates
         _release_settles_at_once(vp, qtbot, Qt.MouseButton.LeftButton, pos, ctrl)
         assert r.irradiance.size == full and r.irradiance.is_current(_irradiance_key(r))
+        # the settle frame drew on the direct path; the lighting cache was rebuilt after it, without a frame
+        assert r.lighting.full_updates == whole + 1 and not r.defer_cache
+        drawn = vp.renderer_frames
+        vp.orbit_by(0.5)  # the next frames fetch the rebuilt cache
+        _frame_now(vp)
+        assert vp.renderer_frames == drawn + 1 and r.lighting.full_updates == whole + 1
     finally:
         vp.lighting.azimuth = az
         vp.refresh()

@@ -121,6 +121,47 @@ def test_a_half_side_relight_never_passes_for_the_full_side_s_cache(renderer: Re
         settled(r)
 
 
+def test_a_deferred_frame_draws_direct_and_the_cache_is_built_after_it(
+        renderer: Renderer, gl_ctx: Any, assert_de2000_close: Callable[..., float]) -> None:
+    """The studio's settle frame after a relight (Renderer.defer_cache): the direct path's frame, no
+    whole rebuild in it; build_deferred_cache rebuilds the level once, and the next frame fetches it."""
+    r = renderer
+    key0 = r.lights[0]
+    settled(r)
+    try:
+        r.lights[0] = Light.directional(25.0, 35.0, 1.5)
+        whole = r.lighting.full_updates
+        r.defer_cache = True
+        deferred = r.render_image(SIZE)
+        r.defer_cache = False
+        assert r.lighting.full_updates == whole, "the deferred frame rebuilt the cache"
+        mask = r.skin_pixel_mask()
+        r.settings.lighting_cache = False
+        try:
+            assert np.array_equal(deferred, r.render_image(SIZE)), "the deferred frame is the direct path's"
+        finally:
+            r.settings.lighting_cache = True
+        assert r.build_deferred_cache() and r.lighting.full_updates == whole + 1
+        assert not r.build_deferred_cache(), "built once"
+        cached = r.render_image(SIZE)
+        assert r.lighting.full_updates == whole + 1, "the next frame fetches the built cache"
+        assert_de2000_close(deferred, cached, mask, 0.5, "deferred-vs-cached")
+        # a light moved since the deferred frame: nothing is built for the old one
+        r.lights[0] = Light.directional(15.0, 35.0, 1.5)
+        r.defer_cache = True
+        r.render_image(SIZE)
+        r.defer_cache = False
+        r.lights[0] = Light.directional(5.0, 35.0, 1.5)
+        r.settings.interactive = True
+        r.render_image(SIZE)
+        r.settings.interactive = False
+        assert not r.build_deferred_cache() and r.lighting.full_updates == whole + 1
+    finally:
+        r.defer_cache = r.settings.interactive = False
+        r.lights[0] = key0
+        settled(r)
+
+
 def test_a_dab_recomputes_only_its_tiles_and_shows(renderer: Renderer, doc: Any, gl_ctx: Any) -> None:
     from painting.tiles import TILE
 
