@@ -1,5 +1,6 @@
 """The reference mode's full-resolution Gaussians run three to a pass pair (sss_gauss3.frag) with the same
-frame as one Gaussian per pass pair: the same taps, and the sum cut to half precision as the blending did."""
+frame as one Gaussian per pass pair: the same taps (whole-texel ones: the pair's widest radius adds zero weights
+but on the nearest skin), and the sum cut to half precision as the blending did."""
 
 from __future__ import annotations
 
