@@ -47,17 +47,20 @@ shadow-beside15-   s 24, turned +30°, flash 15° right, sunset  0.07°   21.90 
 yaw+30             sky, the flash's cast shadows
 shadow-above15-s40 s 40, flash 15° above, night sky, noisy,    1.15°   39.03 (−2.4 %)  0.1658 (−7.9 %)  1.10 0.44
                    cast shadows
-photo-s12-yaw-15-  s 12, turned −15°, flash 8° off-axis, city  0.13°   10.60 (−11.6 %) 0.1499 (−16.7 %) 0.85 0.90
-off-axis           sky, noisy, cast shadows, the sensor above
+photo-s12-yaw-15-  s 12, turned −15°, flash 8° off-axis, city  0.13°   10.57 (−11.9 %) 0.1504 (−16.4 %) 0.93 0.90
+off-axis           sky, noisy, cast shadows, the sky occluded,
+                   the sensor above
 ================== =========================================== ======= =============== ================ ==== ====
 
 The last three have the flash's cast shadows (bench/capture_truth.py draws them with its own shadow map;
-the capture casts its own rays and leaves the shadowed skin out of the fit, capture/shadow.py). Without
+the capture casts its own rays and leaves the shadowed skin out of the fit, capture/shadow.py), the last
+also the sky occluded by the head (per-vertex ambient occlusion, 64 rays, which the capture does not model:
+from the true camera it alone moves s 12 to 11.24 and i_s to −4.7 %, D 0.17). Without
 the shadows drawn the first two give the same figures to 0.1 % (s 21.92, i_s +0.6 %, D 0.85; s 39.02,
 i_s −7.9 %, D 1.11); before the capture cast its rays, a shadowed photograph moved s by up to 2 points
 (turned +30°, the flash 15° beside, city sky, the true camera: −7.4 % without shadows, −9.4 % with). From
 the true camera: s 40 → 39.42 (−1.4 %), i_s −3.3 %,
-D 1.06 for the second; s −6.5 %, i_s −7.5 %, D 0.87 for the third, whose sensor alone costs it (from the true
+D 1.06 for the second; s −6.8 %, i_s −7.3 %, D 0.95 for the third, whose sensor alone costs it (from the true
 camera, each part alone) D 0.09 → 0.88 and i_s −5.0 → −7.1 % with the vignetting (the fit reads the
 darker periphery as darker skin) and the reproduction 0.43 → 0.88 with the noise (which no texture follows;
 s and i_s unmoved by it).
@@ -141,10 +144,11 @@ CASES = {
                                    yaw_deg=30.0, shadows=True),
     "shadow-above15-s40": Case("sample", 40.0, environment="night", light_deg=(15.0, 0.0), camera="noisy",
                                ambient="irradiance", shadows=True),
-    # What a photograph has: shadows, the sensor's vignetting and noise, landmarks with noise.
+    # What a photograph has: shadows, the sky occluded in the creases, the sensor's vignetting and noise,
+    # landmarks with noise.
     "photo-s12-yaw-15-off-axis": Case("sample", 12.0, environment="city", light_deg=(-5.7, 5.7), camera="noisy",
                                       ambient="irradiance", yaw_deg=-15.0, shadows=True,
-                                      sensor=Sensor(vignetting=0.4, shot=5e-5, read=0.002)),
+                                      sensor=Sensor(vignetting=0.4, shot=5e-5, read=0.002), occlusion=True),
 }
 
 
@@ -174,7 +178,7 @@ BOUNDS: dict[str, dict[str, float]] = {
     "sensor-noise-vignetting": {"s": 0.075, "diffuse_de": 0.6, "reproduction_de": 0.95},
     "shadow-beside15-yaw+30": {"light_deg": 0.1, "s": 0.095, "i_s": 0.015, "diffuse_de": 0.9, "reproduction_de": 0.5},
     "shadow-above15-s40": {"light_deg": 1.2, "s": 0.03, "reproduction_de": 0.5},
-    "photo-s12-yaw-15-off-axis": {"light_deg": 0.15, "diffuse_de": 0.9, "reproduction_de": 0.95},
+    "photo-s12-yaw-15-off-axis": {"light_deg": 0.15, "diffuse_de": 0.97, "reproduction_de": 0.95},
 }
 #: Targets missed today: (case, quantity) → the measured figure and the documented limitation.
 MISSED = {
@@ -191,8 +195,8 @@ MISSED = {
                                         "the noisy landmarks without the sensor's noise and vignetting)",
     ("shadow-above15-s40", "i_s"): "i_s 0.1658 for 0.18 (-7.9 %; -3.3 % from the true camera): the landmarks' noise",
     ("shadow-above15-s40", "diffuse_de"): "ΔE2000 1.10 (1.06 from the true camera)",
-    ("photo-s12-yaw-15-off-axis", "s"): "s 10.60 for 12 (-11.6 %; 11.22, -6.5 % from the true camera)",
-    ("photo-s12-yaw-15-off-axis", "i_s"): "i_s 0.1499 for 0.18 (-16.7 %; -7.5 % from the true camera)",
+    ("photo-s12-yaw-15-off-axis", "s"): "s 10.57 for 12 (-11.9 %; 11.18, -6.8 % from the true camera)",
+    ("photo-s12-yaw-15-off-axis", "i_s"): "i_s 0.1504 for 0.18 (-16.4 %; -7.3 % from the true camera)",
 }
 
 
