@@ -109,15 +109,19 @@ class FlashShadow:
 
         ``photo_lin`` (H, W, 3) linear; ``rows``, ``cols``, ``geo``: the covered pixels (unshadowed
         geometry). Each shadowed pixel is multiplied by the model's unshadowed / shadowed value (both
-        unclipped, the shadowed one at least ``floor``), so dividing it by the unshadowed model gives the
-        skin's detail; unbounded above (a detail texture clips it). A copy; the others unchanged.
+        unclipped), so dividing it by the unshadowed model gives the skin's detail; unbounded above (a
+        detail texture clips it). Where the shadowed model is below ``floor`` in every channel (no ambient
+        light: the capture without a probe) the shadow shows nothing of the skin, and the pixel becomes the
+        unshadowed model itself (detail 1, as for the texels the photograph does not see). A copy; the
+        other pixels unchanged.
         """
         out = np.array(photo_lin, dtype=np.float64, copy=True)
         i = np.nonzero(self.shadowed)[0]
         if len(i):
             lit = shade(params, geo.subset(i), clip=False)
             dark = shade(params, self.geometry(geo).subset(i), clip=False)
-            out[rows[i], cols[i]] *= lit / np.maximum(dark, floor)
+            lifted = out[rows[i], cols[i]] * lit / np.maximum(dark, floor)
+            out[rows[i], cols[i]] = np.where((dark < floor).all(axis=1, keepdims=True), lit, lifted)
         return out
 
 

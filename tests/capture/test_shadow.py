@@ -164,3 +164,26 @@ def test_the_sky_is_occluded_in_the_creases_only(gl_ctx: moderngl.Context) -> No
     assert ratio.max() < 1.0 + 2 / 255  # 8-bit rounding at most
     ((x, y),), _ = camera.project(np.array([head.metadata.landmarks["forehead"]]))
     assert occluded_.srgb8[int(y), int(x)].tolist() == open_.srgb8[int(y), int(x)].tolist()
+
+
+def test_the_lift_and_the_shadowed_geometry() -> None:
+    """A shadowed pixel's flash terms are dropped (n·l → 0: the ambient alone); the lift multiplies the
+    photograph by the model's lit ÷ shadowed value, or gives the lit model where no ambient light reaches."""
+    from capture.phong import Geometry, PhongParams, shade
+    from capture.shadow import FlashShadow
+
+    geo = Geometry(n_dot_l=np.array([0.8, 0.8, -0.2]), r_dot_v=np.array([0.99, 0.99, 0.5]))
+    shadow = FlashShadow(shadowed=np.array([False, True, True]), fit_excluded=np.ones(3, bool), intersector="x")
+    params = PhongParams(diffuse=SKIN, specular=0.2, exponent=20.0, ambient_scale=1.0,
+                         ambient_rgb=np.full(3, 0.05))
+    dark = shade(params, shadow.geometry(geo), clip=False)
+    np.testing.assert_allclose(dark[1], SKIN * 0.05)  # the ambient alone
+    np.testing.assert_allclose(dark[2], shade(params, geo, clip=False)[2])  # facing away: as it was
+    photo = np.full((1, 3, 3), 0.02)
+    rows, cols = np.zeros(3, int), np.arange(3)
+    lifted = shadow.lift(photo, rows, cols, params, geo, 1e-3)
+    np.testing.assert_allclose(lifted[0, 0], 0.02)
+    np.testing.assert_allclose(lifted[0, 1], 0.02 * shade(params, geo, clip=False)[1] / (SKIN * 0.05))
+    no_ambient = PhongParams(diffuse=SKIN, specular=0.2, exponent=20.0, ambient_scale=1.0)
+    np.testing.assert_allclose(shadow.lift(photo, rows, cols, no_ambient, geo, 1e-3)[0, 1],
+                               shade(no_ambient, geo, clip=False)[1])
