@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from render.errors import RenderError
+from render.glutil import release_all
 from render.region_overlay import RegionOverlay, region_colour
 from render.renderer import Renderer
 
@@ -40,8 +41,7 @@ def target(_gl_session_ctx: Any) -> Iterator[Any]:
     colour = _gl_session_ctx.texture(SIZE, 4)
     fbo = _gl_session_ctx.framebuffer([colour])
     yield fbo
-    fbo.release()
-    colour.release()
+    release_all(_gl_session_ctx, [fbo, colour])  # re-binds GL's framebuffer when this one is still bound
 
 
 def _frame_with(r: Renderer, fbo: Any, overlay: RegionOverlay | None) -> np.ndarray:
