@@ -52,6 +52,10 @@ class Camera:
         width, height: the photograph's size in pixels.
         reprojection_error_px: RMS reprojection error of the correspondences it was fitted to (pixels),
             or None for a camera given directly.
+        rotation_covariance_deg2: (2, 2) how uncertain the correspondences leave the head's rotation
+            about the camera's x and y axes (degrees², the focal length and translation marginalised;
+            :func:`pose_covariance`), or None for a camera given directly. :mod:`capture.pose` refines
+            those two angles on the photograph and weighs the refinement against it.
     """
 
     K: np.ndarray
@@ -60,6 +64,7 @@ class Camera:
     width: int
     height: int
     reprojection_error_px: float | None = None
+    rotation_covariance_deg2: np.ndarray | None = None
 
     @property
     def P(self) -> np.ndarray:
@@ -114,6 +119,20 @@ class Camera:
         rt[:3, :3] = self.R
         rt[:3, 3] = self.t
         return proj @ rt
+
+    def turned(self, rotvec_camera: np.ndarray, pivot: np.ndarray) -> Camera:
+        """This camera with the scene turned about ``pivot`` (mesh units) by ``rotvec_camera``.
+
+        ``rotvec_camera``: radians, a rotation vector E in camera coordinates; R' = E·R, and t' chosen so
+        ``pivot`` stays where it projects. For a small turn the head's image stays in place (a point at depth d from the pivot moves by about
+        d·|rotvec|) while its normals, the light and the view turn by the angle relative to each other.
+        """
+        E = Rotation.from_rotvec(np.asarray(rotvec_camera, dtype=float)).as_matrix()
+        R2 = E @ self.R
+        t2 = self.t + self.R @ pivot - R2 @ pivot
+        return Camera(K=self.K.copy(), R=R2, t=t2, width=self.width, height=self.height,
+                      reprojection_error_px=self.reprojection_error_px,
+                      rotation_covariance_deg2=self.rotation_covariance_deg2)
 
     def to_json(self) -> dict[str, Any]:
         """K, R, t, P (pixels, mesh units) and the size as JSON lists and numbers (face.json's ``camera``)."""
@@ -275,7 +294,40 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
     K = np.array([[p[0], 0, p[1]], [0, p[0], p[2]], [0, 0, 1.0]])
     R = Rotation.from_rotvec(p[3:6]).as_matrix()
     rms = float(np.sqrt(np.mean(_residuals(p, x, X).reshape(-1, 2) ** 2 @ np.ones(2))))
-    return Camera(K=K, R=R, t=p[6:9].copy(), width=int(width), height=int(height), reprojection_error_px=rms)
+    cam = Camera(K=K, R=R, t=p[6:9].copy(), width=int(width), height=int(height), reprojection_error_px=rms)
+    cam.rotation_covariance_deg2 = pose_covariance(cam, x, X, f_prior)
+    return cam
+
+
+def pose_covariance(camera: Camera, points2d: np.ndarray, points3d: np.ndarray,
+                    f_prior: float | None = None) -> np.ndarray:
+    """How uncertain the correspondences leave the head's rotation about the camera's x and y axes.
+
+    The Gauss–Newton covariance σ²(JᵀJ)⁻¹ of the reprojection error (plus :func:`calibrate`'s focal
+    prior row when ``f_prior`` is given, pixels) at ``camera``, over the scene's rotation about the
+    points' centroid (a rotation vector in camera coordinates), the translation and log f, with σ² the
+    residual variance per coordinate (pixels², 2N − 7 degrees of freedom). Returns the (2, 2) block of
+    the rotation about x and y (degrees²): the two angles a face's nearly planar points leave loose.
+    """
+    x = np.asarray(points2d, dtype=float)
+    X = np.asarray(points3d, dtype=float)
+    pivot = X.mean(axis=0)
+    f0 = float(camera.K[0, 0])
+
+    def residuals(e: np.ndarray) -> np.ndarray:
+        cam = camera.turned(e[:3], pivot)
+        p = np.concatenate([[f0 * np.exp(e[6]), camera.K[0, 2], camera.K[1, 2]],
+                            Rotation.from_matrix(cam.R).as_rotvec(), cam.t + e[3:6]])
+        return _residuals(p, x, X, (camera.K[0, 2], camera.K[1, 2]), f_prior)
+
+    r0 = residuals(np.zeros(7))
+    scale = np.array([1e-5, 1e-5, 1e-5, *(1e-5 * max(1.0, float(np.abs(camera.t).max())),) * 3, 1e-5])
+    J = np.stack([(residuals(np.eye(7)[k] * scale[k]) - residuals(-np.eye(7)[k] * scale[k])) / (2 * scale[k])
+                  for k in range(7)], axis=1)
+    n = 2 * len(x)
+    sigma2 = float(r0[:n] @ r0[:n]) / max(n - 7, 1)
+    cov = np.linalg.pinv(J.T @ J) * sigma2
+    return np.degrees(np.degrees(cov[:2, :2]))
 
 
 def load_points(path: str | Path, width: int, height: int) -> Camera:

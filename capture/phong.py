@@ -315,6 +315,73 @@ def _pixel_box_lobe(lobe: np.ndarray, rows: np.ndarray, cols: np.ndarray, shape:
     return np.where(interior, lobe + lap / 24.0, lobe)
 
 
+class LobeHighPass:
+    """The specular lobe's fit on the high-passed photograph (:func:`specular_from_detail`'s cost).
+
+    Built once per geometry (the skin pixels' ``geo`` for the flash, ``params``' D, k, A, F): per pixel
+    the ratio r = photo / D·L (D·L the fitted diffuse shading) and its high-pass HP(r) at σ = ``sigma_px``
+    pixels (x minus its normalised Gaussian average over the unclipped lit skin pixels ``ok``); for an
+    exponent s, :meth:`residual` gives the weighted residual HP(r) − i_s·HP(q), q = S·F / D·L with S the
+    lobe averaged over the pixel (:func:`_pixel_box_lobe`), and the least-squares i_s (closed form,
+    weights (D·L)², back to photograph units). ``rows``, ``cols``: the pixels' positions in the
+    photograph, in the order of ``photo_rgb`` (P, 3, linear) and ``geo``.
+    """
+
+    def __init__(self, photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
+                 cols: np.ndarray, sigma_px: float = LOBE_HIGH_PASS_PX) -> None:
+        from scipy import ndimage
+
+        self._filter = ndimage.gaussian_filter
+        photo = np.asarray(photo_rgb, dtype=np.float64)
+        self.sigma = max(0.5, float(sigma_px))
+        self.params = params
+        # Work on the skin's bounding box (plus the filter's reach), not the whole photograph.
+        pad = int(np.ceil(4 * self.sigma)) + 1
+        self.rows, self.cols = rows - rows.min() + pad, cols - cols.min() + pad
+        self.shape = (int(self.rows.max()) + 1 + pad, int(self.cols.max()) + 1 + pad)
+        ndl = np.clip(geo.n_dot_l, 0.0, None)
+        self.rdv = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None), 0.0)
+        dl = params.diffuse[None, :] * (params.ambient_scale * params.ambient_rgb[None, :]
+                                        + params.flash_rgb[None, :] * ndl[:, None])
+        self.ok = (photo.max(axis=1) < 0.98) & (geo.n_dot_l > 0) & (dl.min(axis=1) > 1e-6)
+        on_skin = np.zeros(self.shape, dtype=bool)
+        on_skin[self.rows, self.cols] = True
+        self.interior = ndimage.binary_erosion(on_skin)[self.rows, self.cols]
+        weight = np.zeros(self.shape)
+        weight[self.rows[self.ok], self.cols[self.ok]] = 1.0
+        self._wsum = np.maximum(self._filter(weight, self.sigma)[self.rows, self.cols], 1e-12)
+        self._img = np.zeros(self.shape)
+        self.inv_dl = np.where(self.ok[:, None], 1.0 / np.maximum(dl, 1e-6), 0.0)
+        self.hr = self.high_pass(photo * self.inv_dl)
+        self.sqrt_w = np.where(self.ok[:, None], dl, 0.0)
+
+    def high_pass(self, x: np.ndarray) -> np.ndarray:
+        """X (P, C) minus its normalised Gaussian average (σ = :attr:`sigma` px) over the ``ok`` pixels."""
+        out = np.empty_like(x)
+        ok, img = self.ok, self._img
+        for c in range(x.shape[1]):
+            img[:] = 0.0
+            img[self.rows[ok], self.cols[ok]] = x[ok, c]
+            out[:, c] = x[:, c] - self._filter(img, self.sigma)[self.rows, self.cols] / self._wsum
+        return out
+
+    def residual(self, s: float) -> tuple[np.ndarray, float]:
+        """(the weighted residual (P, 3), photograph units; the least-squares i_s) for the exponent s."""
+        lobe = _pixel_box_lobe(self.rdv ** s, self.rows, self.cols, self.shape, self.interior)
+        hq = self.high_pass(lobe[:, None] * self.params.flash_rgb[None, :] * self.inv_dl)
+        whq = self.sqrt_w * hq
+        den = float((whq * whq).sum())
+        if den <= 0:
+            return np.full_like(hq, np.inf), 0.0
+        i_s = float((whq * self.sqrt_w * self.hr).sum()) / den
+        return self.sqrt_w * (self.hr - i_s * hq), i_s
+
+    def solve(self, s: float) -> tuple[float, float]:
+        """(the weighted residual's sum of squares, the least-squares i_s) for the exponent s."""
+        res, i_s = self.residual(s)
+        return float((res * res).sum()), i_s
+
+
 def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
                          cols: np.ndarray, shape: tuple[int, int], fit_exponent: bool = True,
                          sigma_px: float = LOBE_HIGH_PASS_PX) -> DetailSpecular | None:
@@ -347,50 +414,8 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
 
     Returns None when the lobe has no core on unclipped skin (fewer than 20 pixels at half its peak).
     """
-    from scipy import ndimage
-
-    photo = np.asarray(photo_rgb, dtype=np.float64)
-    sigma = max(0.5, float(sigma_px))
-    # Work on the skin's bounding box (plus the filter's reach), not the whole photograph.
-    pad = int(np.ceil(4 * sigma)) + 1
-    rows, cols = rows - rows.min() + pad, cols - cols.min() + pad
-    shape = (int(rows.max()) + 1 + pad, int(cols.max()) + 1 + pad)
-    ndl = np.clip(geo.n_dot_l, 0.0, None)
-    rdv = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None), 0.0)
-    dl = params.diffuse[None, :] * (params.ambient_scale * params.ambient_rgb[None, :]
-                                    + params.flash_rgb[None, :] * ndl[:, None])
-    ok = (photo.max(axis=1) < 0.98) & (geo.n_dot_l > 0) & (dl.min(axis=1) > 1e-6)
-    on_skin = np.zeros(shape, dtype=bool)
-    on_skin[rows, cols] = True
-    interior = ndimage.binary_erosion(on_skin)[rows, cols]
-    weight = np.zeros(shape)
-    weight[rows[ok], cols[ok]] = 1.0
-    wsum = np.maximum(ndimage.gaussian_filter(weight, sigma)[rows, cols], 1e-12)
-    img = np.zeros(shape)
-
-    def high_pass(x: np.ndarray) -> np.ndarray:
-        out = np.empty_like(x)
-        for c in range(x.shape[1]):
-            img[:] = 0.0
-            img[rows[ok], cols[ok]] = x[ok, c]
-            out[:, c] = x[:, c] - ndimage.gaussian_filter(img, sigma)[rows, cols] / wsum
-        return out
-
-    inv_dl = np.where(ok[:, None], 1.0 / np.maximum(dl, 1e-6), 0.0)
-    hr = high_pass(photo * inv_dl)
-    w = np.where(ok[:, None], dl ** 2, 0.0)
-
-    def solve(s: float) -> tuple[float, float]:
-        """(the weighted residual, the least-squares i_s) for the exponent s."""
-        lobe = _pixel_box_lobe(rdv ** s, rows, cols, shape, interior)
-        hq = high_pass(lobe[:, None] * params.flash_rgb[None, :] * inv_dl)
-        den = float((w * hq * hq).sum())
-        if den <= 0:
-            return np.inf, 0.0
-        i_s = float((w * hr * hq).sum()) / den
-        res = hr - i_s * hq
-        return float((w * res * res).sum()), i_s
-
+    lobe_hp = LobeHighPass(photo_rgb, geo, params, rows, cols, sigma_px)
+    solve = lobe_hp.solve
     s = float(params.exponent)
     if fit_exponent:
         grid = np.linspace(0.0, np.log(MAX_EXPONENT), 48)
@@ -399,9 +424,10 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
         lo, hi = grid[max(best - 1, 0)], grid[min(best + 1, len(grid) - 1)]
         s = float(np.exp(minimize_scalar(lambda g: solve(float(np.exp(g)))[0], bounds=(lo, hi),
                                          method="bounded", options={"xatol": 1e-4}).x))
+    ok, rdv = lobe_hp.ok, lobe_hp.rdv
     core = ok & (rdv ** s >= 0.5)
     if core.sum() < 20:
         return None
     _, i_s = solve(s)
-    return DetailSpecular(specular=max(0.0, i_s), exponent=s, sigma_px=sigma,
+    return DetailSpecular(specular=max(0.0, i_s), exponent=s, sigma_px=lobe_hp.sigma,
                           core_radius_px=float(np.sqrt(core.sum() / np.pi)), pixels=int(ok.sum()))

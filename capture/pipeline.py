@@ -29,6 +29,7 @@ from .phong import (
     shade,
     specular_from_detail,
 )
+from .pose import PoseRefinement, refine_rotation
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
 from .shadow import flash_shadow
@@ -192,6 +193,7 @@ class CaptureResult:
     ambient_scale_photo: float | None = None
     specular_joint: float | None = None
     specular_separation: DetailSpecular | None = None
+    pose: PoseRefinement | None = None
 
 def _log(progress: Callable[[str], None] | None, msg: str) -> None:
     if progress is not None:
@@ -200,7 +202,8 @@ def _log(progress: Callable[[str], None] | None, msg: str) -> None:
 
 def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None = None,
             mask: np.ndarray | None = None, texture_size: int = 1024,
-            progress: Callable[[str], None] | None = None, robustness_starts: int = 0) -> CaptureResult:
+            progress: Callable[[str], None] | None = None, robustness_starts: int = 0,
+            refine_pose: bool = True) -> CaptureResult:
     """Run the whole capture.
 
     Args:
@@ -212,8 +215,12 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
         texture_size: the detail texture's side (texels).
         progress: called with one line per step.
         robustness_starts: if > 0, also run the fit from this many random starts (paper: 200).
+        refine_pose: for a camera calibrated from points (one with a ``rotation_covariance_deg2``),
+            turn it to fit the photograph's specular lobe after the first fit (:mod:`capture.pose`),
+            then capture again from the turned camera.
     """
     t_all = time.perf_counter()
+    given_mask = mask
     timings: dict[str, float] = {}
     h, w = photo_lin.shape[:2]
     if (camera.width, camera.height) != (w, h):
@@ -305,6 +312,22 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
         _log(progress, "warning: the specular lobe has no unclipped core on the skin: s from the saturation curve "
                        "and i_s from the joint fit (both read albedo that varies under the lobe as specular)")
     p = fit.params
+    if refine_pose:
+        t = time.perf_counter()
+        pose = _refine_pose(head, photo_lin, camera, pix, sel, R @ light_world, p)
+        t_pose = time.perf_counter() - t
+        if pose is not None:
+            _log(progress, f"camera turned {np.round(pose.turn_deg, 2).tolist()}° about its x and y axes to fit the "
+                           f"specular lobe (the photograph alone: {np.round(pose.photometric_deg, 2).tolist()}°; "
+                           f"± {np.round(pose.sigma_deg, 2).tolist()}°); fitting again")
+            first = time.perf_counter() - t_all
+            result = capture(head, photo_lin, pose.camera, probe, given_mask, texture_size, progress,
+                             robustness_starts, refine_pose=False)
+            result.timings_s["pose"] = t_pose
+            result.timings_s["first_fit"] = first
+            result.timings_s["total"] = time.perf_counter() - t_all
+            result.pose = pose
+            return result
     k_photo = photo_ambient_scale(colours, geo, p)
     timings["phong_fit"] = time.perf_counter() - t
     _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
@@ -345,6 +368,46 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
                          fitted_render=fitted, reproduction=repro, reproduction_de2000_skin=float(de.mean()),
                          probe=probe, timings_s=timings, robustness=rob, ambient_scale_photo=k_photo,
                          specular_joint=specular_joint, specular_separation=sep)
+
+
+#: Rounds of :func:`capture.pose.refine_rotation`, each after rasterising the head again for the camera the
+#: previous one turned. One: a round keeps the pixels' surface points, so it stops short of a large turn
+#: (from the true camera turned 1.9°, one round took it to 1.15°, three to 0.50°), but on a broad lobe
+#: (s 8) the rounds ran away (0.5°, 1.1°, then 3.1° from the landmarks' 0.3°), the lobe's own bias
+#: growing with the turn.
+POSE_ROUNDS = 1
+#: A round that turns the camera by less than this (degrees) ends the refinement: a tenth of the lobe's
+#: own precision at best (0.2–0.5°, :mod:`capture.pose`).
+POSE_SETTLED_DEG = 0.03
+
+
+def _refine_pose(head: Head, photo_lin: np.ndarray, camera: Camera, pix: PixelData, sel: np.ndarray,
+                 light_camera: np.ndarray, params: PhongParams) -> PoseRefinement | None:
+    """:func:`capture.pose.refine_rotation` in rounds (:data:`POSE_ROUNDS`).
+
+    The skin pixels ``sel`` of the first rasterisation ``pix`` are kept as an image mask; the flash
+    towards ``light_camera`` (unit, camera coordinates); the first fit's ``params``. None when the camera
+    is not refined (no covariance).
+    """
+    skin = np.zeros(photo_lin.shape[:2], dtype=bool)
+    skin[pix.rows[sel], pix.cols[sel]] = True
+    pivot = pix.positions[sel].mean(axis=0)
+    pose = None
+    cam = camera
+    for _ in range(POSE_ROUNDS):
+        if pose is not None:
+            pix = pixel_data(head, cam)
+            sel = skin[pix.rows, pix.cols]
+        step = refine_rotation(photo_lin, pix.positions[sel], pix.normals[sel], cam, light_camera, params,
+                               pix.rows[sel], pix.cols[sel], pivot=pivot,
+                               turned_deg=None if pose is None else pose.turn_deg)
+        if step is None:
+            return pose
+        moved = float(np.linalg.norm(step.turn_deg - (0.0 if pose is None else pose.turn_deg)))
+        pose, cam = step, step.camera
+        if moved < POSE_SETTLED_DEG:
+            break
+    return pose
 
 
 def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
