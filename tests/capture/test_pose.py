@@ -33,9 +33,10 @@ def _turn_deg(camera: Camera, truth: Camera) -> np.ndarray:
 
 
 def test_the_covariance_predicts_how_far_noisy_landmarks_turn_the_camera() -> None:
-    """40 draws of 1 px noise on the sample head's 21 landmarks, the validation's camera: the errors
-    divided by the predicted standard deviations have an RMS near 1 about each axis (measured 0.93 and
-    1.01; a covariance off by 2× in σ would give 0.5 or 2)."""
+    """40 draws of 1 px noise on the sample head's 22 landmarks, the validation's camera: the errors
+    divided by the predicted standard deviations have an RMS near 1 about each axis (measured 1.24 and
+    1.08; on the 32 tuning scenes of capture.pose, 1.01 and 1.14; a covariance off by 2× in σ would
+    give 0.5 or 2)."""
     head = load_head()
     names = sorted(set(head.metadata.landmarks) - {"gnathion"})
     X = np.array([head.metadata.landmarks[n] for n in names])
@@ -48,7 +49,7 @@ def test_the_covariance_predicts_how_far_noisy_landmarks_turn_the_camera() -> No
         assert cam.rotation_covariance_deg2 is not None
         z.append(_turn_deg(cam, truth) / np.sqrt(np.diag(cam.rotation_covariance_deg2)))
     rms = np.sqrt(np.mean(np.square(z), axis=0))
-    assert np.all((rms > 0.7) & (rms < 1.4)), rms
+    assert np.all((rms > 0.7) & (rms < 1.45)), rms
 
 
 def test_a_camera_given_directly_is_not_refined() -> None:
