@@ -2,11 +2,11 @@
 
 Landmarks fix the camera only loosely: a face's points are nearly planar and seen almost
 orthographically, so with 1 px of noise on 22 landmarks the head's rotation about the camera's x and y
-axes is uncertain by 0.4–1.5° (:func:`capture.camera.pose_covariance`, which predicts the errors
-measured on GPU-drawn photographs to within 15 %). The probe gives the flash in camera coordinates, so
+axes is uncertain by 0.4–1.5° (:func:`capture.camera.pose_covariance`, whose σ the errors measured
+on GPU-drawn photographs match to within 25 %). The probe gives the flash in camera coordinates, so
 that error turns the flash relative to the head by as much, and the specular lobe — what fixes s and
 i_s — lands on other normals: out of sample it was the error left (s within 10 % in 45 of 45 scenes from
-the true camera, in 35 from the noisy landmarks).
+the true camera, in 35 from the noisy landmarks; 42 with this refinement, README).
 
 The photograph itself says where the lobe is. After the first fit, the head is turned about the skin
 pixels' centroid by a small rotation E (about the camera's x and y axes; the image of the head stays in
@@ -42,9 +42,10 @@ if TYPE_CHECKING:
     from .camera import Camera
 
 #: The high-passed residual's values per independent sample (κ above). Measured on scenes that are not
-#: the validation's (32 GPU-drawn photographs: s 10–50, the head turned −20° to +22°, two other flash
-#: placements, tests/capture/test_pose.py's): the refinement alone from the true camera scatters by
-#: √κ times its least-squares prediction.
+#: the validation's (32 GPU-drawn photographs: s 10, 18, 32, 50, the head turned −20°, −8°, +12°, +22°,
+#: the flash (6°, 3°) and (−3°, 7°) from the lens, their own landmark noise): the photograph's turn alone
+#: (no prior), from the noisy landmarks' cameras, scattered about the truth by √κ times its least-squares
+#: σ at κ = 1 — mean squared z 152 about x and 386 about y; 250 is about their mean.
 RESIDUAL_CORRELATION = 250.0
 #: The largest turn the refinement may make, degrees: four of the landmarks' standard deviations at
 #: their loosest (1.5°, the validation's framing with the head turned 30°).
