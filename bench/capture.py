@@ -6,7 +6,10 @@ Two sweeps, printed as one JSON object:
   with s ∈ {8, 12, 24, 40, 60}, the camera turned −30°, 0° or +30° about the head's vertical, the flash
   straight above, beside or off-axis (8° from the lens), a different HDR environment for each (its
   irradiance E(n)/π as the ambient light, its mirror ball as the probe) and the camera calibrated from
-  landmarks with 1 px of noise (``--camera given``: the true camera), and by default drawn as a camera
+  landmarks with 1 px of noise and, by default (``--focal exif``), the true focal length as a
+  photograph's EXIF stores it — the 35 mm equivalent rounded to whole mm, the rotation and translation
+  still from the noisy points (``--focal none``: the calibration's portrait-lens prior instead;
+  ``--camera given``: the true camera), and by default drawn as a camera
   records it (``--truth photo``: the flash's cast shadows and a sensor with 40 % vignetting in the
   corners, photon noise at SNR 100 at 0.5 and read noise 0.002, seeded per scene; ``--truth plain``: neither,
   the figures before the shadows and the sensor); the capture's relative s and i_s errors |s / s_true − 1| in per cent:
@@ -47,6 +50,8 @@ FLASHES = {"above": (8.0, 0.0), "beside": (0.0, 8.0), "off-axis": (-5.7, 5.7)}
 ENVIRONMENTS = ("city", "lobby", "night", "studio", "sunset", "warehouse")
 #: ``--truth``: how the exponent sweep's photographs are drawn (see the module docstring).
 TRUTHS = ("photo", "plain")
+#: ``--focal``: what the calibration from noisy landmarks knows of the focal length (see ``--help``).
+FOCALS = ("exif", "none")
 PROBE_SIZES = (256, 512, 1024)
 #: Further sections of the benchmark: name (for ``--skip``) → ``"module:function"``, the function taking
 #: ``quick`` (bool) and returning a dict of JSON fields (medians with p90 and max, see :mod:`bench.stats`).
@@ -111,11 +116,12 @@ def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PR
             "probe_refusals": refused}
 
 
-def exponent_cases(quick: bool = False, camera: str = "noisy", truth: str = "photo") -> list[tuple[str, Any]]:
+def exponent_cases(quick: bool = False, camera: str = "noisy", truth: str = "photo",
+                   focal: str = "exif") -> list[tuple[str, Any]]:
     """The exponent sweep's cases, named.
 
-    ``quick``: every third; ``camera``: as :class:`bench.capture_truth.Case`'s; ``truth``: one of
-    :data:`TRUTHS`.
+    ``quick``: every third; ``camera`` and ``focal``: as :class:`bench.capture_truth.Case`'s; ``truth``:
+    one of :data:`TRUTHS`.
     """
     from bench.capture_truth import Case, Sensor
 
@@ -126,12 +132,13 @@ def exponent_cases(quick: bool = False, camera: str = "noisy", truth: str = "pho
         real = truth == "photo"
         sensor = Sensor(vignetting=0.4, shot=5e-5, read=0.002, seed=i) if real else None
         cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera=camera,
-                                 ambient="irradiance", yaw_deg=yaw, sensor=sensor, shadows=real)))
+                                 ambient="irradiance", yaw_deg=yaw, sensor=sensor, shadows=real,
+                                 focal=focal)))
     return cases[::3] if quick else cases
 
 
 def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = "noisy",
-                   truth: str = "photo") -> dict[str, Any]:
+                   truth: str = "photo", focal: str = "exif") -> dict[str, Any]:
     """Capture the cases of :func:`exponent_cases`; the error distribution of s, i_s and the light as a dict.
 
     ``cases``: that many, spread over the grid (default all).
@@ -144,7 +151,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
     ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
     rows = []
     try:
-        grid = exponent_cases(quick, camera, truth)
+        grid = exponent_cases(quick, camera, truth, focal)
         if cases is not None:
             grid = [grid[int(i)] for i in np.linspace(0, len(grid) - 1, min(cases, len(grid)))]
         for name, case in grid:
@@ -156,7 +163,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
         ctx.release()
     s_err = [abs(r["s_error_pct"]) for r in rows]
     i_err = [abs(r["i_s_error_pct"]) for r in rows]
-    return {"cases": len(rows), "camera": camera, "truth": truth, **spread("s_error_pct", s_err),
+    return {"cases": len(rows), "camera": camera, "truth": truth, "focal": focal, **spread("s_error_pct", s_err),
             "s_within_10pct": sum(e <= 10 for e in s_err), **spread("i_s_error_pct", i_err),
             "i_s_within_10pct": sum(e <= 10 for e in i_err), **spread("light_deg", [r["light_deg"] for r in rows]),
             "exponent_cases": rows}
@@ -174,6 +181,9 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--truth", choices=TRUTHS, default="photo",
                         help="the exponent sweep's photographs: with the flash's shadows and a sensor's vignetting and "
                              "noise (default) or without (the figures before them)")
+    parser.add_argument("--focal", choices=FOCALS, default="exif",
+                        help="with --camera noisy: the calibration is given the true focal length as EXIF stores it "
+                             "(FocalLengthIn35mmFilm, whole mm; default) or none (its portrait-lens prior)")
     parser.add_argument("--skip", choices=("exponent", "probe", *SECTIONS), action="append", default=[],
                         help="leave out a sweep (repeatable)")
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
@@ -190,7 +200,7 @@ def main(argv: list[str]) -> int:
     if "probe" not in args.skip:
         out.update(probe_acceptance(placements))
     if "exponent" not in args.skip:
-        out.update(exponent_sweep(args.quick, args.cases, args.camera, args.truth))
+        out.update(exponent_sweep(args.quick, args.cases, args.camera, args.truth, args.focal))
     for name, target in SECTIONS.items():
         if name not in args.skip:
             import importlib

@@ -403,6 +403,9 @@ class Case:
         sensor: the camera's vignetting and noise (:class:`Sensor`), or None for neither.
         shadows: the flash's cast shadows drawn (:func:`render_photo`).
         occlusion: the ambient occluded by the head (:func:`ambient_visibility`).
+        focal: for "clicks"/"noisy", "exif" (the calibration is given the true camera's focal length as
+            a photograph's EXIF gives it: FocalLengthIn35mmFilm rounded to whole mm, :mod:`capture.exif`)
+            or "none" (the calibration's portrait-lens prior).
     """
 
     head: str
@@ -419,6 +422,7 @@ class Case:
     sensor: Sensor | None = None
     shadows: bool = False
     occlusion: bool = False
+    focal: str = "none"
 
 
 class Figures(NamedTuple):
@@ -515,11 +519,17 @@ def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:
         # Seeded by the case's repr; without a sensor, as it read before Case had that field (the figures
         # measured then, in tests/capture/test_out_of_sample.py and the README, stand); never with the
         # shadows or the occlusion (a case with and without them has the same landmarks, so they compare).
-        key = re.sub(r", (shadows|occlusion)=(True|False)", "", repr(case))
+        key = re.sub(r", (shadows|occlusion)=(True|False)|, focal='\w+'", "", repr(case))
         key = key if case.sensor is not None else key.replace(", sensor=None", "")
         rng = np.random.default_rng(zlib.crc32(key.encode()))
         pixels = pixels + rng.normal(0.0, case.noise_px, pixels.shape)
-    return calibrate(pixels, points3d, camera.width, camera.height)
+    focal_px = None
+    if case.focal == "exif":  # what the file would say: the 35 mm equivalent in whole mm
+        from capture.exif import focal_35mm_from_px, focal_px_from_35mm
+
+        f35 = round(focal_35mm_from_px(float(camera.K[0, 0]), camera.width, camera.height))
+        focal_px = focal_px_from_35mm(f35, camera.width, camera.height)
+    return calibrate(pixels, points3d, camera.width, camera.height, focal_px=focal_px)
 
 
 @dataclass

@@ -20,6 +20,11 @@ draws the landmarks. Photos over 1600 px on the longer side are downscaled (said
   see docs/CAPTURE.md); without it, a white flash on the camera axis and no ambient light are assumed.
   ``--probe-reflectance R`` (0 < R ≤ 1, default 1: a perfect mirror) is the ball's reflectance: a chrome
   ball reflects about 0.5–0.7, and the ambient light is the ball's mean divided by it.
+- ``--focal-mm F35``: with ``--points``, the lens's 35 mm-equivalent focal length (mm, 4–2000; over the
+  diagonal, as EXIF's FocalLengthIn35mmFilm). Without it, the photograph's own EXIF focal length is used
+  when its file has one (FocalLengthIn35mmFilm, or FocalLength with the sensor's resolution; an unusable
+  tag is ignored with a warning), else a portrait-lens prior (2 × the longer side in pixels). A known
+  focal length fixes the camera's distance, so the landmarks' noise moves the rotation about half as much.
 - ``--mask PATH``: a painted skin mask (white = skin) of the photograph's size; without it, the mask is
   computed from the head's landmarks and a skin-colour model.
 
@@ -57,6 +62,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--probe", metavar="PATH", help="mirror-ball photograph, cropped to the ball")
     p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
                    help="the ball's reflectance, 0 < R ≤ 1 (default 1, a perfect mirror; chrome ≈ 0.5–0.7)")
+    p.add_argument("--focal-mm", type=float, default=None, metavar="F35",
+                   help="with --points: the 35 mm-equivalent focal length in mm (4–2000, over the diagonal; "
+                        "default: the photo's EXIF if it has one, else a portrait-lens prior)")
     p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
     p.add_argument("--texture-size", type=int, default=None, metavar="N",
                    help="detail texture side (texels; default 1024, automatic 512: its face is at most 280 px tall)")
@@ -84,6 +92,9 @@ def run(args: argparse.Namespace) -> int:
         raise CaptureError(f"--starts must be ≥ 0, got {args.starts}")
     if not 0.0 < args.probe_reflectance <= 1.0:  # NaN fails too
         raise CaptureError(f"--probe-reflectance must be in (0, 1], got {args.probe_reflectance}")
+    if args.focal_mm is not None and not args.points:
+        raise CaptureError("--focal-mm is for a capture with --points (a projection matrix holds its own focal "
+                           "length; the automatic capture does not use one yet)")
     if args.probe_reflectance != 1.0 and not args.probe:
         raise CaptureError("--probe-reflectance needs --probe (the mirror ball it describes)")
 
@@ -103,8 +114,18 @@ def run(args: argparse.Namespace) -> int:
         camera = load_camera(args.camera, w, h)
         say("camera from the projection matrix")
     else:
-        camera = load_points(args.points, w, h)
-        say(f"camera from correspondences: RMS reprojection error {camera.reprojection_error_px:.2f} px")
+        from capture.exif import exif_focal_px, focal_35mm_from_px, focal_px_from_35mm
+
+        if args.focal_mm is not None:
+            focal_px, origin = focal_px_from_35mm(args.focal_mm, w, h), "--focal-mm"
+        else:
+            focal_px, origin = exif_focal_px(args.photo, warn=say), "the photo's EXIF"
+        if focal_px is not None:
+            say(f"focal length from {origin}: {focal_35mm_from_px(focal_px, w, h):.1f} mm (35 mm equivalent), "
+                f"{focal_px:.0f} px")
+        camera = load_points(args.points, w, h, focal_px=focal_px)
+        say(f"camera from correspondences: RMS reprojection error {camera.reprojection_error_px:.2f} px, "
+            f"focal length {camera.K[0, 0]:.0f} px")
     probe = None
     if args.probe:
         probe = analyse_probe(read_photo(args.probe), source=args.probe, reflectance=args.probe_reflectance)
