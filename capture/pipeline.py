@@ -275,13 +275,7 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     _log(progress, f"flash shadow: {int(shadow.shadowed.sum())} pixels ({shadow.intersector} rays), "
                    f"{int(sel.sum())} skin pixels left")
 
-    # Reflectance map.
-    t = time.perf_counter()
     colours = photo_lin[pix.rows[sel], pix.cols[sel]]
-    normals_cam_all = pix.normals @ R.T
-    rmap = build_reflectance_map(normals_cam_all[sel], colours)
-    timings["reflectance_map"] = time.perf_counter() - t
-    _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
 
     # Exponent.
     t = time.perf_counter()
@@ -333,6 +327,13 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
                    f"ambient scale {p.ambient_scale:.3f} (the probe's photometry; the photograph alone would "
                    f"choose {'—' if k_photo is None else f'{k_photo:.3f}'}); residual {fit.rms_luv:.2f} Luv per pixel")
+    # The paper's reflectance map (kept in the result), built once the camera is final: a capture refitted
+    # from a turned camera above builds it there instead.
+    t = time.perf_counter()
+    rmap = build_reflectance_map((pix.normals @ R.T)[sel], colours)
+    timings["reflectance_map"] = time.perf_counter() - t
+    _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
+
     rob = None
     if robustness_starts > 0:
         from .phong import robustness
