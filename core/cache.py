@@ -18,6 +18,8 @@ matrices, parsed meshes) lives in one folder per kind under :func:`cache_root` a
   the shared cache. While one is open, every write of this process goes to a temporary folder (mode
   0700) removed when it closes; reads fall back to the shared cache, which the private session never
   changes.
+- **Code in the key** (:func:`source_digest`): a cache whose entries are computed by code (a look's painted
+  maps, derived regions, a mask recipe's values) puts a digest of that code's source files in its keys.
 
 A cache is an optimisation only: failing to write an entry is never an error.
 """
@@ -25,6 +27,8 @@ A cache is an optimisation only: failing to write an entry is never an error.
 from __future__ import annotations
 
 import contextlib
+import functools
+import hashlib
 import logging
 import math
 import os
@@ -38,7 +42,7 @@ from typing import TYPE_CHECKING, Any
 from core.cache_entry import DamagedEntry, read_entry, write_entry
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
+    from collections.abc import Iterable, Mapping
 
     import numpy as np
 
@@ -384,6 +388,50 @@ def load_array(path: Path, version: int | str = 0) -> np.ndarray | None:
     """The array :func:`save_array` stored at ``path``, or None (see :func:`load_arrays`)."""
     arrays = load_arrays(path, version)
     return None if arrays is None or "data" not in arrays else arrays["data"]
+
+
+# ---------------------------------------------------------------------------------------------- code digests
+
+
+def source_digest(files: Iterable[str | os.PathLike[str]]) -> str:
+    """A SHA-256 hex digest (64 characters) of the source files that compute a cached value, for its key.
+
+    A cache whose entries are made by code puts this in its key, so an entry is never reused after that
+    code changed (e.g. a look's painted maps after a change of the stroke engine). Each file counts by
+    its name (not its folder), its length and its bytes, in the order given; a missing file (a
+    bytecode-only install) counts as its name and a marker, so the digest still exists.
+
+    Memoised per list of files for the life of the process: the code that runs is the code that was
+    imported, so later edits of the files on disk are not seen (:func:`forget_source_digests` forgets,
+    for tests).
+
+    Args:
+        files: The source files, usually beside the caller (``Path(__file__).with_name("mask.py")``).
+
+    Returns:
+        The hex digest.
+    """
+    return _source_digest(tuple(os.fspath(f) for f in files))
+
+
+@functools.cache
+def _source_digest(files: tuple[str, ...]) -> str:
+    h = hashlib.sha256()
+    for name in files:
+        path = Path(name)
+        try:
+            data = path.read_bytes()
+        except OSError:
+            h.update(f"{path.name}|-|".encode())
+            continue
+        h.update(f"{path.name}|{len(data)}|".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
+def forget_source_digests() -> None:
+    """Forget the memoised :func:`source_digest` results (for tests that edit a source file)."""
+    _source_digest.cache_clear()
 
 
 # ---------------------------------------------------------------------------------------------- private

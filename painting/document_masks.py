@@ -7,6 +7,7 @@ the layer's id with the touched tiles (so only those tiles are uploaded again).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -38,6 +39,9 @@ if TYPE_CHECKING:
 
 #: Bump when the cached derived regions' format changes.
 _REGIONS_CACHE_VERSION = 1
+#: The code that derives the regions: a change of it is a new entry (:func:`core.cache.source_digest`).
+_REGIONS_SOURCES: tuple[Path, ...] = (Path(__file__).with_name("regions.py"),
+                                      Path(__file__).with_name("region_shapes.py"))
 
 
 class MaskEditing:
@@ -71,23 +75,12 @@ class MaskEditing:
         """The head's regions derived on its layout, through the cache (the ``looks`` kind).
 
         Always as stored (8-bit, :func:`painting.regions.encode_regions`), so the first use and later
-        ones paint the same. Keyed by the layout, the head's metadata, albedo and skin mask, and the
-        deriving code.
+        ones paint the same.
         """
-        import hashlib
-        import json
-        from pathlib import Path
-
-        from core.cache import cache_dir, load_arrays, save_arrays
+        from core.cache import load_arrays, save_arrays
         from painting.regions import decode_regions, encode_regions
 
-        h = hashlib.sha256(f"{self.layout.key}|{self.layout.source}|".encode())
-        h.update(json.dumps(self.head.metadata.to_json(), sort_keys=True).encode())
-        for image in (self.head.albedo, self.head.skin_mask):
-            h.update(b"-" if image is None else np.ascontiguousarray(image).tobytes())
-        for module in ("regions.py", "region_shapes.py"):
-            h.update((Path(__file__).resolve().parent / module).read_bytes())
-        path = cache_dir("looks") / f"regions-{h.hexdigest()[:32]}.cache"
+        path = self._regions_cache_path()
         cached = load_arrays(path, _REGIONS_CACHE_VERSION)
         if cached is not None and "png" in cached:
             try:
@@ -100,6 +93,24 @@ class MaskEditing:
         blob = encode_regions(derived)
         save_arrays(path, {"png": np.frombuffer(blob, np.uint8)}, _REGIONS_CACHE_VERSION)
         return decode_regions(blob, "derived regions", self.head.name)
+
+    def _regions_cache_path(self) -> Path:
+        """The cache entry of the derived regions (the ``looks`` kind).
+
+        Keyed by the layout, the head's metadata, albedo and skin mask, and the deriving code
+        (:data:`_REGIONS_SOURCES`).
+        """
+        import hashlib
+        import json
+
+        from core.cache import cache_dir, source_digest
+
+        h = hashlib.sha256(f"{self.layout.key}|{self.layout.source}|".encode())
+        h.update(json.dumps(self.head.metadata.to_json(), sort_keys=True).encode())
+        for image in (self.head.albedo, self.head.skin_mask):
+            h.update(b"-" if image is None else np.ascontiguousarray(image).tobytes())
+        h.update(source_digest(_REGIONS_SOURCES).encode())
+        return cache_dir("looks") / f"regions-{h.hexdigest()[:32]}.cache"
 
     def region_values(self, name: str, resolution: int) -> np.ndarray:
         """Region ``name`` at ``resolution``² texels (float32 [0, 1]); :class:`DocumentError` naming it if absent."""

@@ -265,27 +265,13 @@ def _save_ray_cache(path: Path, entries: dict[bytes, np.ndarray]) -> None:
 
 
 #: Bump when a look's painted maps change for the same strokes (the painting code's own source is part
-#: of the key too, see :func:`_code_digest`).
+#: of the key too, see :data:`_MAPS_SOURCES`).
 _MAPS_CACHE_VERSION = 1
-_CODE_DIGEST: str | None = None
-
-
-def _code_digest() -> str:
-    """A digest of the painting modules whose code decides what a stroke paints.
-
-    A cached look is never reused after any of them changed.
-    """
-    global _CODE_DIGEST
-    if _CODE_DIGEST is None:
-        h = hashlib.sha256()
-        folder = Path(__file__).resolve().parent
-        for name in ("brush.py", "document.py", "layer.py", "stroke.py", "spatial.py", "kernels.py",
-                     "layout.py", "atlas.py", "history.py", "raster.py", "looks.py", "regions.py",
-                     "region_shapes.py", "mask.py", "document_masks.py"):
-            f = folder / name
-            h.update(name.encode() + (f.read_bytes() if f.is_file() else b"-"))
-        _CODE_DIGEST = h.hexdigest()
-    return _CODE_DIGEST
+#: The painting modules whose code decides what a stroke paints: a cached look is never reused after
+#: any of them changed (:func:`core.cache.source_digest`).
+_MAPS_SOURCES: tuple[Path, ...] = tuple(Path(__file__).with_name(name) for name in (
+    "brush.py", "document.py", "layer.py", "stroke.py", "spatial.py", "kernels.py", "layout.py", "atlas.py",
+    "history.py", "raster.py", "looks.py", "regions.py", "region_shapes.py", "mask.py", "document_masks.py"))
 
 
 def _maps_cache_path(doc: Document, look: Look, points: list[list[list[np.ndarray]]]) -> Path | None:
@@ -294,13 +280,14 @@ def _maps_cache_path(doc: Document, look: Look, points: list[list[list[np.ndarra
     Keyed by the paint layout, the layers' resolution, the materials' maximum and default thickness,
     every stroke's brush and resolved surface points, the mirror plane and the painting code.
     """
+    from core.cache import source_digest
     from painting.document import Document
 
     if not isinstance(doc, Document) or type(doc).add_layer is not Document.add_layer:
         return None
     h = hashlib.sha256()
     md = doc.head.metadata
-    h.update(f"{doc.layout.key}|{doc.resolution}|{_code_digest()}|{md.midplane_point}|{md.midplane_normal}".encode())
+    h.update(f"{doc.layout.key}|{doc.resolution}|{source_digest(_MAPS_SOURCES)}|{md.midplane_point}|{md.midplane_normal}".encode())
     for lay, lay_points in zip(look.layers, points):
         mat = doc.library.get(lay.material)  # a stroke without amount_um adds the material's default
         h.update(f"|{lay.material}|{float(mat.max_thickness_um)!r}|{getattr(mat, 'default_thickness_um', None)!r}"

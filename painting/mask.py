@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -123,23 +124,19 @@ def recipe_values(mask: LayerMask, regions: RegionSet, resolution: int, texel_mm
 
 #: the cached recipe masks' format (:func:`recipe_values`)
 _RECIPE_CACHE_VERSION = 1
-_RECIPE_CODE: list[str] = []
+#: The code that computes a recipe's values: a change of it is a new entry (:func:`core.cache.source_digest`).
+_RECIPE_SOURCES: tuple[Path, ...] = (Path(__file__).with_name("mask.py"), Path(__file__).with_name("regions.py"))
 
 
 def _recipe_cache_path(mask: LayerMask, regions: RegionSet, resolution: int, texel_mm: float) -> Any:
     """The cache entry of a recipe's values: a digest of everything :func:`_recipe_values` reads."""
     import hashlib
     import json
-    from pathlib import Path
 
-    from core.cache import cache_dir
+    from core.cache import cache_dir, source_digest
 
-    if not _RECIPE_CODE:  # the code that computes the values: a change of it is a new entry
-        folder = Path(__file__).resolve().parent
-        _RECIPE_CODE.append(hashlib.sha256(b"".join((folder / f).read_bytes() for f in ("mask.py", "regions.py")))
-                            .hexdigest())
     h = hashlib.blake2b(digest_size=20)
-    h.update(f"{_RECIPE_CODE[0]}|{int(resolution)}|{float(texel_mm)!r}|{json.dumps(mask.to_json())}".encode())
+    h.update(f"{source_digest(_RECIPE_SOURCES)}|{int(resolution)}|{float(texel_mm)!r}|{json.dumps(mask.to_json())}".encode())
     for name in dict.fromkeys(name for _, name in mask.regions):
         m = np.ascontiguousarray(regions.get(name).mask)
         h.update(f"|{name}|{m.dtype.str}|{m.shape}|".encode())

@@ -308,3 +308,40 @@ def test_two_processes_baking_at_once_share_one_good_entry(_own_cache: Path) -> 
     cached = bake(sample_layout(), 512, cache=True)
     np.testing.assert_array_equal(cached.position, truth.position)
     assert not [p for p in _own_cache.rglob(".*")]
+
+
+def test_source_digest_follows_the_bytes_and_names_of_the_files(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.py", tmp_path / "b.py"
+    a.write_text("x = 1\n")
+    b.write_text("y = 2\n")
+    cache.forget_source_digests()
+    first = cache.source_digest((a, b))
+    assert len(first) == 64 and first == cache.source_digest([str(a), str(b)])
+    assert cache.source_digest((b, a)) != first  # the order given
+    a.write_text("x = 2\n")
+    assert cache.source_digest((a, b)) == first  # memoised for the life of the process
+    cache.forget_source_digests()
+    edited = cache.source_digest((a, b))
+    assert edited != first
+    other = tmp_path / "other"
+    other.mkdir()
+    shutil.copy(a, other / "a.py")
+    shutil.copy(b, other / "b.py")
+    assert cache.source_digest((other / "a.py", other / "b.py")) == edited  # names and bytes, not folders
+    (other / "b.py").rename(other / "c.py")
+    assert cache.source_digest((other / "a.py", other / "c.py")) != edited  # a renamed module
+    ab = tmp_path / "ab.py"
+    ab.write_text("x = 2\ny = 2\n")
+    assert cache.source_digest((ab,)) != edited  # files are not merely concatenated
+
+
+def test_source_digest_of_a_missing_file_is_not_an_empty_one(tmp_path: Path) -> None:
+    empty, gone = tmp_path / "m.py", tmp_path / "sub" / "m.py"
+    empty.write_bytes(b"")
+    cache.forget_source_digests()
+    missing = cache.source_digest((gone,))
+    assert missing != cache.source_digest((empty,))
+    gone.parent.mkdir()
+    gone.write_bytes(b"")
+    cache.forget_source_digests()
+    assert cache.source_digest((gone,)) == cache.source_digest((empty,))
