@@ -23,6 +23,7 @@ from render.km_pass import MAX_LAYERS, KMTextureSpace
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights, upload_lights
 from render.lit_cache import MAX_LEVEL as MAX_CACHE_LEVEL
 from render.lit_cache import TexelDensity, TextureLighting, irradiance_bound, level_for
+from render.lit_pass import U_SHADOW, LitPass, cull
 from render.settings import DEBUG_VIEWS, RenderSettings
 from render.shaders import ShaderLibrary
 from render.sss_passes import SSSPasses
@@ -38,14 +39,6 @@ if TYPE_CHECKING:
 #: Frame target sets kept (by size): the interactive and the full-resolution frame, and one more for a
 #: resize or a scale change in between.
 KEPT_TARGET_SIZES = 3
-
-# texture units of the lit pass
-_U_KM, _U_SPEC0, _U_THICK, _U_SHADOW, _U_LIT, _U_SPEC1, _U_IRR = 4, 8, 9, 17, 18, 24, 25
-
-
-#: colour masks of the G-buffer's three targets: the clear writes the diffuse only, the lit pass all three
-_DIFFUSE_ONLY = ((True,) * 4, (False,) * 4, (False,) * 4)
-_ALL_THREE = ((True,) * 4,) * 3
 
 
 @dataclass
@@ -99,7 +92,7 @@ class Renderer:
         self.defer_cache = False
         self._deferred: tuple[Any, int] | None = None  # (irradiance key, level) left to build_deferred_cache
         self._density = TexelDensity(head.uv, head.vertices, head.faces)  # for the cache's level
-        self._frame_programs: dict[tuple[int, ...], moderngl.Program] = {}
+        self.lit = LitPass(ctx, self.shaders, self.gpu_head, self.km, head.skin_mask is not None)
         self.sss = SSSPasses(ctx, self.shaders, self.gpu_head.mm_per_unit)
         self._composites: dict[tuple[int, int], moderngl.Program] = {}
         self._baseline: moderngl.Program | None = None
@@ -193,27 +186,6 @@ class Renderer:
         self._size = size
 
     # -- programs ---------------------------------------------------------------------------------
-    def _frame_program(self, n: int, lights: int, makeup: bool = True, debug: bool = True,
-                       cached: bool = False) -> moderngl.Program:
-        """The lit pass for ``n`` layers and ``lights`` lights (both loops unroll at compile time).
-
-        Makeup, debug views, the head's optional maps, which lights cast shadows and which are point
-        lights are compiled in or out: llvmpipe executes both sides of a branch, so a uniform switch
-        would not save their texture fetches or maths.
-        """
-        gh = self.gpu_head
-        shadowed = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.shadows)
-        points = sum(1 << i for i, lt in enumerate(self.lights[:lights]) if lt.kind != "directional")
-        key = (n, lights, int(makeup), int(debug), shadowed, points, int(cached))
-        if key not in self._frame_programs:
-            self._frame_programs[key] = self.shaders.program(
-                self.ctx, "mesh.vert", "frame.frag",
-                {"NL": n, "NLIGHTS": lights, "MAKEUP": int(makeup), "DEBUG": int(debug), "CACHED": int(cached),
-                 "SHADOWED": shadowed, "POINT_LIGHTS": points,
-                 "HAS_SPEC_MAP": int(gh.has_specular_map), "HAS_ROUGH_MAP": int(gh.has_roughness_map),
-                 "HAS_SKIN_MASK": int(self.head.skin_mask is not None)})
-        return self._frame_programs[key]
-
     def _irradiance_at(self, size: int) -> TextureIrradiance:
         """The texture-space irradiance of side ``size`` (texels), made on first use and kept."""
         if size not in self._irradiances:
@@ -297,8 +269,8 @@ class Renderer:
         self.irradiance = self._irradiance_at(size)
 
         def setup_irradiance(p: moderngl.Program) -> None:
-            self.shadows.texture.use(_U_SHADOW)
-            self._set(p, "u_shadow", _U_SHADOW)
+            self.shadows.texture.use(U_SHADOW)
+            self._set(p, "u_shadow", U_SHADOW)
             self._set(p, "u_normal_strength", float(s.normal_strength))
             self._upload_lights(p)
 
@@ -327,68 +299,8 @@ class Renderer:
         elif len(self.km.dirty_tiles) > 4096:  # long unused (direct path, bare skin, debug views)
             self.km.dirty_tiles = []
             self.lighting.invalidate()  # recomputed whole when it is used again
-        prog = self._frame_program(n, len(self.lights), s.makeup and n > 0, debug_on, cached)
-        gb = self._targets["gbuffer"]
-        # only the diffuse (read around the head by the SSS taps, the mask and the composite) and the depth
-        # are cleared: outer and factor are read only where the diffuse says the head is, which this pass
-        # writes (a third of the clear's cost). Cleared through the G-buffer itself with the other two
-        # masked, so that clear and draw are one llvmpipe scene (a framebuffer change ends a scene).
-        gb.color_mask = _DIFFUSE_ONLY
-        gb.use()
-        gb.viewport = (0, 0, w, h)
-        gb.scissor = None
-        ctx.scissor = None
-        gb.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        gb.color_mask = _ALL_THREE
-        gb.use()
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
-        self._cull(True)
-        self.gpu_head.bind_textures(0)
-        self.km.bind(_U_KM)
-        self.km.bind_spec(_U_SPEC0, _U_SPEC1)
-        for slot in range(n):
-            self.km.thickness_textures[slot].use(_U_THICK + slot)
-        for j, tex in enumerate(self.irradiance.textures):
-            tex.use(_U_IRR + j)
-        if cached:
-            self.lighting.bind(_U_LIT)
-        units = {"u_albedo": 0, "u_normal_map": 1, "u_spec_map": 2, "u_rough_map": 3, "u_rtop": _U_KM,
-                 "u_trans": _U_KM + 1, "u_rbottom": _U_KM + 2, "u_spec0": _U_SPEC0, "u_spec1": _U_SPEC1,
-                 "u_irr": _U_IRR, "u_vis0": _U_IRR + 1, "u_vis1": _U_IRR + 2, "u_lit_diffuse": _U_LIT,
-                 "u_lit_outer": _U_LIT + 1, "u_lit_factor": _U_LIT + 2, "u_lit_trans": _U_LIT + 3,
-                 "u_lit_spec": _U_LIT + 4}
-        for name, unit in units.items():
-            self._set(prog, name, unit)
-        if n and "u_layer_thick" in prog:
-            u = prog["u_layer_thick"]
-            u.value = list(range(_U_THICK, _U_THICK + u.array_length)) if u.array_length > 1 else _U_THICK
-        self._write(prog, "u_view_proj", view_proj.T.reshape(1, 16))
-        self._write(prog, "u_view", view.T.reshape(1, 16))
-        self._set(prog, "u_eye", tuple(float(x) for x in self.camera.eye()))
-        self._set(prog, "u_normal_strength", float(s.normal_strength))
-        self._set(prog, "u_skin_roughness", float(s.skin_roughness))
-        self._set(prog, "u_skin_f0", float(s.skin_f0))
-        self._set(prog, "u_spec_intensity", float(s.spec_intensity))
-        self._set(prog, "u_makeup_on", 1.0 if s.makeup and n > 0 else 0.0)
-        if cached:
-            self._set(prog, "u_lit_scale", tuple(float(x) for x in self.lighting.scale))
-        gh = self.gpu_head
-        self._set(prog, "u_has_maps", (int(gh.has_specular_map), int(gh.has_roughness_map),
-                                       int(self.head.skin_mask is not None)))
-        self._set(prog, "u_debug", DEBUG_VIEWS[s.debug_view])
-        self._set(prog, "u_debug_layer", int(s.debug_layer))
-        self._write(prog, "u_layer_spec", self.km.layer_spec)
-        self._write(prog, "u_layer_inv_m2", 1.0 / np.maximum(self.km.layer_spec[:, 0], 0.05) ** 2)
-        self._write(prog, "u_lut_max", self._lut_max)
-        opac = np.zeros(MAX_LAYERS, np.float32)
-        for slot, i in enumerate(self.km.active):
-            opac[slot] = self.km.layers[i].opacity
-        self._write(prog, "u_opacity", opac)
-        self._upload_lights(prog)
-        self.gpu_head.draw(prog)
-        ctx.disable(ctx.DEPTH_TEST)
-        self._cull(False)
+        self.lit.draw(self._targets["gbuffer"], (w, h), s, self.lights, view, view_proj, self.camera.eye(),
+                      self.irradiance, self.lighting if cached else None, self._lut_max, self._upload_lights)
 
         # 3-6. SSS, composite, display
         tonemap = {"raw": -1, "none": 0, "aces": 1}[s.tonemap]
@@ -491,12 +403,7 @@ class Renderer:
 
         The mesh winds counter-clockwise like its normals: about halves the fragments shaded. Open meshes seen from behind need it off.
         """
-        if on and self.settings.cull_back_faces:
-            self.ctx.front_face = "ccw"
-            self.ctx.cull_face = "back"
-            self.ctx.enable(self.ctx.CULL_FACE)
-        else:
-            self.ctx.disable(self.ctx.CULL_FACE)
+        cull(self.ctx, on and self.settings.cull_back_faces)
 
     def _upload_lights(self, prog: moderngl.Program) -> None:
         upload_lights(prog, self.lights, self.shadows, self.settings.pcf_radius, self.environment)
@@ -589,15 +496,16 @@ class Renderer:
 
     def release(self) -> None:
         """Free every GPU object (call with this renderer's context current)."""
-        objs: list[Any] = [*self._frame_programs.values(), *self._composites.values(),
+        objs: list[Any] = [*self._composites.values(),
                            *(o for t in self._target_sets.values() for o in t.values())]
         if self._baseline is not None:
             objs.append(self._baseline)
         from render.glutil import release_all
 
         release_all(self.ctx, objs)
-        self._frame_programs, self._targets, self._target_sets = {}, {}, {}
+        self._targets, self._target_sets = {}, {}
         self._size = (0, 0)
+        self.lit.release()
         self.sss.release()
         self._composites = {}
         self.km.release()
