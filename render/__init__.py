@@ -64,6 +64,8 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
 - :mod:`render.irradiance` — ``TextureIrradiance`` (UV-space irradiance cache, padded across seams).
 - :mod:`render.sss` — ``fast_kernel`` (pre-integrated separable SSS kernel), ``SKIN_GAUSSIANS`` (d'Eon
   2007 profile), ``reference_taps``; :mod:`render.sss_passes` — the SSS passes of a frame.
+- :mod:`render.lit_pass` — ``LitPass``: the frame's lit pass (the head through the makeup into the
+  G-buffer), its programs specialised per frame shape.
 - :mod:`render.settings` — ``RenderSettings``, ``DEBUG_VIEWS``; :mod:`render.targets` — the frame's
   offscreen targets.
 - :mod:`render.glutil` — ``release_all`` (release GL objects without leaving a deleted framebuffer bound),
