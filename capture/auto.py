@@ -14,6 +14,16 @@ seen by the camera, refined by the skin-hue model of :func:`capture.mask.refine_
 head: :func:`capture.pipeline.compute_skin_mask`), runs the Paris pipeline (:func:`capture.pipeline.capture`)
 and writes the face folder (:func:`capture.face.write_face` plus the head's files and ``photo.png``).
 
+**The focal length** (:func:`photo_focal`): ``focal_mm`` (the 35 mm equivalent, ``sheer capture
+--focal-mm``) if given, else the photograph file's EXIF (:func:`capture.exif.exif_focal_px`; an unusable
+tag is ignored with a warning), else none (an array, such as the kiosk's camera frame, has no EXIF). A
+known focal length is used twice, like the capture from points uses it: the person's head is
+un-projected through it (:func:`capture.person.person_head`: the perspective of a wide lens close to the
+face is undone, not left in the head's shape) and :func:`capture.camera.calibrate` holds the camera to
+it (the distance then follows from the face's size). Without one, both use the portrait-lens prior
+(:data:`capture.person.PORTRAIT_FOCAL`) as before. Taken in 35 mm terms, the focal length survives the
+downscales; face.json's ``focal`` records the value, in mm and pixels, and where it came from.
+
 Nothing half-written: the folder is assembled in a hidden sibling folder and renamed into place at the
 end (an existing face folder at ``out_dir`` is replaced only then); any error removes the partial folder.
 """
@@ -206,6 +216,33 @@ def region_skin_mask(head: Head, camera: Camera, photo_lin: np.ndarray, pix: Pix
     return refine_by_skin_colour(photo_lin, cand)
 
 
+def photo_focal(photo: str | Path | np.ndarray, focal_mm: float | None, size: tuple[int, int],
+                progress: Callable[[str], None] | None = None) -> tuple[float | None, str, list[str]]:
+    """The photograph's 35 mm-equivalent focal length (mm) and where it came from, or (None, "prior").
+
+    ``focal_mm`` (validated: 4–2000 mm) wins; else a file's EXIF (``size``: the image as stored, (width,
+    height) in either order). Returns (F35 or None, "focal_mm" | "exif" | "prior", notes): an unusable
+    EXIF tag gives a note (and a progress line) and the prior.
+    """
+    from .exif import exif_focal_px, focal_35mm_from_px, focal_px_from_35mm
+
+    if focal_mm is not None:
+        focal_px_from_35mm(focal_mm, 1, 1)  # the range check's one-line error
+        return float(focal_mm), "focal_mm", []
+    if not isinstance(photo, (str, Path)):
+        return None, "prior", []
+    notes: list[str] = []
+
+    def warn(msg: str) -> None:
+        notes.append(msg)
+        _say(progress, f"warning: {msg}")
+
+    f_px = exif_focal_px(photo, warn=warn)
+    if f_px is None:
+        return None, "prior", notes
+    return focal_35mm_from_px(f_px, *size), "exif", notes
+
+
 def _check_out_dir(out: Path) -> None:
     """``out`` must be absent, empty, or a face folder (it is then replaced); :class:`CaptureError` otherwise."""
     if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "face.json").is_file())):
@@ -241,7 +278,8 @@ def warm_up() -> None:
 
 def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: str | Path | Head | None = None,
                  probe: ProbeAnalysis | str | Path | None = None, allow_closed_eyes: bool = False,
-                 progress: Callable[[str], None] | None = None, texture_size: int = AUTO_TEXTURE_SIZE) -> Face:
+                 progress: Callable[[str], None] | None = None, texture_size: int = AUTO_TEXTURE_SIZE,
+                 focal_mm: float | None = None) -> Face:
     """Capture a face from one photograph, automatically (see the module docstring).
 
     Args:
@@ -253,6 +291,9 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         allow_closed_eyes: let closed eyes through the quality gate.
         progress: called with one line per step.
         texture_size: the detail texture's side (texels, 16–8192; default :data:`AUTO_TEXTURE_SIZE`).
+        focal_mm: the lens's 35 mm-equivalent focal length (mm, 4–2000, over the diagonal); None: the
+            photograph file's EXIF if it has a usable one, else the portrait-lens prior (see
+            :func:`photo_focal`).
 
     Returns:
         The face folder read back (:func:`capture.face.load_face`).
@@ -266,9 +307,10 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     from painting.head import load_head
 
     from .camera import calibrate
+    from .exif import focal_35mm_from_px, focal_px_from_35mm
     from .face import face_albedo, load_face, write_face
     from .landmarks import detect_faces
-    from .person import HEAD_FILE, person_head, write_person_head
+    from .person import HEAD_FILE, PORTRAIT_FOCAL, person_head, write_person_head
     from .pipeline import capture, pixel_data
     from .probe import analyse_probe
     from .quality import QualityError, assess, eyes_open
@@ -285,6 +327,8 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         source = str(photo)
     else:
         srgb8, source = np.asarray(photo), "photo"
+    if focal_mm is not None:
+        photo_focal(photo, focal_mm, (1, 1))  # a bad value fails before the work
     srgb8, downscale = prepare_photo(srgb8, source)
     for n in notes:
         _say(progress, f"note: {n}")
@@ -312,11 +356,21 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
             srgb_decode(read_photo_srgb8(probe)[0] / 255.0), source=str(probe))
 
     h, w = srgb8.shape[:2]
+    size = (downscale["from"][0], downscale["from"][1]) if downscale else (w, h)
+    f35, focal_source, focal_notes = photo_focal(photo, focal_mm, size, progress)
+    notes += focal_notes
+    focal_px = None if f35 is None else focal_px_from_35mm(f35, w, h)
+    f_used = PORTRAIT_FOCAL * max(w, h) if focal_px is None else focal_px  # the prior = calibrate's
+    focal_record = {"mm_35": round(focal_35mm_from_px(f_used, w, h), 2), "px": round(f_used, 2),
+                    "source": focal_source}
+    _say(progress, f"focal length {focal_record['mm_35']:.1f} mm (35 mm equivalent), {f_used:.0f} px: "
+                   + {"focal_mm": "given (--focal-mm)", "exif": "from the photo's EXIF",
+                      "prior": "assumed (a portrait lens; no EXIF focal length)"}[focal_source])
     person = head is None
     t = time.perf_counter()
     the_head: Head
     if person:
-        the_head = person_head(face, out, eyes_open(report))
+        the_head = person_head(face, out, eyes_open(report), focal_px=focal_px)
         _say(progress, f"person's head: {len(the_head.vertices)} vertices; {the_head.metadata.scale_note.split('; ')[0]}")
     elif isinstance(head, (str, Path)):
         the_head = load_head(head)
@@ -327,7 +381,8 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
 
     t = time.perf_counter()
     x, X, _ = correspondences(face, the_head, person)
-    camera = calibrate(x, X, w, h, source="the detected landmarks", good_enough_px=0.5 if person else None)
+    camera = calibrate(x, X, w, h, source="the detected landmarks", good_enough_px=0.5 if person else None,
+                       focal_px=focal_px)
     timings["camera"] = time.perf_counter() - t
     _say(progress, f"camera from {len(x)} detected landmarks: RMS reprojection error "
                    f"{camera.reprojection_error_px:.2f} px")
@@ -354,7 +409,7 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         timings["total"] = time.perf_counter() - t_all
         extra = {"photo": PHOTO_FILE, "source_photo": source, "downscale": downscale, "notes": notes,
                  "landmarks": {**face.to_json(), "points_px": np.round(face.points, 2).tolist()},
-                 "quality": report.to_json(), "head_kind": "person" if person else "given",
+                 "quality": report.to_json(), "head_kind": "person" if person else "given", "focal": focal_record,
                  "auto_timings_s": {k: round(v, 4) for k, v in timings.items()}}
         write_face(result, tmp, head_path=HEAD_FILE if person else the_head.path,
                    landmarks=face.standard(), extra=extra)

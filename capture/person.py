@@ -7,7 +7,9 @@ a head like any other (:class:`painting.head.Head`):
 
 - **frame**: the canonical model's — +X the subject's left, +Y up, +Z out of the face — the detected
   points (:class:`capture.landmarks.FaceLandmarks`, z MediaPipe's relative depth in the same pixel
-  scale) un-projected through a portrait lens (:data:`PORTRAIT_FOCAL`) and rotated onto the canonical model by the least-squares rotation
+  scale) un-projected through the photograph's focal length when it is known (its EXIF or ``--focal-mm``,
+  :mod:`capture.exif`), else a portrait lens (:data:`PORTRAIT_FOCAL`), and rotated onto the canonical
+  model by the least-squares rotation
   (``scipy.spatial.transform.Rotation.align_vectors``, the Kabsch solution), which also gives the head's
   pose in the photograph (:func:`head_pose`);
 - **units**: centimetres, like the canonical model (10 mm per unit), scaled from the iris: its
@@ -91,22 +93,30 @@ def canonical_topology() -> Topology:
     return _topology
 
 
-#: The focal length assumed for a photograph (× its longer side: a portrait lens, ~70 mm on a full-frame
-#: camera), the prior of :func:`capture.camera.calibrate` too. One photograph of a face cannot tell it
-#: from the distance; the detected points are un-projected with it, so the camera fitted to the mesh
-#: lands on it instead of running off towards an orthographic view.
+#: The focal length assumed for a photograph whose focal length is not known (× its longer side: a
+#: portrait lens, 61–72 mm in 35 mm terms for a square to a 3:2 frame), the prior of
+#: :func:`capture.camera.calibrate` too. One photograph of a face cannot tell it from the distance; the
+#: detected points are un-projected with it, so the camera fitted to the mesh lands on it instead of
+#: running off towards an orthographic view. A known one (the photograph's EXIF, ``--focal-mm``:
+#: :func:`capture.auto.capture_auto`'s ``focal_mm``) replaces it.
 PORTRAIT_FOCAL = 2.0
 
 
-def _detected_frame(face: FaceLandmarks) -> np.ndarray:
+def focal_or_prior(face: FaceLandmarks, focal_px: float | None) -> float:
+    """``focal_px`` (pixels of ``face``'s photograph) when known, else :data:`PORTRAIT_FOCAL` × its longer side."""
+    return PORTRAIT_FOCAL * max(face.width, face.height) if focal_px is None else float(focal_px)
+
+
+def _detected_frame(face: FaceLandmarks, focal_px: float | None = None) -> np.ndarray:
     """The 468 mesh points un-projected, in a right-handed y-up frame: float64 (468, 3), pixels at the face.
 
-    Camera coordinates with the face at a distance of f (:data:`PORTRAIT_FOCAL` × the longer side, so
-    one unit is one pixel there): depth Z = f + z (MediaPipe's relative depth), X = (x − cx)·Z/f,
+    Camera coordinates with the face at a distance of f (``focal_px``, else :data:`PORTRAIT_FOCAL` × the
+    longer side; one unit is then one pixel at the face whatever the true distance, so the perspective
+    is undone exactly when f is the lens's): depth Z = f + z (MediaPipe's relative depth), X = (x − cx)·Z/f,
     Y = (y − cy)·Z/f; returned as (X, −Y, −Z) (y up, z towards the camera).
     """
     p = face.points[:N_MESH]
-    f = PORTRAIT_FOCAL * max(face.width, face.height)
+    f = focal_or_prior(face, focal_px)
     z = f + p[:, 2]
     x = (p[:, 0] - face.width / 2.0) * z / f
     y = (p[:, 1] - face.height / 2.0) * z / f
@@ -131,10 +141,13 @@ class Pose:
     px_per_cm: float
 
 
-def head_pose(face: FaceLandmarks) -> Pose:
-    """The head's pose (:class:`Pose`) from the least-squares rotation of the detected mesh onto the canonical one."""
+def head_pose(face: FaceLandmarks, focal_px: float | None = None) -> Pose:
+    """The head's pose (:class:`Pose`) from the least-squares rotation of the detected mesh onto the canonical one.
+
+    ``focal_px``: the photograph's focal length (pixels) when known, else the portrait-lens prior.
+    """
     can = canonical_topology().vertices
-    det = _detected_frame(face)
+    det = _detected_frame(face, focal_px)
     a = can - can.mean(axis=0)
     b = det - det.mean(axis=0)
     rot, _ = Rotation.align_vectors(a, b)  # b rotated ≈ a
@@ -161,14 +174,15 @@ def eye_centres(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             points[list(STANDARD_LANDMARKS["right_eye"])].mean(axis=0))
 
 
-def metric_scale(face: FaceLandmarks, eyes_open: bool) -> Scale:
+def metric_scale(face: FaceLandmarks, eyes_open: bool, focal_px: float | None = None) -> Scale:
     """The millimetres per pixel at the face, and how they were found.
 
     From the iris diameter (:data:`IRIS_DIAMETER_MM`) when ``eyes_open`` and the inter-pupillary distance
     it implies is within :data:`IPD_PLAUSIBLE_MM`, else from the eyes' centres taken :data:`IPD_MM` apart
-    (3D distance in the detected frame, so a turned head is not foreshortened).
+    (3D distance in the detected frame, so a turned head is not foreshortened; ``focal_px`` as in
+    :func:`head_pose`).
     """
-    det = _detected_frame(face)
+    det = _detected_frame(face, focal_px)
     le, re = eye_centres(det)
     eyes_px = float(np.linalg.norm(le - re))
     iris = face.iris_diameter_px()
@@ -218,7 +232,8 @@ def midplane(vertices: np.ndarray) -> tuple[tuple[float, float, float], tuple[fl
     return (tuple(float(round(x, 4)) for x in p), tuple(float(round(x, 6)) for x in n))  # type: ignore[return-value]
 
 
-def person_head(face: FaceLandmarks, folder: Path, eyes_open: bool, name: str = "Captured face") -> Head:
+def person_head(face: FaceLandmarks, folder: Path, eyes_open: bool, name: str = "Captured face",
+                focal_px: float | None = None) -> Head:
     """The person's head (in memory; ``path`` = ``folder / HEAD_FILE``, written by :func:`write_person_head`).
 
     Args:
@@ -226,15 +241,19 @@ def person_head(face: FaceLandmarks, folder: Path, eyes_open: bool, name: str = 
         folder: the face folder the head will live in.
         eyes_open: whether the irises can set the scale (see :func:`metric_scale`).
         name: the head's display name.
+        focal_px: the photograph's focal length (pixels; its EXIF or the user's) the detection is
+            un-projected through, else :data:`PORTRAIT_FOCAL` × the longer side.
     """
     import trimesh
 
     from painting.head import Head, HeadMetadata
 
     topo = canonical_topology()
-    pose = head_pose(face)
-    scale = metric_scale(face, eyes_open)
-    det = _detected_frame(face)
+    pose = head_pose(face, focal_px)
+    scale = metric_scale(face, eyes_open, focal_px)
+    det = _detected_frame(face, focal_px)
+    lens = (f"a portrait lens assumed ({focal_or_prior(face, None):.0f} px)" if focal_px is None
+            else f"the photograph's focal length ({focal_px:.0f} px)")
     centred = (det - det.mean(axis=0)) @ pose.rotation.T  # rotated onto the canonical frame, pixels
     cm_per_px = scale.mm_per_px / MM_PER_UNIT
     vertices = centred * cm_per_px + topo.vertices.mean(axis=0)
@@ -244,8 +263,8 @@ def person_head(face: FaceLandmarks, folder: Path, eyes_open: bool, name: str = 
         name=name, mm_per_unit=MM_PER_UNIT,
         scale_note=(f"Mesh units are centimetres (the canonical face model's). Scale from the photograph: "
                     f"{scale.source}; {scale.mm_per_px:.4f} mm per pixel at the face. Vertex i is MediaPipe "
-                    f"face-mesh landmark i (the detection un-projected through a portrait lens, rotated onto the canonical model by "
-                    f"least squares: the head was turned {pose.yaw_deg:+.1f} deg, nodded {pose.pitch_deg:+.1f} "
+                    f"face-mesh landmark i (the detection un-projected through {lens}, rotated onto the "
+                    f"canonical model by least squares: the head was turned {pose.yaw_deg:+.1f} deg, nodded {pose.pitch_deg:+.1f} "
                     f"deg, tilted {pose.roll_deg:+.1f} deg). Landmarks as in canonical-face.json "
                     f"(capture.landmarks.STANDARD_LANDMARKS). Subject's left = +X."),
         landmarks=surface_points(vertices, topo.faces), midplane_point=point, midplane_normal=normal,

@@ -20,11 +20,14 @@ draws the landmarks. Photos over 1600 px on the longer side are downscaled (said
   see docs/CAPTURE.md); without it, a white flash on the camera axis and no ambient light are assumed.
   ``--probe-reflectance R`` (0 < R ≤ 1, default 1: a perfect mirror) is the ball's reflectance: a chrome
   ball reflects about 0.5–0.7, and the ambient light is the ball's mean divided by it.
-- ``--focal-mm F35``: with ``--points``, the lens's 35 mm-equivalent focal length (mm, 4–2000; over the
-  diagonal, as EXIF's FocalLengthIn35mmFilm). Without it, the photograph's own EXIF focal length is used
-  when its file has one (FocalLengthIn35mmFilm, or FocalLength with the sensor's resolution; an unusable
-  tag is ignored with a warning), else a portrait-lens prior (2 × the longer side in pixels). A known
-  focal length fixes the camera's distance, so the landmarks' noise moves the rotation about half as much.
+- ``--focal-mm F35``: with ``--points`` or automatic, the lens's 35 mm-equivalent focal length (mm,
+  4–2000; over the diagonal, as EXIF's FocalLengthIn35mmFilm). Without it, the photograph's own EXIF focal
+  length is used when its file has one (FocalLengthIn35mmFilm, or FocalLength with the sensor's
+  resolution; an unusable tag is ignored with a warning), else a portrait-lens prior (2 × the longer side
+  in pixels, about 61–72 mm). A known focal length fixes the camera's distance, so the landmarks' noise
+  moves the rotation about half as much; the automatic capture also un-projects the person's head through
+  it (a phone's wide lens close to the face no longer leaves its perspective in the head's shape).
+  Not with ``--camera`` (a projection matrix holds its own focal length).
 - ``--mask PATH``: a painted skin mask (white = skin) of the photograph's size; without it, the mask is
   computed from the head's landmarks and a skin-colour model.
 
@@ -63,8 +66,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
                    help="the ball's reflectance, 0 < R ≤ 1 (default 1, a perfect mirror; chrome ≈ 0.5–0.7)")
     p.add_argument("--focal-mm", type=float, default=None, metavar="F35",
-                   help="with --points: the 35 mm-equivalent focal length in mm (4–2000, over the diagonal; "
-                        "default: the photo's EXIF if it has one, else a portrait-lens prior)")
+                   help="with --points or automatic: the 35 mm-equivalent focal length in mm (4–2000, over the "
+                        "diagonal; default: the photo's EXIF if it has one, else a portrait-lens prior)")
     p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
     p.add_argument("--texture-size", type=int, default=None, metavar="N",
                    help="detail texture side (texels; default 1024, automatic 512: its face is at most 280 px tall)")
@@ -92,9 +95,9 @@ def run(args: argparse.Namespace) -> int:
         raise CaptureError(f"--starts must be ≥ 0, got {args.starts}")
     if not 0.0 < args.probe_reflectance <= 1.0:  # NaN fails too
         raise CaptureError(f"--probe-reflectance must be in (0, 1], got {args.probe_reflectance}")
-    if args.focal_mm is not None and not args.points:
-        raise CaptureError("--focal-mm is for a capture with --points (a projection matrix holds its own focal "
-                           "length; the automatic capture does not use one yet)")
+    if args.focal_mm is not None and args.camera:
+        raise CaptureError("--focal-mm is for a capture with --points or the automatic one (a projection matrix "
+                           "holds its own focal length)")
     if args.probe_reflectance != 1.0 and not args.probe:
         raise CaptureError("--probe-reflectance needs --probe (the mirror ball it describes)")
 
@@ -154,7 +157,8 @@ def run_auto(args: argparse.Namespace, say: Callable[[str], None]) -> int:
 
     try:
         face = capture_auto(args.photo, args.out, head=args.head, probe=probe,
-                            allow_closed_eyes=args.allow_closed_eyes, progress=say, texture_size=args.texture_size)
+                            allow_closed_eyes=args.allow_closed_eyes, progress=say, texture_size=args.texture_size,
+                            focal_mm=args.focal_mm)
     except QualityError as exc:
         codes = ", ".join(i.code for i in exc.issues)
         raise CaptureError(f"{args.photo}: refused by the quality gate ({codes}): {exc}") from None

@@ -158,17 +158,19 @@ def test_sheer_capture_uses_the_photos_exif_focal_length(points_scene: Path,
     assert f == pytest.approx(float((d / "f_true").read_text()), rel=0.03)
 
 
-@pytest.mark.parametrize("case", ["zero", "negative", "nan", "huge", "with_camera", "automatic"])
+@pytest.mark.parametrize("case", ["zero", "negative", "nan", "huge", "with_camera", "automatic-zero",
+                                  "automatic-huge"])
 def test_a_bad_focal_mm_is_a_one_line_error(case: str, points_scene: Path,
                                             capsys: pytest.CaptureFixture[str]) -> None:
     from app.cli import main
 
     d = points_scene
-    value = {"zero": "0", "negative": "-35", "nan": "nan", "huge": "1e6"}.get(case, "85")
+    value = {"zero": "0", "negative": "-35", "nan": "nan", "huge": "1e6", "automatic-zero": "0",
+             "automatic-huge": "1e6"}.get(case, "85")
     args = ["capture", "--photo", str(d / "bare.png"), "--focal-mm", value, "--out", str(d / "x")]
     if case == "with_camera":
         args += ["--camera", str(d / "camera.json")]
-    elif case != "automatic":
+    elif not case.startswith("automatic"):
         args += ["--points", str(d / "points.json")]
     rc = main(args)
     err = capsys.readouterr().err
@@ -187,3 +189,5 @@ def test_the_help_documents_focal_mm(capsys: pytest.CaptureFixture[str]) -> None
     assert rc == 0
     out = capsys.readouterr().out
     assert "--focal-mm F35" in out and "35 mm-equivalent" in out and "EXIF" in out
+    flat = " ".join(out.split())
+    assert "with --points or automatic" in flat and "Not with ``--camera``" in flat
