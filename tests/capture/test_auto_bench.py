@@ -24,3 +24,10 @@ def test_bench_capture_auto_fields(capsys: pytest.CaptureFixture[str]) -> None:
     assert result["landmarks_runs"] == 9 and result["capture_auto_runs"] == 2
     assert 0 < result["landmarks_ms"] <= result["landmarks_ms_max"] and result["capture_auto_s"] > 0
     assert "probe_acceptance" not in result and "s_error_pct" not in result
+    # the focal sweep (issue 14), quick: the two ends' lenses, the head frontal, with EXIF and without
+    assert result["focal_lenses_mm"] == [26.0, 135.0] and result["focal_yaws_deg"] == [0.0]
+    assert len(result["focal_cases"]) == 4 and set(result["focal_by_lens"]) == {"26", "135"}
+    assert result["focal_distance_error_pct_exif"] < 5.0 < 50.0 < result["focal_distance_error_pct_prior"]
+    for lens in ("26", "135"):
+        assert abs(result["focal_by_lens"][lens]["exif"]["focal_ratio"] - 1.0) < 0.1
+        assert abs(result["focal_by_lens"][lens]["prior"]["focal_ratio"] - 1.0) > 0.5
