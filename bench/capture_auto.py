@@ -208,11 +208,15 @@ def focal_sweep(quick: bool = False) -> dict[str, Any]:
             est = rotations[(lens, yaw, src)] @ rotations[(lens, 0.0, src)].T
             true = cameras[(lens, yaw)].R @ cameras[(lens, 0.0)].R.T
             r["turn_error_deg"] = round(float(np.degrees(Rotation.from_matrix(est @ true.T).magnitude())), 3)
-    keys = ("focal_ratio", "distance_error_pct", "metric_distance_error_pct", "rotation_error_deg", "shape_rms_mm",
-            "reproduction_de2000")
-    by_lens = {f"{lens:g}": {src: {k: round(float(np.median([r[k] for r in rows if r["lens_mm"] == lens
-                                                             and r["focal"] == src])), 3) for k in keys}
-                             for src in ("exif", "prior")} for lens in lenses}
+    keys = ("focal_ratio", "distance_error_pct", "metric_distance_error_pct", "rotation_error_deg", "turn_error_deg",
+            "shape_rms_mm", "reproduction_de2000")
+
+    def median(lens: float, src: str, key: str) -> float | None:
+        vals = [r[key] for r in rows if r["lens_mm"] == lens and r["focal"] == src and key in r]
+        return round(float(np.median(vals)), 3) if vals else None
+
+    by_lens = {f"{lens:g}": {src: {k: median(lens, src, k) for k in keys} for src in ("exif", "prior")}
+               for lens in lenses}
     out: dict[str, Any] = {"focal_lenses_mm": list(lenses), "focal_yaws_deg": list(yaws)}
     for src in ("exif", "prior"):
         for k in ("distance_error_pct", "rotation_error_deg", "turn_error_deg", "shape_rms_mm"):
