@@ -29,7 +29,7 @@ from .phong import (
     shade,
     specular_from_detail,
 )
-from .pose import PoseRefinement, refine_rotation
+from .pose import PoseRefinement, Surface, refine_rotation
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
 from .shadow import flash_shadow
@@ -372,10 +372,9 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
 
 
 #: Rounds of :func:`capture.pose.refine_rotation`, each after rasterising the head again for the camera the
-#: previous one turned. One: a round keeps the pixels' surface points, so it stops short of a large turn
-#: (from the true camera turned 1.9°, one round took it to 1.15°, three to 0.50°), but on a broad lobe
-#: (s 8) the rounds ran away (0.5°, 1.1°, then 3.1° from the landmarks' 0.3°), the lobe's own bias
-#: growing with the turn.
+#: previous one turned. One: a round reads each pixel's surface where the turn moved it (first order in
+#: the turn, :class:`capture.pose.Surface`), which holds for the landmarks' errors (≤ 1.5°); on a broad
+#: lobe (s 8) rounds of the earlier refinement ran away (0.5°, 1.1°, then 3.1° from the landmarks' 0.3°).
 POSE_ROUNDS = 1
 #: A round that turns the camera by less than this (degrees) ends the refinement: a tenth of the lobe's
 #: own precision at best (0.2–0.5°, :mod:`capture.pose`).
@@ -399,8 +398,8 @@ def _refine_pose(head: Head, photo_lin: np.ndarray, camera: Camera, pix: PixelDa
         if pose is not None:
             pix = pixel_data(head, cam)
             sel = skin[pix.rows, pix.cols]
-        step = refine_rotation(photo_lin, pix.positions[sel], pix.normals[sel], cam, light_camera, params,
-                               pix.rows[sel], pix.cols[sel], pivot=pivot,
+        step = refine_rotation(photo_lin, Surface.from_pixels(pix.rows, pix.cols, pix.normals, pix.positions), cam,
+                               light_camera, params, pix.rows[sel], pix.cols[sel], pivot=pivot,
                                turned_deg=None if pose is None else pose.turn_deg)
         if step is None:
             return pose

@@ -5,27 +5,34 @@ orthographically, so with 1 px of noise on 22 landmarks the head's rotation abou
 axes is uncertain by 0.4–1.5° (:func:`capture.camera.pose_covariance`, whose σ the errors measured
 on GPU-drawn photographs match to within 25 %). The probe gives the flash in camera coordinates, so
 that error turns the flash relative to the head by as much, and the specular lobe — what fixes s and
-i_s — lands on other normals: out of sample it was the error left (s within 10 % in 45 of 45 scenes from
-the true camera, in 35 from the noisy landmarks; 42 with this refinement, README).
+i_s — lands on other normals.
 
 The photograph itself says where the lobe is. After the first fit, the head is turned about the skin
-pixels' centroid by a small rotation E (about the camera's x and y axes; the image of the head stays in
-place, its normals turn relative to the camera and the flash) and the lobe is fitted again on the
-photograph high-passed at 2 px (:class:`capture.phong.LobeHighPass`: albedo broader than 2 px drops out,
-the lobe's curvature stays). The turn that fits best is weighed against the landmarks' own estimate: the
-maximum a posteriori of
+pixels' centroid by a small rotation E (about the camera's x and y axes; :meth:`Camera.turned` keeps the
+pivot's image in place) and the lobe is fitted again on the photograph high-passed at 2 px
+(:class:`capture.phong.LobeHighPass`: albedo broader than 2 px drops out, the lobe's curvature stays).
 
-    ‖HP residual(E, s)‖² / (σ_r²·κ)  +  aᵀ Σ⁻¹ a,     a = (turn about x, turn about y) in degrees,
+**What a turn changes at a pixel.** The turned camera sees, at each pixel, another surface point: a point
+d in front of the pivot moves by about d·|E| in the image (1.7 px per degree 50 mm in front, at the
+bench's framing). Where the surface curves, that move changes the normal under the pixel by as much as
+the turn itself, and in the opposite sense on a convex face (a sphere turned about its own centre shows
+the same normals at every pixel). So each pixel reads its normal and surface point from the first
+rasterisation where the turned camera moved them from (:class:`Surface`, bilinear between pixel
+centres: the geometry is smooth, and the photograph itself is never resampled). Keeping each pixel's
+first surface point and only turning its normal (the refinement before, session 7) moved the lobe by a
+full turn per degree wherever it lay: its preferred turn followed the truth with a slope of 0.25–0.31
+(correlation 0.26–0.41) on 32 scenes of this module's development; reading the moved geometry, 0.89–0.95
+(correlation 0.81–0.83).
 
-with σ_r² the high-passed residual's variance per value at the start, Σ the calibration's rotation
-covariance and κ = :data:`RESIDUAL_CORRELATION` (the residual values are not independent: the skin's
-texture at 2 px is correlated across neighbouring pixels). The pixels keep the surface points the
-first rasterisation gave them, though a 1° turn moves a point 50 mm in front of or behind the pivot by
-0.9 mm (nearly 2 px at the validation's framing): reading each point in the photograph where the turned
-camera sees it was worse on the tuning scenes (rotation error RMS 0.76° and 0.88° about x and y against
-0.43° and 0.85°; the photograph's texture, interpolated between pixels, blurs as the turn moves it, and
-the fit prefers the blur), and interpolating the smooth geometry instead no better. The capture then
-starts again from the turned camera, re-rasterised.
+**The weighing.** The photograph's own turn â (the lobe fit without a prior) has the covariance of an
+M-estimator whose residuals are correlated between neighbouring pixels — the skin's texture at 2 px and
+the high-pass itself: the cluster-robust ("sandwich") covariance H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹, H = JᵀJ the
+cost's curvature and g_b = J_bᵀ r_b the residual's score summed over blocks of :data:`BLOCK_PX` pixels
+(nearly independent blocks). No constant is fitted to scenes: the figure comes from the photograph's own
+residual, per photograph. It is combined with the landmarks' Gaussian N(0, Σ) (Σ the calibration's
+``rotation_covariance_deg2``) as two Gaussian measurements of the same turn:
+a = (C⁻¹ + Σ⁻¹)⁻¹ C⁻¹ â. (Session 7 weighed the whole high-passed residual by one constant, κ = 250
+values per independent sample, measured on that helper's 32 scenes.)
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy import ndimage
 from scipy.optimize import least_squares
 
 from .phong import Geometry, LobeHighPass, PhongParams
@@ -41,21 +49,66 @@ from .phong import Geometry, LobeHighPass, PhongParams
 if TYPE_CHECKING:
     from .camera import Camera
 
-#: The high-passed residual's values per independent sample (κ above). Measured on scenes that are not
-#: the validation's (32 GPU-drawn photographs: s 10, 18, 32, 50, the head turned −20°, −8°, +12°, +22°,
-#: the flash (6°, 3°) and (−3°, 7°) from the lens, their own landmark noise): the photograph's turn alone
-#: (no prior), from the noisy landmarks' cameras, scattered about the truth by √κ times its least-squares
-#: σ at κ = 1 — mean squared z 152 about x and 386 about y; 250 is about their mean.
-RESIDUAL_CORRELATION = 250.0
 #: The largest turn the refinement may make, degrees: four of the landmarks' standard deviations at
-#: their loosest (1.5°, the validation's framing with the head turned 30°).
+#: their loosest (1.5°, the validation's framing with the head turned 30°). The photograph's own turn
+#: reaching it means its lobe does not place the head: the landmarks' camera is kept.
 MAX_TURN_DEG = 6.0
-
-
+#: The blocks over which the lobe fit's residual scores are summed for its covariance (pixels, square).
+#: The 2 px Gaussian high-pass (:data:`capture.phong.LOBE_HIGH_PASS_PX`) correlates each residual value
+#: with its neighbours over ±4σ = ±8 px, the skin's pores and fine blotches, which survive it, over
+#: less; blocks of 16 px are as wide as that whole reach, so their sums are nearly independent, and a
+#: lobe's high-passed core (10–60 px across at the bench's framing) still spans several.
+BLOCK_PX = 16
 #: Points that pin both angles to this (degrees, one standard deviation) leave nothing to refine: the
 #: lobe alone places them to 0.2–0.7° at best (measured with the true camera), so it could not move the
 #: estimate by a tenth of that. The automatic capture's own mesh fits its landmarks to ~0.01 px.
 PINNED_DEG = 0.02
+
+
+@dataclass
+class Surface:
+    """The head's surface as a camera's rasterisation saw it, readable between pixel centres.
+
+    Attributes:
+        normals: (3, h, w) unit normals (mesh coordinates) over the covered pixels' bounding box, 0 elsewhere.
+        positions: (3, h, w) surface points (mesh units), 0 elsewhere.
+        covered: (h, w) 1.0 where a pixel is covered, else 0.0.
+        row0, col0: the box's first row and column in the photograph.
+    """
+
+    normals: np.ndarray
+    positions: np.ndarray
+    covered: np.ndarray
+    row0: int
+    col0: int
+
+    @classmethod
+    def from_pixels(cls, rows: np.ndarray, cols: np.ndarray, normals: np.ndarray, positions: np.ndarray) -> Surface:
+        """From the covered pixels (rows, cols: (N,) indices) and their normals and points ((N, 3))."""
+        r0, c0 = int(rows.min()), int(cols.min())
+        shape = (int(rows.max()) - r0 + 1, int(cols.max()) - c0 + 1)
+        nrm = np.zeros((3, *shape))
+        pos = np.zeros((3, *shape))
+        cov = np.zeros(shape)
+        nrm[:, rows - r0, cols - c0] = np.asarray(normals, dtype=float).T
+        pos[:, rows - r0, cols - c0] = np.asarray(positions, dtype=float).T
+        cov[rows - r0, cols - c0] = 1.0
+        return cls(normals=nrm, positions=pos, covered=cov, row0=r0, col0=c0)
+
+    def sample(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(unit normals (P, 3), points (P, 3)) at image positions x, y ((P,) pixels; pixel j covers [j, j + 1)).
+
+        Bilinear over the covered pixels only (a normalised interpolation: uncovered neighbours carry no
+        weight); a position with no covered neighbour reads (0, 0, 0) for both.
+        """
+        coords = np.stack([np.asarray(y, dtype=float) - 0.5 - self.row0, np.asarray(x, dtype=float) - 0.5 - self.col0])
+        weight = ndimage.map_coordinates(self.covered, coords, order=1, mode="constant")
+        safe = np.maximum(weight, 1e-9)
+        nrm = np.stack([ndimage.map_coordinates(c, coords, order=1, mode="constant") for c in self.normals], axis=1)
+        pos = np.stack([ndimage.map_coordinates(c, coords, order=1, mode="constant") for c in self.positions],
+                       axis=1) / safe[:, None]
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+        return nrm, pos
 
 
 @dataclass
@@ -65,10 +118,10 @@ class PoseRefinement:
     Attributes:
         camera: the refined camera. turn_deg: (2,) its turn from the calibrated camera about the camera's x
             and y axes (degrees).
-        photometric_deg: (2,) the turn the photograph alone prefers (degrees, linearised at the result).
-        photometric_sigma_deg: (2,) its standard deviation (degrees, with κ).
+        photometric_deg: (2,) the turn the photograph alone prefers (degrees).
+        photometric_sigma_deg: (2,) its standard deviation (degrees; the cluster-robust covariance).
         sigma_deg: (2,) the posterior standard deviation of the turn (degrees).
-        exponent: s at the refined turn (dimensionless). evaluations: lobe fits run.
+        exponent: s of the photograph's own fit (dimensionless). evaluations: lobe fits run.
     """
 
     camera: Camera
@@ -80,82 +133,99 @@ class PoseRefinement:
     evaluations: int
 
 
-def refine_rotation(photo_lin: np.ndarray, positions: np.ndarray, normals: np.ndarray, camera: Camera,
-                    light_camera: np.ndarray, params: PhongParams, rows: np.ndarray, cols: np.ndarray,
-                    pivot: np.ndarray | None = None, turned_deg: np.ndarray | None = None,
-                    correlation: float = RESIDUAL_CORRELATION) -> PoseRefinement | None:
+def cluster_covariance(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray, cols: np.ndarray,
+                       block_px: int = BLOCK_PX) -> np.ndarray:
+    """The cluster-robust covariance H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹ · B/(B − 1) of a least-squares fit at its optimum.
+
+    ``jac``: (P·C, K) the residual's Jacobian and ``residual``: (P·C,) the residual, pixel-major with C
+    values per pixel; ``rows``, ``cols``: (P,) the pixels; g_b = J_bᵀ r_b summed over each square block of
+    ``block_px`` pixels, B the number of blocks. Units: those of the parameters, squared.
+    """
+    n = len(rows)
+    k = jac.shape[1]
+    scores = np.einsum("pck,pc->pk", jac.reshape(n, -1, k), residual.reshape(n, -1))
+    _, block = np.unique((rows // block_px).astype(np.int64) * (1 << 20) + cols // block_px, return_inverse=True)
+    sums = np.zeros((int(block.max()) + 1, k))
+    np.add.at(sums, block, scores)
+    blocks = len(sums)
+    bread = np.linalg.inv(jac.T @ jac)
+    return bread @ (sums.T @ sums) @ bread * (blocks / max(blocks - 1, 1))
+
+
+def refine_rotation(photo_lin: np.ndarray, surface: Surface, camera: Camera, light_camera: np.ndarray,
+                    params: PhongParams, rows: np.ndarray, cols: np.ndarray, pivot: np.ndarray | None = None,
+                    turned_deg: np.ndarray | None = None) -> PoseRefinement | None:
     """Refine ``camera``'s rotation on the specular lobe (see the module docstring).
 
     Args:
         photo_lin: (H, W, 3) the photograph, linear RGB.
-        positions: (P, 3) the skin pixels' surface points (mesh units), as the first rasterisation gave them.
-        normals: (P, 3) the unit normals there.
-        rows: (P,) their pixels' rows.
-        cols: (P,) their pixels' columns.
+        surface: the head as ``camera``'s rasterisation saw it (every covered pixel).
         camera: the calibrated camera; its ``rotation_covariance_deg2`` is the landmarks' uncertainty.
         light_camera: (3,) unit direction towards the flash in camera coordinates (the probe's).
         params: the first fit (D, k, A, F; its s starts the search).
-        pivot: (3,) the point turned about (mesh units); None: the surface points' centroid.
+        rows: (P,) the skin pixels' rows (those the lobe is fitted on).
+        cols: (P,) their columns.
+        pivot: (3,) the point turned about (mesh units); None: the skin pixels' surface points' centroid.
         turned_deg: (2,) how far ``camera`` is already turned from the calibrated one about ``pivot``
             (degrees; the prior stays centred on the calibration). None: not at all.
-        correlation: κ (values per independent sample).
 
-    Returns None when there is nothing to refine against (a camera given directly, no covariance) or
-    no lobe on the skin.
+    Returns None when there is nothing to refine against (a camera given directly, no covariance), no
+    lobe on the skin, or a lobe that does not place the head (its own turn at :data:`MAX_TURN_DEG`).
     """
     if camera.rotation_covariance_deg2 is None:
         return None
     cov = np.asarray(camera.rotation_covariance_deg2, dtype=float)
     if np.sqrt(cov.diagonal()).max() < PINNED_DEG:
         return None
-    prior = np.linalg.cholesky(np.linalg.inv(cov)).T  # aᵀΣ⁻¹a = |prior @ a|²
+    centre_x, centre_y = cols + 0.5, rows + 0.5
+    normals, positions = surface.sample(centre_x, centre_y)
     pivot = positions.mean(axis=0) if pivot is None else np.asarray(pivot, dtype=float)
     offset = np.zeros(2) if turned_deg is None else np.asarray(turned_deg, dtype=float)
     light_camera = np.asarray(light_camera, dtype=float)
-    evaluations = 0
-
+    seen, _ = camera.project(positions)
     photo = photo_lin[rows, cols]
+    evaluations = 0
 
     def lobe_fit(theta: np.ndarray) -> LobeHighPass:
         nonlocal evaluations
         evaluations += 1
         cam = camera.turned(np.radians([theta[0], theta[1], 0.0]), pivot)
-        view = cam.centre[None, :] - positions
+        if theta[0] == 0.0 and theta[1] == 0.0:
+            nrm, pos = normals, positions
+        else:
+            # The point the turned camera sees at a pixel is the one the first camera saw where the turn
+            # moved it from (to first order in the turn: the move is smooth across the image).
+            moved, _ = cam.project(positions)
+            nrm, pos = surface.sample(centre_x - (moved[:, 0] - seen[:, 0]), centre_y - (moved[:, 1] - seen[:, 1]))
+        view = cam.centre[None, :] - pos
         view /= np.linalg.norm(view, axis=1, keepdims=True)
-        return LobeHighPass(photo, Geometry.from_vectors(normals, view, cam.R.T @ light_camera), params, rows, cols)
+        return LobeHighPass(photo, Geometry.from_vectors(nrm, view, cam.R.T @ light_camera), params, rows, cols)
 
     start = lobe_fit(np.zeros(2))
-    r0, _ = start.residual(float(params.exponent))
-    if not np.all(np.isfinite(r0)) or not start.ok.any():
+    if not start.ok.any() or not np.all(np.isfinite(start.residual(float(params.exponent))[0])):
         return None
-    sigma_r = float(np.sqrt(np.mean(r0[start.ok] ** 2)))
-    if sigma_r <= 0:
-        return None
-    weight = 1.0 / (sigma_r * np.sqrt(correlation))
 
     def photometric(theta: np.ndarray) -> np.ndarray:
         res, _ = lobe_fit(theta).residual(float(np.exp(theta[2])))
-        return np.where(np.isfinite(res), res, 0.0).ravel() * weight
-
-    def posterior(theta: np.ndarray) -> np.ndarray:
-        return np.concatenate([photometric(theta), prior @ (theta[:2] + offset)])
+        return np.where(np.isfinite(res), res, 0.0).ravel()
 
     bound = np.array([MAX_TURN_DEG, MAX_TURN_DEG, np.inf])
     x0 = np.array([0.0, 0.0, np.log(params.exponent)])
-    fit = least_squares(posterior, x0, bounds=(-bound, bound), x_scale=np.array([0.5, 0.5, 0.1]),
+    fit = least_squares(photometric, x0, bounds=(-bound, bound), x_scale=np.array([0.5, 0.5, 0.1]),
                         diff_step=np.array([1e-2, 1e-2, 1e-3]), xtol=1e-3, ftol=1e-6)
-    # The photograph's own preference and the posterior spread, from the same Jacobian.
-    jp = fit.jac[:-2]
-    info_photo = jp.T @ jp
+    if np.any(np.abs(fit.x[:2]) >= MAX_TURN_DEG - 1e-3):
+        return None
     try:
-        post_cov = np.linalg.inv(fit.jac.T @ fit.jac)
-        photo_cov = np.linalg.inv(info_photo)
-        photo_only = fit.x[:2] - (photo_cov @ (jp.T @ fit.fun[:-2]))[:2]
+        photo_cov = cluster_covariance(fit.jac, fit.fun, rows, cols)[:2, :2]
+        info_photo = np.linalg.inv(photo_cov)
+        info_prior = np.linalg.inv(cov)
+        post_cov = np.linalg.inv(info_photo + info_prior)
     except np.linalg.LinAlgError:
-        post_cov = photo_cov = np.full((3, 3), np.nan)
-        photo_only = np.full(2, np.nan)
-    turn = fit.x[:2]
+        return None
+    photo_only = fit.x[:2]
+    # Both in the frame of ``camera``; the landmarks put the turn at −offset from it.
+    turn = post_cov @ (info_photo @ photo_only - info_prior @ offset)
     return PoseRefinement(camera=camera.turned(np.radians([turn[0], turn[1], 0.0]), pivot), turn_deg=turn + offset,
-                          photometric_deg=photo_only + offset, photometric_sigma_deg=np.sqrt(np.diag(photo_cov)[:2]),
-                          sigma_deg=np.sqrt(np.diag(post_cov)[:2]),
-                          exponent=float(np.exp(fit.x[2])), evaluations=evaluations)
+                          photometric_deg=photo_only + offset, photometric_sigma_deg=np.sqrt(np.diag(photo_cov)),
+                          sigma_deg=np.sqrt(np.diag(post_cov)), exponent=float(np.exp(fit.x[2])),
+                          evaluations=evaluations)

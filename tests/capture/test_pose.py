@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from capture.camera import Camera, calibrate
 from capture.phong import PhongParams
-from capture.pose import refine_rotation
+from capture.pose import Surface, refine_rotation
 from capture.synthetic import validation_camera
 from painting.head import load_head
 
@@ -56,8 +56,10 @@ def test_a_camera_given_directly_is_not_refined() -> None:
     """No covariance (a projection matrix given, not calibrated): nothing to weigh the photograph against."""
     cam = validation_camera()
     p = np.zeros((10, 3))
+    surface = Surface.from_pixels(np.arange(10), np.arange(10), p + [0.0, 0.0, 1.0], p)
     params = PhongParams(diffuse=np.full(3, 0.4), specular=0.2, exponent=20.0, ambient_scale=1.0)
-    assert refine_rotation(p, p, p, cam, np.array([0.0, 0.0, -1.0]), params, np.arange(10), np.arange(10)) is None
+    assert refine_rotation(np.zeros((10, 10, 3)), surface, cam, np.array([0.0, 0.0, -1.0]), params, np.arange(10),
+                           np.arange(10)) is None
 
 
 @cache
