@@ -18,11 +18,9 @@ before/after split, lightweight mode).
   changes are queued by the document's :class:`render.binding.DocumentBinding` (dirty 64² tiles merged
   per layer, or one full re-evaluation) and flushed at the start of the next ``paintGL``, so a dab's
   tiles are in the very next frame. There is no timer and no busy loop.
-- Mouse: left drag on the head paints (signals to the window, which owns the document), left drag off
-  the head or right drag orbits, middle (or Shift+right) drag pans, the wheel zooms, Ctrl+left drag moves
-  the key light. Hovering shows the brush ring on the surface (a ring-only redraw reuses the last frame).
-  Tablet pressure is read from ``QTabletEvent`` and applied to the mouse events Qt synthesises from it.
-- Picking reads the depth of the last frame the renderer drew (the current view).
+- Mouse and tablet (:mod:`app.viewport_input`): left drag on the head paints, off the head orbits; pan,
+  zoom, Ctrl+left drag moves the key light; hovering shows the brush ring. Picking reads the depth of the
+  last frame the renderer drew (the current view).
 - Progressive refinement (:mod:`render.progressive`): while the user orbits, pans, zooms, moves the key
   light or paints (every such input calls :meth:`Viewport.note_input`), frames are *interactive*: fast
   mode at the internal scale that holds the frame budget (:attr:`Viewport.refine`), upscaled. When a
@@ -33,17 +31,17 @@ before/after split, lightweight mode).
 
 from __future__ import annotations
 
-import math
 import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from PySide6.QtCore import QEvent, QPointF, Qt, QTimer, Signal
-from PySide6.QtGui import QColor, QMouseEvent, QPainter, QTabletEvent, QWheelEvent
+from PySide6.QtCore import QEvent, Qt, QTimer, Signal
+from PySide6.QtGui import QColor, QPainter
 from PySide6.QtWidgets import QApplication, QVBoxLayout, QWidget
 
 from app.camera import Lighting, OrbitCamera
 from app.gl_surface import Caption, GLSurface, attach_moderngl
+from app.viewport_input import ViewportInput
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -105,7 +103,7 @@ def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
     _PRELOAD["task"] = run_task(None, "Starting the renderer", preload_renderer, done, done, show_progress=False)
 
 
-class Viewport(QWidget):
+class Viewport(ViewportInput, QWidget):
     """The studio's (and the kiosk's) 3D view of a document's head and layers (see the module docstring)."""
 
     frameSwapped = Signal()  # (QOpenGLWidget's name: a frame is on screen)
@@ -156,12 +154,7 @@ class Viewport(QWidget):
         self.ctx: moderngl.Context | None = None
         self.renderer: ViewRenderer | None = None
         self.renderer_error: str | None = None  # the renderer failed in a frame (reported; the view stays empty)
-        self._ring: np.ndarray | None = None
-        self._drag: str | None = None
-        self._drag_input = False  # the current drag has moved the view, a light or the makeup (note_input)
-        self._last = QPointF()
-        self._pressure = 1.0
-        self._tablet = False
+        self._init_input()
         self.frame_ms = 0.0
         self.render_ms = 0.0  # the last frame the renderer drew (not a ring-only redraw), finished
         self.flush_ms = 0.0  # the last paintGL's share spent pushing document changes (dirty tiles' KM)
@@ -467,8 +460,9 @@ class Viewport(QWidget):
     def note_input(self, drag: bool = False) -> None:
         """An input that changes the view or the makeup: draw interactive frames until it stops.
 
-        ``drag``: it comes from a mouse drag, whose button's release ends it (:meth:`mouseReleaseEvent`
-        settles at once); other inputs (the wheel, keys, the kiosk's turns) settle after :data:`SETTLE_MS`.
+        ``drag``: it comes from a mouse drag, whose button's release ends it
+        (:meth:`~app.viewport_input.ViewportInput.mouseReleaseEvent` settles at once); other inputs (the
+        wheel, keys, the kiosk's turns) settle after :data:`SETTLE_MS`.
         """
         self.last_input_time = time.perf_counter()
         self._drag_input = drag
@@ -538,129 +532,3 @@ class Viewport(QWidget):
         """Show or hide the frame-time overlay."""
         self.overlay.setVisible(on)
         self.update()
-
-    # ------------------------------------------------------------------ picking
-    def pick(self, pos: QPointF) -> np.ndarray | None:
-        """The surface point under ``pos`` (widget coordinates) in the last frame, or None."""
-        if self.renderer is None or self.ctx is None:
-            return None
-        r = self.devicePixelRatioF()
-        self.makeCurrent()
-        try:
-            return self.renderer.pick(int(pos.x() * r), int(pos.y() * r), self.camera)
-        finally:
-
-            self.doneCurrent()
-
-    # ------------------------------------------------------------------ events
-    def tabletEvent(self, event: QTabletEvent) -> None:
-        """Keep the pen's pressure (0..1) for the mouse events Qt synthesises from it."""
-        self._pressure = float(event.pressure()) if event.pressure() > 0 else 1.0
-        self._tablet = event.type() != QTabletEvent.Type.TabletRelease
-        event.ignore()  # Qt then synthesises the mouse events, which carry our pressure
-
-    def _pressure_now(self) -> float:
-        return self._pressure if self._tablet else 1.0
-
-    def mousePressEvent(self, event: QMouseEvent) -> None:
-        """Start a drag: paint on the head, orbit, pan or move the light (see the module docstring)."""
-        pos = event.position()
-        self._last = pos
-        self._drag_input = False
-        mods = event.modifiers()
-        btn = event.button()
-        if btn == Qt.MouseButton.LeftButton and self.pick_next:
-            hit = self.pick(pos)  # a pick for a tool (the Shade Finder's skin), not a stroke
-            if hit is not None:
-                self.pick_next = False
-                self.surface.setCursor(Qt.CursorShape.ArrowCursor)
-                self.surface_picked.emit(hit)
-            event.accept()
-            return
-        if btn == Qt.MouseButton.LeftButton and mods & Qt.KeyboardModifier.ControlModifier:
-            self._drag = "light"
-        elif btn == Qt.MouseButton.LeftButton and self.paint_enabled:
-            hit = self.pick(pos)
-            if hit is not None:
-                self._drag = "paint"
-                self._ring = hit
-                self.note_input(drag=True)
-                self.stroke_begin.emit(hit, self._pressure_now())
-            else:
-                self._drag = "orbit"
-        elif btn == Qt.MouseButton.LeftButton:
-            self._drag = "orbit"
-        elif btn == Qt.MouseButton.MiddleButton or (
-                btn == Qt.MouseButton.RightButton and mods & Qt.KeyboardModifier.ShiftModifier):
-            self._drag = "pan"
-        elif btn == Qt.MouseButton.RightButton:
-            self._drag = "orbit"
-        event.accept()
-
-    def mouseMoveEvent(self, event: QMouseEvent) -> None:
-        """Continue the drag, or move the brush ring while hovering."""
-        pos = event.position()
-        dx, dy = pos.x() - self._last.x(), pos.y() - self._last.y()
-        self._last = pos
-        if self._drag == "orbit":
-            self.camera.orbit(-dx * 0.4, dy * 0.4)
-            self.note_input(drag=True)
-        elif self._drag == "pan":
-            h = max(self.height(), 1)
-            self.camera.pan(dx / h, dy / h)
-            self.note_input(drag=True)
-        elif self._drag == "light":
-            az = self.lighting.azimuth + dx * 0.5
-            el = float(np.clip(self.lighting.elevation - dy * 0.5, -80.0, 85.0))
-            self.lighting.azimuth = (az + 180.0) % 360.0 - 180.0
-            self.lighting.elevation = el
-            self.note_input(drag=True)
-            self.light_moved.emit(self.lighting.azimuth, el)
-        elif self._drag == "paint":
-            hit = self.pick(pos)
-            if hit is not None:
-                self._ring = hit
-                self.note_input(drag=True)
-                self.stroke_move.emit(hit, self._pressure_now())
-        elif self.paint_enabled:
-            # hovering moves the brush ring: quick frames while the mouse moves, a full one when it rests
-            ring = self.pick(pos)
-            if ring is None and self._ring is None:
-                return
-            self._ring = ring
-        else:
-            return  # nothing on screen depends on a hover (the kiosk)
-        self.update()
-
-    def mouseReleaseEvent(self, event: QMouseEvent) -> None:
-        """End the drag (a stroke ends here); a drag that moved the view or the makeup settles at once.
-
-        Releasing the button is the end of the drag's input, known for certain: waiting out
-        :data:`SETTLE_MS` would only delay the full frame (the timer stays for the wheel, keys and the
-        kiosk's turns, whose end cannot be seen).
-        """
-        was, moved = self._drag, self._drag_input
-        self._drag, self._drag_input = None, False
-        if was == "paint":
-            self.stroke_end.emit()
-        if moved and self.stage == "interactive":
-            self.settle_now()
-        elif was is not None and self.stage == "interactive" and not self._settle_timer.isActive():
-            self._settle_timer.start()  # (it runs from the last move: releasing the button is no movement)
-        self.update()
-
-    def leaveEvent(self, event: QEvent) -> None:
-        """Hide the brush ring when the pointer leaves."""
-        self._ring = None
-        self.update()
-
-    def wheelEvent(self, event: QWheelEvent) -> None:
-        """Zoom: each notch scales the camera distance by 0.9 (in) or 1/0.9 (out)."""
-        steps = event.angleDelta().y() / 120.0
-        self.camera.zoom(math.pow(0.9, steps))
-        self.note_input()
-
-    def orbit_by(self, dyaw: float, dpitch: float = 0.0) -> None:
-        """Turn the view (the kiosk's attract mode): an input like a drag (interactive frames, then settle)."""
-        self.camera.orbit(dyaw, dpitch)
-        self.note_input()
