@@ -216,8 +216,8 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
         progress: called with one line per step.
         robustness_starts: if > 0, also run the fit from this many random starts (paper: 200).
         refine_pose: for a camera calibrated from points (one with a ``rotation_covariance_deg2``),
-            turn it to fit the photograph's specular lobe after the first fit (:mod:`capture.pose`),
-            then capture again from the turned camera.
+            turn it to fit the photograph's specular lobe after the first (joint) Phong fit
+            (:mod:`capture.pose`), then capture again from the turned camera.
     """
     t_all = time.perf_counter()
     given_mask = mask
@@ -288,6 +288,24 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     # Phong fit.
     t = time.perf_counter()
     fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
+    if refine_pose:
+        # The pose refinement needs D, k, A and F (it fits s itself, i_s in closed form): the first pass
+        # stops here when the camera turns, and the capture runs again from the turned camera.
+        t_refine = time.perf_counter()
+        pose = _refine_pose(head, photo_lin, camera, pix, sel, R @ light_world, fit.params)
+        t_pose = time.perf_counter() - t_refine
+        if pose is not None:
+            _log(progress, f"camera turned {np.round(pose.turn_deg, 2).tolist()}° about its x and y axes to fit the "
+                           f"specular lobe (the photograph alone: {np.round(pose.photometric_deg, 2).tolist()}°; "
+                           f"± {np.round(pose.sigma_deg, 2).tolist()}°); fitting again")
+            first = time.perf_counter() - t_all
+            result = capture(head, photo_lin, pose.camera, probe, given_mask, texture_size, progress,
+                             robustness_starts, refine_pose=False)
+            result.timings_s["pose"] = t_pose
+            result.timings_s["first_fit"] = first
+            result.timings_s["total"] = time.perf_counter() - t_all
+            result.pose = pose
+            return result
     # The lobe (s and i_s) fitted on the photograph high-passed at a few pixels, where the skin's albedo
     # variation no longer follows the lobe (the paper's saturation estimate and joint fit read it as
     # part of the lobe), then D refitted with both fixed (see :func:`capture.phong.specular_from_detail`).
@@ -306,22 +324,6 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
         _log(progress, "warning: the specular lobe has no unclipped core on the skin: s from the saturation curve "
                        "and i_s from the joint fit (both read albedo that varies under the lobe as specular)")
     p = fit.params
-    if refine_pose:
-        t = time.perf_counter()
-        pose = _refine_pose(head, photo_lin, camera, pix, sel, R @ light_world, p)
-        t_pose = time.perf_counter() - t
-        if pose is not None:
-            _log(progress, f"camera turned {np.round(pose.turn_deg, 2).tolist()}° about its x and y axes to fit the "
-                           f"specular lobe (the photograph alone: {np.round(pose.photometric_deg, 2).tolist()}°; "
-                           f"± {np.round(pose.sigma_deg, 2).tolist()}°); fitting again")
-            first = time.perf_counter() - t_all
-            result = capture(head, photo_lin, pose.camera, probe, given_mask, texture_size, progress,
-                             robustness_starts, refine_pose=False)
-            result.timings_s["pose"] = t_pose
-            result.timings_s["first_fit"] = first
-            result.timings_s["total"] = time.perf_counter() - t_all
-            result.pose = pose
-            return result
     k_photo = photo_ambient_scale(colours, geo, p)
     timings["phong_fit"] = time.perf_counter() - t
     _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
