@@ -44,6 +44,16 @@ irradiance), which bounds E·T·√albedo and R_top·E; the out-scatter factor i
 1 for a layer stack that creates no light, so √albedo·T / (1 − R_bottom·albedo) ≤ √albedo) and is
 stored with scale 1.
 
+A point light close to the surface (inside the head, or next to the skin) makes the bound huge where the
+skin at large gets ordinary light: with the light 1.5 units from the sample head's centre, 0.26 from a
+surface inside the head, the bound was 3·10⁶ (the true largest E 1111, on surfaces facing the light) against ~1 on
+the skin, and 8 bits square-root encoded hold nothing below scale / 255² — the head came out nearly black
+(mean 42 against the direct path's 91). No bound can fix that (even the true 1111 leaves the skin ~8 of
+255 codes). So the colours that carry E (diffuse, outer) are stored RGBA16F, the same square-root
+encoding with a float's relative precision at every level, when the rig's range (:func:`irradiance_range`:
+the bound over what each light gives the head at its median distance) exceeds :data:`MAX_8BIT_RANGE`.
+Ordinary rigs (every directional rig, point lights an arm's length away) keep the 32-bit targets.
+
 Units: display units as the irradiance (a white Lambert surface facing a light of intensity 1 shows 1).
 """
 
@@ -80,6 +90,11 @@ MAX_LEVEL = 1
 _ENV_SAMPLES = 4096
 #: margin on the sampled environment maximum (order-2 SH between samples ~2° apart varies far less)
 _ENV_MARGIN = 1.02
+#: the largest :func:`irradiance_range` stored in 8/10 bits. The square-root code's step is 2/(255·v) of the
+#: value at code v = sqrt(x / scale); skin lit at 1/16 of the bound (v = 1/4) is quantised in steps of 3 %
+#: (8 bits, outer) and 0.8 % (10 bits, diffuse) — at most 1.5 % off, below a third of a ΔL* of 1 on skin
+#: (L* ∝ Y^⅓). Beyond it the E-carrying colours go to RGBA16F (see the module doc).
+MAX_8BIT_RANGE = 16.0
 
 
 def irradiance_bound(lights: list[Light], environment: Environment | None, vertices: np.ndarray) -> np.ndarray:
@@ -108,13 +123,64 @@ def irradiance_bound(lights: list[Light], environment: Environment | None, verti
             col = col * (float(lt.reference_distance) / near) ** 2
         bound += col
     if environment is not None:
-        i = np.arange(_ENV_SAMPLES) + 0.5
-        z = 1.0 - 2.0 * i / _ENV_SAMPLES
-        phi = i * math.pi * (3.0 - math.sqrt(5.0))  # a Fibonacci sphere
-        rho = np.sqrt(1.0 - z * z)
-        dirs = np.stack([rho * np.cos(phi), rho * np.sin(phi), z], axis=1)
-        bound += environment.irradiance(dirs).max(axis=0) * _ENV_MARGIN
+        bound += _environment_max(environment)
     return np.maximum(bound, 1e-3).astype(np.float32)
+
+
+def _environment_max(environment: Environment) -> np.ndarray:
+    """The environment's largest SH irradiance over the sphere (RGB, display units, with a margin)."""
+    i = np.arange(_ENV_SAMPLES) + 0.5
+    z = 1.0 - 2.0 * i / _ENV_SAMPLES
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))  # a Fibonacci sphere
+    rho = np.sqrt(1.0 - z * z)
+    dirs = np.stack([rho * np.cos(phi), rho * np.sin(phi), z], axis=1)
+    return np.asarray(environment.irradiance(dirs).max(axis=0) * _ENV_MARGIN, float)
+
+
+def irradiance_range(lights: list[Light], environment: Environment | None, vertices: np.ndarray,
+                     bound: np.ndarray | None = None) -> float:
+    """How far :func:`irradiance_bound` lies above the light the head gets at large (a ratio ≥ 1).
+
+    The reference is the bound with each point light taken at its median distance from the vertices
+    instead of its nearest (directional lights and the environment count the same in both): 1 for a rig
+    without point lights; large when a point light is much nearer some surface than the head at large
+    (inside the head, next to the skin), the hot spot that the bound must hold but the skin does not see.
+
+    Args:
+        lights: the rig (validated).
+        environment: the SH environment, or None.
+        vertices: the head's vertices (N, 3), mesh units.
+        bound: :func:`irradiance_bound` of the same, if already at hand.
+
+    Returns:
+        the largest per-channel ratio of the bound to that reference (1 for a black rig).
+    """
+    v = np.asarray(vertices, float)
+    far = np.zeros(3)
+    for lt in lights:
+        col = np.asarray(lt.colour, float) * float(lt.intensity)
+        if lt.kind != "directional":
+            d = float(np.median(np.linalg.norm(v - np.asarray(lt.vector, float), axis=1)))
+            col = col * (float(lt.reference_distance) / max(d, 1e-3)) ** 2
+        far += col
+    if environment is not None:
+        far += _environment_max(environment)
+    far = np.maximum(far, 1e-3)
+    if bound is None:
+        bound = irradiance_bound(lights, environment, v)
+    return float(max(np.max(bound / far), 1.0))
+
+
+def irradiance_encoding(lights: list[Light], environment: Environment | None,
+                        vertices: np.ndarray) -> tuple[np.ndarray, bool]:
+    """The cache's colour encoding for a rig.
+
+    Returns:
+        (the scale, :func:`irradiance_bound`; whether the E-carrying colours must be half floats,
+        :func:`irradiance_range` above :data:`MAX_8BIT_RANGE`).
+    """
+    bound = irradiance_bound(lights, environment, vertices)
+    return bound, irradiance_range(lights, environment, vertices, bound) > MAX_8BIT_RANGE
 
 
 def _longest_edge(vertices: np.ndarray) -> float:
@@ -201,20 +267,24 @@ class _Level:
         self.textures: list[moderngl.Texture] = []
         self.fbo: moderngl.Framebuffer | None = None
         self.scale = np.ones(3, np.float32)
+        self.wide = False  # the E-carrying colours (diffuse, outer) are RGBA16F (see the module doc)
         #: (irradiance side, its version, KM full version, KM size): the renderer keeps an irradiance per side,
         #: each counting its own versions, so the side tells a 512² relight from the 1024² one of the same count
         self.key: tuple[int, int, int, tuple[int, int]] | None = None
         self.pending: set[tuple[int, int]] = set()  # KM tiles (row, col) changed since its last update
 
-    def alloc(self, ctx: moderngl.Context, size: tuple[int, int]) -> None:
-        if size == self.size and self.fbo is not None:
+    def alloc(self, ctx: moderngl.Context, size: tuple[int, int], wide: bool) -> None:
+        if size == self.size and wide == self.wide and self.fbo is not None:
             return
         old = [self.fbo, *self.textures]
         self.textures = []
         for i in range(CACHE_TEXTURES):
-            # the diffuse shows at full resolution through the SSS kernel's core: 10 bits (its alpha is the
-            # binary skin mask, 2 bits are enough); the others 8
-            tex = ctx.texture(size, 4, internal_format=_GL_RGB10_A2 if i == 0 else None)
+            if wide and i < 2:  # diffuse and outer carry E: half floats for a rig of a wide range
+                tex = ctx.texture(size, 4, dtype="f2")
+            else:
+                # the diffuse shows at full resolution through the SSS kernel's core: 10 bits (its alpha is
+                # the binary skin mask, 2 bits are enough); the others 8
+                tex = ctx.texture(size, 4, internal_format=_GL_RGB10_A2 if i == 0 else None)
             tex.repeat_x = tex.repeat_y = False
             tex.filter = (ctx.LINEAR, ctx.LINEAR)
             self.textures.append(tex)
@@ -223,7 +293,7 @@ class _Level:
         for obj in old:
             if obj is not None:
                 obj.release()
-        self.size = size
+        self.size, self.wide = size, wide
         self.key = None
 
     def release(self) -> list[object]:
@@ -264,6 +334,11 @@ class TextureLighting:
     def scale(self) -> np.ndarray:
         """The colour encoding's scale (RGB, display units) of the current level: :func:`irradiance_bound`."""
         return self.levels[self.level].scale
+
+    @property
+    def wide(self) -> bool:
+        """Whether the current level stores the E-carrying colours as half floats (see the module doc)."""
+        return self.levels[self.level].wide
 
     @property
     def textures(self) -> list[moderngl.Texture]:
@@ -316,12 +391,14 @@ class TextureLighting:
         return out
 
     def update(self, km: KMTextureSpace, irradiance: TextureIrradiance, gpu_head: GpuHead,
-               scale: np.ndarray, level: int = 0) -> bool:
+               scale: np.ndarray, level: int = 0, wide: bool = False) -> bool:
         """Bring ``level`` up to date with ``km`` and ``irradiance``, and make it the current level.
 
         Takes ``km.dirty_tiles`` (every level keeps the tiles it has not recomputed yet).
         ``scale``: :func:`irradiance_bound` of the lights and environment ``irradiance`` was made with
-        (used when the level is recomputed whole; dirty tiles keep the level's scale).
+        (used when the level is recomputed whole; dirty tiles keep the level's scale). ``wide``: store the
+        E-carrying colours as half floats (:func:`irradiance_range` above :data:`MAX_8BIT_RANGE`); a
+        change of it reallocates the level, which is then recomputed whole.
 
         Returns:
             True if anything was recomputed.
@@ -338,7 +415,7 @@ class TextureLighting:
         lv = self.levels[level]
         key = (irradiance.size, irradiance.version, km.full_version, km.size)
         w0, h0 = self.target_size(km, gpu_head)
-        lv.alloc(self.ctx, (max(w0 >> level, 1), max(h0 >> level, 1)))
+        lv.alloc(self.ctx, (max(w0 >> level, 1), max(h0 >> level, 1)), wide)
         whole = key != lv.key
         pending = sorted(lv.pending)
         lv.pending = set()

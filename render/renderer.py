@@ -22,7 +22,7 @@ from render.irradiance import TextureIrradiance
 from render.km_pass import MAX_LAYERS, KMTextureSpace
 from render.lights import MAX_LIGHTS, Environment, Light, ShadowMaps, default_lights, upload_lights
 from render.lit_cache import MAX_LEVEL as MAX_CACHE_LEVEL
-from render.lit_cache import TexelDensity, TextureLighting, irradiance_bound, level_for
+from render.lit_cache import TexelDensity, TextureLighting, irradiance_encoding, level_for
 from render.lit_pass import U_SHADOW, LitPass, cull
 from render.settings import DEBUG_VIEWS, RenderSettings
 from render.shaders import ShaderLibrary
@@ -85,7 +85,8 @@ class Renderer:
         self.irradiance = TextureIrradiance(ctx, self.shaders, self.settings.irradiance_size)
         self._irradiances: dict[int, TextureIrradiance] = {self.irradiance.size: self.irradiance}
         self.lighting = TextureLighting(ctx, self.shaders)
-        self._bound: tuple[Any, np.ndarray] | None = None  # (irradiance key, irradiance_bound of it)
+        # (irradiance key, irradiance_bound of it, whether its range needs the cache's half floats)
+        self._bound: tuple[Any, np.ndarray, bool] | None = None
         #: a full frame whose cache level is out of date as a whole draws on the direct path and leaves the
         #: rebuild to :meth:`build_deferred_cache` (the studio's settle frames after a relight: the rebuild
         #: costs more than the direct path's extra, issue #13); False: the frame rebuilds it
@@ -342,8 +343,9 @@ class Renderer:
     def _update_cache(self, irr_key: Any, level: int) -> bool:
         """Bring the lighting cache's ``level`` up to date with the irradiance of ``irr_key``."""
         if self._bound is None or self._bound[0] != irr_key:
-            self._bound = (irr_key, irradiance_bound(self.lights, self.environment, self.gpu_head.vertices))
-        return self.lighting.update(self.km, self.irradiance, self.gpu_head, self._bound[1], level)
+            self._bound = (irr_key, *irradiance_encoding(self.lights, self.environment, self.gpu_head.vertices))
+        _, bound, wide = self._bound
+        return self.lighting.update(self.km, self.irradiance, self.gpu_head, bound, level, wide)
 
     def build_deferred_cache(self) -> bool:
         """Rebuild the cache level a :attr:`defer_cache` frame left out of date (call with the context current).
