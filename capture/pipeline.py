@@ -310,7 +310,8 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     # variation no longer follows the lobe (the paper's saturation estimate and joint fit read it as
     # part of the lobe), then D refitted with both fixed (see :func:`capture.phong.specular_from_detail`).
     specular_joint = fit.params.specular
-    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w))
+    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w),
+                               vectors=(pix.normals[sel], pix.view[sel], light_world))
     if sep is not None:
         diffuse_joint = fit.params.diffuse
         fit = fit_phong(colours, geo, sep.exponent, flash_rgb, ambient_rgb,
