@@ -15,15 +15,10 @@ import numpy as np
 from PySide6.QtCore import QByteArray, QSettings, Qt, QTimer
 from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
-    QCheckBox,
-    QComboBox,
     QDockWidget,
-    QDoubleSpinBox,
     QFileDialog,
     QLabel,
     QMainWindow,
-    QSlider,
-    QToolBar,
     QWidget,
 )
 
@@ -35,11 +30,9 @@ from app.layers_panel import LayersPanel
 from app.library_dock import LibraryDock
 from app.new_from_photo import NewFromPhoto
 from app.project_files import ProjectFiles
-from app.region_picker import RegionPicker
 from app.session import BACKENDS
 from app.settings import (
     APPLICATION,
-    ENVIRONMENTS,
     LIGHT_PRESETS,
     ORGANISATION,
     StudioSettings,
@@ -47,10 +40,11 @@ from app.settings import (
     save_settings,
 )
 from app.shade_finder import ShadeFinder
+from app.studio_toolbars import WINDOW_STATE_VERSION, StudioToolbars
 from app.viewport import Viewport
 from app.workers import run_task
 from painting import Brush
-from render.view import RENDER_MODES, debug_views
+from render.view import RENDER_MODES
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -62,7 +56,7 @@ if TYPE_CHECKING:
 log = logging.getLogger("sheer.app")
 
 
-class StudioWindow(QMainWindow):
+class StudioWindow(StudioToolbars, QMainWindow):
     """The studio's main window on a session's document and library.
 
     Args:
@@ -149,9 +143,7 @@ class StudioWindow(QMainWindow):
             self.restoreGeometry(geo)
         else:
             self.resize(1280, 800)
-        state = self.qsettings.value("window/state")
-        if isinstance(state, QByteArray):
-            self.restoreState(state)
+        self.restore_layout()
         self.refresh_layers()
         self.apply()
         self.setWindowModified(False)
@@ -254,62 +246,6 @@ class StudioWindow(QMainWindow):
             act = self.recent_menu.addAction(p)
             act.triggered.connect(lambda _c=False, path=p: self.files.offer_to_save()
                                   and self.files.open_project(Path(path), background=True))
-
-    def _build_toolbars(self) -> None:
-        tb = QToolBar("Brush")
-        tb.setObjectName("brush_toolbar")
-        self.addToolBar(tb)
-        self.radius_spin = QDoubleSpinBox()
-        self.radius_spin.setRange(0.5, 100.0)
-        self.radius_spin.setSuffix(" mm")
-        self.strength_spin = QDoubleSpinBox()
-        self.strength_spin.setRange(0.05, 1.0)
-        self.strength_spin.setSingleStep(0.05)
-        self.hardness_spin = QDoubleSpinBox()
-        self.hardness_spin.setRange(0.0, 0.95)
-        self.hardness_spin.setSingleStep(0.05)
-        self.mode_combo = QComboBox()
-        self.mode_combo.addItems(["add", "erase", "smooth"])
-        self.mirror_check = QCheckBox("Mirror")
-        for label, w in (("Radius", self.radius_spin), ("Strength", self.strength_spin),
-                         ("Hardness", self.hardness_spin), ("Mode", self.mode_combo)):
-            tb.addWidget(QLabel(f" {label} "))
-            tb.addWidget(w)
-        tb.addWidget(self.mirror_check)
-        self.region_picker = RegionPicker(self.doc)  # stay inside / avoid / fill a facial region (issue #16)
-        tb.addWidget(self.region_picker)
-        self.region_picker.attach_overlay(self.viewport)  # its Regions menu outlines regions on the face
-        self.region_picker.fill_requested.connect(
-            lambda name: self.doc.layers and self._layer_cmd(
-                lambda: self.doc.fill_region(self.doc.layers[self.selected_layer], name)))
-        self.radius_spin.valueChanged.connect(lambda v: self._set(brush_radius_mm=float(v)))
-        self.strength_spin.valueChanged.connect(lambda v: self._set(brush_strength=float(v)))
-        self.hardness_spin.valueChanged.connect(lambda v: self._set(brush_hardness=float(v)))
-        self.mode_combo.currentTextChanged.connect(lambda t: self._set(brush_mode=t))
-        self.mirror_check.toggled.connect(lambda on: self._set(brush_mirror=bool(on)))
-        vb = QToolBar("View")
-        vb.setObjectName("view_toolbar")
-        self.addToolBar(vb)
-        self.light_combo = QComboBox()
-        self.light_combo.addItems(list(LIGHT_PRESETS))
-        self.env_combo = QComboBox()
-        self.env_combo.addItems(list(ENVIRONMENTS))
-        self.render_combo = QComboBox()
-        self.render_combo.addItems(list(RENDER_MODES))
-        self.debug_combo = QComboBox()
-        self.debug_combo.addItems(debug_views())
-        self.split_slider = QSlider(Qt.Orientation.Horizontal)
-        self.split_slider.setRange(0, 100)
-        self.split_slider.setMaximumWidth(140)
-        for label, w in (("Light", self.light_combo), ("HDR", self.env_combo), ("Mode", self.render_combo),
-                         ("View", self.debug_combo), ("Before|After", self.split_slider)):
-            vb.addWidget(QLabel(f" {label} "))
-            vb.addWidget(w)
-        self.light_combo.currentTextChanged.connect(self._light_preset)
-        self.env_combo.currentTextChanged.connect(lambda t: self._set(environment=t))
-        self.render_combo.currentTextChanged.connect(self.set_render_mode)
-        self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
-        self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
 
     def _refresh_swatches(self) -> None:
         """Once km's colour maths is loaded (with the renderer): the real swatches replace the placeholders."""
@@ -637,7 +573,7 @@ class StudioWindow(QMainWindow):
         self.files.close()
         save_settings(self.qsettings, self.settings)
         self.qsettings.setValue("window/geometry", self.saveGeometry())
-        self.qsettings.setValue("window/state", self.saveState())
+        self.qsettings.setValue("window/state", self.saveState(WINDOW_STATE_VERSION))
         self.qsettings.sync()
         from app.workers import wait_all
 
