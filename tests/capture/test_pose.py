@@ -62,6 +62,74 @@ def test_a_camera_given_directly_is_not_refined() -> None:
                            np.arange(10)) is None
 
 
+def test_a_turn_reads_the_surface_the_turned_camera_sees() -> None:
+    """Turned by (0.6°, −0.8°) about the face's centre (the head turned 20°, CPU rasterisation), the
+    geometry :class:`capture.pose.Surface` reads for each face pixel matches the turned camera's own
+    rasterisation: normals within 0.006° at the median, 0.14° at p90 (measured). Keeping each pixel's first
+    surface point (the refinement before) is off by 0.19° at the median, 1.3° at p90, 2.2° for a 1.5°
+    turn: on curved skin the turn moves the point under a pixel as much as it turns the normal."""
+    from bench.capture_truth import Case, case_camera
+    from capture.mask import landmark_region
+    from capture.pipeline import pixel_data
+
+    head = load_head()
+    cam = case_camera(head, Case("sample", 30.0, yaw_deg=20.0))
+    pix = pixel_data(head, cam)
+    region = landmark_region(cam, head.metadata.landmarks, (cam.height, cam.width))
+    face = region[pix.rows, pix.cols] & (np.einsum("pc,pc->p", pix.normals, pix.view) > 0.3)
+    rows, cols, pos = pix.rows[face], pix.cols[face], pix.positions[face]
+    turned = cam.turned(np.radians([0.6, -0.8, 0.0]), pos.mean(axis=0))
+    truth = pixel_data(head, turned)
+    seen_by_turned = np.zeros((cam.height, cam.width, 3))
+    covered = np.zeros((cam.height, cam.width), dtype=bool)
+    seen_by_turned[truth.rows, truth.cols] = truth.normals
+    covered[truth.rows, truth.cols] = True
+    before, _ = cam.project(pos)
+    after, _ = turned.project(pos)
+    read, _ = Surface.from_pixels(pix.rows, pix.cols, pix.normals, pix.positions).sample(
+        cols + 0.5 - (after[:, 0] - before[:, 0]), rows + 0.5 - (after[:, 1] - before[:, 1]))
+    ok = covered[rows, cols]
+    exact = seen_by_turned[rows[ok], cols[ok]]
+
+    def angle(a: np.ndarray) -> np.ndarray:
+        return np.degrees(np.arccos(np.clip(np.einsum("pc,pc->p", a, exact), -1.0, 1.0)))
+
+    moved, kept = angle(read[ok]), angle(pix.normals[face][ok])
+    assert np.median(moved) < 0.03 and np.percentile(moved, 90) < 0.3, (np.median(moved), np.percentile(moved, 90))
+    assert np.median(kept) > 0.1, np.median(kept)  # what the test guards against
+
+
+@pytest.mark.gl
+def test_the_photographs_own_turn_follows_the_camera_s_error(gl_ctx: moderngl.Context) -> None:
+    """A GPU photograph (s 30, the head turned 20°, lobby; not a validation scene) seen from its true
+    camera turned by (0.5°, −0.7°), (−0.8°, 0°) and (0°, 0.9°) with a loose prior (10° σ): the lobe fit's
+    own turn back (``photometric_deg``) regresses on the turn needed with a slope of 1.02 (measured; the
+    refinement that kept each pixel's first surface point: −0.06, its turn did not follow at all)."""
+    from bench.capture_truth import Case, draw_case
+    from capture.pipeline import compute_skin_mask, pixel_data
+    from capture.probe import analyse_probe
+
+    scene = draw_case(gl_ctx, Case("sample", 30.0, environment="lobby", light_deg=(5.0, -4.0),
+                                   ambient="irradiance", yaw_deg=20.0))
+    probe = analyse_probe(scene.probe_linear)
+    params = PhongParams(diffuse=np.asarray(scene.diffuse), specular=0.18, exponent=30.0, ambient_scale=1.0,
+                         flash_rgb=probe.flash_rgb, ambient_rgb=probe.ambient_rgb)
+    pivot = np.array(list(scene.head.metadata.landmarks.values())).mean(axis=0)
+    needed, found = [], []
+    for turn in ([0.5, -0.7], [-0.8, 0.0], [0.0, 0.9]):
+        cam = scene.camera.turned(np.radians([*turn, 0.0]), pivot)
+        cam.rotation_covariance_deg2 = 100.0 * np.eye(2)
+        pix = pixel_data(scene.head, cam)
+        sel = compute_skin_mask(scene.head, cam, scene.photo.linear, pix)[pix.rows, pix.cols]
+        pose = refine_rotation(scene.photo.linear, Surface.from_pixels(pix.rows, pix.cols, pix.normals, pix.positions),
+                               cam, cam.R @ scene.light, params, pix.rows[sel], pix.cols[sel])
+        assert pose is not None
+        needed.append(-_turn_deg(cam, scene.camera))
+        found.append(pose.photometric_deg)
+    slope = float(np.sum(np.multiply(needed, found)) / np.sum(np.square(needed)))
+    assert 0.7 < slope < 1.3, (slope, needed, found)
+
+
 @cache
 def _turned_capture(ctx: moderngl.Context) -> tuple[CaptureResult, Camera, Camera]:
     """A GPU photograph (s 30, the head turned 20°, the flash 5° above and 4° left, lobby sky) captured
@@ -83,14 +151,13 @@ def _turned_capture(ctx: moderngl.Context) -> tuple[CaptureResult, Camera, Camer
 @pytest.mark.slow
 @pytest.mark.gl
 def test_the_lobe_turns_a_misaligned_camera_back(gl_ctx: moderngl.Context) -> None:
-    """Turned by 1.92° (−1.2° about x, +1.5° about y), the refined camera is 1.15° off (measured), turned
-    back along the way it was turned: one round keeps the first rasterisation's surface points, so it
-    stops short of a turn this large (capture.pipeline.POSE_ROUNDS)."""
+    """Turned by 1.92° (−1.2° about x, +1.5° about y), the refined camera is 0.42° off (measured), turned
+    back along the way it was turned (the refinement that kept each pixel's first surface point: 1.15°)."""
     result, turned, truth = _turned_capture(gl_ctx)
     assert result.pose is not None
     before = _turn_deg(turned, truth)
     after = _turn_deg(result.camera, truth)
     assert np.linalg.norm(before) == pytest.approx(1.92, abs=0.01)
-    assert np.linalg.norm(after) < 1.3, (before, after, result.pose)
+    assert np.linalg.norm(after) < 0.6, (before, after, result.pose)
     correction = before - after
     assert correction @ before > 0.9 * np.linalg.norm(correction) * np.linalg.norm(before), (before, after)
