@@ -39,7 +39,10 @@ Out of sample s is then within 8 % on the sample head, the canonical face and th
 flash above, beside, below and off-axis and s from 8 to 60 (from the true camera; with landmarks clicked
 with 1 px of noise up to −10.6 %), i_s within 6.3 % (−10.6 % with the noisy landmarks and s 60). On the
 validation's own CPU photograph, which samples each pixel's centre where the fit models a pixel's
-integration, s comes out 5.7–6.0 % high.
+integration, s comes out 5.7–6.0 % high. A camera calibrated from landmarks misregisters the head by a
+fraction of a pixel, which the 2 px high-pass sees: the fit also registers the lobe (the geometry
+shifted across the photograph; ``vectors`` of :func:`specular_from_detail`), so s and i_s no longer
+pay for where the camera put the head's image.
 """
 
 from __future__ import annotations
@@ -291,8 +294,8 @@ LOBE_HIGH_PASS_PX = 2.0
 #: the high-passed lobe no longer overlaps its own image, so the fit could not tell a shift from another
 #: lobe.
 LOBE_MAX_SHIFT_PX = LOBE_HIGH_PASS_PX
-#: How far it may turn the head's normals to move the lobe (about two axes across the line of sight),
-#: degrees: twice the landmarks' rotation uncertainty at its loosest (σ 1.5°, :func:`capture.camera.
+#: How far it may turn the head's normals to move the lobe (``fit_turn``; about two axes across the line of
+#: sight), degrees: twice the landmarks' rotation uncertainty at its loosest (σ 1.5°, :func:`capture.camera.
 #: pose_covariance` at the validation's framing with the head turned 30°). The lobe itself places the
 #: turn to ~0.5° (:mod:`capture.pose`).
 LOBE_MAX_TURN_DEG = 3.0
@@ -449,7 +452,8 @@ class LobeHighPass:
 def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongParams, rows: np.ndarray,
                          cols: np.ndarray, shape: tuple[int, int], fit_exponent: bool = True,
                          sigma_px: float = LOBE_HIGH_PASS_PX,
-                         vectors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> DetailSpecular | None:
+                         vectors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                         fit_turn: bool = False) -> DetailSpecular | None:
     """The specular lobe (i_s, and s with ``fit_exponent``) fitted on the high-passed photograph.
 
     A departure from the paper, which reads s from the saturation around the highlight and fits i_s
@@ -478,18 +482,25 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
     around the best point (the cost can have more than one dip: the grid is what keeps it global).
 
     Where the lobe lies: with ``vectors`` (the pixels' unit normals (P, 3), unit directions to the camera
-    (P, 3) and the unit direction to the flash (3,) that made ``geo``) the lobe's registration and
-    position are fitted with s — the geometry read up to :data:`LOBE_MAX_SHIFT_PX` away across the
-    photograph and its normals turned up to :data:`LOBE_MAX_TURN_DEG` about two axes across the line of
-    sight (:meth:`LobeHighPass.place`), least squares from the grid's s — so s and i_s no longer pay for
-    where the camera put the lobe. A camera calibrated from landmarks misregisters the head by 0.1–0.7 px
-    and turns it by a fraction of a degree (after :mod:`capture.pose`); at 2 px the lobe's fine structure
-    then misses the photograph's, and a lobe fitted where the camera put it comes out low in i_s (the
-    overlap lost) and in s (a broader lobe overlaps more). Measured on GPU-drawn photographs of our own
-    (16 scenes: s 10, 16, 32, 50, the head turned −20° or +10°, the flash (6°, 3°) or (−3°, 7°) from the
-    lens, shadows and the sensor's noise, landmarks with 1 px of noise): i_s median −7.4 → −4.4 %, worst
-    −15.7 → −12.7 %; s worst −7.0 → −4.4 %; the shift found matches the true misregistration at the lobe
-    to ~0.1 px. From the true camera the shift found is ≤ 0.04 px and s, i_s move by ≤ 0.7 points.
+    (P, 3) and the unit direction to the flash (3,) that made ``geo``) the lobe's registration is fitted
+    with s: the geometry read up to :data:`LOBE_MAX_SHIFT_PX` away across the photograph
+    (:meth:`LobeHighPass.place`), least squares from the grid's s, so s and i_s no longer pay for where
+    the camera put the head's image. A camera calibrated from landmarks misregisters the head by 0.1–0.7 px;
+    at 2 px the lobe's fine structure (the head's normals) then misses the photograph's, and a lobe
+    fitted where the camera put it comes out low in i_s (the overlap lost) and in s (a broader lobe
+    overlaps more). The shift found matches the true misregistration at the lobe to ~0.1 px (measured
+    on GPU-drawn photographs). Measured on 16 GPU-drawn photographs of our own (s 10, 16, 32, 50, the
+    head turned −20° or +10°, the flash (6°, 3°) or (−3°, 7°) from the lens, shadows and the sensor's
+    noise, landmarks with 1 px of noise; the estimator alone on the same inputs): s median 3.0 → 2.9 %,
+    worst 7.0 → 4.7 %; i_s median 6.9 → 5.4 %, worst 15.7 → 13.2 %. From the true camera the shift
+    found is ≤ 0.05 px and s, i_s move by ≤ 1 point.
+
+    ``fit_turn`` also turns the normals (up to :data:`LOBE_MAX_TURN_DEG` about two axes across the line
+    of sight), moving the lobe as a flash or a rotation a fraction of a degree off would. Off by default:
+    the rotation is :mod:`capture.pose`'s to refine, weighed against the landmarks' own uncertainty, and
+    unweighed here the skin's texture pulls it — on the 1,143-triangle head, from the true camera, it
+    turned 0.96° and s went +1.3 → −6.0 % (shift alone −2.7 %); on the 16 scenes above it gained
+    0.5 points of s median and i_s worst.
 
     Returns None when the lobe has no core on unclipped skin (fewer than 20 pixels at half its peak).
     """
@@ -505,7 +516,7 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
                                          method="bounded", options={"xatol": 1e-4}).x))
     placed = np.zeros(4)
     if vectors is not None:
-        placed, s = _place_lobe(lobe_hp, s, fit_exponent)
+        placed, s = _place_lobe(lobe_hp, s, fit_exponent, fit_turn)
     ok, rdv = lobe_hp.ok, lobe_hp.rdv
     core = ok & (rdv ** s >= 0.5)
     if core.sum() < 20:
@@ -516,26 +527,29 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
                           shift_px=placed[:2], turn_deg=placed[2:])
 
 
-def _place_lobe(lobe_hp: LobeHighPass, s: float, fit_exponent: bool) -> tuple[np.ndarray, float]:
-    """The lobe's registration and position fitted with s (:func:`specular_from_detail`).
+def _place_lobe(lobe_hp: LobeHighPass, s: float, fit_exponent: bool, turn: bool) -> tuple[np.ndarray, float]:
+    """The lobe's registration (and with ``turn`` its position) fitted with s (:func:`specular_from_detail`).
 
     Least squares over (shift x, y in pixels; turn about two axes in degrees; log s) from s and no
     offset, i_s in closed form at every step, within ±:data:`LOBE_MAX_SHIFT_PX` and
     ±:data:`LOBE_MAX_TURN_DEG`. Returns (the four offsets, s); ``lobe_hp`` is left placed there.
     """
-    def residual(x: np.ndarray) -> np.ndarray:
+    free = np.array([True, True, turn, turn, fit_exponent])
+    x = np.r_[np.zeros(4), np.log(s)]
+
+    def residual(xf: np.ndarray) -> np.ndarray:
+        x[free] = xf
         lobe_hp.place(x[:2], x[2:4])
-        res, _ = lobe_hp.residual(float(np.exp(x[4])) if fit_exponent else s)
+        res, _ = lobe_hp.residual(float(np.exp(x[4])))
         return np.where(np.isfinite(res), res, 0.0).ravel()
 
-    n = 5 if fit_exponent else 4
     limit = np.array([LOBE_MAX_SHIFT_PX, LOBE_MAX_SHIFT_PX, LOBE_MAX_TURN_DEG, LOBE_MAX_TURN_DEG])
-    lb, ub = np.r_[-limit, 0.0][:n], np.r_[limit, np.log(MAX_EXPONENT)][:n]
-    x0 = np.r_[np.zeros(4), np.log(s)][:n]
+    lb, ub = np.r_[-limit, 0.0][free], np.r_[limit, np.log(MAX_EXPONENT)][free]
     # Steps: a hundredth of a pixel and of a degree, a thousandth of log s — far below what the lobe
     # resolves (~0.1 px, ~0.3°, a few % in s), far above the residual's rounding.
-    fit = least_squares(residual, np.clip(x0, lb, ub), bounds=(lb, ub),
-                        x_scale=np.array([0.2, 0.2, 0.3, 0.3, 0.05])[:n],
-                        diff_step=np.array([1e-2, 1e-2, 1e-2, 1e-2, 1e-3])[:n], xtol=1e-4)
-    lobe_hp.place(fit.x[:2], fit.x[2:4])
-    return fit.x[:4].copy(), float(np.exp(fit.x[4])) if fit_exponent else s
+    fit = least_squares(residual, np.clip(x[free], lb, ub), bounds=(lb, ub),
+                        x_scale=np.array([0.2, 0.2, 0.3, 0.3, 0.05])[free],
+                        diff_step=np.array([1e-2, 1e-2, 1e-2, 1e-2, 1e-3])[free], xtol=1e-4)
+    x[free] = fit.x
+    lobe_hp.place(x[:2], x[2:4])
+    return x[:4].copy(), float(np.exp(x[4]))
