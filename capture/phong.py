@@ -492,7 +492,7 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
     on GPU-drawn photographs). Measured on 16 GPU-drawn photographs of our own (s 10, 16, 32, 50, the
     head turned −20° or +10°, the flash (6°, 3°) or (−3°, 7°) from the lens, shadows and the sensor's
     noise, landmarks with 1 px of noise; the estimator alone on the same inputs): s median 3.0 → 2.9 %,
-    worst 7.0 → 4.7 %; i_s median 6.9 → 5.4 %, worst 15.7 → 13.2 %. From the true camera the shift
+    worst 7.0 → 4.7 %; i_s median 6.8 → 5.4 %, worst 15.7 → 13.2 %. From the true camera the shift
     found is ≤ 0.05 px and s, i_s move by ≤ 1 point.
 
     ``fit_turn`` also turns the normals (up to :data:`LOBE_MAX_TURN_DEG` about two axes across the line
