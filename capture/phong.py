@@ -350,8 +350,9 @@ class LobeHighPass:
 
     With ``vectors`` (the pixels' unit normals (P, 3), unit directions to the camera (P, 3) and the unit
     direction to the flash (3,), from which ``geo`` was made), :meth:`place` moves the lobe: the geometry
-    read ``shift_px`` away across the photograph (normals and view directions interpolated bilinearly —
-    both are smooth, unlike the photograph, which is never resampled) and the normals turned about two
+    read ``shift_px`` away across the photograph (normals and view directions interpolated by cubic
+    splines — both are smooth, unlike the photograph, which is never resampled; bilinear reads made the
+    shifted lobe smoother than the photograph, i_s +3 to +8 % on a test sphere) and the normals turned about two
     axes across the mean line of sight, as a slightly wrong camera would have them.
     """
 

@@ -90,6 +90,15 @@ MODEL_BIAS_VARIANCE = 8.5
 PINNED_DEG = 0.02
 
 
+def pinned(camera: Camera) -> bool:
+    """Whether ``camera``'s points pin its rotation (a covariance with both σ below :data:`PINNED_DEG`).
+
+    The automatic capture's head, built from the photograph's own landmarks, registers to it to ~0.01 px.
+    """
+    cov = camera.rotation_covariance_deg2
+    return cov is not None and float(np.sqrt(np.asarray(cov, dtype=float).diagonal()).max()) < PINNED_DEG
+
+
 @dataclass
 class Surface:
     """The head's surface as a camera's rasterisation saw it, readable between pixel centres.
@@ -223,11 +232,9 @@ def refine_rotation(photo_lin: np.ndarray, surface: Surface, camera: Camera, lig
     Returns None when there is nothing to refine against (a camera given directly, no covariance), no
     lobe on the skin, or a lobe that does not place the head (its own turn at :data:`MAX_TURN_DEG`).
     """
-    if camera.rotation_covariance_deg2 is None:
+    if camera.rotation_covariance_deg2 is None or pinned(camera):
         return None
     cov = np.asarray(camera.rotation_covariance_deg2, dtype=float)
-    if np.sqrt(cov.diagonal()).max() < PINNED_DEG:
-        return None
     keep = surface.continuous(rows, cols, camera)
     if keep.sum() < 200:
         return None
