@@ -68,6 +68,8 @@ from painting.tiles import tile_rects
 from render.glutil import rect_vertices, set_uniform, write_uniform
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     import moderngl
 
     from render.gpu_head import GpuHead
@@ -112,19 +114,30 @@ def irradiance_bound(lights: list[Light], environment: Environment | None, verti
     Returns:
         float32 (3,), each > 0 (at least 1e-3 so that a black rig still encodes).
     """
-    bound = np.zeros(3)
     v = np.asarray(vertices, float)
+    edge = _longest_edge(v)
+    # any surface point lies within the mesh's longest edge of a vertex; no finer bound is needed
+    bound = _rig_irradiance(lights, environment, v, lambda d: float(d.min()) - edge)
+    return np.maximum(bound, 1e-3).astype(np.float32)
+
+
+def _rig_irradiance(lights: list[Light], environment: Environment | None, vertices: np.ndarray,
+                    distance: Callable[[np.ndarray], float]) -> np.ndarray:
+    """The rig's irradiance on a texel facing every light unshadowed (RGB, display units).
+
+    A point light counts at ``distance`` (mesh units, at least 10⁻³) of its distances to the vertices
+    (N,); the environment at its largest SH irradiance over the sphere.
+    """
+    total = np.zeros(3)
     for lt in lights:
         col = np.asarray(lt.colour, float) * float(lt.intensity)
         if lt.kind != "directional":
-            d = np.linalg.norm(v - np.asarray(lt.vector, float), axis=1)
-            # any surface point lies within the mesh's longest edge of a vertex; no finer bound is needed
-            near = max(float(d.min()) - _longest_edge(v), 1e-3)
-            col = col * (float(lt.reference_distance) / near) ** 2
-        bound += col
+            d = max(distance(np.linalg.norm(vertices - np.asarray(lt.vector, float), axis=1)), 1e-3)
+            col = col * (float(lt.reference_distance) / d) ** 2
+        total += col
     if environment is not None:
-        bound += _environment_max(environment)
-    return np.maximum(bound, 1e-3).astype(np.float32)
+        total += _environment_max(environment)
+    return total
 
 
 def _environment_max(environment: Environment) -> np.ndarray:
@@ -156,16 +169,7 @@ def irradiance_range(lights: list[Light], environment: Environment | None, verti
         the largest per-channel ratio of the bound to that reference (1 for a black rig).
     """
     v = np.asarray(vertices, float)
-    far = np.zeros(3)
-    for lt in lights:
-        col = np.asarray(lt.colour, float) * float(lt.intensity)
-        if lt.kind != "directional":
-            d = float(np.median(np.linalg.norm(v - np.asarray(lt.vector, float), axis=1)))
-            col = col * (float(lt.reference_distance) / max(d, 1e-3)) ** 2
-        far += col
-    if environment is not None:
-        far += _environment_max(environment)
-    far = np.maximum(far, 1e-3)
+    far = np.maximum(_rig_irradiance(lights, environment, v, lambda d: float(np.median(d))), 1e-3)
     if bound is None:
         bound = irradiance_bound(lights, environment, v)
     return float(max(np.max(bound / far), 1.0))
