@@ -17,7 +17,8 @@ and writes the face folder (:func:`capture.face.write_face` plus the head's file
 **The focal length** (:func:`photo_focal`): ``focal_mm`` (the 35 mm equivalent, ``sheer capture
 --focal-mm``) if given, else the photograph file's EXIF (:func:`capture.exif.exif_focal_px`; an unusable
 tag is ignored with a warning), else none (an array, such as the kiosk's camera frame, has no EXIF). A
-known focal length is used twice, like the capture from points uses it: the person's head is
+known focal length is used three times: the quality gate reads the head's pose through it
+(:func:`capture.quality.assess`), and, like the capture from points uses it, the person's head is
 un-projected through it (:func:`capture.person.person_head`: the perspective of a wide lens close to the
 face is undone, not left in the head's shape) and :func:`capture.camera.calibrate` holds the camera to
 it (the distance then follows from the face's size). Without one, both use the portrait-lens prior
@@ -327,19 +328,24 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         source = str(photo)
     else:
         srgb8, source = np.asarray(photo), "photo"
-    if focal_mm is not None:
-        photo_focal(photo, focal_mm, (1, 1))  # a bad value fails before the work
     srgb8, downscale = prepare_photo(srgb8, source)
     for n in notes:
         _say(progress, f"note: {n}")
     if downscale is not None:
         _say(progress, f"photo {downscale['from'][0]}×{downscale['from'][1]} downscaled to "
                        f"{downscale['to'][0]}×{downscale['to'][1]} (longer side over {MAX_PHOTO_SIDE} px)")
+    # The focal length before the work (a bad --focal-mm fails here): the quality gate reads the head's pose
+    # through it, as the person's head is then built (capture.person.head_pose).
+    h, w = srgb8.shape[:2]
+    size = (downscale["from"][0], downscale["from"][1]) if downscale else (w, h)
+    f35, focal_source, focal_notes = photo_focal(photo, focal_mm, size, progress)
+    notes += focal_notes
 
     t = time.perf_counter()
     faces = detect_faces(srgb8)
     timings["landmarks"] = time.perf_counter() - t
-    report = assess(srgb8, faces, allow_closed_eyes=allow_closed_eyes)
+    report = assess(srgb8, faces, allow_closed_eyes=allow_closed_eyes,
+                    focal_px=None if f35 is None else focal_px_from_35mm(f35, w, h))
     if not report.ok:
         raise QualityError(report.issues, report)
     face, before = faces[0], srgb8.shape[:2]
@@ -356,9 +362,6 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
             srgb_decode(read_photo_srgb8(probe)[0] / 255.0), source=str(probe))
 
     h, w = srgb8.shape[:2]
-    size = (downscale["from"][0], downscale["from"][1]) if downscale else (w, h)
-    f35, focal_source, focal_notes = photo_focal(photo, focal_mm, size, progress)
-    notes += focal_notes
     focal_px = None if f35 is None else focal_px_from_35mm(f35, w, h)
     f_used = PORTRAIT_FOCAL * max(w, h) if focal_px is None else focal_px  # the prior = calibrate's
     focal_record = {"mm_35": round(focal_35mm_from_px(f_used, w, h), 2), "px": round(f_used, 2),

@@ -9,7 +9,8 @@ The checks (codes):
 
 - ``no_face`` / ``two_faces``: exactly one face must be found;
 - ``turned`` / ``tilted``: the head's yaw, or its roll or pitch, beyond :data:`THRESHOLDS` (the pose of the
-  detected mesh against the canonical model, :func:`capture.person.head_pose`);
+  detected mesh against the canonical model, :func:`capture.person.head_pose`, through the photograph's
+  focal length when it is known, else the portrait-lens prior);
 - ``small``: the face mesh's height under a fraction of the frame's height;
 - ``eyes_closed``: the lids' gap over the eye's width (both eyes' mean) under a threshold, unless allowed
   (the sample head's scan has its eyes closed);
@@ -164,13 +165,17 @@ def skin_pixels(photo_srgb8: np.ndarray, face: FaceLandmarks) -> np.ndarray:
     return photo_srgb8[y0:y1:step, x0:x1:step].reshape(-1, 3)[inside]
 
 
-def assess(photo_srgb8: np.ndarray, faces: list[FaceLandmarks], allow_closed_eyes: bool = False) -> QualityReport:
+def assess(photo_srgb8: np.ndarray, faces: list[FaceLandmarks], allow_closed_eyes: bool = False,
+           focal_px: float | None = None) -> QualityReport:
     """Measure a photograph and its detected faces against :data:`THRESHOLDS`; never raises for a bad photo.
 
     Args:
         photo_srgb8: uint8 (H, W, 3) sRGB, the image the faces were detected in.
         faces: :func:`capture.landmarks.detect_faces`'s result (largest first).
         allow_closed_eyes: do not refuse closed eyes (a scan like the sample head's).
+        focal_px: the photograph's focal length (pixels of ``photo_srgb8``) when known (EXIF,
+            ``--focal-mm``), so the pose is read as the person's head is built from it
+            (:func:`capture.person.head_pose`); None: the portrait-lens prior.
     """
     from km.srgb import srgb_decode
 
@@ -185,7 +190,7 @@ def assess(photo_srgb8: np.ndarray, faces: list[FaceLandmarks], allow_closed_eye
         rep.issues.append(_issue("two_faces"))
     face = faces[0]
     t = THRESHOLDS
-    pose = head_pose(face)
+    pose = head_pose(face, focal_px)
     m = rep.measured
     m.update(yaw_deg=pose.yaw_deg, pitch_deg=pose.pitch_deg, roll_deg=pose.roll_deg)
     if abs(pose.yaw_deg) > t["max_yaw_deg"]:

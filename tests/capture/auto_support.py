@@ -32,11 +32,13 @@ def sample_head():  # type: ignore[no-untyped-def]
 
 @cache
 def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_deg: float = 15.0,
-                  roll_deg: float = 0.0) -> tuple[np.ndarray, Camera]:
+                  roll_deg: float = 0.0, aim_mm: float = 0.0) -> tuple[np.ndarray, Camera]:
     """The sample head seen from ``yaw_deg`` about the vertical (and rolled ``roll_deg`` in the image).
 
     Returns uint8 sRGB (size, size, 3) and the camera. ``distance`` in mesh units (20 ≈ 1.05 m), vertical
-    field ``fov_deg``: the face fills about 60 % of the frame's height.
+    field ``fov_deg``: the face fills about 60 % of the frame's height. ``aim_mm``: the camera, still at
+    ``yaw_deg`` from the face, aims that far to its right of the face's centre (mm), so the face sits
+    off-centre (to the left for a positive value).
     """
     from capture.camera import look_at
     from capture.pipeline import linear_to_srgb8, pixel_data, sample_texture
@@ -46,6 +48,7 @@ def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_d
     target = np.asarray(FACE_CENTRE)
     a = np.radians(yaw_deg)
     eye = target + distance * np.array([np.sin(a), 0.0, np.cos(a)])
+    target = target + np.array([np.cos(a), 0.0, -np.sin(a)]) * aim_mm / head.mm_per_unit
     r = np.radians(roll_deg)
     up = np.array([np.sin(r), np.cos(r), 0.0])
     cam = look_at(eye, target, up, fov_deg, size, size)
@@ -58,6 +61,41 @@ def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_d
     out = linear_to_srgb8(img)
     out.flags.writeable = False
     return out, cam
+
+
+#: The phone lens of :func:`phone_photo` (35 mm equivalent, mm), its photograph's side (pixels) and the
+#: face's plane it frames (mm: the face about half its height, as in the bench).
+LENS_MM = 26.0
+PHONE_SIZE = 512
+FRAME_MM = 400.0
+
+
+def phone_photo(yaw_deg: float = 0.0, aim_mm: float = 0.0) -> tuple[np.ndarray, Camera]:
+    """The sample head through :data:`LENS_MM` from the distance framing :data:`FRAME_MM` (34 cm): uint8 and
+    the camera (``yaw_deg``, ``aim_mm`` as in :func:`render_sample`)."""
+    import math
+
+    from capture.exif import focal_px_from_35mm
+
+    f_px = focal_px_from_35mm(LENS_MM, PHONE_SIZE, PHONE_SIZE)
+    distance = f_px * FRAME_MM / PHONE_SIZE / sample_head().mm_per_unit
+    fov = math.degrees(2 * math.atan(PHONE_SIZE / 2 / f_px))
+    return render_sample(yaw_deg, PHONE_SIZE, distance, fov, aim_mm=aim_mm)
+
+
+#: EXIF's sub-IFD and its FocalLengthIn35mmFilm tag.
+EXIF_IFD = 0x8769
+FOCAL_35 = 0xA405
+
+
+def exif_bytes(tags: dict[int, object]) -> bytes:
+    """An EXIF block (for Pillow's ``save(..., exif=)``) with ``tags`` in the EXIF sub-IFD."""
+    from PIL import Image
+
+    exif = Image.Exif()
+    if tags:
+        exif.get_ifd(EXIF_IFD).update(tags)
+    return exif.tobytes()
 
 
 def truth_points(yaw_deg: float) -> dict[str, np.ndarray]:

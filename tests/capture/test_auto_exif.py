@@ -10,7 +10,6 @@ distance error is the camera's geometry, not the metric scale.
 
 from __future__ import annotations
 
-import math
 import os
 import subprocess
 import sys
@@ -20,35 +19,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.capture.auto_support import render_sample, sample_head
+from tests.capture.auto_support import FOCAL_35, LENS_MM, phone_photo, sample_head
+from tests.capture.auto_support import PHONE_SIZE as SIZE
+from tests.capture.auto_support import exif_bytes as _exif
 
 if TYPE_CHECKING:
     from pathlib import Path
-
-EXIF_IFD = 0x8769
-FOCAL_35 = 0xA405
-#: The phone lens drawn (35 mm equivalent, mm) and the photograph's side (pixels).
-LENS_MM = 26.0
-SIZE = 512
-#: The face's plane the photograph frames, mm (the face about half its height, as in the bench).
-FRAME_MM = 400.0
-
-
-def _exif(tags: dict[int, object]) -> bytes:
-    exif = Image.Exif()
-    if tags:
-        exif.get_ifd(EXIF_IFD).update(tags)
-    return exif.tobytes()
-
-
-def phone_photo() -> tuple[np.ndarray, Any]:
-    """The sample head through :data:`LENS_MM` from the distance framing :data:`FRAME_MM`; uint8 and the camera."""
-    from capture.exif import focal_px_from_35mm
-
-    f_px = focal_px_from_35mm(LENS_MM, SIZE, SIZE)
-    distance = f_px * FRAME_MM / SIZE / sample_head().mm_per_unit
-    fov = math.degrees(2 * math.atan(SIZE / 2 / f_px))
-    return render_sample(0.0, SIZE, distance, fov)
 
 
 @pytest.fixture(scope="module")

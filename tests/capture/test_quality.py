@@ -9,10 +9,23 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
-from tests.capture.auto_support import blurred, exposed, portrait, render_sample, side_by_side, tiny
+from tests.capture.auto_support import (
+    FOCAL_35,
+    LENS_MM,
+    PHONE_SIZE,
+    blurred,
+    exif_bytes,
+    exposed,
+    phone_photo,
+    portrait,
+    render_sample,
+    side_by_side,
+    tiny,
+)
 
 if TYPE_CHECKING:
     from collections.abc import Callable
+    from pathlib import Path
 
 
 def _assess(img: np.ndarray, allow_closed_eyes: bool = False):  # type: ignore[no-untyped-def]
@@ -82,3 +95,46 @@ def test_quality_error_carries_every_issue_in_one_line() -> None:
     assert "small" in codes and "blur" in codes
     exc = QualityError(report.issues, report)
     assert isinstance(exc, CaptureError) and exc.issues == report.issues and "\n" not in str(exc)
+
+
+def test_the_gate_reads_the_yaw_through_the_photos_focal_length(tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """The gate reads the pose through the focal length the capture uses, from real files: the sample head
+    30° turned through a 26 mm phone lens from 34 cm, the camera aimed 60 mm beside the face (off-centre,
+    where the lens's perspective turns the un-projected mesh). The JPEG's EXIF, and ``--focal-mm 26`` on a
+    bare PNG, give the yaw of :func:`capture.person.head_pose` through the 26 mm lens (measured 23.9°; the
+    person's head is built with the same pose); the bare PNG alone gives the portrait-lens prior's (26.3°).
+    Refused either way (over 20°), so nothing heavy runs."""
+    from PIL import Image
+
+    from app.cli import main
+    from capture.auto import capture_auto
+    from capture.exif import focal_px_from_35mm
+    from capture.landmarks import detect_faces
+    from capture.person import head_pose
+    from capture.quality import QualityError
+
+    srgb8, _ = phone_photo(30.0, aim_mm=60.0)
+    Image.fromarray(srgb8).save(tmp_path / "phone.jpg", quality=95, exif=exif_bytes({FOCAL_35: round(LENS_MM)}))
+    Image.fromarray(srgb8).save(tmp_path / "bare.png")
+
+    def gate_yaw(photo: str, focal_mm: float | None = None) -> float:
+        with pytest.raises(QualityError) as err:
+            capture_auto(tmp_path / photo, tmp_path / "out", allow_closed_eyes=True, focal_mm=focal_mm)
+        assert err.value.report is not None and [i.code for i in err.value.issues] == ["turned"]
+        return err.value.report.measured["yaw_deg"]
+
+    f_px = focal_px_from_35mm(LENS_MM, PHONE_SIZE, PHONE_SIZE)
+    jpeg = detect_faces(np.asarray(Image.open(tmp_path / "phone.jpg").convert("RGB")))[0]
+    png = detect_faces(srgb8)[0]
+    lens, prior = head_pose(jpeg, f_px).yaw_deg, head_pose(jpeg).yaw_deg
+    assert abs(abs(prior) - abs(lens)) > 1.5, (prior, lens)  # the case tells the two apart
+    assert gate_yaw("phone.jpg") == pytest.approx(lens, abs=1e-6)
+    assert gate_yaw("bare.png", focal_mm=LENS_MM) == pytest.approx(head_pose(png, f_px).yaw_deg, abs=1e-6)
+    assert gate_yaw("bare.png") == pytest.approx(head_pose(png).yaw_deg, abs=1e-6)
+    assert not (tmp_path / "out").exists()
+    # the command line's one-line refusal names the yaw read through the EXIF's lens
+    assert main(["capture", "--photo", str(tmp_path / "phone.jpg"), "--out", str(tmp_path / "cli"),
+                 "--allow-closed-eyes"]) == 2
+    err = capsys.readouterr().err
+    assert f"turned {abs(lens):.0f}°" in err and f"turned {abs(prior):.0f}°" not in err, err
