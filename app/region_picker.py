@@ -8,7 +8,10 @@ the ``region``/``region_mode`` of each new :class:`painting.Brush`.
 
 Its **Regions** menu is the Regions overlay: each region the head has can be ticked to outline it on the
 face in its own colour (:class:`render.region_overlay.RegionOverlay`, drawn over every frame through the
-viewport's ``after_frame`` hook once :meth:`RegionPicker.attach_overlay` has named the viewport).
+viewport's ``after_frame`` hook once :meth:`RegionPicker.attach_overlay` has named the viewport). The
+menu's button (:attr:`RegionPicker.overlay_button`) is not in the picker's row: the window places it
+where a view's overlay belongs (the studio's view bar), which also keeps the brush bar narrow enough for
+the studio's minimum width (:mod:`app.studio_toolbars`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 from PySide6.QtCore import Signal
 from PySide6.QtGui import QAction, QColor, QIcon, QPixmap
-from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QMenu, QPushButton, QToolButton, QWidget
+from PySide6.QtWidgets import QComboBox, QHBoxLayout, QMenu, QToolButton, QWidget
 
 from painting.regions import REGION_NAMES
 
@@ -26,7 +29,7 @@ if TYPE_CHECKING:
     from painting import Document
     from render.region_overlay import RegionOverlay
 
-NO_REGION = "(anywhere)"
+NO_REGION = "(any region)"
 
 
 class RegionPicker(QWidget):
@@ -42,13 +45,15 @@ class RegionPicker(QWidget):
         super().__init__(parent)
         self.doc = doc
         self.region_combo = QComboBox()
+        self.region_combo.setToolTip("The facial region the brush keeps to (inside) or keeps out of (avoid)")
         self.mode_combo = QComboBox()
         self.mode_combo.addItems(["inside", "avoid"])
         self.mode_combo.setToolTip("inside: the stroke stays in the region (fading over its feather); "
                                    "avoid: the stroke never paints it")
-        self.fill_button = QPushButton("Fill")
+        self.fill_button = QToolButton()  # a toolbar's button (a QPushButton is 80 px wide at least)
+        self.fill_button.setText("Fill")
         self.fill_button.setToolTip("Fill the region on the selected layer (soft edge; one undo step)")
-        self.overlay_button = QToolButton()
+        self.overlay_button = QToolButton()  # placed by the window, not in this row (see the module doc)
         self.overlay_button.setText("Regions")
         self.overlay_button.setToolTip("Outline facial regions on the face (each in its colour)")
         self.overlay_button.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
@@ -63,7 +68,7 @@ class RegionPicker(QWidget):
         self._watched: Any = None  # the QOpenGLContext whose destruction frees the overlay
         layout = QHBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        for w in (QLabel(" Region "), self.region_combo, self.mode_combo, self.fill_button, self.overlay_button):
+        for w in (self.region_combo, self.mode_combo, self.fill_button):
             layout.addWidget(w)
         self.fill_button.clicked.connect(lambda: self.region and self.fill_requested.emit(self.region))
         self.region_combo.currentIndexChanged.connect(lambda _i: self._sync())

@@ -1,19 +1,24 @@
 """The studio's toolbars: the brush bar and, on a row of its own under it, the view bar.
 
-The brush bar: radius, strength, hardness, mode, mirror, the facial regions; the view bar: light, HDR
-environment, render mode, debug view, Before|After. Two rows, as desktop editors set a tool's options
+The brush bar: radius, strength, hardness, mode, mirror, the facial region the brush keeps to (region,
+inside/avoid, Fill); the view bar: light, HDR environment, render mode, debug view, Before|After and the
+Regions overlay's menu (outlines drawn over the view). Two rows, as desktop editors set a tool's options
 apart from the view's: in one row the two bars need 1720 px since the brush bar's regions (issue #16), so
 at the studio's 1600 px (the screenshots') the Before|After slider hid behind the toolbar's » extension
-button; in two they fit from the brush bar's width (967 px with Xvfb's default font) up. Mixed into :class:`app.main_window.StudioWindow`, which
-owns the settings the controls change; :meth:`StudioToolbars.restore_layout` keeps a layout saved by an
-older version (both bars in one row) from coming back.
+button. In two rows every control shows down to the window's minimum width: 856 px with the docks (the
+brush bar needs 794 px and the view bar 818–846 px with Xvfb's default font; the brush bar needed 967 px
+while it held the Regions menu and a "Region" label, so below 967 px its region picker hid behind »), and
+without them no less than the toolbars need (:class:`WholeToolBar`).
+Mixed into :class:`app.main_window.StudioWindow`, which owns the settings the controls change;
+:meth:`StudioToolbars.restore_layout` keeps a layout saved by an older version (both bars in one row)
+from coming back.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from PySide6.QtCore import QByteArray, Qt
+from PySide6.QtCore import QByteArray, QSize, Qt
 from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QLabel, QSlider, QToolBar
 
 from app.region_picker import RegionPicker
@@ -32,6 +37,23 @@ if TYPE_CHECKING:
 #: version is not restored. 1: the View toolbar on its own row (a layout of version 0 kept it beside the
 #: brush bar, where it overflows below 1720 px)
 WINDOW_STATE_VERSION = 1
+
+
+class WholeToolBar(QToolBar):
+    """A toolbar that never hides controls behind its » extension button while it lies in a row.
+
+    Its minimum width is its full width (the sum of its controls', as :meth:`sizeHint` reports them), so the
+    window's minimum width includes each row of toolbars in full: whatever the font, the docks shown or the
+    Regions button's count, the window cannot be made narrower than its toolbars. Upright (docked at a side)
+    it keeps QToolBar's own minimum.
+    """
+
+    def minimumSizeHint(self) -> QSize:  # noqa: N802 (Qt's name)
+        """The full size while horizontal (see the class doc), else QToolBar's."""
+        full, least = self.sizeHint(), super().minimumSizeHint()
+        if self.orientation() == Qt.Orientation.Horizontal:
+            return QSize(full.width(), least.height())
+        return least
 
 
 class StudioToolbars:
@@ -64,7 +86,7 @@ class StudioToolbars:
         return isinstance(state, QByteArray) and self.restoreState(state, WINDOW_STATE_VERSION)
 
     def _build_toolbars(self) -> None:
-        tb = QToolBar("Brush")
+        tb = WholeToolBar("Brush")
         tb.setObjectName("brush_toolbar")
         self.addToolBar(tb)
         self.radius_spin = QDoubleSpinBox()
@@ -97,7 +119,7 @@ class StudioToolbars:
         self.mirror_check.toggled.connect(lambda on: self._set(brush_mirror=bool(on)))
         # the view's controls on a row of their own under the brush's (see the module doc)
         self.addToolBarBreak(Qt.ToolBarArea.TopToolBarArea)
-        vb = QToolBar("View")
+        vb = WholeToolBar("View")
         vb.setObjectName("view_toolbar")
         self.addToolBar(vb)
         self.light_combo = QComboBox()
@@ -115,6 +137,7 @@ class StudioToolbars:
                          ("View", self.debug_combo), ("Before|After", self.split_slider)):
             vb.addWidget(QLabel(f" {label} "))
             vb.addWidget(w)
+        vb.addWidget(self.region_picker.overlay_button)  # the Regions overlay: outlines drawn over the view
         self.light_combo.currentTextChanged.connect(self._light_preset)
         self.env_combo.currentTextChanged.connect(lambda t: self._set(environment=t))
         self.render_combo.currentTextChanged.connect(self.set_render_mode)

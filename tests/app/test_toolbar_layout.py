@@ -1,7 +1,9 @@
 """The studio's toolbars on a real window (xcb under Xvfb): at the screenshots' 1600×1000 every control of
 every toolbar is shown — none behind QToolBar's » extension button (the Before|After slider was, once the
-brush bar's Regions menu made one row 1720 px wide) — and a layout saved by an older version, with the
-View toolbar beside the brush bar, is not restored over the two rows (app.studio_toolbars)."""
+brush bar's Regions menu made one row 1720 px wide) —, and so they are down to the window's minimum width,
+with the docks or without, every region's outline ticked or none (below 967 px the brush bar's region
+picker was behind »); and a layout saved by an older version, with the View toolbar beside the brush bar,
+is not restored over the two rows (app.studio_toolbars)."""
 
 from __future__ import annotations
 
@@ -9,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 from PySide6.QtCore import QSettings
-from PySide6.QtWidgets import QApplication, QSlider, QToolBar, QToolButton
+from PySide6.QtWidgets import QApplication, QDockWidget, QSlider, QToolBar, QToolButton
 
 from app.qt_compat import pin_singletons
 from tests.app.studio_support import open_studio_window
@@ -69,6 +71,42 @@ def test_every_toolbar_control_shows_at_1600_by_1000(window: Any) -> None:
     assert isinstance(slider, QSlider) and slider.isVisible() and slider.width() >= 80, \
         "the Before|After slider must be shown and usable"
     assert window.region_picker.overlay_button.isVisible(), "the Regions menu must be shown"
+
+
+def shrink(win: Any, height: int = 1000) -> int:
+    """Ask for a 1 px wide window (Qt holds it at its minimum width) and return the width it took."""
+    win.resize(1, height)
+    for _ in range(20):
+        QApplication.processEvents()
+    return int(win.width())
+
+
+def test_every_control_shows_down_to_the_minimum_width(window: Any) -> None:
+    picker = window.region_picker
+    docks = [d for d in window.findChildren(QDockWidget) if d.isVisible()]
+    tbs = bars(window)
+    assert docks
+    widths = {}
+    try:
+        for case in ("the docks", "every region outlined", "no docks"):
+            if case == "every region outlined":  # the Regions button's longest text, "Regions (N)"
+                picker.show_regions(list(picker.overlay_actions))
+            elif case == "no docks":
+                for d in docks:
+                    d.hide()
+            widths[case] = width = shrink(window)
+            for name, tb in tbs.items():
+                assert overflow(tb) == [], f"{name} overflows at {width} px ({case}): {overflow(tb)}"
+            for w in (picker.region_combo, picker.mode_combo, picker.fill_button, picker.overlay_button,
+                      window.split_slider):
+                assert w.isVisible() and w.width() > 0, f"{w} not shown at {width} px ({case})"
+    finally:
+        picker.hide_overlay()
+        for d in docks:
+            d.show()
+        settle(window, 1600, 1000)
+    assert widths["the docks"] < 967, widths  # the width where the region picker used to go behind »
+    assert widths["no docks"] <= widths["every region outlined"], widths
 
 
 def test_an_older_saved_layout_is_not_restored_over_the_two_rows(window: Any, tmp_path: Any) -> None:
