@@ -28,6 +28,11 @@ draws the landmarks. Photos over 1600 px on the longer side are downscaled (said
   moves the rotation about half as much; the automatic capture also un-projects the person's head through
   it (a phone's wide lens close to the face no longer leaves its perspective in the head's shape).
   Not with ``--camera`` (a projection matrix holds its own focal length).
+- ``--vignetting K1[,K2,K3]``: with ``--camera``/``--points``, the lens's light falloff towards the corners as a
+  lens profile gives it (lensfun's ``pa`` model, v(r) = 1 + k1·r² + k2·r⁴ + k3·r⁶, r = 1 in the corners; e.g.
+  ``-0.4`` for 40 % lost in the corners); the photograph is divided by it before the capture
+  (:mod:`capture.vignetting`). Without it none is assumed: a falloff of 40 % in the corners reads i_s
+  1.5–4 % low (the lobe's amplitude times the falloff where it lies).
 - ``--mask PATH``: a painted skin mask (white = skin) of the photograph's size; without it, the mask is
   computed from the head's landmarks and a skin-colour model.
 
@@ -68,6 +73,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--focal-mm", type=float, default=None, metavar="F35",
                    help="with --points or automatic: the 35 mm-equivalent focal length in mm (4–2000, over the "
                         "diagonal; default: the photo's EXIF if it has one, else a portrait-lens prior)")
+    p.add_argument("--vignetting", metavar="K1[,K2,K3]", default=None,
+                   help="with --camera/--points: the lens's light falloff, lensfun's pa model v(r) = 1 + k1·r² + "
+                        "k2·r⁴ + k3·r⁶ (r = 1 in the corners); the photo is divided by it first (default: none)")
     p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
     p.add_argument("--texture-size", type=int, default=None, metavar="N",
                    help="detail texture side (texels; default 1024, automatic 512: its face is at most 280 px tall)")
@@ -85,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
     from capture.mask import load_mask
     from capture.pipeline import CaptureError, capture, read_photo
     from capture.probe import analyse_probe
+    from capture.vignetting import LensFalloff, flat_field
     from painting.head import load_head
 
     if args.texture_size is None:
@@ -100,11 +109,14 @@ def run(args: argparse.Namespace) -> int:
                            "holds its own focal length)")
     if args.probe_reflectance != 1.0 and not args.probe:
         raise CaptureError("--probe-reflectance needs --probe (the mirror ball it describes)")
+    falloff = None if args.vignetting is None else LensFalloff.parse(args.vignetting)
 
     def say(msg: str) -> None:
         print(f"capture: {msg}", file=sys.stderr, flush=True)
 
     if not args.camera and not args.points:
+        if falloff is not None:
+            raise CaptureError("--vignetting is for a capture with --camera or --points")
         return run_auto(args, say)
     if args.allow_closed_eyes:
         raise CaptureError("--allow-closed-eyes is for the automatic capture (without --camera/--points)")
@@ -113,6 +125,10 @@ def run(args: argparse.Namespace) -> int:
     photo = read_photo(args.photo)
     h, w = photo.shape[:2]
     say(f"photo {args.photo}: {w}×{h}")
+    if falloff is not None:
+        photo = flat_field(photo, falloff)
+        say(f"photo divided by the lens's falloff (k1 {falloff.k1:g}, k2 {falloff.k2:g}, k3 {falloff.k3:g}: "
+            f"{falloff.at(1.0):.2f} of the centre's light in the corners)")
     if args.camera:
         camera = load_camera(args.camera, w, h)
         say("camera from the projection matrix")
