@@ -56,6 +56,9 @@ class Camera:
             about the camera's x and y axes (degrees², the focal length and translation marginalised;
             :func:`pose_covariance`), or None for a camera given directly. :mod:`capture.pose` refines
             those two angles on the photograph and weighs the refinement against it.
+        parameter_covariance: (7, 7) the same fit's whole covariance (:func:`parameter_covariance`), or
+            None for a camera given directly: :func:`capture.pose.image_similarity_covariance` reads the
+            image's scale and roll from it.
     """
 
     K: np.ndarray
@@ -65,6 +68,7 @@ class Camera:
     height: int
     reprojection_error_px: float | None = None
     rotation_covariance_deg2: np.ndarray | None = None
+    parameter_covariance: np.ndarray | None = None
 
     @property
     def P(self) -> np.ndarray:
@@ -132,7 +136,8 @@ class Camera:
         t2 = self.t + self.R @ pivot - R2 @ pivot
         return Camera(K=self.K.copy(), R=R2, t=t2, width=self.width, height=self.height,
                       reprojection_error_px=self.reprojection_error_px,
-                      rotation_covariance_deg2=self.rotation_covariance_deg2)
+                      rotation_covariance_deg2=self.rotation_covariance_deg2,
+                      parameter_covariance=self.parameter_covariance)
 
     def to_json(self) -> dict[str, Any]:
         """K, R, t, P (pixels, mesh units) and the size as JSON lists and numbers (face.json's ``camera``)."""
@@ -311,7 +316,8 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
     R = Rotation.from_rotvec(p[3:6]).as_matrix()
     rms = float(np.sqrt(np.mean(_residuals(p, x, X).reshape(-1, 2) ** 2 @ np.ones(2))))
     cam = Camera(K=K, R=R, t=p[6:9].copy(), width=int(width), height=int(height), reprojection_error_px=rms)
-    cam.rotation_covariance_deg2 = pose_covariance(cam, x, X, f_prior, f_sigma)
+    cam.parameter_covariance = parameter_covariance(cam, x, X, f_prior, f_sigma)
+    cam.rotation_covariance_deg2 = np.degrees(np.degrees(cam.parameter_covariance[:2, :2]))
     return cam
 
 
@@ -319,11 +325,21 @@ def pose_covariance(camera: Camera, points2d: np.ndarray, points3d: np.ndarray,
                     f_prior: float | None = None, f_sigma: float = 1.0) -> np.ndarray:
     """How uncertain the correspondences leave the head's rotation about the camera's x and y axes.
 
+    The (2, 2) block of :func:`parameter_covariance` of the rotation about x and y (degrees²): the two
+    angles a face's nearly planar points leave loose.
+    """
+    return np.degrees(np.degrees(parameter_covariance(camera, points2d, points3d, f_prior, f_sigma)[:2, :2]))
+
+
+def parameter_covariance(camera: Camera, points2d: np.ndarray, points3d: np.ndarray,
+                         f_prior: float | None = None, f_sigma: float = 1.0) -> np.ndarray:
+    """The calibration's (7, 7) covariance: rotation vector (3, radians), translation (3, mesh units), log f.
+
     The Gauss–Newton covariance σ²(JᵀJ)⁻¹ of the reprojection error (plus :func:`calibrate`'s focal
     prior row when ``f_prior`` is given, ``f_sigma`` its log's standard deviation) at ``camera``, over
-    the scene's rotation about the points' centroid (a rotation vector in camera coordinates), the
-    translation and log f, with σ² the residual variance per coordinate (pixels², 2N − 7 degrees of freedom). Returns the (2, 2) block of
-    the rotation about x and y (degrees²): the two angles a face's nearly planar points leave loose.
+    the scene's rotation about the points' centroid (a rotation vector in camera coordinates, as
+    :meth:`Camera.turned`), the translation added to ``t`` and log f, with σ² the residual variance per
+    coordinate (pixels², 2N − 7 degrees of freedom).
     """
     x = np.asarray(points2d, dtype=float)
     X = np.asarray(points3d, dtype=float)
@@ -342,8 +358,7 @@ def pose_covariance(camera: Camera, points2d: np.ndarray, points3d: np.ndarray,
                   for k in range(7)], axis=1)
     n = 2 * len(x)
     sigma2 = float(r0[:n] @ r0[:n]) / max(n - 7, 1)
-    cov = np.linalg.pinv(J.T @ J) * sigma2
-    return np.degrees(np.degrees(cov[:2, :2]))
+    return np.asarray(np.linalg.pinv(J.T @ J) * sigma2)
 
 
 def load_points(path: str | Path, width: int, height: int, focal_px: float | None = None) -> Camera:

@@ -29,7 +29,7 @@ from .phong import (
     shade,
     specular_from_detail,
 )
-from .pose import PoseRefinement, Surface, pinned, refine_rotation
+from .pose import PoseRefinement, Surface, image_similarity_covariance, pinned, refine_rotation
 from .raster import rasterize_uv
 from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
 from .shadow import flash_shadow
@@ -314,7 +314,12 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     # photograph's own landmarks (the automatic capture) has none to correct, and the fit would cost the
     # kiosk ~1 s between the shutter and her first frame (3.65 s against 2.79 s, measured).
     vectors = None if pinned(camera) else (pix.normals[sel], pix.view[sel], light_world)
-    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w), vectors=vectors)
+    # With the landmarks' uncertainty, the lobe is also scaled and rolled within it (a camera's distance,
+    # focal length and roll slightly off); a camera given directly keeps to the shift.
+    similarity = None if vectors is None else image_similarity_covariance(
+        camera, float(np.median(camera.to_camera(pix.positions[sel])[:, 2])))
+    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w), vectors=vectors,
+                               similarity_prior=similarity)
     if sep is not None:
         diffuse_joint = fit.params.diffuse
         fit = fit_phong(colours, geo, sep.exponent, flash_rgb, ambient_rgb,

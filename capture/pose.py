@@ -32,7 +32,7 @@ alone put the photograph's turn 4.5–6.3 of its σ off (2.7–3.2 without them)
 **The weighing.** The photograph's own turn â (the lobe fit without a prior) has the covariance of an
 M-estimator whose residuals are correlated between neighbouring pixels — the skin's texture at 2 px and
 the high-pass itself: the cluster-robust ("sandwich") covariance H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹, H = JᵀJ the
-cost's curvature and g_b = J_bᵀ r_b the residual's score summed over blocks of :data:`BLOCK_PX` pixels
+cost's curvature and g_b = J_bᵀ r_b the residual's score summed over blocks of :data:`capture.covariance.BLOCK_PX` pixels
 (nearly independent blocks), per photograph. That sees the residual's correlation but not the lobe
 model's own bias (the skin's texture under the lobe, D's error, the first-order read): on 48
 development scenes (s 10–50, the head turned ±10° to ±35°, four flash placements, their own landmark
@@ -53,6 +53,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.optimize import least_squares
 
+from .covariance import cluster_covariance
 from .phong import Geometry, LobeHighPass, PhongParams
 
 if TYPE_CHECKING:
@@ -62,12 +63,6 @@ if TYPE_CHECKING:
 #: their loosest (1.5°, the validation's framing with the head turned 30°). The photograph's own turn
 #: reaching it means its lobe does not place the head: the landmarks' camera is kept.
 MAX_TURN_DEG = 6.0
-#: The blocks over which the lobe fit's residual scores are summed for its covariance (pixels, square).
-#: The 2 px Gaussian high-pass (:data:`capture.phong.LOBE_HIGH_PASS_PX`) correlates each residual value
-#: with its neighbours over ±4σ = ±8 px, the skin's pores and fine blotches, which survive it, over
-#: less; blocks of 16 px are as wide as that whole reach, so their sums are nearly independent, and a
-#: lobe's high-passed core (10–60 px across at the bench's framing) still spans several.
-BLOCK_PX = 16
 #: A pixel whose surface point lies this many pixel footprints (depth / focal length) from a neighbour's,
 #: or whose normal turns by more than :data:`CREASE_DEG` from it, borders another surface (the nose over
 #: the cheek, the lips' line): reading geometry between the two would blend them. On one continuous
@@ -97,6 +92,24 @@ def pinned(camera: Camera) -> bool:
     """
     cov = camera.rotation_covariance_deg2
     return cov is not None and float(np.sqrt(np.asarray(cov, dtype=float).diagonal()).max()) < PINNED_DEG
+
+
+def image_similarity_covariance(camera: Camera, depth: float) -> np.ndarray | None:
+    """How uncertain the landmarks leave the head's image scale (per cent) and roll (degrees): (2, 2).
+
+    From the calibration's covariance (:attr:`Camera.parameter_covariance`: rotation vector, translation,
+    log f): the scale of the image at the head is f / Z, so its log moves by δlog f − δt_z / Z (``depth``:
+    Z, the head's distance along the optical axis, mesh units), and the roll is the rotation about the
+    optical axis. The prior of :func:`capture.phong.specular_from_detail`'s ``similarity_prior``; None for
+    a camera given directly (no covariance).
+    """
+    cov = camera.parameter_covariance
+    if cov is None:
+        return None
+    gain = np.zeros((2, 7))
+    gain[0, 5], gain[0, 6] = -100.0 / float(depth), 100.0
+    gain[1, 2] = np.degrees(1.0)
+    return np.asarray(gain @ np.asarray(cov, dtype=float) @ gain.T)
 
 
 @dataclass
@@ -191,25 +204,6 @@ class PoseRefinement:
     sigma_deg: np.ndarray
     exponent: float
     evaluations: int
-
-
-def cluster_covariance(jac: np.ndarray, residual: np.ndarray, rows: np.ndarray, cols: np.ndarray,
-                       block_px: int = BLOCK_PX) -> np.ndarray:
-    """The cluster-robust covariance H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹ · B/(B − 1) of a least-squares fit at its optimum.
-
-    ``jac``: (P·C, K) the residual's Jacobian and ``residual``: (P·C,) the residual, pixel-major with C
-    values per pixel; ``rows``, ``cols``: (P,) the pixels; g_b = J_bᵀ r_b summed over each square block of
-    ``block_px`` pixels, B the number of blocks. Units: those of the parameters, squared.
-    """
-    n = len(rows)
-    k = jac.shape[1]
-    scores = np.einsum("pck,pc->pk", jac.reshape(n, -1, k), residual.reshape(n, -1))
-    _, block = np.unique((rows // block_px).astype(np.int64) * (1 << 20) + cols // block_px, return_inverse=True)
-    sums = np.zeros((int(block.max()) + 1, k))
-    np.add.at(sums, block, scores)
-    blocks = len(sums)
-    bread = np.linalg.inv(jac.T @ jac)
-    return bread @ (sums.T @ sums) @ bread * (blocks / max(blocks - 1, 1))
 
 
 def refine_rotation(photo_lin: np.ndarray, surface: Surface, camera: Camera, light_camera: np.ndarray,

@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from capture.camera import Camera, calibrate
 from capture.phong import PhongParams
-from capture.pose import Surface, refine_rotation
+from capture.pose import Surface, image_similarity_covariance, refine_rotation
 from capture.synthetic import validation_camera
 from painting.head import load_head
 
@@ -50,6 +50,32 @@ def test_the_covariance_predicts_how_far_noisy_landmarks_turn_the_camera() -> No
         z.append(_turn_deg(cam, truth) / np.sqrt(np.diag(cam.rotation_covariance_deg2)))
     rms = np.sqrt(np.mean(np.square(z), axis=0))
     assert np.all((rms > 0.7) & (rms < 1.45)), rms
+
+
+def test_the_covariance_predicts_the_image_scale_and_roll_noisy_landmarks_leave() -> None:
+    """The same draws with the focal length known to 0.4 % (as EXIF's whole millimetres give it): the
+    head's image scale (f / Z at the landmarks' centroid) and roll errors over the σ of
+    :func:`capture.pose.image_similarity_covariance` have an RMS near 1 (a σ off by 2× gives 0.5 or 2);
+    a camera given directly has none."""
+    head = load_head()
+    names = sorted(set(head.metadata.landmarks) - {"gnathion"})
+    X = np.array([head.metadata.landmarks[n] for n in names])
+    truth = validation_camera()
+    x, _ = truth.project(X)
+    rng = np.random.default_rng(12)
+    z = []
+    for _ in range(40):
+        cam = calibrate(x + rng.normal(0.0, 1.0, x.shape), X, truth.width, truth.height,
+                        focal_px=1.004 * float(truth.K[0, 0]))
+        depth = float(cam.to_camera(X.mean(axis=0)[None])[0, 2])
+        cov = image_similarity_covariance(cam, depth)
+        assert cov is not None
+        scale = 100 * np.log(cam.K[0, 0] / depth / (truth.K[0, 0] / truth.to_camera(X.mean(axis=0)[None])[0, 2]))
+        roll = np.degrees(Rotation.from_matrix(cam.R @ truth.R.T).as_rotvec())[2]
+        z.append(np.array([scale, roll]) / np.sqrt(np.diag(cov)))
+    rms = np.sqrt(np.mean(np.square(z), axis=0))
+    assert np.all((rms > 0.6) & (rms < 1.6)), rms
+    assert image_similarity_covariance(truth, 1000.0) is None
 
 
 def test_a_camera_given_directly_is_not_refined() -> None:
