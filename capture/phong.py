@@ -57,6 +57,7 @@ from scipy.optimize import least_squares, minimize_scalar
 from scipy.spatial.transform import Rotation
 
 from .covariance import cluster_covariance
+from .pixel_lobe import integrated_lobe
 from .reflectance import MAX_EXPONENT
 
 _SRGB = colour.RGB_COLOURSPACES["sRGB"]
@@ -450,9 +451,14 @@ class LobeHighPass:
             out[:, c] = x[:, c] - self._filter(img, self.sigma)[self.rows, self.cols] / self._wsum
         return out
 
-    def residual(self, s: float) -> tuple[np.ndarray, float]:
-        """(the weighted residual (P, 3), photograph units; the least-squares i_s) for the exponent s."""
-        lobe = _pixel_box_lobe(self.rdv ** s, self.rows, self.cols, self.shape, self.interior)
+    def residual(self, s: float, lobe: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+        """(the weighted residual (P, 3), photograph units; the least-squares i_s) for the exponent s.
+
+        ``lobe``: (P,) the lobe already integrated over each pixel (:func:`capture.pixel_lobe.integrated_lobe`);
+        None: its centre value to second order (:func:`_pixel_box_lobe`).
+        """
+        if lobe is None:
+            lobe = _pixel_box_lobe(self.rdv ** s, self.rows, self.cols, self.shape, self.interior)
         hq = self.high_pass(lobe[:, None] * self.params.flash_rgb[None, :] * self.inv_dl)
         whq = self.sqrt_w * hq
         den = float((whq * whq).sum())
@@ -554,7 +560,9 @@ def specular_from_detail(photo_rgb: np.ndarray, geo: Geometry, params: PhongPara
     core = ok & (rdv ** s >= 0.5)
     if core.sum() < 20:
         return None
-    _, i_s = solve(s)
+    # i_s from the lobe integrated over each pixel's square where the registration placed it (capture.pixel_lobe)
+    placement = (placed[:2], placed[2:4], placed[4:])
+    _, i_s = lobe_hp.residual(s, None if vectors is None else integrated_lobe(lobe_hp, s, placement))
     return DetailSpecular(specular=max(0.0, i_s), exponent=s, sigma_px=lobe_hp.sigma,
                           core_radius_px=float(np.sqrt(core.sum() / np.pi)), pixels=int(ok.sum()),
                           shift_px=placed[:2], turn_deg=placed[2:4], similarity=placed[4:])
