@@ -90,8 +90,9 @@ the paper's reflectance map; it is the photograph ÷ the fitted model since issu
 case here, 0.90 with the sensor's noise, which the detail cannot follow; tests/capture/test_detail.py).
 Every row is re-measured on 415e9e8: the lobe's registration also scales and rolls the image
 (f24ee6d; it moved the noisy rows' s by up to 1 point) and i_s is read from the lobe integrated over each
-pixel's square (capture.pixel_lobe; s unchanged by it), which moved i_s by −0.2 to +3.1 points (the
-second-order centre value had diluted the amplitude: −0.8 % on average untextured). The i_s misses left
+pixel's square (capture.pixel_lobe; s unchanged by it): together they moved i_s by +0.3 to +3.0 points
+(the second-order centre value had diluted the amplitude: −0.8 % on average untextured), −1.6 on the
+1,143-triangle head (+1.5 → −0.1 %) and +6.5 on yaw-30-s40-beside (−2.2 → +4.3 %, with the scale and roll). The i_s misses left
 are the skin's texture under the lobe (from the true camera untextured they read +0.2, +0.5 and −2.4 %)
 and the sensor's vignetting, which the capture cannot tell from the face's albedo: given the lens's
 falloff (``sheer capture --vignetting``, capture.vignetting) the sensor case reads i_s −3.3 % and D 0.13,
