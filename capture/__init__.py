@@ -15,6 +15,7 @@ come from :mod:`painting.raster`'s CPU rasteriser. pyproject.toml's import-linte
 - :mod:`capture.probe`: mirror-ball light-probe analysis (direction, flash hue, ambient).
 - :mod:`capture.reflectance`: the reflectance map on the Gaussian sphere; the exponent (Eq. 3).
 - :mod:`capture.phong`: the Phong skin model and its fit in CIE Luv.
+- :mod:`capture.lobe`: the specular lobe (s, i_s) read from the high-passed photograph, registered on it.
 - :mod:`capture.pipeline`: the whole capture and the detail texture.
 - :mod:`capture.face`: the face folder (face.json, detail.exr, report.png) written and read back.
 - :mod:`capture.lod`: coarse heads by quadric decimation, detail re-baked.

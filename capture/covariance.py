@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 #: The blocks over which a lobe fit's residual scores are summed for its covariance (pixels, square).
-#: The 2 px Gaussian high-pass (:data:`capture.phong.LOBE_HIGH_PASS_PX`) correlates each residual value
+#: The 2 px Gaussian high-pass (:data:`capture.lobe.LOBE_HIGH_PASS_PX`) correlates each residual value
 #: with its neighbours over ±4σ = ±8 px, the skin's pores and fine blotches, which survive it, over
 #: less; blocks of 16 px are as wide as that whole reach, so their sums are nearly independent, and a
 #: lobe's high-passed core (10–60 px across at the bench's framing) still spans several.

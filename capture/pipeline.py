@@ -17,9 +17,9 @@ from scipy import ndimage
 from core.errors import SheerError
 from km.srgb import srgb_decode, srgb_encode
 
+from .lobe import DetailSpecular, specular_from_detail
 from .mask import landmark_region, refine_by_skin_colour
 from .phong import (
-    DetailSpecular,
     FitResult,
     Geometry,
     PhongParams,
@@ -27,7 +27,6 @@ from .phong import (
     fit_phong,
     photo_ambient_scale,
     shade,
-    specular_from_detail,
 )
 from .pose import PoseRefinement, Surface, image_similarity_covariance, pinned, refine_rotation
 from .raster import rasterize_uv
@@ -308,7 +307,7 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
             return result
     # The lobe (s and i_s) fitted on the photograph high-passed at a few pixels, where the skin's albedo
     # variation no longer follows the lobe (the paper's saturation estimate and joint fit read it as
-    # part of the lobe), then D refitted with both fixed (see :func:`capture.phong.specular_from_detail`).
+    # part of the lobe), then D refitted with both fixed (see :func:`capture.lobe.specular_from_detail`).
     specular_joint = fit.params.specular
     # The lobe's registration corrects a head misplaced by a fraction of a pixel; a head pinned to the
     # photograph's own landmarks (the automatic capture) has none to correct, and the fit would cost the

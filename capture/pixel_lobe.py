@@ -1,6 +1,6 @@
 """The specular lobe integrated over each photograph pixel's square, for its amplitude i_s.
 
-A sensor integrates the light over its pixel's whole square. :class:`capture.phong.LobeHighPass` models
+A sensor integrates the light over its pixel's whole square. :class:`capture.lobe.LobeHighPass` models
 that by the lobe's value at the pixel's centre corrected to second order (``_pixel_box_lobe``: S + ∇²S/24),
 which is what the exponent s and the lobe's registration are fitted with. At the 2 px high-pass's scale
 that misses what the head's interpolated normals do inside a pixel — their gradient jumps at every
@@ -35,7 +35,7 @@ PIXEL_NODES_PX = np.array([(x, y) for y in (-1.0, 1.0) for x in (-1.0, 1.0)]) / 
 
 
 class PlacedLobe(Protocol):
-    """What :func:`integrated_lobe` needs of :class:`capture.phong.LobeHighPass` (built with its vectors)."""
+    """What :func:`integrated_lobe` needs of :class:`capture.lobe.LobeHighPass` (built with its vectors)."""
 
     rdv: np.ndarray
 

@@ -10,7 +10,7 @@ i_s — lands on other normals.
 The photograph itself says where the lobe is. After the first fit, the head is turned about the skin
 pixels' centroid by a small rotation E (about the camera's x and y axes; :meth:`Camera.turned` keeps the
 pivot's image in place) and the lobe is fitted again on the photograph high-passed at 2 px
-(:class:`capture.phong.LobeHighPass`: albedo broader than 2 px drops out, the lobe's curvature stays).
+(:class:`capture.lobe.LobeHighPass`: albedo broader than 2 px drops out, the lobe's curvature stays).
 
 **What a turn changes at a pixel.** The turned camera sees, at each pixel, another surface point: a point
 d in front of the pivot moves by about d·|E| in the image (1.7 px per degree 50 mm in front, at the
@@ -54,7 +54,8 @@ from scipy import ndimage
 from scipy.optimize import least_squares
 
 from .covariance import cluster_covariance
-from .phong import Geometry, LobeHighPass, PhongParams
+from .lobe import LobeHighPass
+from .phong import Geometry, PhongParams
 
 if TYPE_CHECKING:
     from .camera import Camera
@@ -100,7 +101,7 @@ def image_similarity_covariance(camera: Camera, depth: float) -> np.ndarray | No
     From the calibration's covariance (:attr:`Camera.parameter_covariance`: rotation vector, translation,
     log f): the scale of the image at the head is f / Z, so its log moves by δlog f − δt_z / Z (``depth``:
     Z, the head's distance along the optical axis, mesh units), and the roll is the rotation about the
-    optical axis. The prior of :func:`capture.phong.specular_from_detail`'s ``similarity_prior``; None for
+    optical axis. The prior of :func:`capture.lobe.specular_from_detail`'s ``similarity_prior``; None for
     a camera given directly (no covariance).
     """
     cov = camera.parameter_covariance

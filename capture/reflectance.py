@@ -183,7 +183,7 @@ class ExponentEstimate:
         alpha_left_deg, alpha_right_deg: the two measurements.
         spec_over_diffuse: the peak specular / diffuse ratio of the fitted saturation curve.
         s_saturation: when the capture fitted s on the high-passed photograph
-            (:func:`capture.phong.specular_from_detail`), the saturation-curve value it started from; None
+            (:func:`capture.lobe.specular_from_detail`), the saturation-curve value it started from; None
             otherwise.
     """
 

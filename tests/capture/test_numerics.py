@@ -136,9 +136,10 @@ def test_specular_intensity_is_separated_from_albedo_brighter_under_the_lobe() -
     # A sphere seen head-on (240² pixels), Phong with s 24 and i_s 0.18, its albedo 12 % brighter in a
     # broad patch around the highlight (σ 3× the specular core's radius) plus fine pore-like noise. The
     # paper's joint fit reads the brighter skin as specular; the refit on the high-passed photograph
-    # (capture.phong.specular_from_detail, s fitted too) does not. Measured: joint 0.219 (+22 %), separated
+    # (capture.lobe.specular_from_detail, s fitted too) does not. Measured: joint 0.219 (+22 %), separated
     # 0.185 (+2.9 %) with s 23.1 (−3.7 %; this sphere is sampled at pixel centres, the fit models a pixel's box).
-    from capture.phong import Geometry, PhongParams, fit_phong, shade, specular_from_detail
+    from capture.lobe import specular_from_detail
+    from capture.phong import Geometry, PhongParams, fit_phong, shade
 
     n_px = 240
     yy, xx = np.mgrid[0:n_px, 0:n_px]

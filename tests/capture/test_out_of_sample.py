@@ -69,7 +69,7 @@ Before issue 14 (the paper's saturation estimate refined by a robust Luv fit ove
 photograph high-passed at 3.5 mm) s came out 6.89 for 8 (−13.8 %), 28.46 for 24 with the flash above
 (+18.6 %) and 17.99 for 16 on the coarse head (+12.4 %, i_s +15.5 %); with an untextured skin all three
 were exact — the skin's texture under the lobe was read as part of it. Now s and i_s are fitted on the
-photograph high-passed at 2 px (:func:`capture.phong.specular_from_detail`). From the true camera the
+photograph high-passed at 2 px (:func:`capture.lobe.specular_from_detail`). From the true camera the
 noisy cases give s within 5 % (7.86, 24.26, 11.64, 62.90 and 24.62 for 8, 24, 12, 60 and 24 with the
 sensor's noise) and i_s within 6.3 %: the
 misses left are the landmarks' noise (which turns the flash and misplaces a narrow lobe). Every "noisy"
@@ -247,7 +247,7 @@ def test_capture_of_a_gpu_photograph(name: str, quantity: str, gl_ctx: moderngl.
 def test_the_readmes_other_exponents(environment: str, exponent: float, readme: float) -> None:
     """README: "Other exponents: 12 → 11.8 (studio); 40 → 42.8 (city)" (the validation's CPU photograph,
     s changed). Measured 11.83 and 42.81: the CPU photograph samples each pixel's centre, the fit models
-    a sensor that integrates its pixel (:func:`capture.phong.specular_from_detail`).
+    a sensor that integrates its pixel (:func:`capture.lobe.specular_from_detail`).
     """
     head = load_head()
     params = PhongParams(diffuse=np.array(SKIN), specular=0.18, exponent=exponent, ambient_scale=1.0)

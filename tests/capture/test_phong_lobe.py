@@ -1,4 +1,4 @@
-"""The lobe's registration and position fitted with s and i_s (capture.phong.specular_from_detail, issue 14).
+"""The lobe's registration and position fitted with s and i_s (capture.lobe.specular_from_detail, issue 14).
 
 A camera calibrated from landmarks misregisters the head by a fraction of a pixel and turns it by a
 fraction of a degree. On the photograph high-passed at 2 px the lobe's fine structure (the head's normals)
@@ -93,7 +93,7 @@ def _errors(sep: object, s: float) -> tuple[float, float]:
 
 
 def test_a_misregistered_geometry_is_shifted_back() -> None:
-    from capture.phong import specular_from_detail
+    from capture.lobe import specular_from_detail
 
     photo, geo, first, rows, cols, shape, vectors = _sphere(60.0, (0.4, -0.3))
     old = specular_from_detail(photo, geo, first, rows, cols, shape)
@@ -109,7 +109,7 @@ def test_a_misregistered_geometry_is_shifted_back() -> None:
 
 def test_a_misplaced_lobe_is_turned_back() -> None:
     """With ``fit_turn``, the flash 1° off gives what the flash where it is gives."""
-    from capture.phong import specular_from_detail
+    from capture.lobe import specular_from_detail
 
     photo, geo, first, rows, cols, shape, vectors = _sphere(60.0, (0.0, 0.0), light_turn_deg=1.0)
     new = specular_from_detail(photo, geo, first, rows, cols, shape, vectors=vectors, fit_turn=True)
@@ -125,7 +125,7 @@ def test_a_misplaced_lobe_is_turned_back() -> None:
 
 
 def test_a_registered_geometry_stays_where_it_is() -> None:
-    from capture.phong import LobeHighPass, specular_from_detail
+    from capture.lobe import LobeHighPass, specular_from_detail
 
     photo, geo, first, rows, cols, shape, vectors = _sphere(24.0, (0.0, 0.0))
     new = specular_from_detail(photo, geo, first, rows, cols, shape, vectors=vectors)
@@ -144,7 +144,7 @@ def test_a_scaled_geometry_is_scaled_back_within_its_prior() -> None:
     the camera's uncertainty as a prior the fit scales it back (−2.2 %; s −0.6 %, i_s −3.7 %, this sphere's
     floor with nothing off being s −1.6 %, i_s −3.6 %), and a prior that allows no scale keeps the shift's
     answer."""
-    from capture.phong import specular_from_detail
+    from capture.lobe import specular_from_detail
 
     photo, geo, first, rows, cols, shape, vectors = _sphere(60.0, (0.3, -0.2), similarity=(2.0, 0.0))
     shift = specular_from_detail(photo, geo, first, rows, cols, shape, vectors=vectors)

@@ -7,8 +7,9 @@ from functools import cache
 import numpy as np
 import pytest
 
+from capture.lobe import LobeHighPass, specular_from_detail
 from capture.mask import landmark_region
-from capture.phong import Geometry, LobeHighPass, PhongParams, shade, specular_from_detail
+from capture.phong import Geometry, PhongParams, shade
 from capture.pipeline import pixel_data
 from capture.pixel_lobe import PIXEL_NODES_PX, integrated_lobe
 from capture.synthetic import light_from_camera, validation_camera

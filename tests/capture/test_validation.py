@@ -65,7 +65,7 @@ def test_recovers_the_truth_in_every_environment(env: str) -> None:
     0.14° +5.8 % +1.7 % 0.69 0.49; sunset 0.14° +5.9 % +1.5 % 0.41 0.49; warehouse 0.14° +5.7 % +1.6 %
     0.51 0.49 (the reproduction was 1.55–1.59 before issue 15, while the detail texture was the
     photograph ÷ the reflectance map; it is the photograph ÷ the fitted model now). s is 6 % high because this photograph samples each pixel's centre and the fit models a
-    sensor's pixel integration (capture.phong.specular_from_detail). i_s from the joint fit alone (the
+    sensor's pixel integration (capture.lobe.specular_from_detail). i_s from the joint fit alone (the
     paper's) is +28 to +32 % (0.231-0.238): the skin is brighter under the lobe. The diffuse colour's
     remaining error is mostly the probe's clipped lamps (studio: the ambient measured is 37 % of the truth)."""
     _, scene, result = _captured(env, 8 if env == "warehouse" else 0)
