@@ -32,16 +32,22 @@ def _turn_deg(camera: Camera, truth: Camera) -> np.ndarray:
     return np.degrees(Rotation.from_matrix(camera.R @ truth.R.T).as_rotvec())[:2]
 
 
-def test_the_covariance_predicts_how_far_noisy_landmarks_turn_the_camera() -> None:
-    """40 draws of 1 px noise on the sample head's 22 landmarks, the validation's camera: the errors
-    divided by the predicted standard deviations have an RMS near 1 about each axis (measured 1.24 and
-    1.08; on the 32 tuning scenes of capture.pose, 1.01 and 1.14; a covariance off by 2× in σ would
-    give 0.5 or 2)."""
+def _landmark_scene() -> tuple[np.ndarray, Camera, np.ndarray]:
+    """The sample head's landmarks (mm, without the gnathion), the validation's camera and their image (px)."""
     head = load_head()
     names = sorted(set(head.metadata.landmarks) - {"gnathion"})
     X = np.array([head.metadata.landmarks[n] for n in names])
     truth = validation_camera()
     x, _ = truth.project(X)
+    return X, truth, x
+
+
+def test_the_covariance_predicts_how_far_noisy_landmarks_turn_the_camera() -> None:
+    """40 draws of 1 px noise on the sample head's 22 landmarks, the validation's camera: the errors
+    divided by the predicted standard deviations have an RMS near 1 about each axis (measured 1.24 and
+    1.08; on the 32 tuning scenes of capture.pose, 1.01 and 1.14; a covariance off by 2× in σ would
+    give 0.5 or 2)."""
+    X, truth, x = _landmark_scene()
     rng = np.random.default_rng(11)
     z = []
     for _ in range(40):
@@ -57,11 +63,7 @@ def test_the_covariance_predicts_the_image_scale_and_roll_noisy_landmarks_leave(
     head's image scale (f / Z at the landmarks' centroid) and roll errors over the σ of
     :func:`capture.pose.image_similarity_covariance` have an RMS near 1 (a σ off by 2× gives 0.5 or 2);
     a camera given directly has none."""
-    head = load_head()
-    names = sorted(set(head.metadata.landmarks) - {"gnathion"})
-    X = np.array([head.metadata.landmarks[n] for n in names])
-    truth = validation_camera()
-    x, _ = truth.project(X)
+    X, truth, x = _landmark_scene()
     rng = np.random.default_rng(12)
     z = []
     for _ in range(40):
