@@ -68,6 +68,9 @@ FACE_JSON_UNITS: dict[str, str] = {
     "skin_pixels": "pixels", "detail_texture.range": "dimensionless ratio (photograph / shaded model)",
     "detail_texture.size": "texels (height, width)", "detail_texture.texels_seen": "texels",
     "timings_s": "seconds", "robustness.relative_std": "std / |mean|, dimensionless",
+    "vignetting.k1": "dimensionless (lensfun's pa model, r = 1 in the corners; written only when the photograph "
+                     "was divided by the lens's falloff, sheer capture --vignetting)",
+    "vignetting.k2": "dimensionless, as vignetting.k1", "vignetting.k3": "dimensionless, as vignetting.k1",
 }
 
 

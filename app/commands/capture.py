@@ -151,7 +151,9 @@ def run(args: argparse.Namespace) -> int:
     mask = load_mask(args.mask, (h, w)) if args.mask else None
     result = capture(head, photo, camera, probe=probe, mask=mask, texture_size=args.texture_size,
                      progress=say, robustness_starts=args.starts)
-    out = write_face(result, args.out, head_path=head.path)
+    # The detail texture is of the photograph divided by the falloff: face.json says so (its units: FACE_JSON_UNITS).
+    extra = None if falloff is None else {"vignetting": {"k1": falloff.k1, "k2": falloff.k2, "k3": falloff.k3}}
+    out = write_face(result, args.out, head_path=head.path, extra=extra)
     say(f"wrote {out}/face.json, detail.exr, report.png, skin_mask.png")
     return 0
 

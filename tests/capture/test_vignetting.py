@@ -81,6 +81,10 @@ def test_capture_divides_the_photo_by_the_lenss_falloff(vignetted: Path) -> None
     assert "divided by the lens's falloff" in err
     assert darkened < 0.98 * plain  # the falloff at the lobe, read as a darker highlight
     assert abs(fixed / plain - 1.0) < 0.005
+    # face.json says which photographs were divided by a falloff, and by which
+    record = json.loads((vignetted / "fixed" / "face.json").read_text())["vignetting"]
+    assert record == {"k1": -0.4, "k2": 0.0, "k3": 0.0}
+    assert "vignetting" not in json.loads((vignetted / "darkened" / "face.json").read_text())
 
 
 @pytest.mark.slow
