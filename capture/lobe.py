@@ -196,6 +196,10 @@ class LobeHighPass:
         self._vectors = None
         self._coefficients: np.ndarray | None = None
         self._placed: tuple[Any, ...] = ()
+        #: (s, the weighted high-passed lobe, i_s, its squared norm) of the last :meth:`residual` at this
+        #: placement with the centre-value lobe: what :meth:`jacobian` needs at the same point (least squares
+        #: asks for the Jacobian where it last evaluated the residual). Cleared by :meth:`place`.
+        self._last_lobe: tuple[float, np.ndarray, float, float] | None = None
         if vectors is not None:
             normals, view, light = (np.asarray(v, dtype=np.float64) for v in vectors)
             # Off the skin each image holds its nearest skin pixel's vector, so a shifted read at the
@@ -242,6 +246,7 @@ class LobeHighPass:
         geo = Geometry.from_vectors(normals, view, light)
         self.rdv = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None), 0.0)
         self._placed = (coords, raw_n, raw_v, rotation, normals, view, geo)
+        self._last_lobe = None
 
     def jacobian(self, s: float) -> np.ndarray:
         """The Jacobian of :meth:`residual`'s residual (raveled, 3P) in shift x, y (pixels), scale (%), roll (°), log s.
@@ -279,14 +284,14 @@ class LobeHighPass:
         base = np.where(lit, self.rdv, 1.0)
         dlobe = np.concatenate([np.where(lit, s * base ** (s - 1.0), 0.0)[:, None] * d_rdv,
                                 np.where(lit, s * np.log(base) * base ** s, 0.0)[:, None]], axis=1)
-        lobe = _pixel_box_lobe(self.rdv ** s, self.rows, self.cols, self.shape, self.interior)
-        flash = self.params.flash_rgb[None, :] * self.inv_dl
-        a = self.sqrt_w * self.high_pass(lobe[:, None] * flash)
-        b = self.sqrt_w * self.hr
-        den = float((a * a).sum())
+        if self._last_lobe is None or self._last_lobe[0] != s:
+            self.residual(s)
+        assert self._last_lobe is not None
+        _, a, i_s, den = self._last_lobe
         if den <= 0:
             return np.zeros((a.size, 5))
-        i_s = float((a * b).sum()) / den
+        flash = self.params.flash_rgb[None, :] * self.inv_dl
+        b = self.sqrt_w * self.hr
         boxed = np.stack([_pixel_box_lobe(dlobe[:, k], self.rows, self.cols, self.shape, self.interior)
                           for k in range(5)], axis=1)
         da = self.sqrt_w[:, None, :] * self.high_pass((boxed[:, :, None] * flash[:, None, :]).reshape(-1, 15)
@@ -322,14 +327,17 @@ class LobeHighPass:
         ``lobe``: (P,) the lobe already integrated over each pixel (:func:`capture.pixel_lobe.integrated_lobe`);
         None: its centre value to second order (:func:`_pixel_box_lobe`).
         """
+        centre = lobe is None
         if lobe is None:
             lobe = _pixel_box_lobe(self.rdv ** s, self.rows, self.cols, self.shape, self.interior)
         hq = self.high_pass(lobe[:, None] * self.params.flash_rgb[None, :] * self.inv_dl)
         whq = self.sqrt_w * hq
         den = float((whq * whq).sum())
+        i_s = float((whq * self.sqrt_w * self.hr).sum()) / den if den > 0 else 0.0
+        if centre:
+            self._last_lobe = (s, whq, i_s, den)
         if den <= 0:
             return np.full_like(hq, np.inf), 0.0
-        i_s = float((whq * self.sqrt_w * self.hr).sum()) / den
         return self.sqrt_w * (self.hr - i_s * hq), i_s
 
     def solve(self, s: float) -> tuple[float, float]:
