@@ -128,6 +128,22 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     win.deleteLater()
 
 
+def studio_fixture(**options: bool) -> Any:
+    """A module-scoped pytest fixture named ``studio``: one window per test module, as the pair
+    (window, driver) that :func:`open_studio_window` opens with ``options``.
+
+    A test module takes it as ``studio = studio_fixture()``.
+    """
+    import pytest
+
+    @pytest.fixture(scope="module")
+    def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, DialogDriver]]:
+        with open_studio_window(qapp, tmp_path_factory, **options) as pair:
+            yield pair
+
+    return studio
+
+
 def reset_studio(win: Any, look: str = "natural") -> None:
     """Bring a module's shared studio window back to the state it opened in, for a test that must not see
     what the tests before it left: File → New on the built-in ``look`` (untitled, unmodified, no undo

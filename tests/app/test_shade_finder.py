@@ -3,8 +3,6 @@ shades and the spectra, apply the best shade to the foundation layer (undoable),
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import pytest
 
@@ -12,20 +10,14 @@ from app.qt_compat import pin_singletons
 from km.shade import ShadeBank, foundations, match_shades
 from km.skin import fit_skin
 from km.srgb import srgb_decode
-from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
-
-if TYPE_CHECKING:
-    from collections.abc import Iterator
+from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
-@pytest.fixture(scope="module")
-def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, DialogDriver]]:
-    with open_studio_window(qapp, tmp_path_factory) as pair:
-        yield pair
+studio = studio_fixture()
 
 
 @pytest.fixture

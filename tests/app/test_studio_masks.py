@@ -5,27 +5,19 @@ paint the mask's channel; the thickness view shows the masked thickness."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 import pytest
 from PySide6.QtCore import QPoint, QPointF, Qt
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
-
-if TYPE_CHECKING:
-    from collections.abc import Iterator
+from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
-@pytest.fixture(scope="module")
-def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, DialogDriver]]:
-    with open_studio_window(qapp, tmp_path_factory) as pair:
-        yield pair
+studio = studio_fixture()
 
 
 @pytest.fixture

@@ -11,10 +11,9 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
+from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
     from pathlib import Path
 
 pin_singletons()
@@ -22,10 +21,7 @@ pin_singletons()
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
-@pytest.fixture(scope="module")
-def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[object, DialogDriver]]:
-    with open_studio_window(qapp, tmp_path_factory) as pair:
-        yield pair
+studio = studio_fixture()
 
 
 @pytest.fixture
