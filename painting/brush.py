@@ -126,13 +126,6 @@ class Brush:
     def falloff(self, t: np.ndarray) -> np.ndarray:
         """Weight in [0, 1] at normalised distance ``t = d / r`` (float32 in, float32 out); 0 at t ≥ 1."""
         t = np.asarray(t, dtype=np.float32)
-        if self.region_mode not in REGION_MODES:
-            raise BrushError(f"brush region_mode must be one of {', '.join(REGION_MODES)}, got {self.region_mode!r}")
-        if self.region is not None:
-            from painting.regions import REGION_NAMES
-
-            if self.region not in REGION_NAMES:
-                raise BrushError(f"brush region {self.region!r} is not a region (known: {', '.join(REGION_NAMES)})")
         if self.falloff_curve is not None:
             curve = np.asarray(self.falloff_curve, dtype=np.float32)
             xs = np.linspace(0.0, 1.0, len(curve), dtype=np.float32)
