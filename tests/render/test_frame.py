@@ -24,13 +24,6 @@ SIZE = (320, 240)
 
 
 @pytest.fixture(scope="module")
-def doc() -> Any:
-    from painting import Document
-
-    return Document.from_head(resolution=512)
-
-
-@pytest.fixture(scope="module")
 def looks(doc: Any) -> dict[str, list[LayerInput]]:
     """Layers of the built-in looks painted through the document's brush API."""
     from painting.looks import apply_look

@@ -9,27 +9,11 @@ import numpy as np
 import pytest
 
 from painting.tiles import TILE
-from render.renderer import Renderer
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
+    from render.renderer import Renderer
 
 pytestmark = pytest.mark.gl
-
-
-@pytest.fixture(scope="module")
-def doc() -> Any:
-    from painting import Document
-
-    return Document.from_head(resolution=512)
-
-
-@pytest.fixture(scope="module")
-def renderer(_gl_session_ctx: Any, doc: Any) -> Iterator[Renderer]:
-    r = Renderer(_gl_session_ctx, doc.head, layout=doc.layout)
-    yield r
-    r.release()
-    assert _gl_session_ctx.error == "GL_NO_ERROR"
 
 
 def _uploaded(r: Renderer, slot: int) -> np.ndarray:

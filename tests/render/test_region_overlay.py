@@ -11,28 +11,14 @@ import pytest
 from render.errors import RenderError
 from render.glutil import release_all
 from render.region_overlay import RegionOverlay, region_colour
-from render.renderer import Renderer
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
+    from render.renderer import Renderer
+
 pytestmark = pytest.mark.gl
 SIZE = (480, 360)
-
-
-@pytest.fixture(scope="module")
-def doc() -> Any:
-    from painting import Document
-
-    return Document.from_head(resolution=512)
-
-
-@pytest.fixture(scope="module")
-def renderer(_gl_session_ctx: Any, doc: Any) -> Iterator[Renderer]:
-    r = Renderer(_gl_session_ctx, doc.head, layout=doc.layout)
-    yield r
-    r.release()
-    assert _gl_session_ctx.error == "GL_NO_ERROR"
 
 
 @pytest.fixture(scope="module")
