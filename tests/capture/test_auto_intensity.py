@@ -1,0 +1,47 @@
+"""The automatic capture's specular intensity i_s on a GPU-drawn flash photograph with a known i_s (issue 14).
+
+The kiosk's path: the sample head drawn on the GPU (:func:`bench.capture_truth.draw_case`: per-pixel
+normals, its albedo, the flash's cast shadows; i_s 0.18, s 16, the flash 6° above and 3° beside the lens,
+the city sky's ambient; the validation's framing, so the automatic capture downscales the face to
+:data:`capture.auto.MAX_FACE_PX`), its mirror-ball probe analysed, then :func:`capture.auto.capture_auto`
+with the lens's focal length — MediaPipe's landmarks on the drawn photograph, the person's own head
+built from them, its camera pinned to them.
+
+Measured (helper I, session 10; 15 GPU scenes of its own: the sample and the canonical heads, s 10–50,
+the head turned −12° to +15°, five flash placements, textured and untextured): the automatic capture's
+i_s reads −83 to −100 % (0 on 11 of 15), s 1–6. The cause is the person's head, not the pixel
+integration: its normals lie 9–10° (median; p90 23°) from the drawn surface's, so at the lobe's 2 px
+high-pass (:data:`capture.lobe.LOBE_HIGH_PASS_PX`) its lobe does not overlap the photograph's; the lobe
+integrated over each pixel (:mod:`capture.pixel_lobe`) moves i_s by ≤ 2 points of those −83…−100 %, the
+points path's registration on that head by 9–16 points, a high-pass 16 times broader with the true s
+leaves −40 to −75 %. Hence a strict xfail: it turns green when the automatic capture reads i_s from what
+its head can support.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import pytest
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
+
+@pytest.mark.xfail(strict=True, reason="the person's head's normals are ~10° off the surface: its lobe does not "
+                                       "overlap the photograph's at the 2 px high-pass, i_s reads ~0 (see the "
+                                       "module docstring)")
+def test_the_automatic_capture_reads_a_drawn_specular_intensity(gl_ctx: object, tmp_path: Path) -> None:
+    from bench.capture_truth import Case, draw_case
+    from capture.auto import capture_auto
+    from capture.exif import focal_35mm_from_px
+    from capture.probe import analyse_probe
+
+    case = Case(head="sample", exponent=16.0, specular=0.18, environment="city", light_deg=(6.0, 3.0), shadows=True)
+    scene = draw_case(gl_ctx, case)  # type: ignore[arg-type]
+    lens = focal_35mm_from_px(float(scene.camera.K[0, 0]), scene.camera.width, scene.camera.height)
+    face = capture_auto(scene.photo.srgb8, tmp_path / "face", probe=analyse_probe(scene.probe_linear),
+                        allow_closed_eyes=True, focal_mm=lens)
+    assert abs(face.params.specular / case.specular - 1.0) < 0.10, face.params.specular
