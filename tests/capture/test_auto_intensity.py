@@ -7,15 +7,17 @@ the city sky's ambient; the validation's framing, so the automatic capture downs
 with the lens's focal length — MediaPipe's landmarks on the drawn photograph, the person's own head
 built from them, its camera pinned to them.
 
-Measured (helper I, session 10; 15 GPU scenes of its own: the sample and the canonical heads, s 10–50,
-the head turned −12° to +15°, five flash placements, textured and untextured): the automatic capture's
-i_s reads −83 to −100 % (0 on 11 of 15), s 1–6. The cause is the person's head, not the pixel
-integration: its normals lie 9–10° (median; p90 23°) from the drawn surface's, so at the lobe's 2 px
-high-pass (:data:`capture.lobe.LOBE_HIGH_PASS_PX`) its lobe does not overlap the photograph's; the lobe
-integrated over each pixel (:mod:`capture.pixel_lobe`) moves i_s by ≤ 2 points of those −83…−100 %, the
-points path's registration on that head by 9–16 points, a high-pass 16 times broader with the true s
-leaves −40 to −75 %. Hence a strict xfail: it turns green when the automatic capture reads i_s from what
-its head can support.
+Measured (helper I, session 10; 11 GPU scenes of its own, none a bench's: the sample head (4 textured, 2
+untextured) and MediaPipe's canonical face (5), s 10–50, the head turned −12° to +15°, six flash
+placements, six skies): the automatic capture's i_s reads −83 to −100 % (0 on 8 of 11), s 1–6. The cause
+is the person's head, not the pixel integration: its normals lie 9–10° (median; p90 23°) from the drawn
+surface's, so at the lobe's 2 px high-pass (:data:`capture.lobe.LOBE_HIGH_PASS_PX`) its lobe does not
+overlap the photograph's. The lobe integrated over each pixel (:mod:`capture.pixel_lobe`) moves i_s by
+≤ 2 points of those −83…−100 %; the points path's registration on that head by 9–16 points; a high-pass
+16 times broader with the true s leaves −40 to −72 %. The same photographs through the automatic capture
+given the sample head itself (its standard landmarks, the registration and the pixel integration): i_s
+−1.0 to −1.4 % textured. Hence a strict xfail: it turns green when the automatic capture reads i_s from
+what its head can support.
 """
 
 from __future__ import annotations
