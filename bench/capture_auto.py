@@ -25,9 +25,12 @@
   inter-pupillary distance since the sample head's eyes are closed); ``rotation_error_deg`` (the
   camera's rotation in the sample head's frame through that similarity, against the true one);
   ``shape_rms_mm`` (the landmarks' RMS after the similarity, mm: the head's shape, perspective left in it
-  included) and ``reproduction_de2000`` (the capture's own mean ΔE2000 on skin). The summary fields
-  ``focal_distance_error_pct_exif`` / ``_prior`` and the same for the rotation and the shape are the
-  medians of the absolute values over every case.
+  included), ``reproduction_de2000`` (the capture's own mean ΔE2000 on skin), ``specular_error_pct`` and
+  ``exponent_error_pct`` (the captured i_s and s against the drawn :data:`FOCAL_SPECULAR` and
+  :data:`FOCAL_EXPONENT`; the sweep gives no probe, so the capture assumes a white flash on the lens's
+  axis where it is 4° above it). The summary fields ``focal_distance_error_pct_exif`` / ``_prior`` and
+  the same for the rotation, the shape, the specular intensity and the exponent are the medians of the
+  absolute values over every case.
 """
 
 from __future__ import annotations
@@ -102,6 +105,10 @@ FOCAL_YAWS = (-12.0, 0.0, 12.0)
 FRAME_HEIGHT_MM = 400.0
 #: The focal sweep's photographs (pixels, square).
 FOCAL_PHOTO_PX = 512
+#: The sweep's drawn specular intensity i_s (photograph units) and Phong exponent s: the out-of-sample
+#: bench's i_s and its middle exponent (bench/capture.py).
+FOCAL_SPECULAR = 0.18
+FOCAL_EXPONENT = 24.0
 
 
 def focal_camera(head: Any, focal_mm: float, yaw_deg: float) -> Any:
@@ -152,7 +159,9 @@ def compare_camera(truth_head: Any, true_cam: Any, face: Any) -> tuple[dict[str,
     return {"focal_ratio": float(cam.K[0, 0] / true_cam.K[0, 0]), "distance_error_pct": 100 * (d / true_d - 1),
             "metric_distance_error_pct": 100 * (metric / (true_d * truth_head.mm_per_unit) - 1),
             "rotation_error_deg": float(np.degrees(turn)), "shape_rms_mm": shape,
-            "reproduction_de2000": float(face.data["residual"]["reproduction_mean_de2000_skin"])}, in_truth
+            "reproduction_de2000": float(face.data["residual"]["reproduction_mean_de2000_skin"]),
+            "specular_error_pct": 100 * (face.params.specular / FOCAL_SPECULAR - 1),
+            "exponent_error_pct": 100 * (face.params.exponent / FOCAL_EXPONENT - 1)}, in_truth
 
 
 def focal_photo(ctx: Any, head: Any, texture: np.ndarray, camera: Any) -> np.ndarray:
@@ -161,7 +170,8 @@ def focal_photo(ctx: Any, head: Any, texture: np.ndarray, camera: Any) -> np.nda
     from capture.synthetic import DIM_ROOM, FLASH_RGB, light_from_camera
 
     light = light_from_camera(camera, 4.0, 0.0)
-    return render_photo(ctx, head, texture, camera, np.asarray(SKIN), specular=0.18, exponent=24.0, light=light,
+    return render_photo(ctx, head, texture, camera, np.asarray(SKIN), specular=FOCAL_SPECULAR,
+                        exponent=FOCAL_EXPONENT, light=light,
                         flash=FLASH_RGB, ambient=np.full(3, DIM_ROOM), shadows=True).srgb8
 
 
@@ -209,7 +219,7 @@ def focal_sweep(quick: bool = False) -> dict[str, Any]:
             true = cameras[(lens, yaw)].R @ cameras[(lens, 0.0)].R.T
             r["turn_error_deg"] = round(float(np.degrees(Rotation.from_matrix(est @ true.T).magnitude())), 3)
     keys = ("focal_ratio", "distance_error_pct", "metric_distance_error_pct", "rotation_error_deg", "turn_error_deg",
-            "shape_rms_mm", "reproduction_de2000")
+            "shape_rms_mm", "reproduction_de2000", "specular_error_pct", "exponent_error_pct")
 
     def median(lens: float, src: str, key: str) -> float | None:
         vals = [r[key] for r in rows if r["lens_mm"] == lens and r["focal"] == src and key in r]
@@ -219,7 +229,8 @@ def focal_sweep(quick: bool = False) -> dict[str, Any]:
                for lens in lenses}
     out: dict[str, Any] = {"focal_lenses_mm": list(lenses), "focal_yaws_deg": list(yaws)}
     for src in ("exif", "prior"):
-        for k in ("distance_error_pct", "rotation_error_deg", "turn_error_deg", "shape_rms_mm"):
+        for k in ("distance_error_pct", "rotation_error_deg", "turn_error_deg", "shape_rms_mm", "specular_error_pct",
+                  "exponent_error_pct"):
             vals = [abs(r[k]) for r in rows if r["focal"] == src and k in r]
             if vals:
                 out[f"focal_{k}_{src}"] = round(float(np.median(vals)), 3)

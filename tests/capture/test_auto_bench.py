@@ -27,6 +27,9 @@ def test_bench_capture_auto_fields(capsys: pytest.CaptureFixture[str]) -> None:
     # the focal sweep (issue 14), quick: the two ends' lenses, the head frontal, with EXIF and without
     assert result["focal_lenses_mm"] == [26.0, 135.0] and result["focal_yaws_deg"] == [0.0]
     assert len(result["focal_cases"]) == 4 and set(result["focal_by_lens"]) == {"26", "135"}
+    # the captured i_s and s against the drawn ones (i_s 0.18, s 24): relative errors in per cent, ≥ −100
+    assert all(r["specular_error_pct"] >= -100.0 and r["exponent_error_pct"] > -100.0 for r in result["focal_cases"])
+    assert "focal_specular_error_pct_exif" in result and "focal_exponent_error_pct_prior" in result
     assert result["focal_distance_error_pct_exif"] < 5.0 < 50.0 < result["focal_distance_error_pct_prior"]
     for lens in ("26", "135"):
         assert abs(result["focal_by_lens"][lens]["exif"]["focal_ratio"] - 1.0) < 0.1
