@@ -67,6 +67,15 @@ AUTO_TEXTURE_SIZE = 512
 PHOTO_FILE = "photo.png"
 #: Standard landmarks needed to fit a given head's camera.
 MIN_CORRESPONDENCES = 6
+#: A specular intensity i_s below this (photograph units) is "no lobe found": the lobe's peak would not
+#: move one code of an 8-bit sRGB photograph even at black (one code there is 1 / (255 × 12.92) ≈ 3·10⁻⁴
+#: in linear units), so nothing was measured. The fit's floor (1e-6) is what it returns then.
+NO_SPECULAR = 3e-4
+#: Why the person's own head finds no lobe (measured, tests/capture/test_auto_intensity.py): its normals,
+#: from MediaPipe's 468 points, lie ~10° (median) from the true surface's, more than the lobe's 2 px
+#: high-pass tolerates.
+NO_SPECULAR_PERSON = ("the head built from the landmarks is too coarse at the lobe's scale (its normals ~10° off "
+                      "the face's)")
 
 
 def _say(progress: Callable[[str], None] | None, msg: str) -> None:
@@ -396,6 +405,12 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         mask = region_skin_mask(the_head, camera, photo_lin, pixel_data(the_head, camera))
     result = capture(the_head, photo_lin, camera, probe=probe_analysis, mask=mask, texture_size=int(texture_size),
                      progress=progress)
+    if result.params.specular < NO_SPECULAR:
+        # Said, not silent: i_s 0 reads as a matte skin, while the photograph's shine went into the detail texture.
+        msg = ("no specular lobe found: i_s (0) and s are not measured" + (f"; {NO_SPECULAR_PERSON}" if person else "")
+               + "; the photograph's highlights are in the detail texture")
+        notes.append(msg)
+        _say(progress, f"note: {msg}")
 
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.partial-{uuid.uuid4().hex[:8]}")
