@@ -63,6 +63,9 @@ FACE_JSON_UNITS: dict[str, str] = {
     "camera.P": "pixels per mesh unit (3x4 projection)", "camera.width": "pixels", "camera.height": "pixels",
     "probe.light_dir_camera": "unit vector, camera coordinates (x right, y down, z forward)",
     "probe.flash_rgb": "linear sRGB, luminance 1", "probe.ambient_rgb": "photograph units",
+    "probe.ambient_sh": "9 x RGB spherical-harmonic coefficients (l <= 2, real basis, camera coordinates) of the "
+                        "irradiance E(n), photograph units x pi: the fit's ambient is k * E(n)/pi; the detail "
+                        "texture and sheer render use the constant ambient_rgb",
     "probe.clipped_fraction": "fraction of the ball's pixels",
     "probe.reflectance": "dimensionless, the ball's reflectance (1 = a perfect mirror)", "probe.flash_hue_spread": "relative (0.01 = 1 %)",
     "skin_pixels": "pixels", "detail_texture.range": "dimensionless ratio (photograph / shaded model)",

@@ -2,9 +2,12 @@
 
 Per pixel, in linear RGB (photograph units, the sensor saturating at 1):
 
-    I = D ⊙ (k·A + F·max(n·l, 0)) + i_s·F·max(r·v, 0)^s,        r = 2(n·l)n − l
+    I = D ⊙ (k·A(n) + F·max(n·l, 0)) + i_s·F·max(r·v, 0)^s,        r = 2(n·l)n − l
 
-with D the skin's diffuse (= ambient) colour, A the ambient light measured on the probe, k the ambient
+with D the skin's diffuse (= ambient) colour, A(n) the ambient light measured on the probe: the paper's
+constant A (the probe's mean radiance) or, when the geometry carries it (:class:`Geometry`'s ``ambient``,
+``capture(directional_ambient=True)``), the environment's irradiance E(n)/π for the pixel's normal
+(:mod:`capture.ambient`; its mean over all normals is A), k the ambient
 intensity relative to the flash, F the flash colour (luminance 1), i_s the specular intensity (white
 specular: no spectral distortion) and s the exponent (first estimated from the saturation around the
 highlight, :mod:`capture.reflectance`, then fitted with i_s on the high-passed photograph,
@@ -68,23 +71,36 @@ class Geometry:
 
     Attributes:
         n_dot_l: (P,) n·l (unclamped). r_dot_v: (P,) r·v (unclamped). Both for the flash direction.
+        ambient: (P, 3) the ambient light each pixel's normal receives, A(n) = E(n)/π (photograph
+            units, :func:`capture.ambient.ambient_per_normal`), which k scales instead of the constant
+            ``PhongParams.ambient_rgb``; None = the constant (the paper's model).
     """
 
     n_dot_l: np.ndarray
     r_dot_v: np.ndarray
+    ambient: np.ndarray | None = None
 
     @classmethod
-    def from_vectors(cls, normals: np.ndarray, view: np.ndarray, light: np.ndarray) -> Geometry:
-        """From unit normals (P, 3), unit directions to the camera (P, 3) and to the light (3,) or (P, 3)."""
+    def from_vectors(cls, normals: np.ndarray, view: np.ndarray, light: np.ndarray,
+                     ambient: np.ndarray | None = None) -> Geometry:
+        """From unit normals (P, 3), unit directions to the camera (P, 3) and to the light (3,) or (P, 3).
+
+        ``ambient``: each pixel's A(n) (P, 3, photograph units), or None for the constant.
+        """
         light = np.broadcast_to(np.asarray(light, dtype=float), normals.shape)
         ndl = np.einsum("pc,pc->p", normals, light)
         r = 2 * ndl[:, None] * normals - light
         rdv = np.einsum("pc,pc->p", r, view)
-        return cls(n_dot_l=ndl, r_dot_v=rdv)
+        return cls(n_dot_l=ndl, r_dot_v=rdv, ambient=ambient)
 
-    def subset(self, idx: np.ndarray) -> Geometry:
+    def subset(self, idx: np.ndarray | slice) -> Geometry:
         """The geometry of the pixels ``idx`` (an index array, a bool mask or a slice over P)."""
-        return Geometry(self.n_dot_l[idx], self.r_dot_v[idx])
+        return Geometry(self.n_dot_l[idx], self.r_dot_v[idx], None if self.ambient is None else self.ambient[idx])
+
+    def ambient_light(self, params: PhongParams) -> np.ndarray:
+        """k·A(n) (P, 3), or k·A (1, 3) without a per-pixel ambient: photograph units."""
+        amb = params.ambient_rgb[None, :] if self.ambient is None else self.ambient
+        return params.ambient_scale * amb
 
 
 @dataclass
@@ -123,7 +139,7 @@ def shade(p: PhongParams, geo: Geometry, clip: bool = True) -> np.ndarray:
     """The model's linear RGB (P, 3) at the pixels of ``geo`` (clipped to [0, 1] like a sensor)."""
     ndl = np.clip(geo.n_dot_l, 0.0, None)
     spec = np.where(geo.n_dot_l > 0, np.clip(geo.r_dot_v, 0.0, None) ** p.exponent, 0.0)
-    light = p.ambient_scale * p.ambient_rgb[None, :] + p.flash_rgb[None, :] * ndl[:, None]
+    light = geo.ambient_light(p) + p.flash_rgb[None, :] * ndl[:, None]
     out = p.diffuse[None, :] * light + p.specular * spec[:, None] * p.flash_rgb[None, :]
     return np.clip(out, 0.0, 1.0) if clip else out
 

@@ -28,6 +28,8 @@ from scipy import ndimage
 
 from core.errors import SheerError
 
+from .ambient import ball_reflections, probe_irradiance_sh
+
 #: Rec. 709 / sRGB luminance weights of linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -70,6 +72,9 @@ class ProbeAnalysis:
         flash_hue_spread: the flash hue's spread between the halo's sectors (median relative deviation,
             worst channel; see :func:`_flash_hue`).
         reflectance: the ball's reflectance the ambient light was divided by (0..1; 1 = a perfect mirror).
+        ambient_sh: (9, 3) the environment's irradiance E(n) as spherical-harmonic coefficients in
+            camera coordinates (:func:`capture.ambient.probe_irradiance_sh`; A(n) = E(n)/π, photograph
+            units, averages ``ambient_rgb`` over all normals), or None (a probe known only by its mean).
     """
 
     light_dir_camera: np.ndarray
@@ -82,6 +87,7 @@ class ProbeAnalysis:
     clipped_fraction: float = 0.0
     flash_hue_spread: float = 0.0
     reflectance: float = 1.0
+    ambient_sh: np.ndarray | None = None
 
     def to_json(self) -> dict[str, Any]:
         """The analysis as JSON numbers and lists (face.json's ``probe``; the classes image left out)."""
@@ -92,6 +98,7 @@ class ProbeAnalysis:
             "flash_rgb": self.flash_rgb.tolist(), "ambient_rgb": self.ambient_rgb.tolist(),
             "clipped_fraction": self.clipped_fraction, "flash_hue_spread": self.flash_hue_spread,
             "reflectance": self.reflectance,
+            "ambient_sh": None if self.ambient_sh is None else self.ambient_sh.tolist(),
         }
 
 
@@ -297,6 +304,9 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
       level, and the fitted diffuse colour absorbed the difference — ΔE2000 up to 2.7.) The ball's
       outer 3 % of radius (the 6 % of directions behind the ball) is left out, and clipped pixels of
       the environment count at their clipped value (a lower bound).
+    - **The ambient light per surface direction**: the same radiance projected on nine spherical
+      harmonics and convolved with the clamped cosine (``ambient_sh``, :mod:`capture.ambient`): the
+      irradiance E(n) a surface with normal n receives, whose mean over all normals is that mean.
 
     Args:
         image: (H, W, 3) *linear* RGB in [0, 1] (decode sRGB first; see :func:`capture.pipeline.read_photo`).
@@ -353,6 +363,7 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
     flash, spread = measured
     env = inside & (dist > max(ring_in, halo_r or 0.0))
     ambient = img[env].mean(axis=0) / reflectance
+    ambient_sh = probe_irradiance_sh(img, (cx, cy, r), env, inside & ~env, background, reflectance)
     classes = np.zeros((h, w), dtype=np.uint8)
     classes[env] = 3
     classes[halo] = 2
@@ -360,7 +371,7 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
     return ProbeAnalysis(light_dir_camera=d, theta_deg=theta, phi_deg=phi, highlight_px=(hx, hy),
                          flash_rgb=flash, ambient_rgb=ambient, classes=classes,
                          clipped_fraction=float(clipped[env].mean()), flash_hue_spread=spread,
-                         reflectance=float(reflectance))
+                         reflectance=float(reflectance), ambient_sh=ambient_sh)
 
 
 def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -381,20 +392,6 @@ def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:
     return out
 
 
-def _ball_reflections(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The reflected viewing directions of an orthographic mirror ball, and which points are on it.
-
-    ``dx``, ``dy``: normalised ball coordinates (radius 1, broadcast together); returns the directions
-    (..., 3) in camera coordinates and a bool (...) mask of the points on the ball.
-    """
-    dx, dy = np.broadcast_arrays(dx, dy)
-    rr = dx ** 2 + dy ** 2
-    nz = -np.sqrt(np.clip(1 - rr, 0, 1))
-    n = np.stack([dx, dy, nz], axis=-1)
-    view = np.array([0.0, 0.0, 1.0])
-    return view - 2 * (n @ view)[..., None] * n, rr < 1.0
-
-
 def probe_environment(env: np.ndarray, R: np.ndarray, size: int = 256, env_scale: float = 1.0) -> np.ndarray:
     """A mirror ball reflecting an equirectangular environment (unclipped, pixel centres sampled).
 
@@ -402,7 +399,7 @@ def probe_environment(env: np.ndarray, R: np.ndarray, size: int = 256, env_scale
     rotation ``R``: linear RGB (size, size, 3) in the environment's units × ``env_scale``, 0 off the ball.
     """
     c = (np.arange(size) + 0.5 - size / 2) / (size / 2)
-    refl, inside = _ball_reflections(c[None, :], c[:, None])
+    refl, inside = ball_reflections(c[None, :], c[:, None])
     out = equirect_lookup(env, refl @ R) * env_scale  # R^T applied to row vectors
     out[~inside] = 0.0
     return out
@@ -420,7 +417,7 @@ def flash_reflection(size: int, R: np.ndarray, light_dir_world: np.ndarray, core
     """
     lc = R @ (np.asarray(light_dir_world, dtype=float) / np.linalg.norm(light_dir_world))
     c = (np.arange(size) + 0.5 - size / 2) / (size / 2)
-    refl, inside = _ball_reflections(c[None, :], c[:, None])
+    refl, inside = ball_reflections(c[None, :], c[:, None])
     ang = np.degrees(np.arccos(np.clip(refl @ lc, -1, 1)))
     halo = halo_gain * np.exp(-0.5 * (ang / halo_deg) ** 2)
     core = core_gain * np.exp(-0.5 * (ang / core_deg) ** 2)
@@ -434,7 +431,7 @@ def flash_reflection(size: int, R: np.ndarray, light_dir_world: np.ndarray, core
         sx = ((xx[:, None, None] + sub[None, None, :]) - size / 2) / (size / 2)
         sy = ((yy[:, None, None] + sub[None, :, None]) - size / 2) / (size / 2)
         sx, sy = np.broadcast_arrays(sx, sy)
-        r_sub, in_sub = _ball_reflections(sx, sy)
+        r_sub, in_sub = ball_reflections(sx, sy)
         a_sub = np.degrees(np.arccos(np.clip(r_sub @ lc, -1, 1)))
         core[yy, xx] = np.where(in_sub, core_gain * np.exp(-0.5 * (a_sub / core_deg) ** 2), 0.0).mean(axis=(1, 2))
     return np.where(inside, core + halo, 0.0)
