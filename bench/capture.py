@@ -158,7 +158,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
             f = measure_case(ctx, case)
             rows.append({"case": name, "s": round(f.s_value, 3), "s_error_pct": round(100 * f.s, 2),
                          "i_s_error_pct": round(100 * f.i_s, 2), "light_deg": round(f.light_deg, 3),
-                         "reproduction_de2000": round(f.reproduction_de, 3)})
+                         "reproduction_de2000": round(f.reproduction_de, 3), "diffuse_de2000": round(f.diffuse_de, 3)})
     finally:
         ctx.release()
     s_err = [abs(r["s_error_pct"]) for r in rows]
@@ -166,6 +166,7 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
     return {"cases": len(rows), "camera": camera, "truth": truth, "focal": focal, **spread("s_error_pct", s_err),
             "s_within_10pct": sum(e <= 10 for e in s_err), **spread("i_s_error_pct", i_err),
             "i_s_within_10pct": sum(e <= 10 for e in i_err), **spread("light_deg", [r["light_deg"] for r in rows]),
+            **spread("diffuse_de2000", [r["diffuse_de2000"] for r in rows]),
             "exponent_cases": rows}
 
 
