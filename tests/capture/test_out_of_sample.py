@@ -205,13 +205,17 @@ BOUNDS: dict[str, dict[str, float]] = {
 MISSED = {
     ("yaw+30-s24-above", "i_s"): "i_s 0.1950 for 0.18 (+8.3 %; +7.9 % from the true camera, +0.2 % from it "
                                  "untextured): the skin's texture under the lobe at 2 px",
-    ("yaw+30-s24-above", "diffuse_de"): "ΔE2000 1.006 (1.01 from the true camera, 0.97 untextured: the sky's "
-                                        "irradiance E(n)/π that the constant ambient A stands for)",
+    ("yaw+30-s24-above", "diffuse_de"): "ΔE2000 1.006 (1.01 from the true camera): the flash's hue read from the "
+                                        "probe's halo, R -2.2 %, B +3.3 % (from the true camera with the true hue "
+                                        "0.25; the sky's E(n)/π as the ambient, capture.ambient, 0.99 from the "
+                                        "probe's, 0.99 from the truth's own)",
     ("s60-beside-far", "i_s"): "i_s 0.1708 for 0.18 (-5.1 %; -5.3 % from the true camera, +0.5 % from it "
                                "untextured): the skin's texture under a narrow lobe at 2 px",
     ("sensor-noise-vignetting", "i_s"): "i_s 0.1709 for 0.18 (-5.1 %; -4.9 % from the true camera; -3.3 % with "
                                         "the lens's falloff given, capture.vignetting: the 40 % vignetting)",
-    ("shadow-above15-s40", "diffuse_de"): "ΔE2000 1.07 (1.06 from the true camera)",
+    ("shadow-above15-s40", "diffuse_de"): "ΔE2000 1.07 (1.06 from the true camera): the flash's hue read from the "
+                                          "probe's halo, R +3.1 %, B -4.1 % (from the true camera with the true "
+                                          "hue 0.53, and with the probe's E(n)/π as the ambient 0.29)",
     ("photo-s12-yaw-15-off-axis", "i_s"): "i_s 0.1688 for 0.18 (-6.2 %; -6.4 % from the true camera, -4.0 % "
                                           "with the lens's falloff given, -2.4 % from the true camera untextured)",
 }
