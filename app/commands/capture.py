@@ -76,6 +76,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--vignetting", metavar="K1[,K2,K3]", default=None,
                    help="with --camera/--points: the lens's light falloff, lensfun's pa model v(r) = 1 + k1·r² + "
                         "k2·r⁴ + k3·r⁶ (r = 1 in the corners); the photo is divided by it first (default: none)")
+    p.add_argument("--ambient", choices=("mean", "directional"), default="mean",
+                   help="the ambient light the fit uses with --camera/--points and --probe: the probe's mean "
+                        "(default) or its irradiance for each pixel's normal, E(n)/pi; directional is better "
+                        "where the probe's sky does not clip and worse where lamps clip (docs/CAPTURE.md)")
     p.add_argument("--mask", metavar="PATH", help="painted skin mask (white = skin)")
     p.add_argument("--texture-size", type=int, default=None, metavar="N",
                    help="detail texture side (texels; default 1024, automatic 512: its face is at most 280 px tall)")
@@ -114,9 +118,13 @@ def run(args: argparse.Namespace) -> int:
     def say(msg: str) -> None:
         print(f"capture: {msg}", file=sys.stderr, flush=True)
 
+    if args.ambient == "directional" and not args.probe:
+        raise CaptureError("--ambient directional needs --probe (the mirror ball whose sky it reads)")
     if not args.camera and not args.points:
         if falloff is not None:
             raise CaptureError("--vignetting is for a capture with --camera or --points")
+        if args.ambient != "mean":
+            raise CaptureError("--ambient directional is for a capture with --camera or --points")
         return run_auto(args, say)
     if args.allow_closed_eyes:
         raise CaptureError("--allow-closed-eyes is for the automatic capture (without --camera/--points)")
@@ -150,9 +158,13 @@ def run(args: argparse.Namespace) -> int:
         probe = analyse_probe(read_photo(args.probe), source=args.probe, reflectance=args.probe_reflectance)
     mask = load_mask(args.mask, (h, w)) if args.mask else None
     result = capture(head, photo, camera, probe=probe, mask=mask, texture_size=args.texture_size,
-                     progress=say, robustness_starts=args.starts)
-    # The detail texture is of the photograph divided by the falloff: face.json says so (its units: FACE_JSON_UNITS).
-    extra = None if falloff is None else {"vignetting": {"k1": falloff.k1, "k2": falloff.k2, "k3": falloff.k3}}
+                     progress=say, robustness_starts=args.starts,
+                     directional_ambient=args.ambient == "directional")
+    # The detail texture is of the photograph divided by the falloff: face.json says so (its units: FACE_JSON_UNITS),
+    # and which ambient D was fitted with.
+    extra: dict[str, object] = {"fit_ambient": args.ambient}
+    if falloff is not None:
+        extra["vignetting"] = {"k1": falloff.k1, "k2": falloff.k2, "k3": falloff.k3}
     out = write_face(result, args.out, head_path=head.path, extra=extra)
     say(f"wrote {out}/face.json, detail.exr, report.png, skin_mask.png")
     return 0

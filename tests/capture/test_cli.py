@@ -103,7 +103,32 @@ def test_every_number_in_face_json_has_a_unit(captured: Captured) -> None:
     assert not missing, missing
 
 
-@pytest.mark.parametrize("case", ["missing_photo", "few_points", "bad_mask", "bad_reflectance", "reflectance_alone"])
+def test_capture_with_the_probes_directional_ambient(inputs: dict[str, Path], captured: Captured) -> None:
+    """``--ambient directional`` fits D with the probe's irradiance per normal (capture.ambient) and says so in
+    face.json; the photograph's own view still comes back (the detail texture keeps the constant ambient)."""
+    from app.cli import main
+
+    d = inputs["dir"]
+    out = d / "face_directional"
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        rc = main(["capture", "--photo", str(d / "photo.png"), "--camera", str(d / "camera.json"),
+                   "--probe", str(d / "probe.png"), "--ambient", "directional", "--texture-size", "256",
+                   "--out", str(out)])
+    assert rc == 0, err.getvalue()
+    directional = json.loads((out / "face.json").read_text())
+    mean = json.loads((captured.out / "face.json").read_text())
+    assert directional["fit_ambient"] == "directional" and mean["fit_ambient"] == "mean"
+    assert len(directional["probe"]["ambient_sh"]) == 9
+    d_dir = np.asarray(directional["phong"]["diffuse_rgb"])
+    d_mean = np.asarray(mean["phong"]["diffuse_rgb"])
+    assert np.abs(d_dir - d_mean).max() > 1e-4  # another ambient, another D
+    reproduction = directional["residual"]["reproduction_mean_de2000_skin"]
+    assert reproduction < 1.0, reproduction
+
+
+@pytest.mark.parametrize("case", ["missing_photo", "few_points", "bad_mask", "bad_reflectance", "reflectance_alone",
+                                  "directional_without_probe", "directional_automatic"])
 def test_capture_bad_input_is_one_line(case: str, inputs: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
     from app.cli import main
 
@@ -117,6 +142,11 @@ def test_capture_bad_input_is_one_line(case: str, inputs: dict[str, Path], capsy
         args += ["--probe", str(d / "photo.png"), "--probe-reflectance", "1.5"]
     elif case == "reflectance_alone":
         args += ["--probe-reflectance", "0.6"]
+    elif case == "directional_without_probe":
+        args += ["--ambient", "directional"]
+    elif case == "directional_automatic":
+        args = ["capture", "--photo", str(d / "photo.png"), "--probe", str(d / "probe.png"), "--ambient",
+                "directional", "--out", str(d / "x")]
     else:
         Image.new("L", (10, 10), 255).save(d / "mask.png")
         args += ["--mask", str(d / "mask.png")]
