@@ -35,14 +35,22 @@ fit of a (2 unknowns), samples beyond :data:`OUTLIER_MADS` robust standard devia
 Gauss–Newton rounds that measure the edges again where the turned camera puts them. Its covariance is
 cluster-robust (:func:`capture.covariance.cluster_covariance`, blocks of 16 px along the contour: the
 skin's texture and the shading's error correlate neighbouring samples) times
-:data:`CONTOUR_BIAS_VARIANCE`, the mean squared ratio measured on development scenes: the residual does not
-see the landmarks' error in the image's scale and roll, which a one-sided outline reads as a turn, nor
-the edge model's bias about x. The outline fixes the turn about y to ~0.15° (RMS on 47 development
-scenes; the landmarks: 0.47°), about x to ~0.42° (the landmarks: 0.48°): about x its few horizontal
-parts (the cheek's ends) leave the turn loose, and from the true camera it read +0.21° on average (RMS
-0.26°; about y −0.01°, RMS 0.07°). Both axes are fused all the same (:func:`capture.pose.refine_rotation`):
-against y alone, on 48 development scenes, the rotation's RMS error about x went 0.30 → 0.25°, the flash's
-direction's p90 / worst 0.60 / 0.94° → 0.53 / 0.83° (medians 0.29 / 0.30°, the same within noise).
+:data:`CONTOUR_BIAS_VARIANCE`, the mean squared ratio measured on development scenes (the edge model's
+own bias, the skin's texture at the outline).
+
+**The landmarks' other errors.** The outline moves not only with a turn: an error of the landmark
+calibration in the focal length and distance (perspective: a point 30 mm behind the pivot, seen from 0.56
+of the true distance with a focal length 44 % short, moves 1.7 px relative to the face), in the image's
+scale or roll, or in the translation moves it too, and an outline seen on one side cannot tell them
+apart. So the contour is a measurement of A·δ, δ the calibration's whole error (rotation, translation,
+log f) and A = (JᵀJ)⁻¹ Jᵀ J₇ the turn the fit reads per unit of each (``ContourTurn.alias``, J₇ the
+samples' motion per parameter); :func:`capture.pose.refine_rotation` fuses it with the landmarks'
+whole covariance (:attr:`Camera.parameter_covariance`) and the lobe's turn over all seven parameters.
+Fused as a turn alone, the outline read a turn 9 of its σ off on such a scene (the focal length fitted
+from the landmarks) and turned the camera the wrong way. On 47 development scenes the outline fixes the
+turn about y to ~0.15° (RMS; the landmarks 0.47°) and about x to ~0.42° (the landmarks 0.48°): about x its
+few horizontal parts (the cheek's ends) leave it loose, and from the true camera it read +0.21° on average
+(RMS 0.26°; about y −0.01°, RMS 0.07°), within its σ.
 
 **What a photograph needs.** Contrast at the outline: a sample is used only where the luminance beyond
 the edge differs from the skin's inside by at least :data:`MIN_CONTRAST` of the brighter of the two. The
@@ -100,12 +108,12 @@ OUTLIER_MADS = 3.5
 #: Fewer samples than this leave the cue out: at 1 px spacing that is 3 cm of outline, less than one
 #: side of the jaw.
 MIN_SAMPLES = 60
-#: The contour's turn's squared error over its cluster-robust variance, averaged over development scenes
-#: (see the module docstring): what the residual does not see — the landmarks' error in the image's
-#: scale and roll, which a one-sided outline reads as a turn, and the edge model's own bias. Measured
-#: 31 and 29 (about x and y) on 47 development scenes (s 10–50, the head turned ±10° to ±35°, their own
-#: landmark noise and sensor; none the bench's or the tests').
-CONTOUR_BIAS_VARIANCE = 30.0
+#: The contour's squared error (its turn less A·δ, δ the calibration's true error; the module docstring)
+#: over its cluster-robust variance, averaged over 47 development scenes (s 10–50, the head turned ±10°
+#: to ±35°, their own landmark noise and sensor; none the bench's or the tests'): 9.0 about x, 4.2 about
+#: y; this is their mean. (Read as a turn alone, without A·δ, the ratio was 31 and 29: the calibration's
+#: other errors.)
+CONTOUR_BIAS_VARIANCE = 6.6
 #: Gauss–Newton rounds at most, and the step (degrees) under which the turn has settled: a tenth of the
 #: best σ the other two measurements reach (0.2°).
 ROUNDS = 4
@@ -173,6 +181,11 @@ class ContourTurn:
         covariance_deg2: (2, 2) its cluster-robust covariance (degrees²).
         samples: contour samples used (after outliers). dropped: samples dropped as outliers.
         rms_px: the residual's RMS along the normals (pixels).
+        alias: (2, 7) the turn the fit reads per unit of each of the landmark calibration's parameters
+            (:attr:`Camera.parameter_covariance`'s order: rotation vector in degrees, translation in mesh
+            units, log f), or None for a camera without that covariance: an error of the calibration in
+            the focal length and distance (perspective), the image's scale or the translation moves the
+            outline as well as a turn does.
     """
 
     turn_deg: np.ndarray
@@ -180,6 +193,7 @@ class ContourTurn:
     samples: int
     dropped: int
     rms_px: float
+    alias: np.ndarray | None = None
 
 
 def face_contour_region(head: Head, points: np.ndarray) -> np.ndarray:
@@ -375,16 +389,15 @@ def measure_edges(photo_lin: np.ndarray, samples: ContourSamples) -> tuple[np.nd
 
 
 def contour_turn(photo_lin: np.ndarray, head: Head, camera: Camera, surface: Surface, pivot: np.ndarray,
-                 similarity_cov: np.ndarray | None = None) -> ContourTurn | None:
+                 calibration_pivot: np.ndarray | None = None) -> ContourTurn | None:
     """The camera's turn about ``pivot`` (mesh units) that the photograph's occluding contour asks for.
 
     ``surface``: ``camera``'s rasterisation of ``head``. Gauss–Newton: the edges are measured again where
     the turned camera puts them (the search window follows the edge), at most :data:`ROUNDS` times.
-    ``similarity_cov``: (2, 2) how uncertain the landmarks leave the image's scale (per cent) and roll
-    (degrees) (:func:`capture.pose.image_similarity_covariance`): an outline seen on one side reads a
-    scale or a roll about the pivot's image as a turn, so their variance, carried through the fit
-    (A Σ Aᵀ, A the turn a unit scale or roll would be read as), is added to the turn's covariance. None
-    when the cue is absent (see the module docstring).
+    ``calibration_pivot``: the point the landmark calibration's rotation is about (mesh units; its points'
+    centroid, :func:`capture.camera.parameter_covariance`); with it and a camera that has that covariance,
+    the result's ``alias`` says how each calibration parameter's error reads as a turn. None when the cue
+    is absent (see the module docstring).
     """
     first = predict_contour(head, camera, surface)
     if first is None or len(first.points) < MIN_SAMPLES:
@@ -414,11 +427,12 @@ def contour_turn(photo_lin: np.ndarray, head: Head, camera: Camera, surface: Sur
                                                          np.floor(pix[:, 0]).astype(int))
     except np.linalg.LinAlgError:
         return None
-    if similarity_cov is not None:
-        alias, *_ = np.linalg.lstsq(gain[keep], _similarity_gain(cam, samples, pivot)[usable][keep], rcond=None)
-        cov = cov + alias @ np.asarray(similarity_cov, dtype=float) @ alias.T
+    alias = None
+    if calibration_pivot is not None and camera.parameter_covariance is not None:
+        moved = _calibration_gain(cam, samples, np.asarray(calibration_pivot, dtype=float))[usable][keep]
+        alias, *_ = np.linalg.lstsq(gain[keep], moved, rcond=None)
     return ContourTurn(turn_deg=turn, covariance_deg2=cov, samples=int(keep.sum()), dropped=int((~keep).sum()),
-                       rms_px=float(np.sqrt(np.mean(res**2))))
+                       rms_px=float(np.sqrt(np.mean(res**2))), alias=alias)
 
 
 def _turn_gain(camera: Camera, samples: ContourSamples, pivot: np.ndarray) -> np.ndarray:
@@ -432,13 +446,28 @@ def _turn_gain(camera: Camera, samples: ContourSamples, pivot: np.ndarray) -> np
     return gain
 
 
-def _similarity_gain(camera: Camera, samples: ContourSamples, pivot: np.ndarray) -> np.ndarray:
-    """(N, 2): each sample's image motion along its normal per per cent of scale and per degree of roll."""
-    centre, _ = camera.project(np.asarray(pivot, dtype=float)[None, :])
-    rel = samples.pixels - centre
-    rolled = np.stack([-rel[:, 1], rel[:, 0]], axis=1) * np.radians(1.0)
-    return np.stack([np.einsum("nc,nc->n", 0.01 * rel, samples.normals),
-                     np.einsum("nc,nc->n", rolled, samples.normals)], axis=1)
+def _calibration_gain(camera: Camera, samples: ContourSamples, pivot: np.ndarray) -> np.ndarray:
+    """(N, 7): each sample's image motion along its normal per unit of the landmark calibration's parameters.
+
+    The order and units of :attr:`Camera.parameter_covariance` (rotation vector about ``pivot`` in camera
+    coordinates, per degree; the translation added to t, per mesh unit; log f), by central differences.
+    """
+    out = np.zeros((len(samples.points), 7))
+    steps = np.array([*(np.radians(GAIN_STEP_DEG),) * 3, *(1e-3,) * 3, 1e-4])
+    per = np.array([*(GAIN_STEP_DEG,) * 3, 1e-3, 1e-3, 1e-3, 1e-4])
+    for k in range(7):
+        moved = []
+        for sign in (1.0, -1.0):
+            e = np.zeros(7)
+            e[k] = sign * steps[k]
+            cam = camera.turned(e[:3], pivot)
+            cam.t = cam.t + e[3:6]
+            cam.K = cam.K.copy()
+            cam.K[0, 0] *= np.exp(e[6])
+            cam.K[1, 1] *= np.exp(e[6])
+            moved.append(cam.project(samples.points)[0])
+        out[:, k] = np.einsum("nc,nc->n", moved[0] - moved[1], samples.normals) / (2.0 * per[k])
+    return out
 
 
 def _inliers(gain: np.ndarray, offsets: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from core.errors import SheerError
 from km.srgb import srgb_decode, srgb_encode
 
 from .ambient import ambient_per_normal
+from .contour import contour_turn
 from .lobe import DetailSpecular, specular_from_detail
 from .mask import landmark_region, refine_by_skin_colour
 from .phong import (
@@ -417,15 +418,22 @@ def _refine_pose(head: Head, photo_lin: np.ndarray, camera: Camera, pix: PixelDa
     skin = np.zeros(photo_lin.shape[:2], dtype=bool)
     skin[pix.rows[sel], pix.cols[sel]] = True
     pivot = pix.positions[sel].mean(axis=0)
+    # What the landmark calibration turned about (its points' centroid, capture.camera.parameter_covariance).
+    marks = head.metadata.landmarks
+    calibration_pivot = np.array(list(marks.values()), dtype=float).mean(axis=0) if marks else pivot
     pose = None
     cam = camera
     for _ in range(POSE_ROUNDS):
         if pose is not None:
             pix = pixel_data(head, cam)
             sel = skin[pix.rows, pix.cols]
-        step = refine_rotation(photo_lin, Surface.from_pixels(pix.rows, pix.cols, pix.normals, pix.positions), cam,
-                               light_camera, params, pix.rows[sel], pix.cols[sel], pivot=pivot,
-                               turned_deg=None if pose is None else pose.turn_deg)
+        surface = Surface.from_pixels(pix.rows, pix.cols, pix.normals, pix.positions)
+        # The face's outline, a third measurement of the turn (capture.contour); only where there is a
+        # turn to refine (a camera given directly or pinned has none, and the kiosk's capture skips it).
+        contour = None if cam.rotation_covariance_deg2 is None or pinned(cam) else contour_turn(
+            photo_lin, head, cam, surface, pivot, calibration_pivot=calibration_pivot)
+        step = refine_rotation(photo_lin, surface, cam, light_camera, params, pix.rows[sel], pix.cols[sel], pivot=pivot,
+                               turned_deg=None if pose is None else pose.turn_deg, contour=contour)
         if step is None:
             return pose
         moved = float(np.linalg.norm(step.turn_deg - (0.0 if pose is None else pose.turn_deg)))

@@ -45,15 +45,14 @@ its turn followed the truth with a slope of 0.25–0.31, so the weight hardly ma
 
 **A third measurement: the face's outline** (:mod:`capture.contour`). The occluding contour of the cheek
 and jaw lies behind the pivot, so a turn moves it in the image where it hardly moves the landmarks; its
-edge, fitted along the contour's normals, gives the turn (tight about the camera's y axis, loose about x)
-with its own covariance K, which :func:`refine_rotation` fuses as a third Gaussian when given one:
+edge, fitted along the contour's normals, gives a turn ĉ (tight about the camera's y axis, loose about x)
+with its own covariance K. The outline also moves with the landmark calibration's other errors (focal
+length and distance, scale, translation), so ĉ measures A·δ, δ the calibration's whole error: with the
+calibration's 7 × 7 covariance Σ₇ the three are fused over δ (:func:`_fuse`: δ ~ N(μ, Σ₇), â ≈ δ_xy with
+C, ĉ ≈ A·δ with K) and the turn is the posterior's δ_xy; without Σ₇, as three Gaussians of the turn,
 a = (C⁻¹ + Σ⁻¹ + K⁻¹)⁻¹ (C⁻¹ â + K⁻¹ ĉ). On the 48 development scenes above the refined camera's rotation
-error went from 0.35 / 0.69 / 0.97° (median / p90 / max) to 0.23 / 0.50 / 0.74°, the flash's direction
-0.38 / 0.73 / 0.94° → 0.30 / 0.53 / 0.83°; but the capture (:mod:`capture.pipeline`) does not pass it:
-the outline also moves with the landmarks' error in the focal length and distance (perspective: a point
-30 mm behind the pivot, seen from 0.56 of the true distance, moves 1.7 px), which a turn about the pivot
-does not model; on two out-of-sample scenes (a focal length fitted from the landmarks, 44 % off) the
-contour then read the turn 9 of its σ off and the flash's direction got worse (0.63 → 1.29°).
+error went from 0.35 / 0.69 / 0.97° (median / p90 / max) to 0.23 / 0.45 / 0.74°, its RMS about x and y
+0.29 / 0.32 → 0.24 / 0.16°, the flash's direction 0.38 / 0.73 / 0.94° → 0.30 / 0.48 / 0.86°.
 """
 
 from __future__ import annotations
@@ -104,10 +103,13 @@ class TurnMeasurement(Protocol):
     Attributes:
         turn_deg: (2,) the turn about the camera's x and y axes it asks for (degrees).
         covariance_deg2: (2, 2) its covariance (degrees²).
+        alias: (2, 7) the turn it reads per unit of each landmark calibration parameter (rotation in
+            degrees, translation, log f; :attr:`Camera.parameter_covariance`'s order), or None.
     """
 
     turn_deg: np.ndarray
     covariance_deg2: np.ndarray
+    alias: np.ndarray | None
 
 
 def pinned(camera: Camera) -> bool:
@@ -208,6 +210,36 @@ class Surface:
         return nrm, pos
 
 
+def _fuse(photo_deg: np.ndarray, info_photo: np.ndarray, prior_cov: np.ndarray, offset: np.ndarray,
+          calibration_cov: np.ndarray | None, contour: TurnMeasurement | None) -> tuple[np.ndarray, np.ndarray]:
+    """The turn (2,) and its covariance (2, 2) (degrees, the frame of the camera refined) from the measurements.
+
+    The photograph's turn ``photo_deg`` (information ``info_photo``) and the landmarks' N(−``offset``,
+    ``prior_cov``) as two Gaussians; a contour measurement as a third. When the contour says how the
+    calibration's other parameters read as a turn (``alias``) and the calibration's whole covariance is
+    known (``calibration_cov``: 7 × 7, radians, mesh units, log f), the fusion is over all seven: the
+    contour measures alias · δ, the lobe δ's rotation about x and y, the landmarks δ ~ N(μ, Σ₇); the turn
+    is the posterior's rotation about x and y (the rest is left to the landmarks).
+    """
+    if contour is None or contour.alias is None or calibration_cov is None:
+        info_prior = np.linalg.inv(prior_cov)
+        info_contour = np.zeros((2, 2)) if contour is None else np.linalg.inv(contour.covariance_deg2)
+        seen = np.zeros(2) if contour is None else info_contour @ contour.turn_deg
+        post = np.linalg.inv(info_photo + info_prior + info_contour)
+        return post @ (info_photo @ photo_deg - info_prior @ offset + seen), post
+    units = np.diag([*(np.degrees(1.0),) * 3, 1.0, 1.0, 1.0, 1.0])
+    info = np.linalg.inv(units @ np.asarray(calibration_cov, dtype=float) @ units.T)
+    prior_mean = np.zeros(7)
+    prior_mean[:2] = -offset
+    pick = np.eye(7)[:2]
+    info_contour = np.linalg.inv(contour.covariance_deg2)
+    alias = np.asarray(contour.alias, dtype=float)
+    total = info + pick.T @ info_photo @ pick + alias.T @ info_contour @ alias
+    post = np.linalg.inv(total)
+    mean = post @ (info @ prior_mean + pick.T @ info_photo @ photo_deg + alias.T @ info_contour @ contour.turn_deg)
+    return mean[:2], post[:2, :2]
+
+
 @dataclass
 class PoseRefinement:
     """What :func:`refine_rotation` found.
@@ -305,15 +337,10 @@ def refine_rotation(photo_lin: np.ndarray, surface: Surface, camera: Camera, lig
     try:
         photo_cov = MODEL_BIAS_VARIANCE * cluster_covariance(fit.jac, fit.fun, rows, cols)[:2, :2]
         info_photo = np.linalg.inv(photo_cov)
-        info_prior = np.linalg.inv(cov)
-        info_contour = np.zeros((2, 2)) if contour is None else np.linalg.inv(contour.covariance_deg2)
-        seen = np.zeros(2) if contour is None else info_contour @ contour.turn_deg
-        post_cov = np.linalg.inv(info_photo + info_prior + info_contour)
+        turn, post_cov = _fuse(fit.x[:2], info_photo, cov, offset, camera.parameter_covariance, contour)
     except np.linalg.LinAlgError:
         return None
     photo_only = fit.x[:2]
-    # All in the frame of ``camera``; the landmarks put the turn at −offset from it.
-    turn = post_cov @ (info_photo @ photo_only - info_prior @ offset + seen)
     return PoseRefinement(camera=camera.turned(np.radians([turn[0], turn[1], 0.0]), pivot), turn_deg=turn + offset,
                           photometric_deg=photo_only + offset, photometric_sigma_deg=np.sqrt(np.diag(photo_cov)),
                           sigma_deg=np.sqrt(np.diag(post_cov)), exponent=float(np.exp(fit.x[2])),

@@ -180,3 +180,37 @@ def test_the_pose_is_recovered_from_a_landmark_draw_four_sigma_off(gl_ctx: moder
     assert abs(pose.contour_deg[1] + 1.6) < 0.2, pose.contour_deg
     assert after_y < 0.4, (after_y, before_y, pose)
     assert before_y - after_y > 0.1, (after_y, before_y)  # what the contour adds
+
+
+@pytest.mark.gl
+def test_a_wrong_focal_length_moves_the_outline_as_its_alias_says(gl_ctx: moderngl.Context) -> None:
+    """The true camera with a focal length 15 % short, moved nearer to keep the face's image size (what
+    landmarks leave when they fit the focal length): the rotation is exact, yet the outline reads a turn
+    of 0.36° about y (perspective: the cheek lies behind the face). ``alias`` predicts that reading from
+    the calibration's error δ (measured 0.37° about y; −0.25° against −0.12° about x, where the outline is
+    loose), so the fusion can put it on the focal length and distance instead of the turn."""
+    from capture.pipeline import pixel_data
+
+    scene = _scene(gl_ctx, -25.0)
+    head = scene.head
+    truth = scene.camera
+    pivot = np.array([head.metadata.landmarks[n] for n in sorted(set(head.metadata.landmarks) - {"gnathion"})]).mean(axis=0)
+    depth = float(truth.to_camera(pivot[None, :])[0, 2])
+    cam = Camera(K=truth.K.copy(), R=truth.R.copy(), t=truth.t.copy(), width=truth.width, height=truth.height,
+                 parameter_covariance=np.eye(7))
+    cam.K[0, 0] *= 0.85
+    cam.K[1, 1] *= 0.85
+    cam.t = cam.t - np.array([0.0, 0.0, depth - 0.85 * depth])  # the pivot's image keeps its size
+    pix = pixel_data(head, cam)
+    found = contour_turn(scene.photo.linear, head, cam, Surface.from_pixels(pix.rows, pix.cols, pix.normals,
+                                                                              pix.positions), pivot,
+                         calibration_pivot=pivot)
+    assert found is not None and found.alias is not None
+    # The pivot's depth in the camera moved to first order in its log, as the focal length's: the trade is
+    # along both logs, and a linear step in depth is 1.6 % shorter than the log's at 15 %, which moves the
+    # outline as much as the perspective does.
+    delta = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, 0.85 * depth * np.log(1.0 / 0.85), np.log(1.0 / 0.85)]
+    predicted = found.alias @ delta
+    assert abs(found.turn_deg[1]) > 0.25, found.turn_deg  # what a turn alone would read
+    assert abs(found.turn_deg[1] - predicted[1]) < 0.1, (found.turn_deg, predicted)
+    assert abs(found.turn_deg[0] - predicted[0]) < 0.25, (found.turn_deg, predicted)
