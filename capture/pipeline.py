@@ -431,7 +431,7 @@ def _refine_pose(head: Head, photo_lin: np.ndarray, camera: Camera, pix: PixelDa
         # The face's outline, a third measurement of the turn (capture.contour); only where there is a
         # turn to refine (a camera given directly or pinned has none, and the kiosk's capture skips it).
         contour = None if cam.rotation_covariance_deg2 is None or pinned(cam) else contour_turn(
-            photo_lin, head, cam, surface, pivot, calibration_pivot=calibration_pivot)
+            photo_lin, head, cam, surface, pivot, calibration_pivot=calibration_pivot, light_camera=light_camera)
         step = refine_rotation(photo_lin, surface, cam, light_camera, params, pix.rows[sel], pix.cols[sel], pivot=pivot,
                                turned_deg=None if pose is None else pose.turn_deg, contour=contour)
         if step is None:
