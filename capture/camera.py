@@ -59,6 +59,8 @@ class Camera:
         parameter_covariance: (7, 7) the same fit's whole covariance (:func:`parameter_covariance`), or
             None for a camera given directly: :func:`capture.pose.image_similarity_covariance` reads the
             image's scale and roll from it.
+        parameter_pivot: (3,) the point that covariance's rotation is about (mesh units: the centroid of the
+            correspondences' mesh points), or None for a camera given directly.
     """
 
     K: np.ndarray
@@ -69,6 +71,7 @@ class Camera:
     reprojection_error_px: float | None = None
     rotation_covariance_deg2: np.ndarray | None = None
     parameter_covariance: np.ndarray | None = None
+    parameter_pivot: np.ndarray | None = None
 
     @property
     def P(self) -> np.ndarray:
@@ -137,7 +140,7 @@ class Camera:
         return Camera(K=self.K.copy(), R=R2, t=t2, width=self.width, height=self.height,
                       reprojection_error_px=self.reprojection_error_px,
                       rotation_covariance_deg2=self.rotation_covariance_deg2,
-                      parameter_covariance=self.parameter_covariance)
+                      parameter_covariance=self.parameter_covariance, parameter_pivot=self.parameter_pivot)
 
     def to_json(self) -> dict[str, Any]:
         """K, R, t, P (pixels, mesh units) and the size as JSON lists and numbers (face.json's ``camera``)."""
@@ -317,6 +320,7 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
     rms = float(np.sqrt(np.mean(_residuals(p, x, X).reshape(-1, 2) ** 2 @ np.ones(2))))
     cam = Camera(K=K, R=R, t=p[6:9].copy(), width=int(width), height=int(height), reprojection_error_px=rms)
     cam.parameter_covariance = parameter_covariance(cam, x, X, f_prior, f_sigma)
+    cam.parameter_pivot = X.mean(axis=0)  # what parameter_covariance turns about
     cam.rotation_covariance_deg2 = np.degrees(np.degrees(cam.parameter_covariance[:2, :2]))
     return cam
 

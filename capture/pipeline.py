@@ -418,9 +418,9 @@ def _refine_pose(head: Head, photo_lin: np.ndarray, camera: Camera, pix: PixelDa
     skin = np.zeros(photo_lin.shape[:2], dtype=bool)
     skin[pix.rows[sel], pix.cols[sel]] = True
     pivot = pix.positions[sel].mean(axis=0)
-    # What the landmark calibration turned about (its points' centroid, capture.camera.parameter_covariance).
-    marks = head.metadata.landmarks
-    calibration_pivot = np.array(list(marks.values()), dtype=float).mean(axis=0) if marks else pivot
+    # What the calibration's covariance turns about: its own correspondences' centroid (a points file need not
+    # hold the head's landmarks; capture.camera.parameter_covariance).
+    calibration_pivot = pivot if camera.parameter_pivot is None else camera.parameter_pivot
     pose = None
     cam = camera
     for _ in range(POSE_ROUNDS):
