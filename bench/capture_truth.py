@@ -243,7 +243,8 @@ def irradiance_sh(env: np.ndarray, scale: float) -> np.ndarray:
     In capture's convention (:func:`capture.probe.equirect_lookup`: row 0 = +Y, longitude 0 at −Z,
     increasing towards +X); E(n) = Σ c_i Y_i(n) in the environment's units × ``scale``.
     """
-    from render.lights import SH_COSINE, equirect_directions, sh9_basis
+    from core.sh import SH_COSINE, sh9_basis
+    from render.lights import equirect_directions
 
     h, w = env.shape[:2]
     d, dw = equirect_directions(h, w)  # render's convention: the middle column at +Z

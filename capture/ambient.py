@@ -23,8 +23,8 @@ clipped value, and the ball's reflectance divides the radiance, as for the const
 The coefficients are in the probe's camera coordinates (x right, y down, z forward): the probe is shot
 by the photograph's camera, so a world normal n reads A(R n) with R the camera's world → camera rotation.
 
-(The nine basis functions are written out here: render/lights.py has the same ones, but capture may
-not import render — both sit on the same layer, pyproject's import-linter contract.)
+The basis and the cosine's convolution are :mod:`core.sh`'s, which the renderer's environment lighting
+(:mod:`render.lights`) uses too.
 """
 
 from __future__ import annotations
@@ -33,24 +33,12 @@ import math
 
 import numpy as np
 
-#: The clamped cosine's convolution per band l = 0, 1, 2 (Ramamoorthi & Hanrahan 2001), per coefficient.
-COSINE_BANDS = np.array([math.pi] + [2.0 * math.pi / 3.0] * 3 + [math.pi / 4.0] * 5)
+from core.sh import SH_COSINE, sh9_basis
+
 #: The ball's outer rim left out of the measurement (normalised radius), as for the constant ambient.
 RIM_RHO = 0.97
 #: The ring inside the rim whose mean stands for the cap behind the ball (normalised radius).
 RIM_RING_RHO = 0.90
-
-
-def sh9(d: np.ndarray) -> np.ndarray:
-    """The real spherical harmonics Y_lm, l ≤ 2, at unit directions ``d`` (..., 3) → (..., 9).
-
-    Order: Y00; Y1,-1 (y), Y10 (z), Y11 (x); Y2,-2 (xy), Y2,-1 (yz), Y20, Y21 (xz), Y22 (x² − y²).
-    """
-    x, y, z = np.moveaxis(np.asarray(d, dtype=np.float64), -1, 0)
-    c0, c1, c2, c20, c22 = 0.5 / math.sqrt(math.pi), math.sqrt(3.0 / (4.0 * math.pi)), \
-        math.sqrt(15.0 / (4.0 * math.pi)), math.sqrt(5.0 / (16.0 * math.pi)), math.sqrt(15.0 / (16.0 * math.pi))
-    return np.stack([np.full_like(x, c0), c1 * y, c1 * z, c1 * x, c2 * x * y, c2 * y * z, c20 * (3.0 * z * z - 1.0),
-                     c2 * x * z, c22 * (x * x - y * y)], axis=-1)
 
 
 def ball_reflections(dx: np.ndarray, dy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -101,10 +89,10 @@ def probe_irradiance_sh(image: np.ndarray, ball: tuple[float, float, float], env
     radiance[cap] = img[ring].mean(axis=0) if ring.any() else img[environment].mean(axis=0)
     # Equal area: each pixel on the ball subtends 4π / N steradians.
     d_omega = 4.0 * math.pi / float(on_ball.sum())
-    radiance_sh = np.einsum("pk,pc->kc", sh9(directions[on_ball]), radiance[on_ball]) * d_omega
-    return radiance_sh * COSINE_BANDS[:, None] / reflectance
+    radiance_sh = np.einsum("pk,pc->kc", sh9_basis(directions[on_ball]), radiance[on_ball]) * d_omega
+    return radiance_sh * SH_COSINE[:, None] / reflectance
 
 
 def ambient_per_normal(irradiance_sh: np.ndarray, normals_camera: np.ndarray) -> np.ndarray:
     """A(n) = max(E(n), 0)/π (P, 3), photograph units, for unit normals in the probe's camera coordinates (P, 3)."""
-    return np.clip(sh9(normals_camera) @ np.asarray(irradiance_sh, dtype=np.float64), 0.0, None) / math.pi
+    return np.clip(sh9_basis(normals_camera) @ np.asarray(irradiance_sh, dtype=np.float64), 0.0, None) / math.pi

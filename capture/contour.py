@@ -76,6 +76,7 @@ sign patterns for each of 250–550 samples, in 2–4 Gauss–Newton rounds).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -236,11 +237,9 @@ def predict_contour(head: Head, camera: Camera, surface: Surface) -> ContourSamp
 
     None when no sample remains.
     """
-    import trimesh  # noqa: PLC0415 - the mesh's edge adjacency; trimesh is already a dependency
-
     verts = np.asarray(head.vertices, dtype=float)
     faces = np.asarray(head.faces)
-    mesh = trimesh.Trimesh(verts, faces, process=False)
+    mesh = head.trimesh()  # its edge adjacency
     adj, edges = mesh.face_adjacency, mesh.face_adjacency_edges
     corner = verts[faces[:, 0]]
     facing = np.einsum("fc,fc->f", mesh.face_normals, camera.centre[None, :] - corner) > 0
@@ -292,6 +291,7 @@ _GRID = np.arange(-PROFILE_PX - SEARCH_PX - 2.0, PROFILE_PX + SEARCH_PX + 2.0 + 
 _ANGLES = np.linspace(0.0, 45.0, 10)
 
 
+@cache
 def _edge_tables() -> np.ndarray:
     """(len(_ANGLES), 3, len(_GRID)): a step, a ramp and a bend leaving the edge inwards, as one pixel sees them.
 
@@ -320,9 +320,6 @@ def _footprint(angle_deg: float) -> np.ndarray:
         n = max(int(round(width / step)), 1)
         kern = np.convolve(kern, np.ones(n) / n)
     return kern
-
-
-_TABLES: list[np.ndarray] = []
 
 
 def _signed_fit(x: np.ndarray, y: np.ndarray, sign: np.ndarray) -> np.ndarray:
@@ -406,9 +403,7 @@ def measure_edges(photo_lin: np.ndarray, samples: ContourSamples,
     (the albedo's trend) and the level beyond. Unusable: a step below
     :data:`MIN_CONTRAST` between the two sides, or a best position at the search's end.
     """
-    if not _TABLES:
-        _TABLES.append(_edge_tables())
-    tables = _TABLES[0]
+    tables = _edge_tables()
     lum = np.asarray(photo_lin, dtype=float).sum(axis=2)
     h, w = lum.shape
     reach = int(np.ceil(PROFILE_PX)) + 1

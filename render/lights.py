@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from core.sh import SH_COSINE, sh9_basis
 from render.camera import look_at, orthographic, perspective
 from render.errors import RenderError
 
@@ -164,21 +165,6 @@ def read_exr_rgb(path: Path, max_side: int = 8192) -> np.ndarray:
     if bad:
         raise RenderError(f"{path}: {bad} pixel(s) are NaN or infinite; an environment must be finite")
     return np.maximum(rgb, 0.0)
-
-
-def sh9_basis(d: np.ndarray) -> np.ndarray:
-    """Real SH basis Y_lm (l ≤ 2) at unit directions ``d`` (..., 3) → (..., 9)."""
-    x, y, z = d[..., 0], d[..., 1], d[..., 2]
-    return np.stack([
-        0.282095 * np.ones_like(x),
-        0.488603 * y, 0.488603 * z, 0.488603 * x,
-        1.092548 * x * y, 1.092548 * y * z, 0.315392 * (3 * z * z - 1), 1.092548 * x * z,
-        0.546274 * (x * x - y * y),
-    ], axis=-1)
-
-
-#: Convolution with the clamped cosine, per band (Ramamoorthi & Hanrahan 2001).
-SH_COSINE = np.array([math.pi, *[2 * math.pi / 3] * 3, *[math.pi / 4] * 5])
 
 
 def equirect_directions(h: int, w: int) -> tuple[np.ndarray, np.ndarray]:

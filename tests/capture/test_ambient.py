@@ -15,11 +15,12 @@ import pytest
 
 from bench.capture_truth import Case, draw_case, irradiance_sh, truth_diffuse
 from capture import synthetic as syn
-from capture.ambient import ambient_per_normal, sh9
+from capture.ambient import ambient_per_normal
 from capture.phong import delta_e2000
 from capture.pipeline import capture
 from capture.probe import ProbeAnalysis, analyse_probe, synthetic_probe
 from core.assets import find_asset
+from core.sh import sh9_basis
 
 if TYPE_CHECKING:
     import moderngl
@@ -52,7 +53,7 @@ def test_the_probes_irradiance_is_the_environments(name: str, bound: float) -> N
     probe, truth_sh, R = _probe_and_truth(name)
     normals = _fibonacci_sphere(4000)
     seen = normals[normals @ -R[2] > 0.05]  # R[2]: the optical axis in world coordinates, away from the camera
-    truth = np.clip(sh9(seen) @ truth_sh, 0.0, None) / np.pi
+    truth = np.clip(sh9_basis(seen) @ truth_sh, 0.0, None) / np.pi
     rms = lambda a: np.sqrt(((a - truth) ** 2).mean(axis=0)) / truth.mean(axis=0)  # noqa: E731
     assert np.all(rms(ambient_per_normal(probe.ambient_sh, seen @ R.T)) < bound)
     assert np.all(rms(np.broadcast_to(probe.ambient_rgb, truth.shape)) > 0.5)
