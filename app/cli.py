@@ -35,6 +35,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.look",
     "app.commands.shade",
     "app.commands.cache",
+    "app.commands.doctor",
     "bench.cli",
 )
 

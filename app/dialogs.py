@@ -8,19 +8,26 @@ Tests answer these boxes as a user would: a timer finds the visible box and clic
 
 from __future__ import annotations
 
+import html
 import logging
+from typing import TYPE_CHECKING
 
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (
+    QApplication,
     QDialog,
     QDialogButtonBox,
     QLabel,
     QMessageBox,
+    QPushButton,
     QTableWidget,
     QTableWidgetItem,
     QVBoxLayout,
     QWidget,
 )
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
 log = logging.getLogger("sheer.app")
 
@@ -70,25 +77,34 @@ def ask(parent: QWidget | None, title: str, text: str, choices: dict[str, str], 
     return next((k for k, b in buttons.items() if b is clicked), default)
 
 
-def _run(box: QDialog, content: QWidget) -> None:
-    """Show ``content`` above an OK button in the modal dialog ``box``; returns once it is closed."""
+def _run(box: QDialog, content: QWidget, extra: list[QPushButton] | None = None) -> None:
+    """Show ``content`` above an OK button (and the ``extra`` buttons) in the modal dialog ``box``.
+
+    Returns once it is closed.
+    """
     lay = QVBoxLayout(box)
     lay.addWidget(content)
     buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok)
+    for button in extra or []:
+        buttons.addButton(button, QDialogButtonBox.ButtonRole.ActionRole)
     buttons.accepted.connect(box.accept)
     lay.addWidget(buttons)
     box.exec()
     box.deleteLater()
 
 
-def about(parent: QWidget | None, head_credit: str, asset_credits: list[str], components: dict[str, str]) -> None:
-    """Help → About: what Sheer is, the head scan's credit, the sample assets' credits, the components.
+def about(parent: QWidget | None, head_credit: str, asset_credits: list[str], components: dict[str, str],
+          gl: str = "", diagnostics: Callable[[], str] | None = None) -> None:
+    """Help → About: what Sheer is, the head scan's credit, the sample assets' credits, the components, GL.
 
     Args:
         parent: the window the dialog is modal to.
         head_credit: the credit line of the head shown ("" when it has none).
         asset_credits: one credit line per sample asset.
         components: what implements each part (e.g. ``{"renderer": "render.Renderer"}``).
+        gl: the studio's GL context, ``vendor / renderer / version, API`` ("" when unknown).
+        diagnostics: makes the ``sheer doctor`` text that the "Copy diagnostics" button puts on the
+            clipboard (None: no button).
     """
     credits = "".join(f"<li>{c}</li>" for c in asset_credits)
     used = ", ".join(f"{k}: {v}" for k, v in components.items())
@@ -96,13 +112,36 @@ def about(parent: QWidget | None, head_credit: str, asset_credits: list[str], co
             f"layers over subsurface-scattering skin (after Huang et al. 2013).</p>"
             f"<p><b>Head scan:</b> {head_credit or 'none'}</p>"
             f"<p><b>Sample assets</b><ul>{credits}</ul></p>"
-            f"<p><small>Components in use: {used}</small></p>")
+            f"<p><small>Components in use: {used}</small></p>"
+            f"<p><small><b>OpenGL:</b> {html.escape(gl or 'unknown')}</small></p>")
     box = QDialog(parent)
     box.setWindowTitle("About Sheer")
     label = QLabel(text)
     label.setWordWrap(True)
     label.setTextFormat(Qt.TextFormat.RichText)
-    _run(box, label)
+    label.setObjectName("about_text")
+    extra: list[QPushButton] = []
+    if diagnostics is not None:
+        copy = QPushButton("Copy diagnostics")
+        copy.setObjectName("copy_diagnostics")
+        copy.setToolTip("Put the `sheer doctor` report (this studio's GL context) on the clipboard")
+        copy.clicked.connect(lambda: _copy_diagnostics(diagnostics, copy))
+        extra.append(copy)
+    _run(box, label, extra)
+
+
+def _copy_diagnostics(diagnostics: Callable[[], str], button: QPushButton) -> None:
+    """Put ``diagnostics()`` on the clipboard (a wait cursor meanwhile) and say so on ``button``."""
+    QApplication.setOverrideCursor(Qt.CursorShape.WaitCursor)
+    try:
+        text = diagnostics()
+    finally:
+        QApplication.restoreOverrideCursor()
+    QApplication.clipboard().setText(text)
+    lines = len(text.splitlines())
+    log.info("About: diagnostics copied to the clipboard (%d lines)", lines)
+    button.setText("Copied")
+    button.setToolTip(f"{lines} lines of diagnostics copied to the clipboard")
 
 
 def shortcuts(parent: QWidget | None, rows: list[tuple[str, str, str]]) -> None:

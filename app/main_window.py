@@ -554,10 +554,12 @@ class StudioWindow(StudioToolbars, QMainWindow):
 
     # ------------------------------------------------------------------ help
     def show_about(self) -> None:
-        """Help → About: the head scan's and the sample assets' credits, the components in use."""
+        """Help → About: the credits, the components in use, the viewport's GL context, Copy diagnostics."""
+        from app.diagnostics import live_gl_summary, live_report
         from core.assets import ASSET_CREDITS
 
-        dialogs.about(self, self.doc.head.credit or "", list(ASSET_CREDITS.values()), BACKENDS)
+        dialogs.about(self, self.doc.head.credit or "", list(ASSET_CREDITS.values()), BACKENDS,
+                      gl=live_gl_summary(self.viewport), diagnostics=lambda: live_report(self.viewport).text())
 
     def show_shortcuts(self) -> None:
         """Help → Keyboard Shortcuts."""
