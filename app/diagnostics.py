@@ -1,7 +1,8 @@
 """What ``sheer doctor`` checks, and the text the About box's "Copy diagnostics" puts on the clipboard.
 
-Qt-free on purpose (it never imports PySide6), so the headless command never loads Qt: the studio hands
-:func:`collect` its own live GL context instead of the headless one.
+Qt-free on purpose (it never imports PySide6), so the headless command never loads Qt. ``sheer doctor``
+runs :func:`collect` (a headless EGL context of its own); the studio's About box takes the GL lines of its
+viewport's live context (:func:`live_gl_lines`) and runs the rest in a worker (:func:`studio_report`).
 
 Each check is one :class:`Line` (``ok``, ``warn``, ``FAIL`` or ``skip``, a name and one line of text, with
 optional detail lines under it); a :class:`Report` is all of them, in this order:
@@ -29,7 +30,7 @@ import os
 import platform
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from painting.atlas import MAX_RESOLUTION
@@ -483,45 +484,45 @@ def collect(level: str = "quick", *, ctx: Any = None, api: str = "EGL", build: b
     return Report((*lines, *host_lines()), level)
 
 
-#: Seconds the studio's "Copy diagnostics" may spend building programs in the viewport's context. The quick
-#: level's 144 programs took 0.2 s there (1.5 s with Mesa's shader cache disabled; llvmpipe, 2 cores) while
-#: the GUI waits under a wait cursor; a slower driver stops at this deadline and the line says so.
-STUDIO_BUILD_DEADLINE_S = 3.0
-
-
-def live_gl_summary(view: Any) -> str:
-    """``vendor / renderer / version, API`` of a viewport's live context ("" before it has one).
-
-    Args:
-        view: the viewport (``makeCurrent()``, ``doneCurrent()``, ``ctx``), see :func:`live_report`.
-    """
-    if getattr(view, "ctx", None) is None:
-        return ""
-    view.makeCurrent()
-    try:
-        return gl_summary(view.ctx, current_gl_api())
-    finally:
-        view.doneCurrent()
-
-
-def live_report(view: Any, level: str = "quick", build: bool = True,
-                deadline_s: float | None = STUDIO_BUILD_DEADLINE_S) -> Report:
-    """The report of a running studio: its GL lines from the viewport's live context, then the host's.
+def live_gl_lines(view: Any) -> list[Line]:
+    """The ``GL`` and ``max texture`` lines of a viewport's live context (call on its GUI thread).
 
     Args:
         view: the viewport (``makeCurrent()``, ``doneCurrent()`` and ``ctx``, its moderngl context or None
             before its first frame); duck-typed, so this module stays free of Qt.
+    """
+    ctx = getattr(view, "ctx", None)
+    if ctx is None:
+        return [gl_line(None, "unknown", "the viewport has no GL context yet"), texture_line(None)]
+    view.makeCurrent()
+    try:
+        return [gl_line(ctx, current_gl_api()), texture_line(ctx)]
+    finally:
+        view.doneCurrent()
+
+
+def studio_report(live: list[Line], level: str = "quick") -> Report:
+    """The studio's report: its live context's lines, then the doctor's shader build and host lines.
+
+    Runs off the GUI thread (the studio's "Copy diagnostics" runs it in a worker): the programs are built in
+    a headless EGL context of the calling thread, as ``sheer doctor`` builds them and as the studio's
+    exports render, so the GUI never waits for the build (the whole report took 0.9-2.0 s here with Mesa's
+    shader cache warm, 5.7 s with it disabled, at load 5 on llvmpipe's 2 cores).
+
+    Args:
+        live: the lines of :func:`live_gl_lines`, gathered on the GUI thread.
         level: the shader level (:data:`LEVELS`).
-        build: build the shader programs in the viewport's context.
-        deadline_s: stop building after this many seconds (None: never).
     """
     if level not in LEVELS:
         raise ValueError(f"level must be one of {', '.join(LEVELS)}, got {level!r}")
-    view.makeCurrent()
+    ctx, reason = open_headless_context()
     try:
-        ctx = getattr(view, "ctx", None)
-        api = current_gl_api() if ctx is not None else "unknown"
-        lines = gl_lines(ctx, api, "the viewport has no GL context yet", level, build, deadline_s)
+        if ctx is None:
+            shaders = Line("shaders", "shaders", FAIL, f"not built: {reason}", data={"level": level})
+        else:
+            line = shaders_line(ctx, level)
+            shaders = replace(line, text=f"{line.text}; built in a headless EGL context")
     finally:
-        view.doneCurrent()
-    return Report((*lines, *host_lines()), level)
+        if ctx is not None:
+            ctx.release()
+    return Report((*live, shaders, *host_lines()), level)

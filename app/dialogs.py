@@ -104,7 +104,7 @@ def about(parent: QWidget | None, head_credit: str, asset_credits: list[str], co
         components: what implements each part (e.g. ``{"renderer": "render.Renderer"}``).
         gl: the studio's GL context, ``vendor / renderer / version, API`` ("" when unknown).
         diagnostics: makes the ``sheer doctor`` text that the "Copy diagnostics" button puts on the
-            clipboard (None: no button).
+            clipboard; it runs in a worker thread, so it must not touch Qt (None: no button).
     """
     credits = "".join(f"<li>{c}</li>" for c in asset_credits)
     used = ", ".join(f"{k}: {v}" for k, v in components.items())
@@ -131,17 +131,35 @@ def about(parent: QWidget | None, head_credit: str, asset_credits: list[str], co
 
 
 def _copy_diagnostics(diagnostics: Callable[[], str], button: QPushButton) -> None:
-    """Put ``diagnostics()`` on the clipboard (a wait cursor meanwhile) and say so on ``button``."""
-    QApplication.setOverrideCursor(Qt.CursorShape.WaitCursor)
-    try:
-        text = diagnostics()
-    finally:
-        QApplication.restoreOverrideCursor()
-    QApplication.clipboard().setText(text)
-    lines = len(text.splitlines())
-    log.info("About: diagnostics copied to the clipboard (%d lines)", lines)
-    button.setText("Copied")
-    button.setToolTip(f"{lines} lines of diagnostics copied to the clipboard")
+    """Make ``diagnostics()`` in a worker thread, then put it on the clipboard and say so on ``button``.
+
+    The GUI stays responsive meanwhile (the button reads "Collecting…"); closing the dialog first still
+    copies the text when it is ready.
+    """
+    import shiboken6
+
+    from app.workers import run_task
+
+    def show(label: str, tip: str) -> None:
+        if shiboken6.isValid(button):
+            button.setText(label)
+            button.setToolTip(tip)
+            button.setEnabled(True)
+
+    def done(text: str) -> None:
+        QApplication.clipboard().setText(text)
+        lines = len(text.splitlines())
+        log.info("About: diagnostics copied to the clipboard (%d lines)", lines)
+        show("Copied", f"{lines} lines of diagnostics copied to the clipboard")
+
+    def failed(message: str) -> None:
+        log.warning("About: diagnostics failed: %s", message)
+        show("Copy diagnostics", f"the diagnostics failed: {message}")
+
+    button.setEnabled(False)
+    button.setText("Collecting…")
+    run_task(button.window(), "Diagnostics", lambda progress, cancelled: diagnostics(), done, failed,
+             show_progress=False)
 
 
 def shortcuts(parent: QWidget | None, rows: list[tuple[str, str, str]]) -> None:

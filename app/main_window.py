@@ -555,11 +555,12 @@ class StudioWindow(StudioToolbars, QMainWindow):
     # ------------------------------------------------------------------ help
     def show_about(self) -> None:
         """Help → About: the credits, the components in use, the viewport's GL context, Copy diagnostics."""
-        from app.diagnostics import live_gl_summary, live_report
+        from app.diagnostics import live_gl_lines, studio_report
         from core.assets import ASSET_CREDITS
 
+        live = live_gl_lines(self.viewport)  # the viewport's own context; the rest is built in a worker
         dialogs.about(self, self.doc.head.credit or "", list(ASSET_CREDITS.values()), BACKENDS,
-                      gl=live_gl_summary(self.viewport), diagnostics=lambda: live_report(self.viewport).text())
+                      gl=live[0].text, diagnostics=lambda: studio_report(live).text())
 
     def show_shortcuts(self) -> None:
         """Help → Keyboard Shortcuts."""

@@ -1,5 +1,6 @@
 """Help → About in the real studio window (Xvfb): the GL line of the viewport's own context, and "Copy
-diagnostics" putting the doctor's report (the quick level, built in the studio's context) on the clipboard."""
+diagnostics" putting the doctor's report on the clipboard: the quick level built in a worker's headless
+context while the GUI stays responsive, the GL lines from the studio's live context."""
 
 from __future__ import annotations
 
@@ -43,10 +44,19 @@ def test_about_shows_gl_and_copies_diagnostics(studio: tuple[Any, DialogDriver],
         copy = box.findChild(QPushButton, "copy_diagnostics")
         t0 = time.perf_counter()
         copy.click()
-        seen["seconds"] = time.perf_counter() - t0
-        seen["clipboard"] = QApplication.clipboard().text()
-        seen["button"] = copy.text()
-        box.findChild(QDialogButtonBox).button(QDialogButtonBox.StandardButton.Ok).click()
+        seen["click_s"] = time.perf_counter() - t0  # the GUI's wait: the report is made in a worker
+        seen["while"] = copy.text()
+
+        def when_copied() -> None:
+            if copy.text() != "Copied" and time.perf_counter() - t0 < 120:
+                QTimer.singleShot(20, when_copied)
+                return
+            seen["ready_s"] = time.perf_counter() - t0
+            seen["clipboard"] = QApplication.clipboard().text()
+            seen["button"] = copy.text()
+            box.findChild(QDialogButtonBox).button(QDialogButtonBox.StandardButton.Ok).click()
+
+        when_copied()
 
     driver.stop()  # this test answers the About box itself: the driver would press OK at once
     try:
@@ -64,12 +74,15 @@ def test_about_shows_gl_and_copies_diagnostics(studio: tuple[Any, DialogDriver],
     for name in ("max texture", "shaders", "assets", "cache", "dependencies", "Python", "OS"):
         assert any(line.startswith("ok") and line[6:].startswith(f"{name}: ") for line in lines), (name, text)
     shaders = next(line for line in lines if line[6:].startswith("shaders: "))
-    assert "programs built (quick:" in shaders and "deadline" not in shaders
+    assert "programs built (quick:" in shaders
     assert lines[-1] == "sheer doctor (quick): all is well"
-    assert seen["button"] == "Copied"
-    print(f"Copy diagnostics blocked the GUI for {seen['seconds']:.2f} s; {shaders}")
+    assert "built in a headless EGL context" in shaders
+    assert seen["while"] == "Collecting…" and seen["button"] == "Copied"
+    assert seen["click_s"] < 0.5, "the GUI waited for the diagnostics"
+    print(f"Copy diagnostics: the click returned in {seen['click_s'] * 1000:.0f} ms, the clipboard was "
+          f"filled after {seen['ready_s']:.2f} s; {shaders}")
     win.viewport.makeCurrent()
     try:
-        assert win.viewport.ctx.error == "GL_NO_ERROR"  # building in the studio's context left no error
+        assert win.viewport.ctx.error == "GL_NO_ERROR"
     finally:
         win.viewport.doneCurrent()
