@@ -15,6 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from render.lights import rig_shape
+
 if TYPE_CHECKING:
     from collections.abc import Callable, Hashable
 
@@ -23,6 +25,15 @@ if TYPE_CHECKING:
     from render.gpu_head import GpuHead
     from render.lights import Light
     from render.shaders import ShaderLibrary
+
+
+def irradiance_defines(rig: tuple[int, int, int], env: bool, irr_only: bool) -> dict[str, int]:
+    """The defines of ``irradiance.frag`` for a light rig (:func:`render.lights.rig_shape`).
+
+    ``env``: an environment contributes; ``irr_only``: E alone is written (only light 0 may cast shadows).
+    """
+    count, shadowed, points = rig
+    return {"NLIGHTS": count, "SHADOWED": shadowed, "POINT_LIGHTS": points, "ENV": int(env), "IRR_ONLY": int(irr_only)}
 
 
 class TextureIrradiance:
@@ -122,12 +133,10 @@ class TextureIrradiance:
         whether there is an environment ``env``: loops unroll, nothing is computed for what is off.
         ``irr_only``: E alone is written (``IRR_ONLY`` in ``irradiance_targets.glsl``).
         """
-        key = (len(lights), sum(1 << i for i, lt in enumerate(lights) if lt.shadows),
-               sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional"), int(env), int(irr_only))
+        key = (*rig_shape(lights), int(env), int(irr_only))
         if key not in self.programs:
-            self.programs[key] = self.shaders.program(
-                self.ctx, "uvspace.vert", "irradiance.frag",
-                {"NLIGHTS": key[0], "SHADOWED": key[1], "POINT_LIGHTS": key[2], "ENV": key[3], "IRR_ONLY": key[4]})
+            self.programs[key] = self.shaders.program(self.ctx, "uvspace.vert", "irradiance.frag",
+                                                      irradiance_defines(rig_shape(lights), env, irr_only))
         return self.programs[key]
 
     def _gather(self, irr_only: bool) -> tuple[moderngl.Program, moderngl.VertexArray]:

@@ -53,6 +53,14 @@ SMOOTHING_CATEGORIES = ("foundation", "primer", "concealer", "powder")
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
 
+def km_defines(n: int, n_wavelengths: int, dtype: str) -> dict[str, int]:
+    """The defines of ``km.frag``: ``n`` layers (1..:data:`MAX_LAYERS`) over ``n_wavelengths`` samples.
+
+    ``dtype``: how the outputs are written (one of :data:`KM_DTYPES`).
+    """
+    return {"NW": n_wavelengths, "MAX_LAYERS": MAX_LAYERS, "NL": n, "SRGB_OUT": int(dtype == "srgb8")}
+
+
 def layer_spec_params(material: Material) -> tuple[float, float, float, float]:
     """(Beckmann roughness, Fresnel F0 from the IOR, smooths skin 1/0, coverage scale µm) of a material.
 
@@ -410,8 +418,7 @@ class KMTextureSpace:
         """The KM program specialised for ``n`` layers (loops over layers unrolled) and its quad."""
         if n not in self._programs:
             prog = self.shaders.program(self.ctx, "km_tiles.vert", "km.frag",
-                                        {"NW": len(self.wavelengths), "MAX_LAYERS": MAX_LAYERS, "NL": n,
-                                         "SRGB_OUT": int(self.dtype == "srgb8")})
+                                        km_defines(n, len(self.wavelengths), self.dtype))
             self._programs[n] = (prog, self.ctx.vertex_array(prog, [(self.vbo, "2f", "in_pos")]))
         return self._programs[n]
 

@@ -99,6 +99,17 @@ class Light:
         return (self.kind, tuple(self.vector), self.shadows)
 
 
+def rig_shape(lights: list[Light]) -> tuple[int, int, int]:
+    """What a light rig compiles into the programs that loop over it: (count, shadowed, point).
+
+    ``shadowed`` and ``point`` are bit masks over the rig (bit i: light i casts shadows / is a point
+    light); the lit pass, the texture-space irradiance and the shader check specialise on these three.
+    """
+    shadowed = sum(1 << i for i, lt in enumerate(lights) if lt.shadows)
+    points = sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional")
+    return len(lights), shadowed, points
+
+
 def default_lights() -> list[Light]:
     """A soft portrait rig: key light high at the subject's left, a dim fill, a rim light."""
     return [

@@ -80,6 +80,16 @@ def upload_layer_lobes(prog: moderngl.Program, km: Any, rho: float) -> None:
     set_uniform(prog, "u_rho", float(rho))
 
 
+def face_defines(n_lights: int, shadows: int, env: bool, makeup: bool, lobes: int = 0) -> dict[str, int]:
+    """The defines of the lightweight face program (see :meth:`LightweightRenderer.program_for`).
+
+    ``n_lights`` 0..:data:`render.lights.MAX_LIGHTS`; ``shadows`` 0 off, 1 per pixel, 2 per vertex;
+    ``lobes`` the layers' own specular lobes, 0..8, with ``makeup`` only.
+    """
+    return {"LW_NLIGHTS": n_lights, "LW_SHADOWS": int(shadows), "LW_ENV": int(env), "LW_MAKEUP": int(makeup),
+            "LW_NL": int(lobes) if makeup else 0}
+
+
 class LightweightRenderer:
     """The lightweight engine for one captured face on a ``moderngl.Context``.
 
@@ -161,12 +171,11 @@ class LightweightRenderer:
         ``n_lights`` 0..8; ``shadows`` 0 (off), 1 (per pixel) or 2 (per vertex); ``lobes``: the cosmetic
         layers whose own specular lobes are added (0..8, with ``makeup``).
         """
-        key = (n_lights, int(shadows), int(env), int(makeup), int(lobes) if makeup else 0)
+        defines = face_defines(n_lights, shadows, env, makeup, lobes)
+        key = tuple(defines.values())
         prog = self._programs.get(key)
         if prog is None:
-            prog = self.shaders.program(self.ctx, "lightweight_face.vert", "lightweight_face.frag", {
-                "LW_NLIGHTS": n_lights, "LW_SHADOWS": key[1], "LW_ENV": key[2], "LW_MAKEUP": key[3],
-                "LW_NL": key[4]})
+            prog = self.shaders.program(self.ctx, "lightweight_face.vert", "lightweight_face.frag", defines)
             self._programs[key] = prog
         return prog
 

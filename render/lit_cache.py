@@ -199,6 +199,11 @@ def _longest_edge(vertices: np.ndarray) -> float:
 _DENSITY_SAMPLES = 1024
 
 
+def lit_cache_defines(n_layers: int) -> dict[str, int]:
+    """The defines of ``lit_cache.frag``: layers 4-7's specular weights are read with more than four layers."""
+    return {"SPEC1": int(n_layers > 4)}
+
+
 class TexelDensity:
     """How many UV units a screen pixel spans on a head's surface in a given view (for the cache's level).
 
@@ -434,9 +439,10 @@ class TextureLighting:
         gpu_head.albedo.use(0)
         irradiance.textures[0].use(1)  # E (rgb) and light 0's visibility (a)
         km.bind(2)
-        spec1 = int(len(km.active) > 4)
+        defines = lit_cache_defines(len(km.active))
+        spec1 = defines["SPEC1"]
         if spec1 not in self._programs:
-            prog = self.shaders.program(ctx, "km_tiles.vert", "lit_cache.frag", {"SPEC1": spec1})
+            prog = self.shaders.program(ctx, "km_tiles.vert", "lit_cache.frag", defines)
             self._programs[spec1] = (prog, ctx.vertex_array(prog, [(self.vbo, "2f", "in_pos")]))
         program, vao = self._programs[spec1]
         km.bind_spec(5, 6)

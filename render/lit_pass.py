@@ -14,6 +14,7 @@ import numpy as np
 
 from render.glutil import set_uniform, write_uniform
 from render.km_pass import MAX_LAYERS
+from render.lights import rig_shape
 from render.settings import DEBUG_VIEWS
 
 if TYPE_CHECKING:
@@ -47,6 +48,26 @@ def cull(ctx: moderngl.Context, on: bool) -> None:
         ctx.disable(ctx.CULL_FACE)
 
 
+def frame_defines(n: int, rig: tuple[int, int, int], makeup: bool, debug: bool, cached: bool,
+                  has_spec_map: bool, has_rough_map: bool, has_skin_mask: bool) -> dict[str, int]:
+    """The defines of ``frame.frag`` for one frame shape (see :meth:`LitPass.program`).
+
+    Args:
+        n: active layers, 0..:data:`render.km_pass.MAX_LAYERS`.
+        rig: the lights' :func:`render.lights.rig_shape`.
+        makeup: the layers are drawn (needs ``n`` > 0).
+        debug: the debug views are compiled in.
+        cached: the lit pass reads the lighting cache (needs makeup, no debug view).
+        has_spec_map: the head has a specular-intensity map.
+        has_rough_map: the head has a roughness map.
+        has_skin_mask: the head has a skin mask.
+    """
+    count, shadowed, points = rig
+    return {"NL": n, "NLIGHTS": count, "MAKEUP": int(makeup), "DEBUG": int(debug), "CACHED": int(cached),
+            "SHADOWED": shadowed, "POINT_LIGHTS": points, "HAS_SPEC_MAP": int(has_spec_map),
+            "HAS_ROUGH_MAP": int(has_rough_map), "HAS_SKIN_MASK": int(has_skin_mask)}
+
+
 class LitPass:
     """The lit pass of one head: its programs (by frame shape) and the draw into the G-buffer."""
 
@@ -77,16 +98,13 @@ class LitPass:
         would not save their texture fetches or maths.
         """
         gh = self.gpu_head
-        shadowed = sum(1 << i for i, lt in enumerate(lights) if lt.shadows)
-        points = sum(1 << i for i, lt in enumerate(lights) if lt.kind != "directional")
-        key = (n, len(lights), int(makeup), int(debug), shadowed, points, int(cached))
+        rig = rig_shape(lights)
+        key = (n, *rig, int(makeup), int(debug), int(cached))
         if key not in self._programs:
             self._programs[key] = self.shaders.program(
                 self.ctx, "mesh.vert", "frame.frag",
-                {"NL": n, "NLIGHTS": len(lights), "MAKEUP": int(makeup), "DEBUG": int(debug),
-                 "CACHED": int(cached), "SHADOWED": shadowed, "POINT_LIGHTS": points,
-                 "HAS_SPEC_MAP": int(gh.has_specular_map), "HAS_ROUGH_MAP": int(gh.has_roughness_map),
-                 "HAS_SKIN_MASK": int(self.has_skin_mask)})
+                frame_defines(n, rig, makeup, debug, cached, gh.has_specular_map, gh.has_roughness_map,
+                              self.has_skin_mask))
         return self._programs[key]
 
     def draw(self, gbuffer: moderngl.Framebuffer, size: tuple[int, int], settings: RenderSettings,

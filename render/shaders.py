@@ -84,6 +84,12 @@ class ShaderLibrary:
                 out.append(line)
         return "\n".join(out)
 
+    def include_order(self, name: str) -> list[str]:
+        """The files of shader ``name`` in the order :meth:`source` numbers them (the N of ``#line L N``)."""
+        seen: list[str] = []
+        self._expand(name, seen, stack=[])
+        return seen
+
     def program(self, ctx: moderngl.Context, vertex: str, fragment: str,
                 defines: dict[str, Any] | None = None) -> moderngl.Program:
         """Compile and link a ``moderngl.Program`` from two shader names (see :meth:`source`).

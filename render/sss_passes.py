@@ -58,6 +58,35 @@ def fast_taps(taps: int, width: float, mm_per_px: float) -> int:
     return min(taps, FEW_TAPS) if range_px <= FEW_TAPS_MAX_RANGE_PX else taps
 
 
+def split_gaussians(width: float, mm_per_px: float, full_resolution: bool
+                    ) -> tuple[list[tuple[float, Any]], list[tuple[float, Any]]]:
+    """The skin profile's Gaussians past the first as (σ mm, RGB weight): (half, full) resolution.
+
+    Those of σ ≥ 3 full-resolution pixels are blurred at half resolution unless ``full_resolution``.
+    ``width``: the profile's scale; ``mm_per_px``: mm per full-resolution pixel at the head's distance.
+    """
+    gaussians = [(math.sqrt(var) * width, wt) for var, *wt in SKIN_GAUSSIANS[1:]]
+    half = [g for g in gaussians if not full_resolution and g[0] / mm_per_px >= 3.0]
+    return half, [g for g in gaussians if g not in half]
+
+
+def gauss3_defines(sigmas_px: list[float], integer_taps: bool, subtexel_taps: int | None) -> dict[str, int]:
+    """The defines of ``sss_gauss3.frag`` (without ``VERT``) for a group of one to three Gaussians.
+
+    Args:
+        sigmas_px: the group's standard deviations in full-resolution pixels, growing.
+        integer_taps: whole-texel taps where :func:`render.sss.integer_radius` allows (a prefix of the
+            group), sub-texel taps for the rest.
+        subtexel_taps: a fixed sub-texel tap count instead of :func:`render.sss.reference_taps`, or None.
+    """
+    radii = [integer_radius(s) if integer_taps else None for s in sigmas_px]
+    ni = next((j for j, r in enumerate(radii) if r is None), len(radii))
+    taps = [subtexel_taps or reference_taps(s) for s in sigmas_px]
+    return {"NG": len(sigmas_px), "NI": ni, "RI": max((r for r in radii[:ni] if r), default=1),
+            **{f"NT{j}": taps[j] if ni <= j < len(taps) else 1 for j in range(3)},
+            **{f"RI{j}": radii[j] if j < ni else 1 for j in range(3)}}
+
+
 class SSSPasses:
     """The SSS programs of one renderer and the passes that use them (targets: :func:`render.targets.frame_targets`)."""
 
@@ -150,9 +179,7 @@ class SSSPasses:
         hw, hh = t["half_a"].size
         w0 = tuple(float(x) for x in SKIN_GAUSSIANS[0][1:])
         hrect = (rx // 2, ry // 2, (rw + 3) // 2, (rh + 3) // 2)
-        gaussians = [(math.sqrt(var) * s.sss_width, wt) for var, *wt in SKIN_GAUSSIANS[1:]]
-        half = [g for g in gaussians if not s.reference_full_resolution and g[0] / mm_per_px >= 3.0]
-        full = [g for g in gaussians if g not in half]
+        half, full = split_gaussians(s.sss_width, mm_per_px, s.reference_full_resolution)
         whalf = np.sum([g[1] for g in half], axis=0) if half else np.zeros(3)
         # a group's targets are cleared by its first passes (one llvmpipe scene with the draw); the sum of
         # a group with no Gaussian is read by the composite all the same
@@ -204,12 +231,7 @@ class SSSPasses:
         """
         ctx = self.ctx
         w, h = t["accum"].size
-        radii = [integer_radius(sigma / mm_per_px) if self.integer_taps else None for sigma, _ in group]
-        ni = next((j for j, r in enumerate(radii) if r is None), len(radii))
-        taps = [self.subtexel_taps or reference_taps(sigma / mm_per_px) for sigma, _ in group]
-        defines = {"NG": len(group), "NI": ni, "RI": max((r for r in radii[:ni] if r), default=1),
-                   **{f"NT{j}": taps[j] if ni <= j < len(taps) else 1 for j in range(3)},
-                   **{f"RI{j}": radii[j] if j < ni else 1 for j in range(3)}}
+        defines = gauss3_defines([sigma / mm_per_px for sigma, _ in group], self.integer_taps, self.subtexel_taps)
         progs = []
         for vert in (0, 1):
             key = ("gauss3", vert, *defines.values())

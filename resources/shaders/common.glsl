@@ -1,4 +1,4 @@
-// Shared helpers: constants, sRGB transfer, tone mapping.
+// Shared helpers: constants, sRGB transfer, tone mapping, eight lanes in two vec4s.
 const float PI = 3.14159265358979;
 
 vec3 linear_to_srgb(vec3 c) {
@@ -17,4 +17,12 @@ vec3 display(vec3 linear_colour, float exposure, int tonemap) {
     if (tonemap < 0) return c;
     if (tonemap == 1) c = tonemap_aces(c);
     return linear_to_srgb(c);
+}
+
+// Lane k (0..7) of eight values packed in two vec4s (lanes 0-3 in lo, 4-7 in hi). The subscript is masked
+// so that it is in range for every k: a driver that unrolls a loop over k compiles both arms of the
+// ternary for each k, and a strict one (NVIDIA) refuses an index it can see out of range even in the arm
+// that is never taken (`hi[k - 4]` for k = 0).
+float lane8(vec4 lo, vec4 hi, int k) {
+    return k < 4 ? lo[k & 3] : hi[k & 3];
 }

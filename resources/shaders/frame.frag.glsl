@@ -189,7 +189,8 @@ void main() {
 #endif
         vec3 L = point ? light_direction(i, v_pos) : u_light_vec[i].xyz;  // directional: unit on the CPU
         float ndl = dot(N, L);
-        float sh = ((SHADOWED >> i) & 1) == 0 ? 1.0 : i == 0 ? irr.a : i < 5 ? vis0[i - 1] : vis1[i - 5];
+        // light 0's visibility is the irradiance's alpha, lights 1-4 vis0's lanes, 5-7 vis1's
+        float sh = ((SHADOWED >> i) & 1) == 0 ? 1.0 : i == 0 ? irr.a : lane8(vis0, vis1, i - 1);
         vec3 Ei = (point ? light_irradiance_normal(i, v_pos) : u_light_col[i].rgb) * sh;
         // layered specular, bottom-up (Huang 2013 Sec. 3.3): skin, then each layer on top, the
         // highlight below attenuated by the transmittance of the layer above it
@@ -202,7 +203,7 @@ void main() {
         // zero-coverage layers add a * lobe = 0 (a branch would not save work on llvmpipe)
         float ls = 0.0;
         for (int k = 0; k < NL; ++k) {
-            float a = k < 4 ? A0[k] : A1[k - 4];
+            float a = lane8(A0, A1, k);
             ls += a * kelemen_lobe(ksh, u_layer_inv_m2[k], u_layer_spec[k].y);
         }
         s += vec3(ls * u_spec_intensity);

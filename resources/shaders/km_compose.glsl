@@ -14,13 +14,14 @@ vec3 km_over_albedo(vec3 r_top, vec3 T, vec3 r_bottom, vec3 a) {
 #define KM_LOBES 0
 #endif
 #if KM_LOBES > 0
+#include "common.glsl"
 #include "specular.glsl"
 uniform vec4 u_layer_spec[8];       // per layer: roughness, F0, smooths skin, coverage scale
 uniform float u_layer_inv_m2[8];    // 1 / max(roughness, 0.05)^2
 float layer_lobes(vec4 ksh, vec4 A0, vec4 A1) {
     float ls = 0.0;
     for (int k = 0; k < KM_LOBES; ++k) {
-        float w = k < 4 ? A0[k] : A1[k - 4];
+        float w = lane8(A0, A1, k);
         ls += w * kelemen_lobe(ksh, u_layer_inv_m2[k], u_layer_spec[k].y);
     }
     return ls;

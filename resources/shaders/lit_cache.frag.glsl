@@ -17,6 +17,7 @@
 // texel samples the inputs at its centre (for maps twice its resolution, the mean of the 2x2 texels).
 // E = the texture-space irradiance (lights with shadows + SH environment, normal-mapped), bilinear at the
 // texel's centre, as the direct path samples it per pixel.
+#include "common.glsl"
 uniform sampler2D u_albedo;   // sRGB -> linear; a: skin mask
 uniform sampler2D u_irr;      // E (rgb), a: visibility of light 0
 uniform sampler2D u_rtop;     // KM outputs (same size as the cache)
@@ -56,7 +57,7 @@ void main() {
 #endif
     float A = 0.0, m2 = 0.0, f0 = 0.0;
     for (int k = 0; k < 8; ++k) {
-        float a = k < 4 ? a0[k] : a1[k - 4];
+        float a = lane8(a0, a1, k);
         float m = u_layer_spec[k].x;
         A += a;
         m2 += a * m * m;
