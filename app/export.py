@@ -123,9 +123,9 @@ def render_image(head: Head, layers: list[LayerInput], camera: OrbitCamera, ligh
     :class:`render.view.ViewRenderer` as the viewport. ``layers``: ``render.LayerInput`` of every document
     layer (copies: the document may change meanwhile).
     """
-    import moderngl
     from PIL import Image
 
+    from render.context import standalone_context
     from render.view import ViewRenderer
 
     w, h = size
@@ -133,7 +133,7 @@ def render_image(head: Head, layers: list[LayerInput], camera: OrbitCamera, ligh
         raise SheerError(f"image size {w}×{h} must be between 16 and 8192 pixels on a side")
     path = Path(path)
     progress(0.05, "starting OpenGL")
-    ctx = moderngl.create_context(standalone=True, backend="egl")
+    ctx = standalone_context(require=330)
     try:
         renderer = ViewRenderer(ctx, head, layout)
         try:

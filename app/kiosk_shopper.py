@@ -141,14 +141,13 @@ class ShopperRenderer(QObject):
         return req
 
     def _run(self) -> None:
-        import moderngl
-
+        from render.context import standalone_context
         from render.mirror import MirrorView, RelightView
         from render.shaders import ShaderLibrary
 
         ctx = mirror = relight = None
         try:
-            ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+            ctx = standalone_context()
             shaders = ShaderLibrary()
             mirror = MirrorView(ctx, self.head, self.face, self.photo, shaders=shaders)
             relight = RelightView(ctx, self.head, self.face, shaders=shaders, km=mirror.km)

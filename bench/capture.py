@@ -143,12 +143,11 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
 
     ``cases``: that many, spread over the grid (default all).
     """
-    import moderngl
-
     from bench.capture_truth import measure_case
     from bench.stats import spread
+    from render.context import standalone_context
 
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    ctx = standalone_context()
     rows = []
     try:
         grid = exponent_cases(quick, camera, truth, focal)

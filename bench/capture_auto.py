@@ -177,13 +177,13 @@ def focal_photo(ctx: Any, head: Any, texture: np.ndarray, camera: Any) -> np.nda
 
 def focal_sweep(quick: bool = False) -> dict[str, Any]:
     """The ``focal_*`` fields (see the module docstring); ``quick``: the two ends' lenses, the head frontal."""
-    import moderngl
     from PIL import Image
     from scipy.spatial.transform import Rotation
 
     from bench.capture_truth import case_head
     from capture.auto import capture_auto
     from capture.face import load_face
+    from render.context import standalone_context
 
     lenses = (FOCAL_LENSES_MM[0], FOCAL_LENSES_MM[-1]) if quick else FOCAL_LENSES_MM
     yaws = (0.0,) if quick else FOCAL_YAWS
@@ -191,7 +191,7 @@ def focal_sweep(quick: bool = False) -> dict[str, Any]:
     rows: list[dict[str, Any]] = []
     rotations: dict[tuple[float, float, str], np.ndarray] = {}
     cameras: dict[tuple[float, float], Any] = {}
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    ctx = standalone_context()
     try:
         with tempfile.TemporaryDirectory(prefix="sheer-bench-focal-") as tmp:
             for lens in lenses:

@@ -29,8 +29,6 @@ from typing import Any
 
 def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
     """The views' figures (see the module docstring); ``quick``: 3 frames and a 512² detail texture."""
-    import moderngl
-
     from bench.lightweight import _interleaved_ms
     from capture.face import Face
     from capture.pipeline import capture, linear_to_srgb8
@@ -42,6 +40,7 @@ def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
     from painting.head import load_head
     from painting.looks import apply_look, load_look
     from render.binding import layer_inputs
+    from render.context import standalone_context
     from render.mirror import MirrorView, RelightView
     from render.renderer import Renderer
 
@@ -57,7 +56,7 @@ def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
     apply_look(doc, load_look("red-lip"))
     layers = layer_inputs(doc)
     h, w = photo.shape[:2]
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    ctx = standalone_context()
     try:
         fbo = ctx.framebuffer(color_attachments=[ctx.renderbuffer((w, h), 4)],
                               depth_attachment=ctx.depth_renderbuffer((w, h)))

@@ -28,12 +28,11 @@ LOOK = "natural"
 
 def one_tryon(photo: np.ndarray, look: str = LOOK, resolution: int | None = None) -> dict[str, float]:
     """One shutter → first made-up frame, timed per step (seconds); everything made is removed after."""
-    import moderngl
-
     from app.kiosk_capture import SHOPPER_RESOLUTION, prepare_shopper
     from app.session import load_library
     from core.cache import PrivateCache
     from render.binding import layer_inputs
+    from render.context import standalone_context
     from render.mirror import MirrorView
     from render.shaders import ShaderLibrary
 
@@ -43,7 +42,7 @@ def one_tryon(photo: np.ndarray, look: str = LOOK, resolution: int | None = None
         shopper = prepare_shopper(photo, Path(root) / "face", probe=None, library=library,
                                   resolution=resolution or SHOPPER_RESOLUTION, look=look)
         t1 = time.perf_counter()
-        ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+        ctx = standalone_context()
         try:
             view = MirrorView(ctx, shopper.head, shopper.face, shopper.photo, shaders=ShaderLibrary())
             view.set_layers(layer_inputs(shopper.session.document, library))

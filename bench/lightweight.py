@@ -53,13 +53,12 @@ def _interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``sheer bench lightweight`` with the options ``argv`` and print its JSON object; returns 0."""
-    import moderngl
-
     from capture.pipeline import capture
     from capture.probe import analyse_probe
     from capture.synthetic import make_scene, read_env
     from core.assets import find_asset
     from painting.head import load_head
+    from render.context import standalone_context
     from render.lights import Light
     from render.lightweight import LightweightRenderer
     from render.renderer import Renderer
@@ -95,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
     from capture.face import Face
 
     face = Face(params=result.params, detail=result.detail, data={})
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    ctx = standalone_context()
     colour = ctx.renderbuffer((w, h), 4)
     depth = ctx.depth_renderbuffer((w, h))
     fbo = ctx.framebuffer(color_attachments=[colour], depth_attachment=depth)

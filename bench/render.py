@@ -171,14 +171,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.frames < 1:
         raise SheerError("--frames must be ≥ 1")
 
-    import moderngl
-
     from painting import Document
     from painting.looks import apply_look
+    from render.context import standalone_context
     from render.km_pass import LayerInput
     from render.renderer import Renderer
 
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    ctx = standalone_context()
     w, h = args.size
     doc = Document.from_head(resolution=args.km_resolution)
     apply_look(doc, "evening")

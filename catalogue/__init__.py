@@ -3,8 +3,9 @@
 A TOML spec (:mod:`catalogue.spec`, schema ``resources/catalogue.schema.json``, documented in
 ``docs/CATALOGUE.md``) expands into jobs named by a hash of everything that determines their pixels
 (:mod:`catalogue.jobs`); :mod:`catalogue.driver` runs them on Dask distributed (an embedded
-``LocalCluster`` of worker processes, or an existing cluster) where each worker process owns one headless
-GL context and its caches (:mod:`catalogue.worker`); :mod:`catalogue.sheets` draws the contact sheets and
+``LocalCluster`` of worker processes, or an existing cluster), each worker its even share of them
+(:mod:`catalogue.balance`), where each worker process owns one headless GL context, on its own EGL device
+when there are several, and its caches (:mod:`catalogue.worker`); :mod:`catalogue.sheets` draws the contact sheets and
 :mod:`catalogue.glb` writes the made-up head as GLB.
 
 What catalogue may import: ``render`` and ``capture`` and every layer below them, and Dask; never

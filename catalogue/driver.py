@@ -1,10 +1,11 @@
 """The Dask driver: a catalogue's jobs on an embedded ``LocalCluster`` or an existing Dask cluster.
 
 :func:`run_catalogue` checks the output folder, expands the spec, skips what is already rendered (names
-carry content hashes), and submits runs of jobs (:func:`catalogue.jobs.chunks`) to Dask distributed:
-by default a ``LocalCluster`` of worker *processes* with one thread each (each owns one headless GL context
-and its caches, :mod:`catalogue.worker`), or the scheduler at ``scheduler`` (workers started with
-``dask worker``). A worker that dies has its tasks rescheduled by Dask, and a rescheduled run skips the
+carry content hashes), and submits runs of jobs (:func:`catalogue.jobs.chunks`) to Dask distributed, each
+worker its even share with stealing at the end (:mod:`catalogue.balance`), a run or two in flight at a
+time per worker: by default a ``LocalCluster`` of worker *processes* with one thread each (each owns one
+headless GL context and its caches, :mod:`catalogue.worker`), or the scheduler at ``scheduler`` (workers
+started with ``dask worker``). A worker that dies has its tasks rescheduled by Dask, and a rescheduled run skips the
 images already written. A job that fails is submitted once more on its own, then recorded in
 ``failed.json``. At the end: ``manifest.json`` and ``manifest.csv`` (every output with its parameters, hash
 and timing) and a contact sheet per product and view (:mod:`catalogue.sheets`), all written atomically.
@@ -23,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from catalogue.balance import Balancer
 from catalogue.errors import CatalogueError
 from catalogue.jobs import chunks, expand, renderer_version
 
@@ -36,6 +38,11 @@ if TYPE_CHECKING:
 #: outputs, rendered by this run, failed for good.
 Progress = Callable[[int, int, int, int], None]
 MANIFEST_SCHEMA_VERSION = 1
+#: Balanced runs in flight per worker: one running and one waiting at the worker, so it never idles for a
+#: round trip to the driver (one alone once fewer runs are left than workers: the end evens out).
+IN_FLIGHT = 2
+#: The queue of a cluster that had no worker when the run started: its runs go to any worker.
+ANY_WORKER = ""
 CSV_FIELDS = ("file", "kind", "hash", "status", "head", "look", "product", "light", "view", "yaw", "pitch",
               "width", "height", "mode", "seconds", "worker")
 
@@ -108,13 +115,30 @@ def dask_client(workers: int | None = None, scheduler: str | None = None) -> Ite
         return
     from catalogue.warmup import PRELOAD
 
+    check_device_variable()
     n = workers or os.cpu_count() or 1
     # ":0": the scheduler's HTTP server (and dashboard, with bokeh) on a free port, never a clash on 8787;
-    # the preload warms each worker (GL context, shaders) while the cluster starts (catalogue.warmup)
+    # the preload warms each worker (GL context, shaders) while the cluster starts (catalogue.warmup) and
+    # gives worker i (LocalCluster names its workers 0, 1, …) EGL device i mod the devices present
     with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=":0", silence_logs=logging.ERROR, preload=[PRELOAD],
                       env=worker_environment(n)) as cluster, Client(cluster) as client:
         yield client
+
+
+def check_device_variable() -> None:
+    """Refuse a bad ``SHEER_EGL_DEVICE`` here, once, before a local cluster's workers inherit it.
+
+    Raises:
+        CatalogueError: not an integer, or no EGL device has that index (one line, naming the variable).
+    """
+    from render.context import pinned_device
+    from render.errors import RenderError
+
+    try:
+        pinned_device()
+    except RenderError as exc:
+        raise CatalogueError(str(exc)) from None
 
 
 def worker_environment(workers: int) -> dict[str, str]:
@@ -192,6 +216,8 @@ def run_catalogue(spec: Spec, out: str | Path, *, jobs: list[Job] | None = None,
     result = RunResult(total=len(jobs))
     todo = [j for j in jobs if force or not (folder / j.out).exists()]
     result.skipped = len(jobs) - len(todo)
+    if todo and client is None and scheduler is None:
+        check_device_variable()  # before any work or progress: the local workers would inherit it
     records: dict[str, dict[str, Any]] = {}
     failed: dict[str, dict[str, Any]] = {}
     if on_progress is not None:
@@ -224,7 +250,10 @@ def run_catalogue(spec: Spec, out: str | Path, *, jobs: list[Job] | None = None,
 def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | None, result: RunResult,
               records: dict[str, dict[str, Any]], failed: dict[str, dict[str, Any]], on_progress: Progress | None,
               on_dashboard: Callable[[str], None] | None, cancelled: Callable[[], bool] | None) -> None:
-    """Submit ``todo`` in chunks, retry each failure once on its own, fill ``records`` and ``failed``."""
+    """Run ``todo`` in balanced runs (:mod:`catalogue.balance`), retry each failure once on its own.
+
+    Fills ``records`` (each output's outcome) and ``failed`` (the jobs that failed twice).
+    """
     from distributed import wait
 
     from catalogue.worker import render_chunk
@@ -242,27 +271,48 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
         raise CatalogueError(f"{len(other)} of {len(versions)} Dask worker(s) run another Sheer (e.g. {addr}: "
                              f"renderer version {v[:12]}, this one {expected[:12]}); install the same Sheer "
                              "everywhere (or restart workers started before an update)")
-    n_workers = max(len(versions), 1)
+    # no worker yet (a cluster still starting): one queue for whichever comes, stolen from by the others
+    workers = set(versions) or {ANY_WORKER}
+    # runs of at most ceil(jobs / (6 × workers)) jobs, about six per worker: small enough to even out the
+    # end, and a worker's runs follow each other in its share, so its caches stay warm across them
+    balancer = Balancer(chunks(todo, 2 * len(workers)), sorted(workers))
     by_out = {j.out: j for j in todo}
     attempts: dict[str, int] = dict.fromkeys(by_out, 0)
     run_id = uuid.uuid4().hex[:8]
     pending: dict[Any, list[Job]] = {}
+    placed: dict[Any, str] = {}  # the worker each balanced task was pinned to
+    in_flight: dict[str, int] = {}
 
-    def submit(chunk: list[Job]) -> Any:
+    def submit(chunk: list[Job], worker: str | None = None) -> Any:
         for j in chunk:
             attempts[j.out] += 1
+        # pinned loosely: if that worker is gone, Dask runs the task on another one
         fut = client.submit(render_chunk, chunk, str(folder), force_before, pure=False,
-                            key=f"sheer-catalogue-{run_id}-{uuid.uuid4().hex[:12]}")
+                            key=f"sheer-catalogue-{run_id}-{uuid.uuid4().hex[:12]}",
+                            workers=[worker] if worker else None, allow_other_workers=bool(worker))
         pending[fut] = chunk
+        if worker is not None:
+            placed[fut] = worker
+            in_flight[worker] = in_flight.get(worker, 0) + 1
         return fut
+
+    def feed(worker: str) -> None:
+        """Keep ``worker`` busy: a run running and one waiting, or one alone once little is left."""
+        window = IN_FLIGHT if balancer.remaining() >= len(workers) else 1
+        while worker in workers and in_flight.get(worker, 0) < window:
+            run = balancer.next_for(worker)
+            if run is None:
+                return
+            submit(list(run), worker)
 
     is_cancelled = cancelled or (lambda: False)
     if is_cancelled():
         result.cancelled = True
         return
-    for c in chunks(todo, n_workers):
-        submit(c)
+    for w in sorted(workers):
+        feed(w)
     done = result.skipped
+    seen = time.monotonic()
     while pending:
         try:  # wake up at least every 0.25 s to see a Cancel
             finished = wait(list(pending), timeout=0.25, return_when="FIRST_COMPLETED").done
@@ -272,8 +322,21 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
             result.cancelled = True
             client.cancel(list(pending))
             return
+        if balancer.remaining() and time.monotonic() - seen > 1.0:  # workers that joined or left meanwhile
+            seen = time.monotonic()
+            with contextlib.suppress(Exception):
+                now = set(client.scheduler_info()["workers"])
+                balancer.add_workers(sorted(now - workers))
+                workers = now
         for fut in finished:
             done += _collect(fut, pending.pop(fut), by_out, attempts, records, failed, submit)
+            worker = placed.pop(fut, None)
+            if worker is not None:
+                in_flight[worker] -= 1
+        for w in sorted(workers):
+            feed(w)
+        while not pending and (run := balancer.next_for(ANY_WORKER)) is not None:  # no worker left to feed
+            submit(list(run))
         if finished and on_progress is not None:
             on_progress(done, result.total, sum(r["status"] == "rendered" for r in records.values()), len(failed))
 

@@ -51,9 +51,9 @@ def baked_albedo(doc: Document, library: Library | None, ctx: moderngl.Context |
         return np.ascontiguousarray(albedo[..., :3])
     own = ctx is None
     if ctx is None:
-        import moderngl
+        from render.context import standalone_context
 
-        ctx = moderngl.create_context(standalone=True, backend="egl")
+        ctx = standalone_context(require=330)
     try:
         km = KMTextureSpace(ctx, ShaderLibrary(), dtype="f4")
         try:

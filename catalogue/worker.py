@@ -65,6 +65,29 @@ def worker_state() -> WorkerState:
     return _STATE
 
 
+def worker_index(name: Any = None) -> int | None:
+    """A Dask worker's index among its cluster's workers, from its name; None when the name has none.
+
+    ``LocalCluster`` names its workers 0, 1, …; ``dask worker --name render --nworkers 4`` names them
+    render-0 … render-3. Without ``name``, this process's Dask worker's name (None outside a worker).
+
+    Args:
+        name: a worker's name (an int or a str).
+    """
+    if name is None:
+        try:
+            from distributed import get_worker
+
+            name = get_worker().name
+        except (ImportError, ValueError):
+            return None
+    if isinstance(name, int) and not isinstance(name, bool):
+        return name if name >= 0 else None
+    text = str(name)
+    tail = text.rsplit("-", 1)[-1]
+    return int(tail) if tail.isascii() and tail.isdigit() else None
+
+
 def render_chunk(jobs: list[Job], out_dir: str, force_before: float | None = None) -> list[dict[str, Any]]:
     """Render ``jobs`` into ``out_dir`` in order (a Dask task); never raises for a job's failure.
 
@@ -98,13 +121,18 @@ class WorkerState:
     """One worker process's GL context and caches (see the module docstring).
 
     Attributes:
-        ctx: the standalone EGL context (GL 4.5 core), made on first use.
+        ctx: the standalone EGL context (GL 4.5 core), made on first use (:meth:`context`).
+        index: this worker's index among the cluster's workers (set by the preload, else read from the
+            Dask worker's name when the context is made: :func:`worker_index`), or None.
+        device: the EGL device the context was made on (None: EGL's default).
         counters: how often each cache missed ("heads", "documents", "renderers", "layers", "lights")
             and how many jobs ran ("jobs"): for tests and benchmarks.
     """
 
     def __init__(self) -> None:
         self.ctx: moderngl.Context | None = None
+        self.index: int | None = None
+        self.device: int | None = None
         self.identity = f"{socket.gethostname()}:{os.getpid()}"
         self.counters = dict.fromkeys(("jobs", "heads", "documents", "renderers", "layers", "lights"), 0)
         self._heads: OrderedDict[str, Head] = OrderedDict()
@@ -113,6 +141,37 @@ class WorkerState:
         self._held: dict[str, tuple[str, ...]] = {}  # per head: the layers key, the lights key
         self._libraries: dict[str, Library] = {}
         self._lightweight: dict[str, Any] = {}
+
+    def context(self) -> moderngl.Context:
+        """This process's GL context, made on first use on the worker's own EGL device.
+
+        Worker ``index`` takes device ``index`` mod the devices present when there are several
+        (:func:`render.context.round_robin_device`; ``SHEER_EGL_DEVICE`` pins one). If the round robin's
+        device cannot make a context, EGL's default device does (with a warning).
+
+        Raises:
+            render.errors.RenderError: ``SHEER_EGL_DEVICE`` is bad (one line, naming it).
+        """
+        if self.ctx is not None:
+            return self.ctx
+        from render.context import pinned_device, round_robin_device, standalone_context
+
+        if self.index is None:
+            self.index = worker_index()
+        device = round_robin_device(self.index)
+        try:
+            self.ctx = standalone_context(device)
+        except Exception as exc:
+            if device is None or pinned_device() is not None:
+                raise
+            import logging
+
+            logging.getLogger(__name__).warning("EGL device %d failed (%s); using the default device", device,
+                                                exc)
+            device = None
+            self.ctx = standalone_context(None)
+        self.device = device
+        return self.ctx
 
     # -- one job ----------------------------------------------------------------------------------
     def run(self, job: Job, out_dir: Path, force_before: float | None = None) -> dict[str, Any]:
@@ -152,10 +211,7 @@ class WorkerState:
             raise CatalogueError(f"this worker ({self.identity}) runs another Sheer: renderer version "
                                  f"{worker_version()[:12]}, the driver's {job.version[:12]}")
         self.counters["jobs"] += 1
-        if self.ctx is None:
-            import moderngl
-
-            self.ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+        self.context()
         head = self._head(job)
         doc = self._document(job, head)
         library = self._library(job)
