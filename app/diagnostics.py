@@ -174,11 +174,13 @@ def open_headless_context() -> tuple[Any, str]:
         (the moderngl context, "") or (None, why there is none: the driver's or loader's message).
     """
     try:
-        import moderngl
+        pass
     except Exception as exc:  # an ImportError, or a broken binary module
         return None, f"moderngl cannot be imported ({_first_line(exc)})"
     try:
-        return moderngl.create_context(standalone=True, backend="egl", require=450), ""
+        from render.context import standalone_context
+
+        return standalone_context(), ""
     except Exception as exc:  # no libEGL, no device, no GL 4.5: moderngl raises a plain Exception
         return None, f"no headless EGL context with GL 4.5 ({_first_line(exc)})"
 

@@ -73,13 +73,14 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", type=Path, default=REPO / "docs" / "images")
     args = p.parse_args(argv)
-    import moderngl
+
     from PIL import Image
 
     from painting.head import load_head
+    from render.context import standalone_context
 
     head = load_head(None)
-    ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+    ctx = standalone_context()
     try:
         full = _render(ctx, head, "red-lip", (1280, 720), None)
         Image.fromarray(_caption(full, CREDIT, bottom=True)).save(args.out / "render_red-lip_fast.png")

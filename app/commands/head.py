@@ -105,18 +105,18 @@ def _compare(fine: object, coarse: object, face: object, coarse_detail: object, 
     import time
     from pathlib import Path
 
-    import moderngl
     import numpy as np
     from PIL import Image
 
     from capture.phong import delta_e2000
     from core.errors import SheerError
     from km.srgb import srgb_decode
+    from render.context import standalone_context
     from render.lights import Light
     from render.lightweight import LightweightRenderer
 
     try:
-        ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+        ctx = standalone_context()
     except Exception as exc:
         raise SheerError(f"cannot create an OpenGL 4.5 context (EGL): {exc}") from None
     images, times = [], []

@@ -237,13 +237,13 @@ def run(args: argparse.Namespace) -> int:
         if doc is not None:
             doc.head = head
 
-    import moderngl
 
     from render import DocumentBinding, Renderer
+    from render.context import standalone_context
 
     lights = _lights(args.light, args.light_color, face, 1.0 if lightweight else 1.2)
     try:
-        ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+        ctx = standalone_context()
     except Exception as exc:
         raise SheerError(f"cannot create an OpenGL 4.5 context (EGL): {exc}") from None
     try:

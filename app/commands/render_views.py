@@ -89,15 +89,14 @@ def run_view(args: argparse.Namespace, face: Face, doc: Document | None, head: H
         lights: ``--light`` as lights (photograph units), or None.
         size_for: the relight image's size for a photograph of (width, height) pixels (``--size``, checked).
     """
-    import moderngl
-
     from core.errors import SheerError
     from render.binding import layer_inputs
+    from render.context import standalone_context
     from render.mirror import MirrorView, RelightView
 
     photo = read_photo_srgb8(photo_path(args, face)) if args.view == "mirror" else None
     try:
-        ctx = moderngl.create_context(standalone=True, backend="egl", require=450)
+        ctx = standalone_context()
     except Exception as exc:
         raise SheerError(f"cannot create an OpenGL 4.5 context (EGL): {exc}") from None
     try:
