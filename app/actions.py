@@ -2,7 +2,7 @@
 
 The studio builds its menus and shortcuts from :data:`STUDIO_ACTIONS`; the kiosk uses the reduced set
 :data:`KIOSK_ACTIONS` (no menus, no file dialogs). ``enabled_when`` names a predicate of the window's
-context (see :meth:`app.main_window.StudioWindow.context`).
+context (see :meth:`app.studio.main_window.StudioWindow.context`).
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("file.new", "&New Project", "File", "Ctrl+N"),
     ActionSpec("file.open", "&Open Project…", "File", "Ctrl+O"),
     ActionSpec("file.new_from_photo", "New from &Photo…", "File", "",
-               tip="capture a face from a portrait and paint the current layers on it (app.new_from_photo)"),
+               tip="capture a face from a portrait and paint the current layers on it (app.studio.new_from_photo)"),
     ActionSpec("file.save", "&Save Project", "File", "Ctrl+S"),
     ActionSpec("file.save_as", "Save Project &As…", "File", "Ctrl+Shift+S"),
     ActionSpec("file.open_face", "Open Captured &Face…", "File", "",

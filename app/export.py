@@ -17,7 +17,7 @@ import numpy as np
 from core.errors import SheerError
 
 if TYPE_CHECKING:
-    from app.camera import Lighting
+    from app.view.camera import Lighting
     from km.library import Library
     from painting import Document
     from painting.head import Head

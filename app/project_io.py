@@ -1,6 +1,6 @@
 """The studio's and the kiosk's use of :mod:`project`, the ``.sheer`` format (docs/FORMAT.md).
 
-Open, save, autosave snapshots and crash recovery, with no Qt (the dialogs are :mod:`app.project_files`).
+Open, save, autosave snapshots and crash recovery, with no Qt (the dialogs are :mod:`app.studio.project_files`).
 
 - Saving: :func:`snapshot` is ``project_from_document(doc, base=…)`` (the project last opened or saved, so
   its head reference and metadata are kept) plus the studio's view state (key light, ambient,
@@ -22,7 +22,7 @@ import numpy as np
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from app.camera import Lighting, OrbitCamera
+    from app.view.camera import Lighting, OrbitCamera
     from km.library import Library
     from painting import Document
     from painting.atlas import Atlas

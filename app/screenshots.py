@@ -43,8 +43,8 @@ def kiosk_shots(out: Path, tmp: Path) -> None:
     import numpy as np
     from PIL import Image
 
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import KioskConfig, hash_pin
+    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.window import KioskWindow
 
     portrait = Path(__file__).resolve().parents[2] / "shared" / "assets" / "photos" / "grace_hopper.jpg"
     with Image.open(portrait) as im:
@@ -100,7 +100,7 @@ def main(argv: list[str]) -> int:
     out.mkdir(parents=True, exist_ok=True)
     from PySide6.QtCore import QSettings
 
-    from app.studio_app import make_application
+    from app.application import make_application
 
     make_application()
     tmp = Path(tempfile.mkdtemp(prefix="sheer-shots-"))
@@ -108,8 +108,8 @@ def main(argv: list[str]) -> int:
         kiosk_shots(out, tmp)
         print("\n".join(str(p) for p in sorted(out.glob("kiosk_*.png"))))
         return 0
-    from app.main_window import StudioWindow
     from app.session import Session
+    from app.studio.main_window import StudioWindow
 
     os.environ["SHEER_RECOVERY_DIR"] = str(tmp / "recovery")  # no recovery offer in the pictures
     win = StudioWindow(Session.open(look="natural"), qsettings=QSettings(str(tmp / "s.ini"), QSettings.Format.IniFormat))

@@ -3,7 +3,7 @@
 :meth:`Session.open` reads the library (``km.default_library()``) and builds the ``painting.Document``
 (mesh cleaning, UV check or xatlas unwrap, bake), then paints a built-in look (``painting.looks``). It
 uses no Qt, so the studio runs it in a worker thread with a progress dialog
-(:func:`app.studio_app.open_session_with_progress`); the kiosk and ``sheer bench studio`` call it directly.
+(:func:`app.studio.launch.open_session_with_progress`); the kiosk and ``sheer bench studio`` call it directly.
 The windows then use the document as it is: layer ids in its change events, tiles as (row, col)
 (:mod:`painting.tiles`).
 """

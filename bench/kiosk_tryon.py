@@ -1,6 +1,6 @@
 """The kiosk's "Try it on me": seconds from the shutter to her first made-up frame (``tryon_first_frame_s``).
 
-What the kiosk does after the shutter, in the same order and code (:func:`app.kiosk_capture.prepare_shopper`,
+What the kiosk does after the shutter, in the same order and code (:func:`app.kiosk.capture.prepare_shopper`,
 then the mirror view of :mod:`render.mirror` in a standalone GL context with the look's layers, one
 frame read back), without the Qt window: the capture into a private temporary folder, her document with
 the look replayed, the GL views, the first frame. The window's own cost on top (showing a QImage) is a
@@ -28,7 +28,7 @@ LOOK = "natural"
 
 def one_tryon(photo: np.ndarray, look: str = LOOK, resolution: int | None = None) -> dict[str, float]:
     """One shutter → first made-up frame, timed per step (seconds); everything made is removed after."""
-    from app.kiosk_capture import SHOPPER_RESOLUTION, prepare_shopper
+    from app.kiosk.capture import SHOPPER_RESOLUTION, prepare_shopper
     from app.session import load_library
     from core.cache import PrivateCache
     from render.binding import layer_inputs

@@ -26,7 +26,7 @@ if TYPE_CHECKING:
 
     from PySide6.QtCore import QEvent, Qt
 
-    from app.viewport import Viewport
+    from app.view.viewport import Viewport
 
 
 def _process_age_s() -> float:
@@ -77,12 +77,12 @@ def main(argv: list[str]) -> int:
     from PySide6.QtCore import QPointF, QSettings
     from PySide6.QtWidgets import QApplication
 
-    from app.studio_app import make_application
+    from app.application import make_application
 
     make_application()
-    from app.main_window import StudioWindow
     from app.session import BACKENDS, Session
     from app.settings import DEFAULT_RESOLUTION
+    from app.studio.main_window import StudioWindow
     from bench.stats import spread
     from core.errors import SheerError
 

@@ -2,7 +2,7 @@
 
 While the user orbits, pans, zooms, moves a light or paints, the view draws *interactive* frames at a
 reduced internal resolution, upscaled to the window; when input stops it *settles* to the
-full-resolution frame (see :class:`render.view.ViewRenderer` and ``app.viewport``). This module holds
+full-resolution frame (see :class:`render.view.ViewRenderer` and ``app.view.viewport``). This module holds
 the part that needs no GPU: :class:`AdaptiveScale` chooses the internal scale from the frame times it is
 told, as Blender's viewport and Substance Painter do on weak hardware.
 

@@ -31,9 +31,9 @@ def pytest_configure(config: pytest.Config) -> None:
 
     Qt's GL windows then use EGL on X11, like the headless contexts of the render tests, so Qt window
     tests and headless GL tests may run in any order (with Qt's default GLX integration a Qt GL window
-    shown after a headless EGL context never got its context: see ``app.studio_app.configure_qt_environment``).
+    shown after a headless EGL context never got its context: see ``app.application.configure_qt_environment``).
     """
-    from app.studio_app import configure_qt_environment
+    from app.application import configure_qt_environment
 
     configure_qt_environment()
 

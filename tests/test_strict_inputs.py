@@ -506,7 +506,7 @@ def test_face_folders_malformed_json(case: str, tmp_path: Path) -> None:
 @pytest.mark.parametrize("case", ["deep", "nan", "garbage"])
 def test_kiosk_config_falls_back_to_sane_defaults(case: str, tmp_path: Path) -> None:
     """The kiosk's config is read unattended: a broken file must give finite, bounded settings."""
-    from app import kiosk
+    from app.kiosk import window as kiosk
 
     path = tmp_path / "kiosk.json"
     path.write_bytes({"deep": DEEP_JSON.encode(), "nan": b'{"idle_seconds": NaN, "look_seconds": Infinity}',

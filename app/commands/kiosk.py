@@ -87,7 +87,7 @@ def _read_pin_text(args: argparse.Namespace) -> tuple[str, str | None]:
 
 def _new_pin_hash(args: argparse.Namespace) -> str:
     """Read, check and hash the new PIN (SheerError, naming what is wrong, when it is refused)."""
-    from app.kiosk_config import hash_pin
+    from app.kiosk.config import hash_pin
     from core.errors import SheerError
 
     pin, again = _read_pin_text(args)
@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     setting_up = (args.set_pin, args.snapshot_dir, args.calibrate_light, args.camera is not None,
                   args.watch_dir is not None)
     if any(setting_up):
-        from app.kiosk_config import KioskConfig
+        from app.kiosk.config import KioskConfig
 
         path = Path(args.config) if args.config else None
         cfg = KioskConfig.load(path)
@@ -151,6 +151,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"kiosk light: θ={float(light['theta_deg']):.1f}° φ={float(light['phi_deg']):.1f}° from the camera's "  # type: ignore[arg-type]
                   f"axis, flash colour {[round(float(v), 3) for v in light['flash_rgb']]}")  # type: ignore[attr-defined]
         return 0
-    from app.kiosk import run_kiosk
+    from app.kiosk.window import run_kiosk
 
     return run_kiosk(project=args.project, config_path=args.config, windowed=args.windowed)

@@ -22,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run the studio until its window closes; returns the exit status."""
     from app.settings import DEFAULT_RESOLUTION
-    from app.studio_app import run_studio
+    from app.studio.launch import run_studio
 
     return run_studio(head=args.head, look=args.look, project=args.project,
                       resolution=args.resolution or DEFAULT_RESOLUTION)

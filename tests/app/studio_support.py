@@ -95,8 +95,8 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     from PySide6.QtCore import QSettings
     from pytestqt.qtbot import QtBot
 
-    from app.main_window import StudioWindow
     from app.session import Session
+    from app.studio.main_window import StudioWindow
 
     old_recovery = os.environ.get("SHEER_RECOVERY_DIR")
     os.environ["SHEER_RECOVERY_DIR"] = str(tmp_path_factory.mktemp("recovery"))

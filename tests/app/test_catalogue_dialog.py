@@ -29,7 +29,7 @@ def test_render_catalogue_action_is_in_the_file_menu() -> None:
 def test_dialog_checks_renders_and_cancels(qtbot: object, tmp_path: Path) -> None:
     from PySide6.QtWidgets import QApplication, QProgressDialog, QPushButton
 
-    from app.catalogue_dialog import CatalogueDialog
+    from app.studio.catalogue_dialog import CatalogueDialog
 
     dialog = CatalogueDialog()
     qtbot.addWidget(dialog)  # type: ignore[attr-defined]

@@ -16,12 +16,12 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 SESSION = textwrap.dedent("""
     import sys, tempfile
     from pathlib import Path
-    from app.studio_app import make_application
+    from app.application import make_application
     app = make_application()
     from PySide6.QtCore import QPoint, QSettings, Qt, QTimer
     from PySide6.QtTest import QTest
     from PySide6.QtWidgets import QApplication, QMessageBox
-    from app.main_window import StudioWindow
+    from app.studio.main_window import StudioWindow
     from app.session import Session
     def discard():  # the user answers the unsaved-changes question
         for box in QApplication.topLevelWidgets():

@@ -86,8 +86,8 @@ def test_sheer_kiosk_with_a_pin_comes_up_full_screen_and_guards_its_way_out(
     from PySide6.QtWidgets import QApplication
 
     from app.cli import main
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import hash_pin
+    from app.kiosk.config import hash_pin
+    from app.kiosk.window import KioskWindow
 
     assert shutil.which("xdotool"), "xdotool (Debian package) drives the X server in this test"
     config = tmp_path / "config" / "sheer" / "kiosk.json"

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import pytest
 
 from app.cli import main
-from app.kiosk_config import KioskConfig, check_pin, require_pin
+from app.kiosk.config import KioskConfig, check_pin, require_pin
 from core.errors import SheerError
 
 if TYPE_CHECKING:
@@ -55,7 +55,7 @@ def test_the_kiosk_refuses_to_start_without_a_pin(tmp_path: Path, capsys: pytest
 
 
 def test_the_window_itself_refuses_a_config_without_a_pin() -> None:
-    from app.kiosk import KioskWindow
+    from app.kiosk.window import KioskWindow
 
     with pytest.raises(SheerError, match="--set-pin"):
         KioskWindow(KioskConfig())

@@ -30,8 +30,8 @@ def _wm_running() -> bool:
 
 
 def test_the_kiosk_fills_the_screen_under_a_window_manager(qapp: Any, qtbot: Any, tmp_path: Path) -> None:
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import KioskConfig, hash_pin
+    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.window import KioskWindow
 
     assert shutil.which("openbox") and shutil.which("xprop"), "openbox and xprop (Debian packages) run this test"
     assert not _wm_running(), "another window manager is already running on this display"

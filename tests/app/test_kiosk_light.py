@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from app.cli import main
-from app.kiosk_config import KioskConfig
+from app.kiosk.config import KioskConfig
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -48,7 +48,7 @@ def test_calibrate_light_stores_the_probe_and_the_capture_uses_it(tmp_path: Path
     assert np.degrees(np.arccos(np.clip(got.light_dir_camera @ light, -1, 1))) < 1.5
     assert np.allclose(got.flash_rgb / got.flash_rgb.max(), flash / flash.max(), atol=0.04)
     # the try-on hands exactly this to the capture
-    from app.kiosk_capture import capture_probe
+    from app.kiosk.capture import capture_probe
 
     assert capture_probe(KioskConfig.load(path)) is not None
     assert np.allclose(capture_probe(KioskConfig.load(path)).light_dir_camera, got.light_dir_camera)

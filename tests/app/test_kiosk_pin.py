@@ -14,8 +14,8 @@ from app.qt_compat import pin_singletons
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import KioskConfig
+    from app.kiosk.config import KioskConfig
+    from app.kiosk.window import KioskWindow
 
 pin_singletons()
 
@@ -29,8 +29,8 @@ def open_kiosk(qapp: object, folder: Path, size: tuple[int, int] = (800, 600),
     shown; closed with the PIN's permission on exit if a test has not closed it."""
     from pytestqt.qtbot import QtBot
 
-    from app.kiosk import KioskWindow
-    from app.kiosk_config import KioskConfig, hash_pin
+    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.window import KioskWindow
 
     # 512²: fast; the resolution is not what these tests are about
     cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
@@ -87,7 +87,7 @@ def own_kiosk(qapp: object, tmp_path: Path) -> Iterator[KioskWindow]:
 
 
 def test_pin_is_stored_hashed() -> None:
-    from app.kiosk_config import check_pin, hash_pin
+    from app.kiosk.config import check_pin, hash_pin
 
     # eight digits: the salt and digest are random hex, in which a 4-digit PIN turns up about once in 700
     # hashes (this test failed so once); an 8-digit one about once in 10⁸
@@ -156,7 +156,7 @@ def test_a_shoppers_session_writes_its_cache_privately_and_removes_it(kiosk: Kio
 
 
 def test_errors_show_the_friendly_start_screen(kiosk: object) -> None:
-    from app.kiosk import FRIENDLY
+    from app.kiosk.window import FRIENDLY
 
     kiosk.show_main()
     kiosk.guard(lambda: kiosk.set_look("no-such-look"))()
@@ -177,7 +177,7 @@ def test_an_error_in_the_attract_mode_stops_it(kiosk: object) -> None:
 
 def test_project_and_bad_project(kiosk: object, tmp_path: Path) -> None:
     from app import project_io
-    from app.kiosk import FRIENDLY
+    from app.kiosk.window import FRIENDLY
 
     kiosk.set_look("red-lip")
     path = project_io.save_document(kiosk.doc, tmp_path / "shop.sheer", "shop")

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
-from app.kiosk_shades import SHOWN, plain_warning
+from app.kiosk.shades import SHOWN, plain_warning
 from app.qt_compat import pin_singletons
 from capture.face import Face
 from capture.phong import PhongParams
@@ -19,7 +19,7 @@ from tests.app.test_kiosk_pin import open_kiosk
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
-    from app.kiosk import KioskWindow
+    from app.kiosk.window import KioskWindow
 
 pin_singletons()
 

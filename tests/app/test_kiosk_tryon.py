@@ -25,7 +25,7 @@ if TYPE_CHECKING:
     import contextlib
     from collections.abc import Iterator
 
-    from app.kiosk import KioskWindow
+    from app.kiosk.window import KioskWindow
 
 pin_singletons()
 
@@ -77,7 +77,7 @@ def shopper(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[
     seen at each step."""
     from pytestqt.qtbot import QtBot
 
-    from app import kiosk_camera_page
+    from app.kiosk import camera_page as kiosk_camera_page
 
     qtbot = QtBot(qapp)
     folder = tmp_path_factory.mktemp("tryon")
@@ -250,7 +250,7 @@ def test_save_photo_writes_only_her_rendered_image_and_done_leaves_nothing(shopp
 
 
 def test_a_camera_that_disappears_mid_preview(qapp: object, qtbot: Any, tmp_path: Path) -> None:
-    from app.kiosk_tryon import CAMERA_TROUBLE
+    from app.kiosk.tryon import CAMERA_TROUBLE
 
     camera = write_camera(tmp_path / "short.avi", portrait(), frames=4)
     before = private_folders()
@@ -270,7 +270,7 @@ def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: 
     from PIL import Image
 
     from app.cli import main
-    from app.kiosk_config import KioskConfig
+    from app.kiosk.config import KioskConfig
     from tests.app.test_kiosk_light import _write_probe
 
     light = np.array([0.2, -0.3, -1.0])
@@ -299,7 +299,7 @@ def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: 
 
 def test_a_truncated_photo_in_the_watched_folder(qapp: object, qtbot: Any, tmp_path: Path) -> None:
     """A clear message, the start screen, nothing kept (the file is the shopper's: deleted too)."""
-    from app.kiosk_tryon import PHOTO_TROUBLE
+    from app.kiosk.tryon import PHOTO_TROUBLE
 
     drop = tmp_path / "drop"
     before = private_folders()

@@ -51,7 +51,7 @@ class ProgressWatcher:
 
 def _choose(monkeypatch: pytest.MonkeyPatch, photo: Path, faces: Path) -> list[str]:
     """The file dialog picks ``photo``; captured faces go to ``faces``. Returns the dialogs' titles asked."""
-    from app import new_from_photo
+    from app.studio import new_from_photo
 
     asked: list[str] = []
 
@@ -67,7 +67,7 @@ def _choose(monkeypatch: pytest.MonkeyPatch, photo: Path, faces: Path) -> list[s
 def _studio_windows() -> list[Any]:
     from PySide6.QtWidgets import QApplication
 
-    from app.main_window import StudioWindow
+    from app.studio.main_window import StudioWindow
 
     return [w for w in QApplication.topLevelWidgets() if isinstance(w, StudioWindow) and w.isVisible()]
 
@@ -102,7 +102,8 @@ def test_cancel_stops_the_capture_and_keeps_nothing(studio: tuple[Any, DialogDri
 
     from PySide6.QtWidgets import QApplication, QProgressDialog
 
-    from app import new_from_photo, workers
+    from app import workers
+    from app.studio import new_from_photo
     from core.assets import find_asset
 
     win, driver = studio
@@ -152,8 +153,8 @@ def test_a_portrait_opens_her_own_head_with_the_layers(studio: tuple[Any, Dialog
     driver answers the dialogs (one driver: two would race for the same box)."""
     from PySide6.QtCore import QSettings
 
-    from app.main_window import StudioWindow
     from app.session import Session
+    from app.studio.main_window import StudioWindow
     from core.assets import find_asset
 
     monkeypatch.setenv("SHEER_RECOVERY_DIR", str(tmp_path / "recovery"))

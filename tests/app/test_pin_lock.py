@@ -1,4 +1,4 @@
-"""The kiosk PIN's lockout (app.pin_lock): locked after 5 wrong PINs, doubling to 15 minutes, kept beside
+"""The kiosk PIN's lockout (app.kiosk.pin_lock): locked after 5 wrong PINs, doubling to 15 minutes, kept beside
 the configuration across a restart (a real second process), the right PIN accepted once the lock ends,
 wrong attempts logged with a timestamp and no digit of any PIN; ``--set-pin`` refuses short PINs."""
 
@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from app.kiosk_config import KioskConfig, hash_pin
-from app.pin_lock import MAX_LOCK_S, PinGuard, lock_path_for, lock_seconds
+from app.kiosk.config import KioskConfig, hash_pin
+from app.kiosk.pin_lock import MAX_LOCK_S, PinGuard, lock_path_for, lock_seconds
 from tests.app.test_kiosk_config import _Terminal
 
 RIGHT, WRONG = "975318", "864297"
@@ -95,8 +95,8 @@ def test_the_lock_survives_a_restart_in_another_process(tmp_path: Path, pin_hash
     code = textwrap.dedent("""
         import json, sys
         from pathlib import Path
-        from app.kiosk_config import KioskConfig
-        from app.pin_lock import PinGuard
+        from app.kiosk.config import KioskConfig
+        from app.kiosk.pin_lock import PinGuard
         guard = PinGuard.for_config(KioskConfig.load(Path(sys.argv[1])))
         pins = sys.argv[2:]
         print(json.dumps({"remaining": guard.remaining(),
@@ -156,7 +156,7 @@ def test_set_pin_refuses_fewer_than_6_digits_unless_allowed(tmp_path: Path, monk
     import getpass
 
     from app.cli import main
-    from app.kiosk_config import check_pin
+    from app.kiosk.config import check_pin
 
     path = tmp_path / "kiosk.json"
 

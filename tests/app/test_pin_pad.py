@@ -18,9 +18,9 @@ pytestmark = [pytest.mark.qt]
 
 
 def test_the_pad_locks_shows_the_time_left_and_unlocks(qapp: object, tmp_path: Path) -> None:
-    from app.kiosk_config import KioskConfig, hash_pin
-    from app.pin_lock import PinGuard
-    from app.pin_pad import PinPad
+    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.pin_lock import PinGuard
+    from app.kiosk.pin_pad import PinPad
 
     now = [1_700_000_000.0]
     path = tmp_path / "kiosk.json"

@@ -1,4 +1,4 @@
-"""The brush bar's region picker (app.region_picker): lists the head's regions, greys out the missing ones,
+"""The brush bar's region picker (app.studio.region_picker): lists the head's regions, greys out the missing ones,
 gives the brush its region options and fills a region on request."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ pytestmark = [pytest.mark.qt]
 
 
 def test_picker_lists_regions_and_drives_brush_and_fill(qtbot: Any) -> None:
-    from app.region_picker import NO_REGION, RegionPicker
+    from app.studio.region_picker import NO_REGION, RegionPicker
     from painting import Brush, Document
 
     doc = Document.from_head(None, resolution=512)

@@ -208,7 +208,7 @@ def test_changed_head_relink_in_the_background(window: Any, qtbot: Any, driver: 
 
 def test_missing_head_locate_head(window: Any, driver: DialogDriver, tmp_path: Path,
                                   monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import project_files
+    from app.studio import project_files
 
     maps, path, moved = _project_on_moved_head(window, tmp_path, 6)
     driver.answer("Locate head…")
@@ -235,7 +235,7 @@ def test_missing_head_locate_head(window: Any, driver: DialogDriver, tmp_path: P
 
 def test_located_head_that_changed_then_use_it_anyway(window: Any, driver: DialogDriver, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import project_files
+    from app.studio import project_files
 
     maps, path, moved = _project_on_moved_head(window, tmp_path, 12, retouch=True)
     driver.answer("Locate head…", "Use it anyway")
@@ -249,7 +249,7 @@ def test_located_head_that_changed_then_use_it_anyway(window: Any, driver: Dialo
 
 def test_cancel_leaves_the_document_untouched(window: Any, driver: DialogDriver, tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import project_files
+    from app.studio import project_files
 
     _paint(window, 8)
     mesh = _head_copy(tmp_path / "head")
@@ -383,7 +383,7 @@ def test_recovery_offer_restores_the_autosave_of_a_killed_session(window: Any, d
 
 def test_file_new_offers_to_save_unsaved_work_first(window: Any, driver: DialogDriver, tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
-    from app import project_files
+    from app.studio import project_files
 
     maps = _paint(window, 21)
     window.setWindowModified(True)

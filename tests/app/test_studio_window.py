@@ -100,7 +100,7 @@ def test_viewport_runs_the_real_renderer_at_full_size(window: object, qtbot: obj
 def test_swatches_are_kms_colours(window: object) -> None:
     """Swatches come from km (no colour maths of the app's own); the placeholders drawn while km's colour
     module loads are replaced once the renderer is up."""
-    from app.layers_panel import material_rgb
+    from app.studio.layers_panel import material_rgb
 
     m = window.library.get(window.doc.layers[0].material)
     hex_rgb = m.swatch_hex("opaque")
@@ -539,7 +539,7 @@ def test_measurement_import_in_background_reports_rejected_rows(window: object, 
 def test_the_view_settles_once_after_input_stops(window: object, qtbot: object, mode: str) -> None:
     """Progressive refinement: interactive frames while input goes on and no full frame among them; when it
     stops, exactly one full-resolution frame (fast), then in reference mode the reference frame."""
-    from app.viewport import SETTLE_MS
+    from app.view.viewport import SETTLE_MS
 
     vp = window.viewport
     window._set(render_mode=mode)

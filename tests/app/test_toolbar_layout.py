@@ -3,7 +3,7 @@ every toolbar is shown — none behind QToolBar's » extension button (the Befor
 brush bar's Regions menu made one row 1720 px wide) —, and so they are down to the window's minimum width,
 with the docks or without, every region's outline ticked or none (below 967 px the brush bar's region
 picker was behind »); and a layout saved by an older version, with the View toolbar beside the brush bar,
-is not restored over the two rows (app.studio_toolbars)."""
+is not restored over the two rows (app.studio.toolbars)."""
 
 from __future__ import annotations
 
@@ -110,7 +110,7 @@ def test_every_control_shows_down_to_the_minimum_width(window: Any) -> None:
 
 
 def test_an_older_saved_layout_is_not_restored_over_the_two_rows(window: Any, tmp_path: Any) -> None:
-    from app.studio_toolbars import WINDOW_STATE_VERSION
+    from app.studio.toolbars import WINDOW_STATE_VERSION
 
     settle(window, 1600, 1000)
     tbs = bars(window)

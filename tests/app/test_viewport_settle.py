@@ -66,7 +66,7 @@ def _frame_now(vp: Any) -> None:
 def _release_settles_at_once(vp: Any, qtbot: Any, button: Qt.MouseButton, pos: QPoint,
                              mods: Qt.KeyboardModifier = Qt.KeyboardModifier.NoModifier) -> None:
     """Release: the very next frame is the full-resolution one, and exactly one follows."""
-    from app.viewport import SETTLE_MS
+    from app.view.viewport import SETTLE_MS
 
     settled = vp.settled_frames
     qtbot.mouseRelease(vp, button, mods, pos)
@@ -134,7 +134,7 @@ def test_releasing_a_stroke_settles_at_once_with_the_stroke_in_the_frame(window:
 
 
 def test_reference_mode_release_draws_the_fast_then_the_reference_frame(window: Any, qtbot: Any) -> None:
-    from app.viewport import SETTLE_MS
+    from app.view.viewport import SETTLE_MS
 
     vp = window.viewport
     window._set(render_mode="reference")
@@ -155,7 +155,7 @@ def test_reference_mode_release_draws_the_fast_then_the_reference_frame(window: 
 
 
 def test_a_click_that_moved_nothing_draws_no_frame(window: Any, qtbot: Any) -> None:
-    from app.viewport import SETTLE_MS
+    from app.view.viewport import SETTLE_MS
 
     vp = window.viewport
     drawn, settled = vp.renderer_frames, vp.settled_frames

@@ -9,7 +9,7 @@ button. In two rows every control shows down to the window's minimum width: 856 
 brush bar needs 794 px and the view bar 818–846 px with Xvfb's default font; the brush bar needed 967 px
 while it held the Regions menu and a "Region" label, so below 967 px its region picker hid behind »), and
 without them no less than the toolbars need (:class:`WholeToolBar`).
-Mixed into :class:`app.main_window.StudioWindow`, which owns the settings the controls change;
+Mixed into :class:`app.studio.main_window.StudioWindow`, which owns the settings the controls change;
 :meth:`StudioToolbars.restore_layout` keeps a layout saved by an older version (both bars in one row)
 from coming back.
 """
@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING
 from PySide6.QtCore import QByteArray, QSize, Qt
 from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QLabel, QSlider, QToolBar
 
-from app.region_picker import RegionPicker
 from app.settings import ENVIRONMENTS, LIGHT_PRESETS
+from app.studio.region_picker import RegionPicker
 from render.view import RENDER_MODES, debug_views
 
 if TYPE_CHECKING:
@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
     from PySide6.QtCore import QSettings
 
-    from app.viewport import Viewport
+    from app.view.viewport import Viewport
     from painting import Document
 
 #: the version of the saved dock and toolbar layout (QMainWindow.saveState); a layout saved under another
@@ -57,12 +57,12 @@ class WholeToolBar(QToolBar):
 
 
 class StudioToolbars:
-    """The brush and view toolbars of :class:`app.main_window.StudioWindow`.
+    """The brush and view toolbars of :class:`app.studio.main_window.StudioWindow`.
 
     A mixin: the window holds the document, the viewport and the settings the controls change.
     """
 
-    # what the window provides (see app.main_window.StudioWindow)
+    # what the window provides (see app.studio.main_window.StudioWindow)
     doc: Document
     viewport: Viewport
     qsettings: QSettings

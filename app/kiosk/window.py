@@ -3,7 +3,7 @@
 The start screen is the attract mode: the sample face turning and the looks cycling, with the invitation
 on top (Start, and "Try it on me" when a camera or a watched folder is configured). The try-on screen has
 looks, product swaps per category, light presets, drag to turn, before/after, snapshots to a configured
-folder; "Try it on me" (:mod:`app.kiosk_tryon`) puts the shopper's own face there. An administrator PIN
+folder; "Try it on me" (:mod:`app.kiosk.tryon`) puts the shopper's own face there. An administrator PIN
 (stored hashed) guards every way out: window-manager close / Alt+F4 (``closeEvent``), Esc and Ctrl+Q.
 Any error returns to the start screen with a friendly message and is logged; a traceback is never shown.
 A shopper's session (from leaving the start screen until Done or the idle timeout) keeps everything
@@ -34,13 +34,13 @@ from PySide6.QtWidgets import (
 )
 
 from app.actions import KIOSK_ACTIONS
-from app.kiosk_camera_page import PRIVACY_LINE
-from app.kiosk_config import KioskConfig, require_pin
-from app.kiosk_parts import KioskEngines, ShopperSession
-from app.kiosk_shades import FoundationFinder
-from app.kiosk_tryon import TryOn
-from app.pin_lock import PinGuard
-from app.pin_pad import PinPad, big_button
+from app.kiosk.camera_page import PRIVACY_LINE
+from app.kiosk.config import KioskConfig, require_pin
+from app.kiosk.parts import KioskEngines, ShopperSession
+from app.kiosk.pin_lock import PinGuard
+from app.kiosk.pin_pad import PinPad, big_button
+from app.kiosk.shades import FoundationFinder
+from app.kiosk.tryon import TryOn
 from app.session import Session
 from app.settings import LIGHT_PRESETS
 from core.cache import PrivateCache
@@ -51,7 +51,7 @@ if TYPE_CHECKING:
 
     import numpy as np
 
-    from app.viewport import Viewport
+    from app.view.viewport import Viewport
     from capture.face import Face
 
 log = logging.getLogger("sheer.kiosk")
@@ -165,7 +165,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
 
     # ------------------------------------------------------------------ construction
     def _make_viewport(self) -> Viewport:
-        from app.viewport import Viewport
+        from app.view.viewport import Viewport
 
         vp = Viewport(self.doc.head, self.doc.layout)
         vp.set_document(self.doc, self.library)  # its binding follows the looks and shades applied
@@ -571,7 +571,7 @@ def run_kiosk(project: str | None = None, config_path: str | None = None, window
     """Start the kiosk; never shows a traceback (errors are logged and shown as a friendly screen)."""
     import sys
 
-    from app.studio_app import make_application
+    from app.application import make_application
 
     cfg_path = Path(config_path) if config_path else None
     config = KioskConfig.load(cfg_path)

@@ -22,14 +22,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import dialogs
 from app.actions import MENU_ORDER, STUDIO_ACTIONS, is_enabled, shortcut_sheet
-from app.catalogue_dialog import CatalogueDialog
-from app.export_actions import ExportActions
-from app.layers_panel import LayersPanel
-from app.library_dock import LibraryDock
-from app.new_from_photo import NewFromPhoto
-from app.project_files import ProjectFiles
 from app.session import BACKENDS
 from app.settings import (
     APPLICATION,
@@ -39,9 +32,16 @@ from app.settings import (
     load_settings,
     save_settings,
 )
-from app.shade_finder import ShadeFinder
-from app.studio_toolbars import WINDOW_STATE_VERSION, StudioToolbars
-from app.viewport import Viewport
+from app.studio import dialogs
+from app.studio.catalogue_dialog import CatalogueDialog
+from app.studio.export_actions import ExportActions
+from app.studio.layers_panel import LayersPanel
+from app.studio.library_dock import LibraryDock
+from app.studio.new_from_photo import NewFromPhoto
+from app.studio.project_files import ProjectFiles
+from app.studio.shade_finder import ShadeFinder
+from app.studio.toolbars import WINDOW_STATE_VERSION, StudioToolbars
+from app.view.viewport import Viewport
 from app.workers import run_task
 from painting import Brush
 from render.view import RENDER_MODES
@@ -64,13 +64,13 @@ class StudioWindow(StudioToolbars, QMainWindow):
         qsettings: where the settings and the window layout persist (default: the user's).
 
     Attributes:
-        files: New, Open, Save, autosave and crash recovery (:class:`app.project_files.ProjectFiles`).
-        exports: exports and layer-map transfers (:class:`app.export_actions.ExportActions`).
+        files: New, Open, Save, autosave and crash recovery (:class:`app.studio.project_files.ProjectFiles`).
+        exports: exports and layer-map transfers (:class:`app.studio.export_actions.ExportActions`).
     """
 
     def __init__(self, session: Session, qsettings: QSettings | None = None) -> None:
         super().__init__()
-        from app.viewport import preload_renderer_modules
+        from app.view.viewport import preload_renderer_modules
 
         preload_renderer_modules()  # colour-science & co. import in a worker while the document is built
         self.qsettings = qsettings or QSettings(ORGANISATION, APPLICATION)

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from PySide6.QtWidgets import QFileDialog
 
-from app import dialogs
+from app.studio import dialogs
 from app.workers import Cancelled, run_task
 
 if TYPE_CHECKING:
@@ -126,7 +126,7 @@ def quality_summary(face: Face) -> str:
 class NewFromPhoto:
     """File → New from Photo… for one studio window (see the module docstring).
 
-    ``window`` is an :class:`app.main_window.StudioWindow` (not imported here: the window imports this
+    ``window`` is an :class:`app.studio.main_window.StudioWindow` (not imported here: the window imports this
     module for its menu).
     """
 

@@ -20,7 +20,7 @@ from PySide6.QtCore import QSize, Signal
 from PySide6.QtGui import QIcon, QImage, QPixmap
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
-from app.pin_pad import big_button
+from app.kiosk.pin_pad import big_button
 
 if TYPE_CHECKING:
     from collections.abc import Callable

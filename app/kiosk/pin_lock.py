@@ -26,13 +26,13 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
-from app.kiosk_config import check_pin
+from app.kiosk.config import check_pin
 
 if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
-    from app.kiosk_config import KioskConfig
+    from app.kiosk.config import KioskConfig
 
 log = logging.getLogger("sheer.kiosk")
 

@@ -30,9 +30,9 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from app import dialogs
-from app.layers_panel import colours_ready, material_rgb, swatch_icon, swatch_of
-from app.library_edits import EDITABLE, Add, AddMany, Remove, Rename, SetAttr, duncan_mix
+from app.studio import dialogs
+from app.studio.layers_panel import colours_ready, material_rgb, swatch_icon, swatch_of
+from app.studio.library_edits import EDITABLE, Add, AddMany, Remove, Rename, SetAttr, duncan_mix
 
 if TYPE_CHECKING:
     from collections.abc import Callable

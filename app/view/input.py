@@ -1,6 +1,6 @@
 """The viewport's pointer input: painting, orbiting, panning, moving the key light, zooming, picking.
 
-Mixed into :class:`app.viewport.Viewport` (its GL surface hands it every input event):
+Mixed into :class:`app.view.viewport.Viewport` (its GL surface hands it every input event):
 
 - Left drag on the head paints (signals to the window, which owns the document), left drag off the head
   or right drag orbits, middle (or Shift+right) drag pans, the wheel zooms, Ctrl+left drag moves the key
@@ -24,15 +24,15 @@ if TYPE_CHECKING:
     import moderngl
     from PySide6.QtCore import QTimer, SignalInstance
 
-    from app.camera import Lighting, OrbitCamera
-    from app.gl_surface import GLSurface
+    from app.view.camera import Lighting, OrbitCamera
+    from app.view.gl_surface import GLSurface
     from render.view import ViewRenderer
 
 
 class ViewportInput:
-    """Pointer input of :class:`app.viewport.Viewport` (a mixin: the widget holds the view's state)."""
+    """Pointer input of :class:`app.view.viewport.Viewport` (a mixin: the widget holds the view's state)."""
 
-    # what the viewport provides (see app.viewport.Viewport)
+    # what the viewport provides (see app.view.viewport.Viewport)
     ctx: moderngl.Context | None
     camera: OrbitCamera
     lighting: Lighting
@@ -163,7 +163,7 @@ class ViewportInput:
         """End the drag (a stroke ends here); a drag that moved the view or the makeup settles at once.
 
         Releasing the button is the end of the drag's input, known for certain: waiting out
-        :data:`app.viewport.SETTLE_MS` would only delay the full frame (the timer stays for the wheel, keys
+        :data:`app.view.viewport.SETTLE_MS` would only delay the full frame (the timer stays for the wheel, keys
         and the kiosk's turns, whose end cannot be seen).
         """
         was, moved = self._drag, self._drag_input

@@ -11,7 +11,7 @@ face in its own colour (:class:`render.region_overlay.RegionOverlay`, drawn over
 viewport's ``after_frame`` hook once :meth:`RegionPicker.attach_overlay` has named the viewport). The
 menu's button (:attr:`RegionPicker.overlay_button`) is not in the picker's row: the window places it
 where a view's overlay belongs (the studio's view bar), which also keeps the brush bar narrow enough for
-the studio's minimum width (:mod:`app.studio_toolbars`).
+the studio's minimum width (:mod:`app.studio.toolbars`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from PySide6.QtWidgets import QComboBox, QHBoxLayout, QMenu, QToolButton, QWidge
 from painting.regions import REGION_NAMES
 
 if TYPE_CHECKING:
-    from app.viewport import Viewport
+    from app.view.viewport import Viewport
     from painting import Document
     from render.region_overlay import RegionOverlay
 

@@ -1,6 +1,6 @@
 """The kiosk's touch widgets: large buttons and the administrator's PIN pad (shown inside the window).
 
-The pad checks PINs through :class:`app.pin_lock.PinGuard` (the lockout after wrong PINs) and shows the
+The pad checks PINs through :class:`app.kiosk.pin_lock.PinGuard` (the lockout after wrong PINs) and shows the
 time left of a lock.
 """
 
@@ -13,7 +13,7 @@ from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import QGridLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 if TYPE_CHECKING:
-    from app.pin_lock import PinGuard
+    from app.kiosk.pin_lock import PinGuard
 
 
 def big_button(text: str, height: int = 72) -> QPushButton:
@@ -26,7 +26,7 @@ def big_button(text: str, height: int = 72) -> QPushButton:
 
 
 class PinPad(QWidget):
-    """An in-window PIN pad (no dialog) that checks the PIN through a :class:`app.pin_lock.PinGuard`.
+    """An in-window PIN pad (no dialog) that checks the PIN through a :class:`app.kiosk.pin_lock.PinGuard`.
 
     Emits ``accepted`` for the right PIN and ``cancelled`` for Cancel. A wrong PIN shows "Wrong PIN";
     once the guard locks, the digits and OK are disabled and the message counts the lock down each

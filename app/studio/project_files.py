@@ -5,7 +5,7 @@
 metadata are kept) and the look it started from — and the autosaver that writes a recovery file of
 unsaved work every few minutes. Reading and writing are :mod:`app.project_io` (no Qt), run in worker
 threads where they may take seconds; every question (relink a head, resample maps, save changes,
-recover work) is a real message box from :mod:`app.dialogs`.
+recover work) is a real message box from :mod:`app.studio.dialogs`.
 
 The window listens to two signals: :attr:`ProjectFiles.replaced` (the document's layers and the view
 settings now come from a project: refresh the panels and apply the settings) and
@@ -21,8 +21,9 @@ from typing import TYPE_CHECKING
 from PySide6.QtCore import QObject, QTimer, Signal
 from PySide6.QtWidgets import QFileDialog, QMainWindow
 
-from app import dialogs, project_io
+from app import project_io
 from app.settings import ENVIRONMENTS, LIGHT_PRESETS
+from app.studio import dialogs
 from app.workers import run_task
 
 if TYPE_CHECKING:
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 
     from app.session import Session
     from app.settings import StudioSettings
-    from app.viewport import Viewport
+    from app.view.viewport import Viewport
     from painting import ChangeEvent, Document
     from project.model import Project
 

@@ -75,7 +75,7 @@ class KioskConfig:
             --calibrate-light`` (:meth:`capture.probe.ProbeAnalysis.to_json`); empty: the capture assumes
             a white flash on the camera's axis.
         source: the file this configuration was read from (None when made in memory); not saved. The
-            PIN lockout's state is kept beside it (:mod:`app.pin_lock`).
+            PIN lockout's state is kept beside it (:mod:`app.kiosk.pin_lock`).
     """
 
     pin_hash: str = ""

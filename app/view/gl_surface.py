@@ -1,6 +1,6 @@
 """The viewport's GL window and what it needs from Qt: the surface, moderngl on Qt's context, captions.
 
-:class:`GLSurface` is a ``QOpenGLWindow`` embedded in :class:`app.viewport.Viewport` with
+:class:`GLSurface` is a ``QOpenGLWindow`` embedded in :class:`app.view.viewport.Viewport` with
 ``QWidget.createWindowContainer``: it draws straight to its own native window and swaps it (no
 ``QOpenGLWidget`` composition of the whole top-level window), paints through the viewport and hands it
 every input event. :func:`attach_moderngl` puts moderngl on Qt's context whether Qt drives EGL or GLX;
@@ -21,7 +21,7 @@ if TYPE_CHECKING:
 
 
 class SurfaceHost(Protocol):
-    """What :class:`GLSurface` needs of the widget it serves (:class:`app.viewport.Viewport`)."""
+    """What :class:`GLSurface` needs of the widget it serves (:class:`app.view.viewport.Viewport`)."""
 
     def initializeGL(self) -> None: ...  # noqa: D102, N802
     def paintGL(self) -> None: ...  # noqa: D102, N802

@@ -18,8 +18,8 @@ import numpy as np
 from PySide6.QtCore import QObject, Signal
 from PySide6.QtWidgets import QFileDialog, QInputDialog, QMainWindow
 
-from app import dialogs
 from app.export import export_gltf, export_maps, render_image
+from app.studio import dialogs
 from app.workers import run_task
 from render.binding import layer_inputs
 
@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
     from app.session import Session
     from app.settings import StudioSettings
-    from app.viewport import Viewport
+    from app.view.viewport import Viewport
 
 #: The sizes File → Export Rendered Image offers (width×height in pixels; any other may be typed).
 IMAGE_SIZES: tuple[str, ...] = ("1280x720", "1920x1080", "2048x2048", "3840x2160")

@@ -22,7 +22,7 @@ from PySide6.QtCore import QRectF, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QImage, QPainter, QPen, QPixmap
 from PySide6.QtWidgets import QLabel, QSizePolicy, QVBoxLayout, QWidget
 
-from app.pin_pad import big_button
+from app.kiosk.pin_pad import big_button
 
 if TYPE_CHECKING:
     from app.camera_source import FrameSource

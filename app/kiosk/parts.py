@@ -1,9 +1,9 @@
-"""Parts of the kiosk window (:class:`app.kiosk.KioskWindow` mixes these in).
+"""Parts of the kiosk window (:class:`app.kiosk.window.KioskWindow` mixes these in).
 
 - :class:`KioskEngines`: the captured face configured for the lightweight engine, and the fall-back to it
   when the physical renderer is too slow (``engine: auto``).
 - :class:`ShopperSession`: a shopper's session: the private folder it opens and removes, and her own
-  face worn on the try-on screen in place of the sample head (:mod:`app.kiosk_tryon`).
+  face worn on the try-on screen in place of the sample head (:mod:`app.kiosk.tryon`).
 """
 
 from __future__ import annotations

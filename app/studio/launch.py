@@ -3,68 +3,19 @@
 from __future__ import annotations
 
 import logging
-import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from app.application import make_application
 from app.settings import DEFAULT_RESOLUTION
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from PySide6.QtWidgets import QApplication
-
     from app.session import Session
     from km.library import Library
 
 log = logging.getLogger("sheer.app")
-
-
-def configure_qt_environment() -> None:
-    """Environment Qt reads when the application starts (call before the ``QApplication`` exists).
-
-    ``QT_XCB_GL_INTEGRATION=xcb_egl`` (unless set): on X11, Qt's GL windows use EGL, as the renderer's
-    headless contexts (exports, ``sheer render``) do. With Qt's default GLX integration, once a headless
-    EGL context had been created in the process (even released), a Qt GL window shown afterwards could
-    never make its context current (measured on Mesa 22.3 + PySide6 6.x: "Failed to make context current",
-    then a crash); with EGL on both sides the order does not matter.
-    """
-    import os
-
-    os.environ.setdefault("QT_XCB_GL_INTEGRATION", "xcb_egl")
-    os.environ.setdefault("MPLBACKEND", "Agg")  # colour-science imports pyplot; never a GUI backend
-
-
-def make_application(argv: list[str] | None = None) -> QApplication:
-    """The QApplication (made once, with the viewport's OpenGL surface format as the default).
-
-    Also pins Qt's singletons for Python (:func:`app.qt_compat.pin_singletons`), keeps matplotlib off
-    GUI backends, and sets the organisation, application name and window icon.
-    """
-    from PySide6.QtGui import QSurfaceFormat
-    from PySide6.QtWidgets import QApplication
-
-    from app.gl_surface import default_surface_format
-    from app.qt_compat import pin_singletons
-    from app.settings import APPLICATION, ORGANISATION
-
-    pin_singletons()
-    configure_qt_environment()
-
-    app = QApplication.instance()
-    if app is None:
-        QSurfaceFormat.setDefaultFormat(default_surface_format())
-        app = QApplication(argv or [sys.argv[0]])
-    app.setOrganizationName(ORGANISATION)
-    app.setApplicationName(APPLICATION)
-    from PySide6.QtGui import QIcon
-
-    from core.assets import resource_path
-
-    icon = resource_path("icons", "sheer.png")
-    if icon.is_file():
-        app.setWindowIcon(QIcon(str(icon)))
-    return app
 
 
 def run_studio(head: str | None = None, look: str = "natural", project: str | None = None,
@@ -83,10 +34,10 @@ def run_studio(head: str | None = None, look: str = "natural", project: str | No
     from core.errors import SheerError
 
     app = make_application()
-    from app import dialogs
-    from app.main_window import StudioWindow
     from app.session import load_library
-    from app.viewport import preload_renderer_modules
+    from app.studio import dialogs
+    from app.studio.main_window import StudioWindow
+    from app.view.viewport import preload_renderer_modules
 
     preload_renderer_modules()  # in a worker, while the head and document are prepared
     try:

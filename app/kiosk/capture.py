@@ -17,7 +17,7 @@ import numpy as np
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from app.kiosk_config import KioskConfig
+    from app.kiosk.config import KioskConfig
     from app.session import Session
     from capture.probe import ProbeAnalysis
     from km.library import Library

@@ -18,7 +18,7 @@ EDITABLE = {"category": str, "thickness_um": float, "max_thickness_um": float, "
 
 
 class LibraryView(Protocol):
-    """What an undo step needs of the library editor (:class:`app.library_dock.LibraryDock`)."""
+    """What an undo step needs of the library editor (:class:`app.studio.library_dock.LibraryDock`)."""
 
     library: Library
     current: str | None

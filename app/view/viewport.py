@@ -18,7 +18,7 @@ before/after split, lightweight mode).
   changes are queued by the document's :class:`render.binding.DocumentBinding` (dirty 64² tiles merged
   per layer, or one full re-evaluation) and flushed at the start of the next ``paintGL``, so a dab's
   tiles are in the very next frame. There is no timer and no busy loop.
-- Mouse and tablet (:mod:`app.viewport_input`): left drag on the head paints, off the head orbits; pan,
+- Mouse and tablet (:mod:`app.view.input`): left drag on the head paints, off the head orbits; pan,
   zoom, Ctrl+left drag moves the key light; hovering shows the brush ring. Picking reads the depth of the
   last frame the renderer drew (the current view).
 - Progressive refinement (:mod:`render.progressive`): while the user orbits, pans, zooms, moves the key
@@ -39,9 +39,9 @@ from PySide6.QtCore import QEvent, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QPainter
 from PySide6.QtWidgets import QApplication, QVBoxLayout, QWidget
 
-from app.camera import Lighting, OrbitCamera
-from app.gl_surface import Caption, GLSurface, attach_moderngl
-from app.viewport_input import ViewportInput
+from app.view.camera import Lighting, OrbitCamera
+from app.view.gl_surface import Caption, GLSurface, attach_moderngl
+from app.view.input import ViewportInput
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -399,7 +399,7 @@ class Viewport(ViewportInput, QWidget):
             drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting.key_light(),
                                         split=self.split, debug=self.debug, mode=frame_mode, ring=ring,
                                         interactive=interactive, scale=scale)
-            if self.after_frame is not None:  # (app.region_picker's Regions overlay, issue #16)
+            if self.after_frame is not None:  # (app.studio.region_picker's Regions overlay, issue #16)
                 self.after_frame(fbo)
         except Exception as exc:  # never a traceback: say so once; another mode falls back to fast
             import logging
@@ -461,7 +461,7 @@ class Viewport(ViewportInput, QWidget):
         """An input that changes the view or the makeup: draw interactive frames until it stops.
 
         ``drag``: it comes from a mouse drag, whose button's release ends it
-        (:meth:`~app.viewport_input.ViewportInput.mouseReleaseEvent` settles at once); other inputs (the
+        (:meth:`~app.view.input.ViewportInput.mouseReleaseEvent` settles at once); other inputs (the
         wheel, keys, the kiosk's turns) settle after :data:`SETTLE_MS`.
         """
         self.last_input_time = time.perf_counter()

@@ -125,7 +125,7 @@ class MaskEditor(QGroupBox):
         self._updating = False
 
     def _apply(self, lay: Layer, mask: object, channel: object) -> None:
-        from app import dialogs
+        from app.studio import dialogs
         from core.errors import SheerError
 
         try:

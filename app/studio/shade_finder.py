@@ -280,7 +280,7 @@ class ShadeFinder(QWidget):
 
     def start_coverage(self) -> None:
         """Compute the library's coverage of :data:`COVERAGE_SKINS` skins in a worker, then plot it."""
-        from app import dialogs
+        from app.studio import dialogs
         from app.workers import run_task
 
         illuminant = self.illuminant.currentText()  # read here: the job runs in a pool thread

@@ -2,7 +2,7 @@
 
 Top of the list = top layer. Drag to reorder, double-click to rename, tick to show/hide; opacity,
 maximum thickness, material, delete, import/export of the thickness map; a swatch of each material; the
-selected layer's mask (:class:`app.mask_editor.MaskEditor`, once :meth:`LayersPanel.attach_document`
+selected layer's mask (:class:`app.studio.mask_editor.MaskEditor`, once :meth:`LayersPanel.attach_document`
 has named the document).
 """
 
@@ -28,7 +28,7 @@ from PySide6.QtWidgets import (
 )
 
 if TYPE_CHECKING:
-    from app.mask_editor import MaskEditor
+    from app.studio.mask_editor import MaskEditor
     from km.library import Library
     from km.material import Material
     from painting import Document
@@ -194,7 +194,7 @@ class LayersPanel(QWidget):
 
     def attach_document(self, doc: Document) -> MaskEditor:
         """Edit the selected layer's mask in ``doc`` (adds the mask editor below the layer's controls)."""
-        from app.mask_editor import MaskEditor
+        from app.studio.mask_editor import MaskEditor
 
         if self.mask_editor is None:
             self.mask_editor = MaskEditor(doc, self.current_index)

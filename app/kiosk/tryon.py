@@ -2,7 +2,7 @@
 
 The flow (:class:`TryOn`, one per kiosk):
 
-1. **Camera screen** (:class:`app.kiosk_camera_page.CameraPage`): live preview, framing oval, the quality
+1. **Camera screen** (:class:`app.kiosk.camera_page.CameraPage`): live preview, framing oval, the quality
    gate's messages as prompts, a countdown, the shutter.
 2. **Capture** in the thread pool (:func:`prepare_shopper`): :func:`capture.auto.capture_auto` builds her
    head and face folder in the session's private folder (``core.cache.PrivateCache``: mode 0700 under the
@@ -13,7 +13,7 @@ The flow (:class:`TryOn`, one per kiosk):
    screen with its friendly message; anything else back to the start screen.
 3. **Her face** on the try-on screen, in place of the sample head: the mirror view (her photograph
    with the makeup) or the relit view (turnable, under the light presets), drawn by
-   :class:`app.kiosk_shopper.ShopperRenderer`; the looks, product swaps, foundation finder, light presets
+   :class:`app.kiosk.shopper.ShopperRenderer`; the looks, product swaps, foundation finder, light presets
    and before/after act on her document. Done or the idle timeout ends the session: her views, document,
    photograph and private folder are dropped. Only Save Photo writes anything (the rendered image).
 
@@ -31,8 +31,8 @@ import numpy as np
 from PySide6.QtCore import QObject, Qt, Signal
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
-from app.kiosk_camera_page import PRIVACY_LINE, CameraPage
-from app.kiosk_capture import (
+from app.kiosk.camera_page import PRIVACY_LINE, CameraPage
+from app.kiosk.capture import (
     SHOPPER_RESOLUTION,
     Shopper,
     capture_probe,
@@ -40,7 +40,7 @@ from app.kiosk_capture import (
     shopper_skin,
     warm_up,
 )
-from app.kiosk_shopper import FrameRequest, ShopperRenderer, ShopperView, snapshot_layers
+from app.kiosk.shopper import FrameRequest, ShopperRenderer, ShopperView, snapshot_layers
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -120,7 +120,7 @@ class TryOn(QObject):
         last_refusal: the quality gate's last message after a shutter ("" for none).
     """
 
-    def __init__(self, kiosk: Any) -> None:  # an app.kiosk.KioskWindow (which imports this module)
+    def __init__(self, kiosk: Any) -> None:  # an app.kiosk.window.KioskWindow (which imports this module)
         super().__init__()
         self.kiosk = kiosk
         self.camera_page = CameraPage()
