@@ -11,6 +11,7 @@ import pytest
 from PIL import Image
 
 from app.cli import main
+from tests.imaging import ONE_LEVEL_DE, assert_images_close
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -173,7 +174,10 @@ def test_thickness_view_names_a_document_layer(tmp_path: Path, capsys: pytest.Ca
         code, err = _run(capsys, "--project", str(project), "--size", "160x120", "--debug-view", "thickness",
                          "--debug-layer", "1", "--out", str(outs[hidden]))
         assert code == 0, err
-    np.testing.assert_array_equal(np.asarray(Image.open(outs[True])), np.asarray(Image.open(outs[False])))
+    # the same map shown, but by other variants of the programs (one layer active, not two), whose float
+    # maths another GPU may round differently: at most one 8-bit level apart (measured: the same bytes)
+    a, b = (np.asarray(Image.open(outs[k]).convert("RGB")) for k in (True, False))
+    assert_images_close(a, b, de_mean=0.02, de_p99=ONE_LEVEL_DE, max_levels=1, name="lipstick-map")
     code, err = _run(capsys, "--project", str(tmp_path / "look-True.sheer"), "--debug-view", "thickness",
                      "--debug-layer", "0", "--out", str(tmp_path / "x.png"))
     assert code == 2 and names[0] in err and "hidden" in err

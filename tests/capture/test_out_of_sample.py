@@ -106,6 +106,13 @@ the others by ≤ 0.01° and ≤ 0.3 points.
 The error distribution over 45 such scenes is ``sheer bench capture`` (the README).
 The probe alone, flash on a 6° grid within 12° of the lens: all 25 positions found (the flash on the
 lens's axis was refused before), within 0.3°.
+
+Another GPU draws the photographs a little differently (GL asks only 4 sub-pixel bits of its rasteriser:
+vertices may land up to 1/32 pixel away). Drawn again with the camera's projection moved 1/32 pixel each
+way diagonally, the cases' figures moved by up to 0.08° (light), 1 point (s and i_s) and 0.01 (ΔE2000),
+the noisy-camera ones most (their calibration refits every landmark's pixel). Each bound is at least half
+its step (0.05° and ΔE2000, 0.5 point of s and i_s) above the worst of the five drawings; a documented
+miss that came within that reach of its target (:data:`STRADDLING`) is an xfail that may also pass.
 """
 
 from __future__ import annotations
@@ -187,25 +194,26 @@ def measure(ctx: moderngl.Context, name: str) -> Figures:
 
 
 QUANTITIES = ("light_deg", "s", "i_s", "diffuse_de", "reproduction_de")
-#: Bounds just above today's figures (the module docstring), each within its target.
+#: Bounds above today's figures and above those of the photographs drawn 1/32 pixel off (the module docstring),
+#: each within its target.
 BOUNDS: dict[str, dict[str, float]] = {
     "gpu-photo": {"light_deg": 0.2, "s": 0.05, "i_s": 0.025, "diffuse_de": 0.6, "reproduction_de": 0.5},
-    "clicked-camera": {"light_deg": 0.4, "s": 0.045, "i_s": 0.025, "diffuse_de": 0.6, "reproduction_de": 0.5},
-    "s12-irradiance": {"light_deg": 0.2, "s": 0.05, "i_s": 0.045, "diffuse_de": 0.5, "reproduction_de": 0.5},
+    "clicked-camera": {"light_deg": 0.4, "s": 0.05, "i_s": 0.025, "diffuse_de": 0.6, "reproduction_de": 0.5},
+    "s12-irradiance": {"light_deg": 0.2, "s": 0.05, "i_s": 0.05, "diffuse_de": 0.5, "reproduction_de": 0.5},
     "s60-dark-skin": {"light_deg": 0.1, "s": 0.02, "i_s": 0.04, "diffuse_de": 0.2, "reproduction_de": 0.45},
     "s8": {"light_deg": 0.2, "s": 0.08, "i_s": 0.015, "diffuse_de": 0.4, "reproduction_de": 0.5},
     "flash-above": {"light_deg": 0.1, "s": 0.01, "i_s": 0.035, "diffuse_de": 0.6, "reproduction_de": 0.5},
     "canonical-face": {"light_deg": 0.2, "s": 0.02, "i_s": 0.02, "diffuse_de": 0.25, "reproduction_de": 0.2},
-    "coarse-head": {"light_deg": 0.15, "s": 0.03, "i_s": 0.01, "diffuse_de": 0.25, "reproduction_de": 0.55},
-    "yaw-30-s40-beside": {"light_deg": 0.7, "s": 0.05, "i_s": 0.05, "diffuse_de": 0.5, "reproduction_de": 0.55},
+    "coarse-head": {"light_deg": 0.15, "s": 0.04, "i_s": 0.015, "diffuse_de": 0.3, "reproduction_de": 0.55},
+    "yaw-30-s40-beside": {"light_deg": 0.7, "s": 0.055, "i_s": 0.05, "diffuse_de": 0.5, "reproduction_de": 0.55},
     "yaw+30-s24-above": {"light_deg": 0.3, "s": 0.02, "reproduction_de": 0.55},
-    "yaw+15-s12-near": {"light_deg": 0.4, "s": 0.05, "i_s": 0.03, "diffuse_de": 0.3, "reproduction_de": 0.5},
-    "yaw-15-s8-off-axis": {"light_deg": 0.55, "s": 0.05, "i_s": 0.015, "diffuse_de": 0.4, "reproduction_de": 0.5},
-    "s60-beside-far": {"light_deg": 0.35, "s": 0.04, "diffuse_de": 0.4, "reproduction_de": 0.5},
-    "sensor-noise-vignetting": {"light_deg": 1.0, "s": 0.02, "diffuse_de": 0.65, "reproduction_de": 0.95},
-    "shadow-beside15-yaw+30": {"light_deg": 0.1, "s": 0.095, "i_s": 0.035, "diffuse_de": 0.9, "reproduction_de": 0.5},
-    "shadow-above15-s40": {"light_deg": 0.55, "s": 0.045, "i_s": 0.04, "reproduction_de": 0.5},
-    "photo-s12-yaw-15-off-axis": {"light_deg": 0.45, "s": 0.08, "reproduction_de": 0.95},
+    "yaw+15-s12-near": {"light_deg": 0.4, "s": 0.05, "i_s": 0.035, "diffuse_de": 0.35, "reproduction_de": 0.5},
+    "yaw-15-s8-off-axis": {"light_deg": 0.6, "s": 0.05, "i_s": 0.015, "diffuse_de": 0.4, "reproduction_de": 0.5},
+    "s60-beside-far": {"light_deg": 0.4, "s": 0.04, "diffuse_de": 0.4, "reproduction_de": 0.5},
+    "sensor-noise-vignetting": {"light_deg": 1.1, "s": 0.03, "diffuse_de": 0.65, "reproduction_de": 0.95},
+    "shadow-beside15-yaw+30": {"light_deg": 0.1, "s": 0.1, "i_s": 0.04, "diffuse_de": 0.95, "reproduction_de": 0.5},
+    "shadow-above15-s40": {"light_deg": 0.6, "s": 0.045, "i_s": 0.04, "reproduction_de": 0.5},
+    "photo-s12-yaw-15-off-axis": {"light_deg": 0.5, "s": 0.08, "reproduction_de": 0.95},
 }
 #: Targets missed today: (case, quantity) → the measured figure and the documented limitation.
 MISSED = {
@@ -231,12 +239,19 @@ MISSED = {
 }
 
 
+#: Documented misses within another rasteriser's reach of their targets (the module docstring): measured
+#: across the five drawings, yaw+30-s24-above's ΔE2000 1.002–1.007, s60-beside-far's i_s −4.9 to −5.3 %,
+#: sensor-noise-vignetting's i_s −4.6 to −5.6 %.
+STRADDLING = {("yaw+30-s24-above", "diffuse_de"), ("s60-beside-far", "i_s"), ("sensor-noise-vignetting", "i_s")}
+
+
 def _params() -> list[object]:
     out = []
     for name in CASES:
         for quantity in QUANTITIES:
             reason = MISSED.get((name, quantity))
-            marks = [pytest.mark.xfail(strict=True, reason=f"measured {reason}")] if reason else []
+            strict = (name, quantity) not in STRADDLING
+            marks = [pytest.mark.xfail(strict=strict, reason=f"measured {reason}")] if reason else []
             out.append(pytest.param(name, quantity, marks=marks, id=f"{name}-{quantity}"))
     return out
 

@@ -88,7 +88,9 @@ def test_the_captures_rays_find_the_gpus_shadow(gl_ctx: moderngl.Context) -> Non
     inside = gpu.coverage[pix.rows, pix.cols] > 0.99
     truth = gpu.flash_seen[pix.rows, pix.cols] < 0.5
     agree = (found.shadowed == truth)[facing & inside].mean()
-    assert agree > 0.998, agree  # measured 0.99877
+    # measured 0.99877; with the photograph's projection moved 1/32 pixel (another rasteriser's vertex
+    # snapping, GL's minimum of 4 sub-pixel bits) 0.99873 at worst, and 0.885 below
+    assert agree > 0.998, agree
     cast = (truth & facing & inside)
     assert found.shadowed[cast].mean() > 0.85, found.shadowed[cast].mean()  # measured 0.890
     assert found.intersector == intersector_name()
@@ -163,7 +165,9 @@ def test_the_sky_is_occluded_in_the_creases_only(gl_ctx: moderngl.Context) -> No
     assert 0.97 < np.median(ratio) <= 1.0 and np.percentile(ratio, 10) < 0.9, np.percentile(ratio, [10, 50])
     assert ratio.max() < 1.0 + 2 / 255  # 8-bit rounding at most
     ((x, y),), _ = camera.project(np.array([head.metadata.landmarks["forehead"]]))
-    assert occluded_.srgb8[int(y), int(x)].tolist() == open_.srgb8[int(y), int(x)].tolist()
+    # the forehead's vertices see the whole sky (visibility 1), but 1.0 interpolated across a triangle need
+    # not stay exactly 1.0 on every GPU: within one 8-bit level (measured: the same bytes)
+    assert np.abs(occluded_.srgb8[int(y), int(x)].astype(int) - open_.srgb8[int(y), int(x)]).max() <= 1
 
 
 def test_the_lift_and_the_shadowed_geometry() -> None:

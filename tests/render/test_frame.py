@@ -9,15 +9,15 @@ import numpy as np
 import pytest
 
 import km
-from bench.render import mean_de2000
 from painting.tiles import TILE
 from render.km_pass import LayerInput
 from render.lights import Light
 from render.renderer import Renderer
 from render.settings import DEBUG_VIEWS
+from tests.imaging import ONE_LEVEL_DE, assert_images_close, assert_matches_reference
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Iterator
 
 pytestmark = pytest.mark.gl
 SIZE = (320, 240)
@@ -74,26 +74,37 @@ def window(img: np.ndarray, xy: tuple[int, int], half: int = 3) -> np.ndarray:
     return img[y - half:y + half + 1, x - half:x + half + 1].reshape(-1, img.shape[-1])
 
 
-def test_deterministic_and_matches_references(r: Renderer, looks: dict[str, list[LayerInput]],
-                                              assert_image_close: Callable[..., None]) -> None:
+def test_deterministic_and_matches_references(r: Renderer, looks: dict[str, list[LayerInput]]) -> None:
+    """The frame twice is the same bytes, and the three stored frames (made on llvmpipe) within ΔE2000.
+
+    Twice: one program on the same inputs and state, exactly determined on any GPU (GL 4.5 appendix A,
+    rule 4). The references: over the whole 320×240 frame, ΔE2000 mean ≤ 0.2 and p99 ≤ 2. Measured on
+    llvmpipe 0.02–0.05 and 0.5–0.8; with the projection moved 1/32 pixel in x and y (a rasteriser with
+    GL's minimum of 4 sub-pixel bits snaps each vertex up to that far) 0.12–0.13 and 1.1–1.3; with the
+    looks' foundation one shade off (Ivory for Beige) 0.26–0.41 and 3.0–4.7, which fails both bounds.
+    """
     a = r.render_image(SIZE)
     b = r.render_image(SIZE)
     np.testing.assert_array_equal(a, b)
-    # llvmpipe is deterministic: tight enough that a foundation one shade off (mean 0.005) fails
-    tol = {"mean_tol": 0.002, "max_tol": 0.05, "frac_tol": 0.001}
-    assert_image_close(a, "render_bare_fast.png", **tol)
+    tol = {"de_mean": 0.2, "de_p99": 2.0}
+    assert_matches_reference(a, "render_bare_fast.png", **tol)
     r.set_layers(looks["red-lip"])
-    assert_image_close(r.render_image(SIZE), "render_red_lip_fast.png", **tol)
+    assert_matches_reference(r.render_image(SIZE), "render_red_lip_fast.png", **tol)
     r.set_layers(looks["evening"])
     r.settings.mode = "reference"
-    assert_image_close(r.render_image(SIZE), "render_evening_reference.png", **tol)
+    assert_matches_reference(r.render_image(SIZE), "render_evening_reference.png", **tol)
 
 
-def test_zero_thickness_layers_render_exactly_like_no_makeup(r: Renderer, looks: dict[str, list[LayerInput]]) -> None:
+def test_zero_thickness_layers_render_like_no_makeup(r: Renderer, looks: dict[str, list[LayerInput]]) -> None:
+    """The KM maps of zero thickness are exactly R = 0, T = 1, but the lit pass is another variant of the
+    program (MAKEUP, NL): its float maths may round differently on another GPU, and an 8-bit conversion
+    may then take the neighbouring level. At most one level on any pixel, ΔE2000 mean ≤ 0.02 (one level on
+    a few % of the pixels) and p99 ≤ one level's ΔE; measured on llvmpipe: the same bytes."""
     bare = r.render_image(SIZE)
     zeros = [LayerInput(lay.material, np.zeros_like(lay.thickness)) for lay in looks["evening"]]
     r.set_layers(zeros)
-    np.testing.assert_array_equal(r.render_image(SIZE), bare)
+    assert_images_close(r.render_image(SIZE), bare, de_mean=0.02, de_p99=ONE_LEVEL_DE, max_levels=1,
+                        name="zero-layers-vs-bare")
 
 
 def test_lipstick_moves_the_lips_towards_its_colour(r: Renderer, doc: Any, looks: dict[str, list[LayerInput]]) -> None:
@@ -194,7 +205,9 @@ def test_fast_agrees_with_reference(r: Renderer, looks: dict[str, list[LayerInpu
     mask = r.skin_pixel_mask()
     r.settings.mode = "reference"
     ref = r.render_image(SIZE)
-    assert mean_de2000(fast, ref, mask) <= 1.0
+    # two SSS models on one GPU (its rasterisation is common to both): measured on llvmpipe, on skin,
+    # ΔE2000 mean 0.23 and p99 1.8
+    assert_images_close(fast, ref, de_mean=1.0, de_p99=4.0, mask=mask, name="fast-vs-reference")
 
 
 def test_debug_views_and_picking(r: Renderer, gl_ctx: Any, doc: Any, looks: dict[str, list[LayerInput]]) -> None:
@@ -224,11 +237,15 @@ def test_renders_into_a_viewport_of_a_given_framebuffer(r: Renderer, gl_ctx: Any
         fbo.clear(1.0, 0.0, 0.0, 1.0)
         r.render(fbo, (40, 30, 320, 240))
         img = np.frombuffer(fbo.read(components=3), np.uint8).reshape(300, 400, 3)
-        assert (img[:30, :, 0] == 255).all() and (img[:30, :, 1] == 0).all()  # outside untouched
+        # outside the viewport: the clear's exact 8-bit values (1.0 and 0.0), which nothing drew over
+        assert (img[:30, :, 0] == 255).all() and (img[:30, :, 1] == 0).all()
         inner = img[30:270, 40:360][::-1]
         ref = r.render_image(SIZE)
-        diff = np.abs(inner.astype(int) - ref).max(axis=-1)
-        assert (diff > 2).mean() < 1e-3  # a few silhouette pixels may differ (half-resolution SSS grid)
+        # the same frame moved by whole pixels (even ones: the half-resolution SSS grid stays aligned).
+        # Another rasteriser may snap a moved vertex to the neighbouring sub-pixel step and flip a few
+        # silhouette pixels (under 1 % of the frame: the p99 stays within one 8-bit level). Measured on
+        # llvmpipe: the same bytes
+        assert_images_close(inner, ref, de_mean=0.05, de_p99=ONE_LEVEL_DE, name="viewport-vs-frame")
     finally:
         from render.glutil import release_all
 
@@ -316,5 +333,8 @@ def test_irradiance_padding_index_is_cached_on_disk(gl_ctx: Any, doc: Any, tmp_p
         images.append(r.render_image((160, 120), linear=True))
         r.release()
         assert len(list((tmp_path / "render").glob("pad-index-*.cache"))) == 1
+    # exactly determined: the index read back is the one computed, so each renderer runs the same programs
+    # on the same inputs (GL 4.5 appendix A, rule 4); in float frames the composite's cover (the hull once
+    # it is ready, else the head) writes the clear colour's own floats where no head is
     np.testing.assert_array_equal(images[1], images[0])
     np.testing.assert_array_equal(images[2], images[0])

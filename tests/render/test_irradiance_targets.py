@@ -1,6 +1,10 @@
 """The texture-space irradiance writes E alone when only the key light casts shadows (the studio's rig):
-the same E bit for bit as with all three targets, and the visibilities written again as soon as another
-light casts shadows (render.irradiance, issue #13's relight)."""
+the same E as with all three targets, and the visibilities written again as soon as another light casts
+shadows (render.irradiance, issue #13's relight).
+
+"The same E": the two are variants of one program, which another GPU may compile to float maths that round
+differently; the half-float E then differs by at most one half-float step (measured on llvmpipe: the same
+bits)."""
 
 from __future__ import annotations
 
@@ -11,6 +15,7 @@ import pytest
 
 from render.lights import Light, default_lights
 from render.renderer import Renderer
+from tests.imaging import assert_relative_close
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -47,7 +52,9 @@ def test_e_alone_is_the_same_e_and_shadowed_fills_write_their_visibility(
         irr.invalidate()
         r.render_image(SIZE)
         assert sorted(k[-1] for k in irr.programs) == [0, 1], "the key light alone shadowed: E alone"
-        np.testing.assert_array_equal(_e(r), three)
+        # one half-float step is 2^-11 to 2^-10 of the value; under E = 1e-3 the bound stays at 1e-6, still
+        # at least one step
+        assert_relative_close(_e(r), three, rtol=2.0 ** -10, floor=1e-3, name="E-alone-vs-three-targets")
         n = irr.size
         vis = np.frombuffer(irr.textures[1].read(), np.uint8).reshape(n, n, 4)
         assert vis[..., 0].min() == 255, "the fill casts no shadow yet"

@@ -56,6 +56,7 @@ def test_gpu_matches_km_spectrally(km_pass: KMTextureSpace) -> None:
     km_pass.set_layers([LayerInput(m, x) for m, x in zip(mats, maps)])
     got = km_pass.read()
     want = km_reference(mats, maps)
+    # measured on llvmpipe: 3.5e-7 at most; a GPU's approximate exp and log (a few ulps) stay far inside
     for g, w, name in zip(got, want, ("R_top", "T", "R_bottom")):
         np.testing.assert_allclose(g, w, atol=1e-4, err_msg=name)
 
@@ -68,10 +69,15 @@ def codes(v: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize("split", [False, True], ids=["full", "tile-through-scratch"])
 def test_shipped_srgb8_maps_are_km_within_half_an_8_bit_code(gl_ctx: object, split: bool) -> None:
     """The shipped ``srgb8`` outputs (what the lit pass samples) are km's own results (float64, per texel)
-    rounded to the nearest 8-bit sRGB code: within half a code plus 1e-3 of float slack (measured: 0.5 +
-    2e-5; in linear terms up to 0.02 where T is near 1, so the float path's 1e-4 does not hold here), also
-    for tiles evaluated through the scratch target and copied (a copy must move the encoded bytes, never
-    decode or re-encode them). They are also the float path's results rounded (within half a code)."""
+    rounded to the nearest 8-bit sRGB code, also for tiles evaluated through the scratch target and copied
+    (a copy must move the encoded bytes, never decode or re-encode them), and the float path's results
+    rounded. In linear terms that is up to 0.02 where T is near 1, so the float path's 1e-4 does not hold.
+
+    Rounded to nearest: llvmpipe is within half a code plus 2e-5 (the shader's float maths). A GPU's
+    float-to-8-bit conversion need not be exact: GL (4.5 §2.3.5.2) allows either neighbouring code, D3D
+    (which the hardware GPUs also pass) 0.6 of a code. The bound: 0.6 code plus 1e-3 of float slack,
+    and on average at most 0.3 of a code (measured 0.13–0.26; a truncating conversion would average
+    0.5 on R_top)."""
     lib = km.default_library()
     mats = [lib.get(n) for n in MATERIALS]
     rng = np.random.default_rng(3)
@@ -89,8 +95,9 @@ def test_shipped_srgb8_maps_are_km_within_half_an_8_bit_code(gl_ctx: object, spl
             disp.set_layers(layers)
         region = (slice(0, 64), slice(64, 128)) if split else (slice(None), slice(None))
         for g, w, k, name in zip(disp.read(), exact.read(), km_reference(mats, maps), ("R_top", "T", "R_bottom")):
-            np.testing.assert_allclose(codes(g[region]), codes(k[region]), rtol=0, atol=0.5 + 1e-3, err_msg=name)
-            np.testing.assert_allclose(codes(g[region]), codes(w[region]), rtol=0, atol=0.5 + 0.02, err_msg=name)
+            np.testing.assert_allclose(codes(g[region]), codes(k[region]), rtol=0, atol=0.6 + 1e-3, err_msg=name)
+            np.testing.assert_allclose(codes(g[region]), codes(w[region]), rtol=0, atol=0.6 + 0.02, err_msg=name)
+            assert np.abs(codes(g[region]) - codes(k[region])).mean() <= 0.3, name
             assert g[region].max() > 0.05, name  # not trivially zero
     finally:
         exact.release()
@@ -115,13 +122,14 @@ def test_tiles_update_only_their_texels_and_match_a_full_update(km_pass: KMTextu
     for a, b, r in zip(after, before, ref):
         np.testing.assert_allclose(a[reported], r[reported], atol=1e-4)
         assert (np.abs(a[reported] - b[reported]) > 1e-3).any()  # the reported tiles did change
-        np.testing.assert_array_equal(a[~reported], b[~reported])
+        np.testing.assert_array_equal(a[~reported], b[~reported])  # exactly: nothing drew over them
 
 
 def test_no_layers_is_the_identity(km_pass: KMTextureSpace) -> None:
     km_pass.set_layers([])
     r_top, t, r_bottom = km_pass.read()
     assert r_top.shape == (1, 1, 3)
+    # exactly: the maps are cleared to these float constants (render.km_pass's _clear_outputs)
     np.testing.assert_array_equal(r_top, 0.0)
     np.testing.assert_array_equal(t, 1.0)
     np.testing.assert_array_equal(r_bottom, 0.0)

@@ -48,6 +48,9 @@ def test_bad_texels_evaluate_as_bare_whole_and_by_tiles(km_pass: KMTextureSpace)
     km_pass.set_layers([LayerInput(mat, clean)])
     want = km_pass.read()
     km_pass.set_layers([LayerInput(mat, bad)])
+    # exactly determined: cleaned on the CPU, the same texels are uploaded, and one program evaluates them
+    # (GL 4.5 appendix A, rule 4); by tiles, the same program (texelFetch at pixel + offset) in the scratch
+    # target, whose float texels are copied as they are
     for got, ref in zip(km_pass.read(), want):
         np.testing.assert_array_equal(got, ref)
     km_pass.set_layers([LayerInput(mat, np.full((128, 128), 12.0, np.float32))])

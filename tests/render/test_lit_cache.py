@@ -11,12 +11,18 @@ import pytest
 from render.km_pass import LayerInput
 from render.lights import Light
 from render.renderer import Renderer
+from tests.imaging import assert_images_close
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Iterator
 
 pytestmark = pytest.mark.gl
 SIZE = (480, 360)
+#: the cache against the direct path on skin (both on one GPU, so its rasterisation is common to both):
+#: ΔE2000 mean ≤ 0.5 and p99 ≤ 3 — measured on llvmpipe mean 0.22–0.27, p99 1.1–1.7 (here and with point
+#: lights), where the cache's 8-bit texels meet sharp shading; a GPU filtering them with 8-bit weights
+#: moves an interpolated value by at most 1/512 of its two texels' difference
+CACHE_DE = {"de_mean": 0.5, "de_p99": 3.0}
 
 
 @pytest.fixture(scope="module")
@@ -49,8 +55,7 @@ def settled(r: Renderer) -> np.ndarray:
     return r.render_image(SIZE)
 
 
-def test_cached_path_equals_direct_path_on_skin(renderer: Renderer, gl_ctx: Any,
-                                               assert_de2000_close: Callable[..., float]) -> None:
+def test_cached_path_equals_direct_path_on_skin(renderer: Renderer, gl_ctx: Any) -> None:
     r = renderer
     r.settings.lighting_cache = True
     r.set_environment("studio", 0.5)
@@ -61,8 +66,8 @@ def test_cached_path_equals_direct_path_on_skin(renderer: Renderer, gl_ctx: Any,
         r.settings.lighting_cache = False
         direct = r.render_image(SIZE)
         r.settings.lighting_cache = True
-        mean = assert_de2000_close(cached, direct, mask, 0.5, "cached-vs-direct")
-        assert mean > 0.0, "the two paths are the same code: the comparison proves nothing"
+        stats = assert_images_close(cached, direct, **CACHE_DE, mask=mask, name="cached-vs-direct")
+        assert stats.mean > 0.0, "the two paths are the same code: the comparison proves nothing"
     finally:
         r.set_environment(None)
 
@@ -113,6 +118,8 @@ def test_a_half_side_relight_never_passes_for_the_full_side_s_cache(renderer: Re
         shown = r.render_image(SIZE)  # the same frame again (nothing recomputed)
         r.settings.lighting_cache = False
         direct = r.render_image(SIZE)
+        # both frames are the direct path on the same half-side irradiance: one program on the same inputs,
+        # exactly determined (GL 4.5 appendix A, rule 4)
         assert np.array_equal(shown, direct), "an interactive relight used the cache of the old light"
     finally:
         r.settings.interactive = False
@@ -122,7 +129,7 @@ def test_a_half_side_relight_never_passes_for_the_full_side_s_cache(renderer: Re
 
 
 def test_a_deferred_frame_draws_direct_and_the_cache_is_built_after_it(
-        renderer: Renderer, gl_ctx: Any, assert_de2000_close: Callable[..., float]) -> None:
+        renderer: Renderer, gl_ctx: Any) -> None:
     """The studio's settle frame after a relight (Renderer.defer_cache): the direct path's frame, no
     whole rebuild in it; build_deferred_cache rebuilds the level once, and the next frame fetches it."""
     r = renderer
@@ -138,6 +145,7 @@ def test_a_deferred_frame_draws_direct_and_the_cache_is_built_after_it(
         mask = r.skin_pixel_mask()
         r.settings.lighting_cache = False
         try:
+            # the same program on the same inputs (the irradiance is current): exactly determined
             assert np.array_equal(deferred, r.render_image(SIZE)), "the deferred frame is the direct path's"
         finally:
             r.settings.lighting_cache = True
@@ -145,7 +153,7 @@ def test_a_deferred_frame_draws_direct_and_the_cache_is_built_after_it(
         assert not r.build_deferred_cache(), "built once"
         cached = r.render_image(SIZE)
         assert r.lighting.full_updates == whole + 1, "the next frame fetches the built cache"
-        assert_de2000_close(deferred, cached, mask, 0.5, "deferred-vs-cached")
+        assert_images_close(deferred, cached, **CACHE_DE, mask=mask, name="deferred-vs-cached")
         # a light moved since the deferred frame: nothing is built for the old one
         r.lights[0] = Light.directional(15.0, 35.0, 1.5)
         r.defer_cache = True
@@ -182,7 +190,7 @@ def test_a_dab_recomputes_only_its_tiles_and_shows(renderer: Renderer, doc: Any,
 
 
 def test_zero_thickness_layers_look_like_no_makeup_through_the_cache(
-        renderer: Renderer, doc: Any, gl_ctx: Any, assert_de2000_close: Callable[..., float]) -> None:
+        renderer: Renderer, doc: Any, gl_ctx: Any) -> None:
     r = renderer
     r.set_layers([])
     bare = r.render_image(SIZE)
@@ -190,7 +198,7 @@ def test_zero_thickness_layers_look_like_no_makeup_through_the_cache(
     r.set_layers([LayerInput(lay.material, np.zeros_like(lay.thickness)) for lay in inputs(doc)])
     zeros = settled(r)
     assert r.lighting.full_updates > 0
-    assert_de2000_close(bare, zeros, mask, 0.5, "zero-layers-vs-bare")
+    assert_images_close(bare, zeros, **CACHE_DE, mask=mask, name="zero-layers-vs-bare")
     r.set_layers(inputs(doc))
 
 
@@ -215,8 +223,7 @@ def test_irradiance_bound_holds_the_cache_s_irradiance(renderer: Renderer, doc: 
         r.set_environment(None)
 
 
-def test_level_follows_the_frame_s_texel_density(gl_ctx: Any, doc: Any,
-                                                 assert_de2000_close: Callable[..., float]) -> None:
+def test_level_follows_the_frame_s_texel_density(gl_ctx: Any, doc: Any) -> None:
     """2048² maps over a 1024² albedo: minified frames fetch the half-side level (never below the albedo's
     texels), close-ups level 0; a dab reaches the level that is not in use when it is used again."""
     from painting.tiles import TILE
@@ -234,7 +241,7 @@ def test_level_follows_the_frame_s_texel_density(gl_ctx: Any, doc: Any,
         r.settings.lighting_cache = False
         direct = r.render_image(SIZE)
         r.settings.lighting_cache = True
-        assert_de2000_close(cached, direct, mask, 0.5, "level1-vs-direct")
+        assert_images_close(cached, direct, **CACHE_DE, mask=mask, name="level1-vs-direct")
         # a dab while level 1 is in use, then a close-up: level 0 is made whole once, then takes dabs as tiles
         r.camera.distance *= 0.3
         r.render_image((1280, 960))

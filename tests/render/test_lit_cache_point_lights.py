@@ -14,9 +14,11 @@ from render.km_pass import LayerInput
 from render.lights import Light
 from render.lit_cache import MAX_8BIT_RANGE, irradiance_bound, irradiance_range
 from render.renderer import Renderer
+from tests.imaging import assert_images_close
+from tests.render.test_lit_cache import CACHE_DE
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Iterator
 
 pytestmark = pytest.mark.gl
 SIZE = (480, 360)
@@ -54,7 +56,7 @@ def test_range_is_one_without_point_lights_and_large_with_one_inside(renderer: R
     ("an arm's length away", (3.0, 2.0, 9.0)),
 ])
 def test_cached_frames_match_direct_ones_with_a_point_light(
-        renderer: Renderer, gl_ctx: Any, assert_de2000_close: Callable[..., float],
+        renderer: Renderer, gl_ctx: Any,
         where: str, position: tuple[float, float, float]) -> None:
     r = renderer
     r.lights = [KEY, Light.point(position, 1.0, reference_distance=8.0)]
@@ -70,6 +72,6 @@ def test_cached_frames_match_direct_ones_with_a_point_light(
         r.settings.lighting_cache = True
     m_cached, m_direct = cached[..., :3][mask].mean(), direct[..., :3][mask].mean()
     assert abs(m_cached - m_direct) < 1.0, f"{where}: skin mean {m_cached:.1f} cached, {m_direct:.1f} direct"
-    assert_de2000_close(cached, direct, mask, 0.5, f"point-light-{where}")
+    assert_images_close(cached, direct, **CACHE_DE, mask=mask, name=f"point-light-{where}")
     wide = irradiance_range(r.lights, None, r.gpu_head.vertices) > MAX_8BIT_RANGE
     assert r.lighting.wide == wide

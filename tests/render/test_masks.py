@@ -62,7 +62,7 @@ def test_mask_multiplies_the_uploaded_thickness_and_follows_edits(doc: Any, rend
             doc.undo()
         assert not lay.has_mask
         binding.flush()
-        np.testing.assert_array_equal(_uploaded(renderer, 0), full)
+        np.testing.assert_array_equal(_uploaded(renderer, 0), full)  # float texels uploaded and read back
     finally:
         binding.close()
         doc.remove_layer(lay)

@@ -136,9 +136,11 @@ def test_mirror_without_makeup_is_the_photograph(captured: Captured, gl_ctx: Any
     finally:
         mv.release()
     assert bare.shape == captured.photo8.shape
+    # exactly determined: the photograph's 8-bit texels copied to 8-bit pixels (texelFetch; an 8-bit value
+    # through float and back is itself on any GPU), and nothing drawn over them: a layer of zero thickness
+    # holds no tile of makeup, so no triangle of the face is drawn (MirrorView._triangles_with_makeup)
     assert np.array_equal(bare, captured.photo8)
     assert _de(composited, captured.photo8, captured.skin) <= MIRROR_BARE_DE
-    # measured: byte for byte over the whole frame (÷ the shading, × it again, through the sRGB round trip)
     assert np.array_equal(composited, captured.photo8)
     assert np.array_equal(before, captured.photo8)  # the before/after switch
 

@@ -53,7 +53,8 @@ def test_mirror_bare_is_the_photograph_and_lipstick_changes_the_mouth(face_dir: 
     photo = np.asarray(Image.open(face_dir / "photo.png"))
     code, bare, err = _render("--face", str(face_dir), "--view", "mirror", "--out", str(tmp_path / "a.png"))
     assert code == 0, err
-    assert bare is not None and np.array_equal(bare, photo)  # face.json's photo, its own size
+    # face.json's photo, its own size: its 8-bit texels copied to 8-bit pixels, exactly determined
+    assert bare is not None and np.array_equal(bare, photo)
     code, lips, err = _render("--face", str(face_dir), "--view", "mirror", "--look", "red-lip",
                               "--photo", str(face_dir / "photo.png"), "--out", str(tmp_path / "b.png"))
     assert code == 0, err
@@ -136,6 +137,8 @@ def test_a_document_binding_drives_both_views_and_a_product_swap(face_dir: Path,
         fresh = MirrorView(gl_ctx, head, face, photo)  # type: ignore[arg-type]
         try:
             fresh.set_layers(layer_inputs(doc))
+            # exactly determined: the swap re-read every layer (DocumentBinding.flush's full evaluation), so
+            # both views run the same programs on the same inputs (GL 4.5 appendix A, rule 4)
             assert np.array_equal(fresh.render_image(), swapped)
         finally:
             fresh.release()

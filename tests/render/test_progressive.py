@@ -10,9 +10,10 @@ import pytest
 
 from core.errors import SheerError
 from render.progressive import MIN_SCALE, SCALE_STEP, AdaptiveScale, scaled_size
+from tests.imaging import assert_images_close
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Iterator
 
     from render.view import ViewRenderer
 
@@ -102,8 +103,7 @@ def frame(ctx: Any, v: ViewRenderer, size: tuple[int, int], *, interactive: bool
     return np.ascontiguousarray(img)
 
 
-def test_interactive_frame_close_to_settled(view: ViewRenderer, gl_ctx: Any,
-                                            assert_de2000_close: Callable[..., float]) -> None:
+def test_interactive_frame_close_to_settled(view: ViewRenderer, gl_ctx: Any) -> None:
     size = (640, 480)
     settled = frame(gl_ctx, view, size, interactive=False)
     assert view.scale == 1.0 and not view.interactive
@@ -111,7 +111,8 @@ def test_interactive_frame_close_to_settled(view: ViewRenderer, gl_ctx: Any,
     inter = frame(gl_ctx, view, size, interactive=True, scale=0.5)
     assert view.interactive and view.scale == pytest.approx(0.5)
     assert tuple(view.r.last.size) == (320, 240), "the interactive frame runs at its reduced size"
-    assert_de2000_close(settled, inter, mask, 2.0, "interactive-vs-settled")
+    # half the resolution, upscaled: measured on llvmpipe ΔE2000 mean 1.0 and p99 8.5 on skin (the edges)
+    assert_images_close(settled, inter, de_mean=2.0, de_p99=15.0, mask=mask, name="interactive-vs-settled")
 
 
 def test_a_dab_shows_in_the_next_interactive_frame(view: ViewRenderer, gl_ctx: Any) -> None:
@@ -145,12 +146,13 @@ def test_interactive_frames_stay_inside_their_viewport(view: ViewRenderer, gl_ct
     h = size[1]
     top = img[:pad]  # rows above the viewport (the target is read top row first; the view sits bottom-left)
     right = img[:, size[0]:]
-    for part in (top, right):
+    for part in (top, right):  # the clear's exact 8-bit values (1.0 and 0.0), which nothing drew over
         assert (part == [255, 0, 255]).all(), "an interactive frame wrote outside its viewport"
     view_px = img[pad:pad + h, :size[0]]
     assert not (view_px == [255, 0, 255]).all(axis=-1).any(), "the viewport was not covered"
     # the bare skin left of the split, the made-up face right of it: the divider is at the split
     col = int(split * size[0])
+    # the divider is a scissored clear to 1.0 over whole columns: exactly 255
     assert (view_px[:, max(col - 1, 0):col + 1] == 255).all(), "the divider is not at the split"
 
 

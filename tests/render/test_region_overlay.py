@@ -50,7 +50,8 @@ def test_outlines_follow_the_shown_regions(doc: Any, renderer: Renderer, target:
     try:
         bare = _frame_with(renderer, target, None)
         overlay.set_regions({})
-        assert np.array_equal(_frame_with(renderer, target, overlay), bare)  # nothing shown, nothing drawn
+        # nothing shown, nothing drawn: the same frame again, exactly determined (GL 4.5 appendix A, rule 4)
+        assert np.array_equal(_frame_with(renderer, target, overlay), bare)
         regions = {n: doc.regions.get(n).mask for n in ("lips", "lash_line")}
         overlay.set_regions(regions)
         shown = _frame_with(renderer, target, overlay)
