@@ -31,6 +31,7 @@ def _run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str]:
     return code, err
 
 
+@pytest.mark.gl
 def test_renders_a_png_headless(tmp_path: Path, capsys: pytest.CaptureFixture[str], gl_ctx: object) -> None:
     out = tmp_path / "bare.png"
     code, err = _run(capsys, "--size", "160x120", "--light", "30,20,1.5", "--env", "studio", "--out", str(out))
@@ -134,6 +135,7 @@ def test_every_builtin_look_loads() -> None:
             lib.get(layer.material)
 
 
+@pytest.mark.gl
 def test_renders_a_project(tmp_path: Path, capsys: pytest.CaptureFixture[str], gl_ctx: object) -> None:
     from painting import Document
     from painting.looks import apply_look
@@ -153,6 +155,7 @@ def test_renders_a_project(tmp_path: Path, capsys: pytest.CaptureFixture[str], g
     assert code == 2 and "missing.sheer" in err
 
 
+@pytest.mark.gl
 def test_thickness_view_names_a_document_layer(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                                gl_ctx: object) -> None:
     """--debug-layer counts the document's layers, hidden ones too: with the foundation (layer 0) hidden,

@@ -103,6 +103,7 @@ def frame(ctx: Any, v: ViewRenderer, size: tuple[int, int], *, interactive: bool
     return np.ascontiguousarray(img)
 
 
+@pytest.mark.gl
 def test_interactive_frame_close_to_settled(view: ViewRenderer, gl_ctx: Any) -> None:
     size = (640, 480)
     settled = frame(gl_ctx, view, size, interactive=False)
@@ -115,6 +116,7 @@ def test_interactive_frame_close_to_settled(view: ViewRenderer, gl_ctx: Any) -> 
     assert_images_close(settled, inter, de_mean=2.0, de_p99=15.0, mask=mask, name="interactive-vs-settled")
 
 
+@pytest.mark.gl
 def test_a_dab_shows_in_the_next_interactive_frame(view: ViewRenderer, gl_ctx: Any) -> None:
     from painting.brush import Brush
     from render.binding import DocumentBinding
@@ -139,6 +141,7 @@ def test_a_dab_shows_in_the_next_interactive_frame(view: ViewRenderer, gl_ctx: A
     assert d.max() > 8, "the dab is not in the next interactive frame at its pixel"
 
 
+@pytest.mark.gl
 @pytest.mark.parametrize("split", [0.1, 0.5, 0.9])
 def test_interactive_frames_stay_inside_their_viewport(view: ViewRenderer, gl_ctx: Any, split: float) -> None:
     size, pad = (400, 300), 37
@@ -156,6 +159,7 @@ def test_interactive_frames_stay_inside_their_viewport(view: ViewRenderer, gl_ct
     assert (view_px[:, max(col - 1, 0):col + 1] == 255).all(), "the divider is not at the split"
 
 
+@pytest.mark.gl
 @pytest.mark.parametrize("size", [(1, 1), (3, 2), (7680, 4320)])
 def test_odd_sizes_do_not_break_interactive_frames(view: ViewRenderer, gl_ctx: Any, size: tuple[int, int]) -> None:
     scale = MIN_SCALE if size[0] > 4000 else 0.5
@@ -164,6 +168,7 @@ def test_odd_sizes_do_not_break_interactive_frames(view: ViewRenderer, gl_ctx: A
     assert view.r.last.size == scaled_size(size, scale)
 
 
+@pytest.mark.gl
 @pytest.mark.parametrize("distance", [0.05, 1e4])
 def test_zoom_extremes(view: ViewRenderer, gl_ctx: Any, distance: float) -> None:
     import copy
@@ -178,6 +183,7 @@ def test_zoom_extremes(view: ViewRenderer, gl_ctx: Any, distance: float) -> None
     assert img.shape == (240, 320, 3)
 
 
+@pytest.mark.gl
 def test_eight_shadowed_lights_and_a_map_covering_every_texel(view: ViewRenderer, gl_ctx: Any) -> None:
     from render.binding import layer_inputs
     from render.lights import Light
@@ -198,6 +204,7 @@ def test_eight_shadowed_lights_and_a_map_covering_every_texel(view: ViewRenderer
         view.r.set_layers(layer_inputs(doc, None))
 
 
+@pytest.mark.gl
 def test_a_light_drag_relights_at_half_resolution_until_the_view_settles(view: ViewRenderer, gl_ctx: Any) -> None:
     from render.lights import Light
 
