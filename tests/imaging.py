@@ -10,10 +10,11 @@ these helpers, with bounds set from what llvmpipe measures and what another GPU 
   programs (or two variants of one) need not round their float maths alike: frames that are "the same"
   by construction may differ by one 8-bit level on a few pixels (:func:`max_level_difference`).
 - GL requires only 4 sub-pixel bits: edges may move by up to 1/32 pixel. The sample head's frames with
-  the projection shifted by 1/32 pixel in x and y differ from llvmpipe's by ΔE2000 mean 0.12–0.13 and
-  p99 1.1–1.3 over the whole 320×240 frame (tests/render/test_frame.py's references).
-- Half-float targets may be written rounded to nearest or truncated (llvmpipe truncates); sub-texel
-  filtering weights may have 8 fractional bits.
+  the projection shifted by 1/32 pixel in x and y differ from the stored references by ΔE2000 mean
+  0.12–0.13 and p99 1.1–1.3 over the whole 320×240 frame (tests/render/test_frame.py).
+- Half-float targets may be written rounded to nearest or truncated (llvmpipe truncates, as D3D's
+  float-to-float conversions do); sub-texel filtering weights may have only 8 fractional bits (D3D11's
+  minimum), where llvmpipe filters half floats with float weights.
 
 One 8-bit level in one channel is ΔE2000 0.4–0.7 at the median head pixel and at most 1.1
 (:data:`ONE_LEVEL_DE`); a just noticeable difference is about 1.
