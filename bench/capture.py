@@ -73,8 +73,7 @@ def spot_core_deg(diameter_deg: float, gain: float = 50.0) -> float:
 def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PROBE_SIZES,
                      max_angle_deg: float = 15.0) -> dict[str, Any]:
     """Analyse ``placements`` random probes (see the module docstring); the figures as a dict."""
-    from capture.probe import ProbeError, analyse_probe, flash_reflection, probe_environment
-    from capture.synthetic import (
+    from bench.capture_synthetic import (
         DIM_ROOM,
         FLASH_RGB,
         as_photographed,
@@ -82,6 +81,7 @@ def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PR
         read_env,
         validation_camera,
     )
+    from capture.probe import ProbeError, analyse_probe, flash_reflection, probe_environment
     from core.assets import find_asset
 
     rng = np.random.default_rng(seed)

@@ -166,8 +166,8 @@ def compare_camera(truth_head: Any, true_cam: Any, face: Any) -> tuple[dict[str,
 
 def focal_photo(ctx: Any, head: Any, texture: np.ndarray, camera: Any) -> np.ndarray:
     """The sample head through ``camera`` drawn on the GPU (uint8 sRGB): flash 4° above the lens, shadows."""
+    from bench.capture_synthetic import DIM_ROOM, FLASH_RGB, light_from_camera
     from bench.capture_truth import SKIN, render_photo
-    from capture.synthetic import DIM_ROOM, FLASH_RGB, light_from_camera
 
     light = light_from_camera(camera, 4.0, 0.0)
     return render_photo(ctx, head, texture, camera, np.asarray(SKIN), specular=FOCAL_SPECULAR,

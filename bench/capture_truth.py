@@ -10,7 +10,7 @@ its own GLSL Phong, written for this test, per fragment (the vertex stage is the
 and highlight edges come out partial, unlike the CPU model's one sample at the pixel centre), then
 clipped and quantised to 8-bit sRGB like a camera.
 
-The model drawn is the paper's dichromatic one (§4.2), as :mod:`capture.synthetic`'s:
+The model drawn is the paper's dichromatic one (§4.2), as :mod:`bench.capture_synthetic`'s:
 
     I = clip(D ⊙ t ⊙ (A(n) + F·max(n·l, 0)) + i_s·F·max(r·v, 0)^s),   r = 2(n·l)n − l
 
@@ -486,8 +486,8 @@ def case_camera(head: Head, case: Case, size: int = 512) -> Camera:
     vertical, with the validation's framing (6.4° vertical field at 2362.5 mm, scaled with the
     distance); the validation's own camera for the sample and coarse heads at yaw 0 and that distance.
     """
+    from bench.capture_synthetic import validation_camera
     from capture.camera import look_at
-    from capture.synthetic import validation_camera
 
     if case.head != "canonical" and case.yaw_deg == 0.0 and case.distance_mm == 2362.5:
         return validation_camera(size)
@@ -555,9 +555,7 @@ class Scene:
 
 def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
     """Draw ``case``'s photograph on the GPU and its probe (see :class:`Case`)."""
-    from capture.mask import landmark_region
-    from capture.probe import synthetic_probe
-    from capture.synthetic import (
+    from bench.capture_synthetic import (
         DIM_ROOM,
         FLASH_RGB,
         as_photographed,
@@ -565,6 +563,8 @@ def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
         light_from_camera,
         read_env,
     )
+    from capture.mask import landmark_region
+    from capture.probe import synthetic_probe
     from core.assets import find_asset
 
     head, texture = case_head(case.head)

@@ -1,6 +1,6 @@
 """The mirror and relight views' frame times (issue 15), for ``sheer bench capture --json``.
 
-:func:`measure` captures the synthetic ground-truth photograph of the sample head (capture/synthetic.py,
+:func:`measure` captures the synthetic ground-truth photograph of the sample head (bench/capture_synthetic.py,
 512², the validation's camera), then times, at the photograph's size and interleaved with the physical
 renderer's baseline (:meth:`render.renderer.Renderer.render_baseline`: same mesh and albedo, one Lambert
 light, no post-processing) drawn at that size:
@@ -29,11 +29,11 @@ from typing import Any
 
 def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
     """The views' figures (see the module docstring); ``quick``: 3 frames and a 512² detail texture."""
+    from bench.capture_synthetic import make_scene, read_env
     from bench.lightweight import _interleaved_ms
     from capture.face import Face
     from capture.pipeline import capture, linear_to_srgb8
     from capture.probe import analyse_probe
-    from capture.synthetic import make_scene, read_env
     from core.assets import find_asset
     from km import default_library
     from painting import Document

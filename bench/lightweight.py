@@ -53,9 +53,9 @@ def _interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``sheer bench lightweight`` with the options ``argv`` and print its JSON object; returns 0."""
+    from bench.capture_synthetic import make_scene, read_env
     from capture.pipeline import capture
     from capture.probe import analyse_probe
-    from capture.synthetic import make_scene, read_env
     from core.assets import find_asset
     from painting.head import load_head
     from render.context import standalone_context

@@ -1,12 +1,12 @@
 """``sheer bench shade --json``: how long the shade finder takes.
 
-- ``match_ms``: :func:`km.shade.match_shades` on one skin for every foundation of the library (best
+- ``match_ms``: :func:`shade.match.match_shades` on one skin for every foundation of the library (best
   thickness of each, ΔE2000 under D65, the metamerism check under D65 / F11 / A), over ``--skins``
   skins fitted from colours across the model's range (the fits are not timed here).
 - ``fit_ms``: :func:`km.skin.fit_skin` of one colour (the skin model's least squares).
 - ``match_ms_large``: the same match for a library of ``--large`` foundations (Duncan mixtures of the
   default ones), to show how it scales.
-- ``coverage_s``: :func:`km.shade_coverage.coverage` of ``--population`` skins (1,000 by default),
+- ``coverage_s``: :func:`shade.coverage.coverage` of ``--population`` skins (1,000 by default),
   including the gap shade's optimisation, over ``--repeats`` runs.
 
 Every median comes with its ``_p90`` and ``_max``; the machine's load average is reported. One warm-up
@@ -26,9 +26,9 @@ import numpy as np
 from bench.stats import spread
 from km.library import default_library
 from km.optics import mix
-from km.shade import ShadeBank, foundations, match_shades
-from km.shade_coverage import coverage
 from km.skin import fit_skin, lab_of, skin_reflectance
+from shade.coverage import coverage
+from shade.match import ShadeBank, foundations, match_shades
 
 __all__ = ["main"]
 

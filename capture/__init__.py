@@ -19,5 +19,5 @@ come from :mod:`painting.raster`'s CPU rasteriser. pyproject.toml's import-linte
 - :mod:`capture.pipeline`: the whole capture and the detail texture.
 - :mod:`capture.face`: the face folder (face.json, detail.exr, report.png) written and read back.
 - :mod:`capture.lod`: coarse heads by quadric decimation, detail re-baked.
-- :mod:`capture.synthetic`: synthetic ground truth for validation.
+- the synthetic ground truth the capture is validated on lives in :mod:`bench.capture_synthetic`.
 """

@@ -41,18 +41,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .pipeline import CaptureError
+from capture.errors import CaptureError
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from capture.camera import Camera
+    from capture.face import Face
+    from capture.landmarks import FaceLandmarks
+    from capture.pipeline import PixelData
+    from capture.probe import ProbeAnalysis
     from painting.head import Head
-
-    from .camera import Camera
-    from .face import Face
-    from .landmarks import FaceLandmarks
-    from .pipeline import PixelData
-    from .probe import ProbeAnalysis
 
 #: Photographs with a longer side than this (pixels) are downscaled to it before the capture (the face
 #: needs ≥ 30 % of the frame's height, so ≥ 480 px of face at this size; more costs time, not accuracy).
@@ -125,7 +124,7 @@ def prepare_photo(photo_srgb8: np.ndarray, source: str = "photo") -> tuple[np.nd
     Returns the image and the downscale record for face.json (None when kept as it is). Grey content in an
     RGB array (every pixel R = G = B) is refused like a grey-scale file.
     """
-    from .landmarks import check_photo_array
+    from capture.landmarks import check_photo_array
 
     arr = check_photo_array(photo_srgb8)
     step = max(1, arr.shape[0] // 256)
@@ -159,7 +158,7 @@ def fit_face_size(photo_srgb8: np.ndarray, face: FaceLandmarks,
     (the face spans ≈ 700 of its 1024 texels) gains nothing. Returns the image, the landmarks scaled with
     it, and the downscale record (the earlier one, ``downscale``, composed with this one).
     """
-    from .landmarks import FaceLandmarks
+    from capture.landmarks import FaceLandmarks
 
     x0, y0, x1, y1 = face.box()
     if y1 - y0 <= MAX_FACE_PX:
@@ -181,7 +180,7 @@ def correspondences(face: FaceLandmarks, head: Head, person: bool) -> tuple[np.n
     The person's own head: face-mesh vertices ↔ their detected points (every third and the standard ones). A given head: the standard
     landmarks its sidecar names (:class:`CaptureError` with fewer than :data:`MIN_CORRESPONDENCES`).
     """
-    from .landmarks import N_MESH, STANDARD_LANDMARKS
+    from capture.landmarks import N_MESH, STANDARD_LANDMARKS
 
     if person:
         # every third vertex and the standard landmarks' (the fit's cost grows with the points; 3× fewer
@@ -203,17 +202,15 @@ def region_skin_mask(head: Head, camera: Camera, photo_lin: np.ndarray, pix: Pix
     The canonical topology's ``skin`` region (≥ 0.5) on the head's pixels facing the camera (n·v > 0.25),
     refined by the skin-hue model.
     """
+    from capture.mask import refine_by_skin_colour
+    from capture.pipeline import sample_texture
     from painting.regions import decode_regions, regions_file
-
-    from .mask import refine_by_skin_colour
-    from .pipeline import sample_texture
 
     sidecar = head.path.with_name(head.path.name + ".sheer-head.json")
     blob = regions_file(sidecar).read_bytes() if regions_file(sidecar).is_file() else None
     if blob is None:
+        from capture.person import CANONICAL_REGIONS
         from core.assets import resource_path
-
-        from .person import CANONICAL_REGIONS
 
         blob = resource_path("heads", CANONICAL_REGIONS).read_bytes()
     skin = decode_regions(blob, "canonical face regions").get("skin").mask
@@ -234,7 +231,7 @@ def photo_focal(photo: str | Path | np.ndarray, focal_mm: float | None, size: tu
     height) in either order). Returns (F35 or None, "focal_mm" | "exif" | "prior", notes): an unusable
     EXIF tag gives a note (and a progress line) and the prior.
     """
-    from .exif import exif_focal_px, focal_35mm_from_px, focal_px_from_35mm
+    from capture.exif import exif_focal_px, focal_35mm_from_px, focal_px_from_35mm
 
     if focal_mm is not None:
         focal_px_from_35mm(focal_mm, 1, 1)  # the range check's one-line error
@@ -279,8 +276,8 @@ def warm_up() -> None:
     import OpenEXR  # noqa: F401  (the face folder's detail texture)
     import scipy.optimize  # noqa: F401  (the camera's refinement, the Phong fit)
 
-    from .landmarks import _get_detector
-    from .person import canonical_topology
+    from capture.landmarks import _get_detector
+    from capture.person import canonical_topology
 
     _get_detector()
     canonical_topology()
@@ -313,17 +310,16 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         CaptureError: an unreadable photograph or probe, an unusable output folder, a head without
             enough landmarks, a capture that cannot proceed (nothing written).
     """
+    from capture.camera import calibrate
+    from capture.exif import focal_35mm_from_px, focal_px_from_35mm
+    from capture.face import face_albedo, load_face, write_face
+    from capture.landmarks import detect_faces
+    from capture.person import HEAD_FILE, PORTRAIT_FOCAL, person_head, write_person_head
+    from capture.pipeline import capture, pixel_data
+    from capture.probe import analyse_probe
+    from capture.quality import QualityError, assess, eyes_open
     from km.srgb import srgb_decode
     from painting.head import load_head
-
-    from .camera import calibrate
-    from .exif import focal_35mm_from_px, focal_px_from_35mm
-    from .face import face_albedo, load_face, write_face
-    from .landmarks import detect_faces
-    from .person import HEAD_FILE, PORTRAIT_FOCAL, person_head, write_person_head
-    from .pipeline import capture, pixel_data
-    from .probe import analyse_probe
-    from .quality import QualityError, assess, eyes_open
 
     if not 16 <= int(texture_size) <= 8192:
         raise CaptureError(f"texture_size must be between 16 and 8192, got {texture_size}")
@@ -417,7 +413,7 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     try:
         tmp.mkdir()
         if person:
-            from .face import Face as FaceRecord
+            from capture.face import Face as FaceRecord
 
             albedo = face_albedo(FaceRecord(params=result.params, detail=result.detail, data={}))
             write_person_head(the_head, tmp, albedo)

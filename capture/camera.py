@@ -34,9 +34,8 @@ import scipy.linalg
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+from capture.raster import GBuffer, rasterize
 from core.errors import SheerError
-
-from .raster import GBuffer, rasterize
 
 
 class CameraError(SheerError, ValueError):

@@ -81,13 +81,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .covariance import cluster_covariance
+from capture.covariance import cluster_covariance
 
 if TYPE_CHECKING:
+    from capture.camera import Camera
+    from capture.pose import Surface
     from painting.head import Head
-
-    from .camera import Camera
-    from .pose import Surface
 
 #: Where a sample is checked against the rasterisation: the surface seen this far inside the predicted
 #: edge (pixels) must be the contour's own, and beyond it the background or a farther surface.

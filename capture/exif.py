@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from .pipeline import CaptureError
+from capture.errors import CaptureError
 
 if TYPE_CHECKING:
     from collections.abc import Callable

@@ -26,15 +26,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .phong import PhongParams, delta_e2000
-from .pipeline import DETAIL_DOUBLINGS, UNSEEN_FADE_MM, CaptureError, linear_to_srgb8, to_uint8
+from capture.errors import CaptureError
+from capture.phong import PhongParams, delta_e2000
+from capture.pipeline import DETAIL_DOUBLINGS, UNSEEN_FADE_MM, linear_to_srgb8, to_uint8
 
 if TYPE_CHECKING:
+    from capture.camera import Camera
+    from capture.landmarks import FaceLandmarks
+    from capture.pipeline import CaptureResult
     from painting.head import Head
-
-    from .camera import Camera
-    from .landmarks import FaceLandmarks
-    from .pipeline import CaptureResult
 
 #: face.json's ``schema_version``.
 FACE_SCHEMA_VERSION = 1
@@ -238,7 +238,7 @@ class Face:
 
     def landmarks(self) -> FaceLandmarks | None:
         """The detected landmarks of an automatic capture (face.json ``landmarks``, pixels of photo.png), or None."""
-        from .landmarks import FaceLandmarks
+        from capture.landmarks import FaceLandmarks
 
         lm = self.data.get("landmarks")
         if not isinstance(lm, dict) or "points_px" not in lm:
@@ -248,7 +248,7 @@ class Face:
 
     def camera(self) -> Camera:
         """The photograph's camera (face.json ``camera``: K, R, t in the head's mesh units, the photo's size)."""
-        from .camera import Camera
+        from capture.camera import Camera
 
         c = self.data["camera"]
         return Camera(K=np.asarray(c["K"], float), R=np.asarray(c["R"], float), t=np.asarray(c["t"], float),

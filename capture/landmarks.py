@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from .pipeline import CaptureError
+from capture.errors import CaptureError
 
 #: Points per face: the 468-point face mesh, then the right iris (468 centre, 469–472 rim) and the
 #: left iris (473 centre, 474–477 rim), subject's sides.

@@ -35,10 +35,10 @@ from scipy import ndimage
 from scipy.optimize import least_squares, minimize_scalar
 from scipy.spatial.transform import Rotation
 
-from .covariance import cluster_covariance
-from .phong import Geometry, PhongParams
-from .pixel_lobe import integrated_lobe
-from .reflectance import MAX_EXPONENT
+from capture.covariance import cluster_covariance
+from capture.phong import Geometry, PhongParams
+from capture.pixel_lobe import integrated_lobe
+from capture.reflectance import MAX_EXPONENT
 
 #: The high-pass scale of :func:`specular_from_detail`, photograph pixels. The narrowest Gaussian whose
 #: variance (4 px²) is 50 times a pixel's own (a photograph integrates over its pixel, a box of variance

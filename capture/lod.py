@@ -19,9 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy import ndimage
 
+from capture.raster import rasterize_uv
 from core.errors import SheerError
-
-from .raster import rasterize_uv
 
 if TYPE_CHECKING:
     from painting.head import Head
@@ -204,7 +203,7 @@ def rebake_detail(fine: Head, coarse: Head, detail: np.ndarray, size: int | None
     """
     import trimesh
 
-    from .pipeline import sample_texture
+    from capture.pipeline import sample_texture
 
     size = int(size or detail.shape[0])
     gb = rasterize_uv(coarse.uv, coarse.faces, (size, size))

@@ -19,7 +19,7 @@ from core.errors import SheerError
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from .camera import Camera
+    from capture.camera import Camera
 
 
 class MaskError(SheerError, ValueError):

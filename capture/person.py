@@ -39,7 +39,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from .landmarks import N_MESH, STANDARD_LANDMARKS, FaceLandmarks
+from capture.landmarks import N_MESH, STANDARD_LANDMARKS, FaceLandmarks
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -86,7 +86,7 @@ def canonical_topology() -> Topology:
 
         v, f, uv, _ = load_mesh_arrays(find_asset(CANONICAL_FACE))
         if len(v) != N_MESH:
-            from .pipeline import CaptureError
+            from capture.errors import CaptureError
 
             raise CaptureError(f"{CANONICAL_FACE}: expected {N_MESH} vertices, got {len(v)}")
         _topology = Topology(vertices=v, faces=f, uv=uv)

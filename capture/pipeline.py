@@ -14,14 +14,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy import ndimage
 
-from core.errors import SheerError
-from km.srgb import srgb_decode, srgb_encode
-
-from .ambient import ambient_per_normal
-from .contour import contour_turn
-from .lobe import DetailSpecular, specular_from_detail
-from .mask import landmark_region, refine_by_skin_colour
-from .phong import (
+from capture.ambient import ambient_per_normal
+from capture.contour import contour_turn
+from capture.errors import CaptureError
+from capture.lobe import DetailSpecular, specular_from_detail
+from capture.mask import landmark_region, refine_by_skin_colour
+from capture.phong import (
     FitResult,
     Geometry,
     PhongParams,
@@ -30,19 +28,19 @@ from .phong import (
     photo_ambient_scale,
     shade,
 )
-from .pose import PoseRefinement, Surface, image_similarity_covariance, pinned, refine_rotation
-from .raster import rasterize_uv
-from .reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
-from .shadow import flash_shadow
+from capture.pose import PoseRefinement, Surface, image_similarity_covariance, pinned, refine_rotation
+from capture.raster import rasterize_uv
+from capture.reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
+from capture.shadow import flash_shadow
+from km.srgb import srgb_decode, srgb_encode
 
 if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
+    from capture.camera import Camera
+    from capture.probe import ProbeAnalysis
     from painting.head import Head
-
-    from .camera import Camera
-    from .probe import ProbeAnalysis
 
 #: The detail texture's range is [0, 2**DETAIL_DOUBLINGS].
 DETAIL_DOUBLINGS = 3
@@ -56,10 +54,6 @@ FLASH_HUE_SPREAD_WARN = 0.015
 SHADED_FLOOR = 1e-3
 
 
-
-
-class CaptureError(SheerError, ValueError):
-    """A capture that cannot proceed (the head is not in the photo, no skin, …)."""
 
 
 def to_uint8(values: np.ndarray) -> np.ndarray:
@@ -361,7 +355,7 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
 
     rob = None
     if robustness_starts > 0:
-        from .phong import robustness
+        from capture.phong import robustness
 
         t = time.perf_counter()
         rob = robustness(colours, geo, exp_est.s, flash_rgb, ambient_rgb, starts=robustness_starts)

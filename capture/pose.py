@@ -64,12 +64,12 @@ import numpy as np
 from scipy import ndimage
 from scipy.optimize import least_squares
 
-from .covariance import cluster_covariance
-from .lobe import LobeHighPass
-from .phong import Geometry, PhongParams
+from capture.covariance import cluster_covariance
+from capture.lobe import LobeHighPass
+from capture.phong import Geometry, PhongParams
 
 if TYPE_CHECKING:
-    from .camera import Camera
+    from capture.camera import Camera
 
 #: The largest turn the refinement may make, degrees: four of the landmarks' standard deviations at
 #: their loosest (1.5°, the validation's framing with the head turned 30°). The photograph's own turn

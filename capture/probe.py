@@ -26,9 +26,8 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
+from capture.ambient import ball_reflections, probe_irradiance_sh
 from core.errors import SheerError
-
-from .ambient import ball_reflections, probe_irradiance_sh
 
 #: Rec. 709 / sRGB luminance weights of linear RGB.
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])

@@ -32,10 +32,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .pipeline import CaptureError
+from capture.errors import CaptureError
 
 if TYPE_CHECKING:
-    from .landmarks import FaceLandmarks
+    from capture.landmarks import FaceLandmarks
 
 #: Every threshold of the gate (units in the names; "ratio" = dimensionless).
 THRESHOLDS: dict[str, float] = {
@@ -177,9 +177,8 @@ def assess(photo_srgb8: np.ndarray, faces: list[FaceLandmarks], allow_closed_eye
             ``--focal-mm``), so the pose is read as the person's head is built from it
             (:func:`capture.person.head_pose`); None: the portrait-lens prior.
     """
+    from capture.person import head_pose
     from km.srgb import srgb_decode
-
-    from .person import head_pose
 
     rep = QualityReport(allow_closed_eyes=allow_closed_eyes)
     rep.measured["faces"] = float(len(faces))

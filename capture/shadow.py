@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .phong import Geometry, PhongParams, shade
+from capture.phong import Geometry, PhongParams, shade
 
 if TYPE_CHECKING:
     from painting.head import Head

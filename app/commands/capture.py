@@ -93,9 +93,10 @@ def run(args: argparse.Namespace) -> int:
     """Run ``sheer capture`` with the parsed ``args``; returns the exit status (0, or 2 for bad input)."""
     from capture.auto import AUTO_TEXTURE_SIZE
     from capture.camera import load_camera, load_points
+    from capture.errors import CaptureError
     from capture.face import write_face
     from capture.mask import load_mask
-    from capture.pipeline import CaptureError, capture, read_photo
+    from capture.pipeline import capture, read_photo
     from capture.probe import analyse_probe
     from capture.vignetting import LensFalloff, flat_field
     from painting.head import load_head
@@ -173,7 +174,8 @@ def run(args: argparse.Namespace) -> int:
 def run_auto(args: argparse.Namespace, say: Callable[[str], None]) -> int:
     """The automatic capture (:func:`capture.auto.capture_auto`) for ``args``; returns 0."""
     from capture.auto import capture_auto
-    from capture.pipeline import CaptureError, read_photo
+    from capture.errors import CaptureError
+    from capture.pipeline import read_photo
     from capture.probe import analyse_probe
 
     if args.mask:

@@ -4,11 +4,11 @@
   [--target own|lighter|darker|warmer|cooler|lab:L,a,b|rgb:R,G,B] [--illuminant D65] [--store-light F11|FILE]
   [--top N] [--library PATH] [--json]``: the skin is fitted with the biophysical skin model
   (:mod:`km.skin`), every foundation of the library is put on it at its best thickness
-  (:mod:`km.shade`), and the shades are ranked by ΔE2000 against the target under the illuminant,
+  (:mod:`shade.match`), and the shades are ranked by ΔE2000 against the target under the illuminant,
   with the metamerism check under daylight (D65), the store's light and warm indoor light (A).
 - ``sheer shade coverage [--library PATH] --out coverage.png [--skins N] [--json]``: a population of
   skins, the best shade of the library for each, a plot of the skin-tone plane coloured by that ΔE2000
-  and the mixture of existing shades that would fill the largest gap (:mod:`km.shade_coverage`).
+  and the mixture of existing shades that would fill the largest gap (:mod:`shade.coverage`).
 
 Without ``--library`` Sheer's default library is used. Bad input (a colour the skin model cannot
 produce, a region outside the photograph, no face and no region, a library without foundation…) is
@@ -24,8 +24,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from km.shade_coverage import Coverage
     from km.skin import SkinFit
+    from shade.coverage import Coverage
 
 #: A skin colour further than this (ΔE2000) from every skin the model can make is refused as "not a skin".
 MAX_FIT_DE2000 = 10.0
@@ -91,7 +91,7 @@ def _numbers(text: str, n: int, what: str) -> list[float]:
 
 def _bank(library: Path | None) -> Any:
     from km.library import Library, default_library
-    from km.shade import ShadeBank, foundations
+    from shade.match import ShadeBank, foundations
 
     lib = default_library() if library is None else Library.load(library)
     return ShadeBank.from_materials(foundations(lib))
@@ -132,7 +132,7 @@ def skin_from_args(args: argparse.Namespace) -> tuple[SkinFit, dict[str, Any]]:
                   "note": "the capture's fitted diffuse colour (linear sRGB reflectance)"}
         fit = fit_skin(linear_rgb=diffuse, oxygenation=oxygenation)
     else:
-        from km.skin_photo import skin_from_photo
+        from shade.photo import skin_from_photo
 
         region = None
         if args.region is not None:
@@ -169,7 +169,7 @@ def _to_linear_srgb(encoded: Any, space: str) -> Any:
 
 
 def _lights(args: argparse.Namespace) -> tuple[str, tuple[str, ...]]:
-    from km.shade import DEFAULT_STORE_LIGHT, resolve_light
+    from shade.match import DEFAULT_STORE_LIGHT, resolve_light
 
     main = resolve_light(args.illuminant)
     store = resolve_light(args.store_light or DEFAULT_STORE_LIGHT)
@@ -188,7 +188,7 @@ def _credits() -> list[str]:
 def run_match(args: argparse.Namespace) -> int:
     """Rank the library's foundations on the skin and print a table or JSON; returns 0."""
     from core.errors import SheerError
-    from km.shade import make_target, match_shades
+    from shade.match import make_target, match_shades
 
     if args.top is not None and args.top < 1:
         raise SheerError(f"--top must be at least 1, got {args.top}")
@@ -265,8 +265,8 @@ def plot_coverage(cov: Coverage, out: Path) -> None:
 def run_coverage(args: argparse.Namespace) -> int:
     """Compute the coverage, write the plot, print a summary or JSON; returns 0."""
     from core.errors import SheerError
-    from km.shade import resolve_light
-    from km.shade_coverage import POORLY_SERVED_DE2000, coverage
+    from shade.coverage import POORLY_SERVED_DE2000, coverage
+    from shade.match import resolve_light
 
     if args.out.suffix.lower() != ".png":
         raise SheerError(f"--out must name a .png file (got {args.out})")

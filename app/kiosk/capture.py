@@ -21,8 +21,8 @@ if TYPE_CHECKING:
     from app.session import Session
     from capture.probe import ProbeAnalysis
     from km.library import Library
-    from km.skin_photo import PhotoSkin
     from painting import Document
+    from shade.photo import PhotoSkin
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -139,14 +139,14 @@ def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | N
 
 
 def shopper_skin(face: Any) -> PhotoSkin | None:
-    """Her skin colour read from her photograph (:func:`km.skin_photo.skin_from_photo`), or None.
+    """Her skin colour read from her photograph (:func:`shade.photo.skin_from_photo`), or None.
 
     The region is a band across both cheeks at the height of her ``left_cheek`` / ``right_cheek``
     landmarks (±0.15 of the eyes' distance around them; the luminance percentiles drop the nose's
     highlight and shadows); a ColorChecker in the frame corrects the camera. None when the face folder
     has no photograph or landmarks (the caller then uses the fitted diffuse colour).
     """
-    from km.skin_photo import PhotoError, skin_from_photo
+    from shade.photo import PhotoError, skin_from_photo
 
     photo_path = getattr(face, "photo_path", None)
     try:

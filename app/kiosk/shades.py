@@ -1,10 +1,10 @@
 """The kiosk's "Find my foundation": the three best foundations on the shopper's skin, tap one to wear it.
 
 Her skin is read from her own photograph after "Try it on me" (``skin_source``: the cheeks of her
-photograph, colour-corrected when a ColorChecker is in the frame — :mod:`km.skin_photo`), else the
+photograph, colour-corrected when a ColorChecker is in the frame — :mod:`shade.photo`), else the
 configured captured face's fitted diffuse colour, else the head's albedo (the median of its middle
 third). The reading and the match run in the thread pool (a checker search takes seconds). It is fitted with the skin model and the library's
-foundations ranked on it (:func:`km.shade.match_shades`: own skin as the target, daylight, with the
+foundations ranked on it (:func:`shade.match.match_shades`: own skin as the target, daylight, with the
 metamerism check under the store's light F11 and warm indoor light A). Three touch-sized buttons show
 the shades over her skin; a line says in plain words which of them change under the shop's light.
 Tapping one gives the look's foundation layer that shade. The ``found`` signal names the three, so the
@@ -27,8 +27,8 @@ if TYPE_CHECKING:
 
     from capture.face import Face
     from km.library import Library
-    from km.shade import ShadeMatch
     from painting import Document
+    from shade.match import ShadeMatch
 
 SHOWN = 3
 _PLAIN_LIGHTS = {"D65": "daylight", "F11": "the shop's light", "A": "warm indoor light"}
@@ -124,8 +124,8 @@ class FoundationFinder(QWidget):
             b.hide()
 
         def job(_progress: Any, _cancelled: Any) -> tuple[list[ShadeMatch], bool]:
-            from km.shade import ShadeBank, foundations, match_shades
             from km.skin import fit_skin
+            from shade.match import ShadeBank, foundations, match_shades
 
             fit = fit_skin(linear_rgb=self.skin_rgb())
             bank = ShadeBank.from_materials(foundations(self.library))

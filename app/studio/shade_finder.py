@@ -2,7 +2,7 @@
 
 The skin comes from the head's albedo (the median of its middle third, as the library dock's "over skin"
 swatch) or from a colour typed as sRGB ``R,G,B``; it is fitted with the biophysical skin model
-(:func:`km.skin.fit_skin`) and every foundation is ranked on it (:func:`km.shade.match_shades`): the
+(:func:`km.skin.fit_skin`) and every foundation is ranked on it (:func:`shade.match.match_shades`): the
 table shows each shade's swatch over that skin, its best thickness, ΔE2000 under the chosen light and
 under daylight / the store's light / warm indoor light, and the metamerism warning in plain words.
 "Apply to foundation layer" gives the document's foundation layer (the first layer whose material is
@@ -39,9 +39,9 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from app.session import Session
-    from km.shade import ShadeMatch
-    from km.shade_coverage import Coverage
     from km.skin import SkinFit
+    from shade.coverage import Coverage
+    from shade.match import ShadeMatch
 
 #: choices offered (any CIE name works in the CLI)
 ILLUMINANTS = ("D65", "D50", "A", "F2", "F11")
@@ -173,7 +173,7 @@ class ShadeFinder(QWidget):
     def rematch(self) -> None:
         """Rank the shades again for the current skin, light and target (nothing before a skin is fitted)."""
         from core.errors import SheerError
-        from km.shade import ShadeBank, foundations, make_target, match_shades
+        from shade.match import ShadeBank, foundations, make_target, match_shades
 
         if self.fit is None:
             return
@@ -290,8 +290,8 @@ class ShadeFinder(QWidget):
 
     def compute_coverage(self, skins: int = COVERAGE_SKINS, illuminant: str = "D65") -> Coverage:
         """The coverage of the library's foundations over ``skins`` skins (any thread; no widget touched)."""
-        from km.shade import ShadeBank, foundations
-        from km.shade_coverage import coverage
+        from shade.coverage import coverage
+        from shade.match import ShadeBank, foundations
 
         bank = ShadeBank.from_materials(foundations(self.session.library))
         return coverage(bank, skins, illuminant=illuminant)

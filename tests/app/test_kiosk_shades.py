@@ -12,8 +12,8 @@ from app.kiosk.shades import SHOWN, plain_warning
 from app.qt_compat import pin_singletons
 from capture.face import Face
 from capture.phong import PhongParams
-from km.shade import ShadeBank, ShadeMatch, foundations, match_shades
 from km.skin import fit_skin
+from shade.match import ShadeBank, ShadeMatch, foundations, match_shades
 from tests.app.test_kiosk_pin import open_kiosk
 
 if TYPE_CHECKING:

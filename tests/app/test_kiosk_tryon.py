@@ -188,10 +188,10 @@ def test_looks_products_lights_and_before_after_on_her_face(shopper: dict[str, A
 @capturing
 def test_her_foundation_from_her_photograph_on_her_face(shopper: dict[str, Any]) -> None:
     """#17 in the kiosk: "Find my foundation" after "Try it on me" reads her skin from her photograph
-    (her cheeks, km.skin_photo), shows the three best shades on her face, and a tap puts one on."""
-    from km.shade import ShadeBank, foundations, match_shades
+    (her cheeks, shade.photo), shows the three best shades on her face, and a tap puts one on."""
     from km.skin import fit_skin
-    from km.skin_photo import skin_from_photo
+    from shade.match import ShadeBank, foundations, match_shades
+    from shade.photo import skin_from_photo
 
     kiosk, qtbot = shopper["kiosk"], shopper["qtbot"]
     kiosk.set_look("natural")
@@ -201,7 +201,7 @@ def test_her_foundation_from_her_photograph_on_her_face(shopper: dict[str, Any])
     finder.find_button.click()
     qtbot.waitUntil(lambda: len(finder.shades) == 3, timeout=60000)
     assert all(b.isVisible() for b in finder.shade_buttons)
-    # her skin is her photograph's cheeks (the band between her cheek landmarks), as km.skin_photo reads it
+    # her skin is her photograph's cheeks (the band between her cheek landmarks), as shade.photo reads it
     std = face.data["landmarks"]["standard"]
     (lx, ly), (rx, ry) = std["left_cheek"], std["right_cheek"]
     read = kiosk.tryon.shopper.skin

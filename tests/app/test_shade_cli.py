@@ -20,7 +20,7 @@ from km.library import default_library
 from km.optics import over
 from km.skin import fit_skin, lab_of, skin_reflectance
 from km.srgb import srgb_encode
-from tests.km.shade_photos import SKIN_BOX, write_photo
+from tests.shade.photos import SKIN_BOX, write_photo
 
 if TYPE_CHECKING:
     from pathlib import Path

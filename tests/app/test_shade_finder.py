@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from app.qt_compat import pin_singletons
-from km.shade import ShadeBank, foundations, match_shades
 from km.skin import fit_skin
 from km.srgb import srgb_decode
+from shade.match import ShadeBank, foundations, match_shades
 from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 pin_singletons()

@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
+from bench import capture_synthetic as syn
 from bench.capture_truth import Case, draw_case, irradiance_sh, truth_diffuse
-from capture import synthetic as syn
 from capture.ambient import ambient_per_normal
 from capture.phong import delta_e2000
 from capture.pipeline import capture

@@ -129,7 +129,7 @@ def test_bad_files_are_one_line_errors(tmp_path: Path) -> None:
     from PIL import Image
 
     from capture.auto import capture_auto, read_photo_srgb8
-    from capture.pipeline import CaptureError
+    from capture.errors import CaptureError
     from core.assets import find_asset
 
     src = find_asset("photos/grace_hopper.jpg")
@@ -240,10 +240,10 @@ def test_a_probe_file_sets_the_light(tmp_path: Path) -> None:
     from it (its direction in the photograph's camera) instead of the flash-on-axis default."""
     from PIL import Image
 
+    from bench.capture_synthetic import DIM_ROOM, FLASH_RGB, env_mean_radiance, read_env
     from capture.auto import capture_auto
     from capture.pipeline import linear_to_srgb8
     from capture.probe import synthetic_probe
-    from capture.synthetic import DIM_ROOM, FLASH_RGB, env_mean_radiance, read_env
     from core.assets import find_asset
 
     env = read_env(str(find_asset("environments/studio.exr")))

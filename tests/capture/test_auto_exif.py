@@ -120,7 +120,7 @@ def test_photo_focal_sources(tmp_path: Path) -> None:
     """What :func:`capture.auto.photo_focal` takes: --focal-mm over the file's EXIF; the EXIF in 35 mm terms
     whatever the file's size; nothing for an array (the kiosk's camera frame) or a file without the tag."""
     from capture.auto import photo_focal
-    from capture.pipeline import CaptureError
+    from capture.errors import CaptureError
 
     img = Image.new("RGB", (600, 400), (180, 120, 100))
     img.save(tmp_path / "t.jpg", exif=_exif({FOCAL_35: 35}))

@@ -19,7 +19,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    from capture.synthetic import make_scene, read_env
+    from bench.capture_synthetic import make_scene, read_env
     from core.assets import find_asset
     from painting.head import load_head
 

@@ -34,9 +34,9 @@ pytestmark = [pytest.mark.slow, pytest.mark.gl]
 
 def test_detail_times_the_fitted_model_is_the_photograph() -> None:
     """At the photograph's own view, detail × model gives each seen texel's photograph value back."""
+    from bench.capture_synthetic import FLASH_RGB, light_from_camera, validation_camera
     from capture.phong import Geometry, PhongParams, delta_e2000, shade
     from capture.pipeline import bake_detail, fitted_shading, pixel_data, sample_texture
-    from capture.synthetic import FLASH_RGB, light_from_camera, validation_camera
     from painting.head import load_head
 
     head = load_head()
@@ -76,12 +76,12 @@ def _frontal_relit(ctx: moderngl.Context, head: Any, detail: np.ndarray, result:
 
 
 def test_a_turned_capture_relit_from_the_front(gl_ctx: moderngl.Context) -> None:
+    from bench.capture_synthetic import FLASH_RGB
     from bench.capture_truth import Case, case_camera, case_head, draw_case, render_photo
     from capture.mask import landmark_region
     from capture.phong import delta_e2000
     from capture.pipeline import bake_detail, capture, pixel_data, sample_texture
     from capture.probe import analyse_probe
-    from capture.synthetic import FLASH_RGB
     from km.srgb import srgb_decode
 
     case = Case("sample", 24.0, light_deg=(8.0, 0.0), yaw_deg=30.0)

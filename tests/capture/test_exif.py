@@ -16,8 +16,8 @@ import pytest
 from PIL import Image
 from scipy.spatial.transform import Rotation
 
+from capture.errors import CaptureError
 from capture.exif import FRAME_DIAGONAL_MM, exif_focal_px, focal_35mm_from_px, focal_px_from_35mm
-from capture.pipeline import CaptureError
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -114,7 +114,7 @@ def points_scene(tmp_path_factory: pytest.TempPathFactory) -> Path:
     its probe, and the sample head's landmarks clicked with 1 px of noise."""
     import json
 
-    from capture.synthetic import make_scene, read_env
+    from bench.capture_synthetic import make_scene, read_env
     from core.assets import find_asset
     from painting.head import load_head
 

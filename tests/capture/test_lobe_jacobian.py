@@ -12,10 +12,10 @@ from functools import cache
 import numpy as np
 from scipy import ndimage
 
+from bench.capture_synthetic import light_from_camera, validation_camera
 from capture.lobe import LobeHighPass
 from capture.phong import Geometry, PhongParams, shade
 from capture.pipeline import pixel_data
-from capture.synthetic import light_from_camera, validation_camera
 from painting.head import load_head
 
 

@@ -66,7 +66,7 @@ def test_probe_light_direction_and_hue() -> None:
 
 def _probe_with(env: np.ndarray, light: np.ndarray, flash: np.ndarray, env_scale: float = 1.0) -> np.ndarray:
     """A synthetic probe (camera = world axes), 8-bit sRGB quantised like a photograph, linear again."""
-    from capture.synthetic import as_photographed
+    from bench.capture_synthetic import as_photographed
 
     img = synthetic_probe(env, np.eye(3), light / np.linalg.norm(light), flash, size=256, env_scale=env_scale)
     return as_photographed(img)

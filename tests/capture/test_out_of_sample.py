@@ -123,11 +123,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
-from bench.capture_truth import TARGETS, Case, Figures, Sensor, measure_case
-from capture.phong import PhongParams
-from capture.pipeline import capture
-from capture.probe import ProbeError, analyse_probe, synthetic_probe
-from capture.synthetic import (
+from bench.capture_synthetic import (
     DIM_ROOM,
     FLASH_RGB,
     as_photographed,
@@ -137,6 +133,10 @@ from capture.synthetic import (
     read_env,
     validation_camera,
 )
+from bench.capture_truth import TARGETS, Case, Figures, Sensor, measure_case
+from capture.phong import PhongParams
+from capture.pipeline import capture
+from capture.probe import ProbeError, analyse_probe, synthetic_probe
 from core.assets import find_asset
 from painting.head import load_head
 

@@ -7,12 +7,12 @@ from functools import cache
 import numpy as np
 import pytest
 
+from bench.capture_synthetic import light_from_camera, validation_camera
 from capture.lobe import LobeHighPass, specular_from_detail
 from capture.mask import landmark_region
 from capture.phong import Geometry, PhongParams, shade
 from capture.pipeline import pixel_data
 from capture.pixel_lobe import PIXEL_NODES_PX, integrated_lobe
-from capture.synthetic import light_from_camera, validation_camera
 from painting.head import load_head
 
 #: Samples per pixel along each axis of the sensor below (4 × 4: neither the GPU truth's 3 × 3 nor the nodes).

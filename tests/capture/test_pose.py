@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from bench.capture_synthetic import validation_camera
 from capture.camera import Camera, calibrate
 from capture.phong import PhongParams
 from capture.pose import Surface, image_similarity_covariance, refine_rotation
-from capture.synthetic import validation_camera
 from painting.head import load_head
 
 if TYPE_CHECKING:

@@ -87,7 +87,7 @@ def test_astronaut_face_is_too_small_for_a_capture() -> None:
 
 
 def test_quality_error_carries_every_issue_in_one_line() -> None:
-    from capture.pipeline import CaptureError
+    from capture.errors import CaptureError
     from capture.quality import QualityError
 
     report = _assess(blurred(tiny(portrait("grace_hopper"), 2.0), 2.0))

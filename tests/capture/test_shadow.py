@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
+from bench.capture_synthetic import FLASH_RGB, light_from_camera
 from bench.capture_truth import Case, GpuPhoto, case_camera, case_head, render_photo
 from capture.shadow import flash_shadow, intersector_name, occluded
-from capture.synthetic import FLASH_RGB, light_from_camera
 
 if TYPE_CHECKING:
     import moderngl
@@ -120,10 +120,10 @@ def test_a_capture_keeps_the_shadow_out_of_the_detail_and_draws_it_from_the_mode
     would be the shadow's darkness, A / (A + F·n·l), about 0.05. Measured 0.949 against 0.947. The fitted
     model alone (× t) is as dark there as the photograph, the same way (measured 0.949).
     """
+    from bench.capture_synthetic import DIM_ROOM, env_mean_radiance, read_env
     from bench.capture_truth import draw_case
     from capture.pipeline import capture, pixel_data, sample_texture
     from capture.probe import analyse_probe
-    from capture.synthetic import DIM_ROOM, env_mean_radiance, read_env
     from core.assets import find_asset
 
     scene = draw_case(gl_ctx, Case("sample", 24.0, environment="city", light_deg=(0.0, 15.0), shadows=True))

@@ -42,7 +42,7 @@ def test_a_falloff_that_is_not_one_is_refused(text: str) -> None:
 @pytest.fixture(scope="module")
 def vignetted(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The validation's CPU scene (256², s 24, i_s 0.18) recorded through a lens losing 40 % in the corners."""
-    from capture.synthetic import make_scene, read_env
+    from bench.capture_synthetic import make_scene, read_env
     from core.assets import find_asset
     from km.srgb import srgb_decode
     from painting.head import load_head

@@ -130,7 +130,7 @@ def test_lipstick_from_the_km_pass_shows(engine: Any, gl_ctx: Any, head: Any) ->
 
 
 def test_hdr_environment_adds_light(engine: Any) -> None:
-    from capture.synthetic import read_env
+    from bench.capture_synthetic import read_env
     from core.assets import find_asset
     from render.lights import Environment, Light
 

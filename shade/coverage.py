@@ -2,7 +2,7 @@
 
 A population of skins is sampled over the skin model's parameters (light to very dark; a scrambled
 Halton sequence, seeded, so a run is reproducible); for each skin the best foundation of the library
-and its ΔE2000 against the skin itself ("disappears") are found with :func:`km.shade.best_thickness`.
+and its ΔE2000 against the skin itself ("disappears") are found with :func:`shade.match.best_thickness`.
 Skins whose best ΔE2000 exceeds a threshold are *poorly served*. The largest **gap** is the poorly
 served skin with the most poorly served neighbours (CIELAB distance below :data:`GAP_RADIUS_LAB`) and
 those neighbours; the suggested shade is the Duncan mixture (:func:`km.optics.mix`) of the library's
@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from km.optics import mix, r_inf_from_ks
-from km.shade import ShadeBank, ShadeError, best_thickness
 from km.skin import hue_degrees, ita_degrees, lab_of, skin_reflectance
+from shade.match import ShadeBank, ShadeError, best_thickness
 
 __all__ = ["PopulationRanges", "Coverage", "GapShade", "sample_skins", "coverage", "suggest_gap_shade",
            "POORLY_SERVED_DE2000"]

@@ -23,13 +23,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from capture.camera import Camera, look_at
+from capture.mask import landmark_region
+from capture.phong import Geometry, PhongParams, shade
+from capture.pipeline import compute_skin_mask, linear_to_srgb8, pixel_data, sample_texture
+from capture.probe import LUMINANCE, synthetic_probe
 from km.srgb import srgb_decode
-
-from .camera import Camera, look_at
-from .mask import landmark_region
-from .phong import Geometry, PhongParams, shade
-from .pipeline import compute_skin_mask, linear_to_srgb8, pixel_data, sample_texture
-from .probe import LUMINANCE, synthetic_probe
 
 if TYPE_CHECKING:
     from painting.head import Head

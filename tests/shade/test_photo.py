@@ -9,7 +9,7 @@ from PIL import Image
 from core.assets import find_asset
 from km.colour import delta_e2000, linear_rgb_to_lab
 from km.skin import lab_of
-from km.skin_photo import (
+from shade.photo import (
     SRGB_ASSUMPTION,
     PhotoError,
     checker_reference_rgb,
@@ -17,7 +17,7 @@ from km.skin_photo import (
     read_photo,
     skin_from_photo,
 )
-from tests.km.shade_photos import SKIN_BOX, write_photo
+from tests.shade.photos import SKIN_BOX, write_photo
 
 
 @pytest.fixture(scope="module")

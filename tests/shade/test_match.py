@@ -9,7 +9,9 @@ import pytest
 from km.colour import delta_e2000
 from km.library import Library, default_library
 from km.optics import mix, over
-from km.shade import (
+from km.skin import fit_skin, ita_degrees, lab_of, skin_reflectance
+from shade.coverage import coverage, sample_skins
+from shade.match import (
     METAMERISM_DE2000,
     ShadeBank,
     ShadeError,
@@ -18,8 +20,6 @@ from km.shade import (
     match_shades,
     resolve_light,
 )
-from km.shade_coverage import coverage, sample_skins
-from km.skin import fit_skin, ita_degrees, lab_of, skin_reflectance
 
 
 @pytest.fixture(scope="module")
