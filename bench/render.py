@@ -26,6 +26,10 @@ passes and their masks) and ``fast_composite_ms`` (the composite and display pas
 and the composite reduced to constant writes (the pass structure, rasterisation, targets and SSS left):
 what no shading work can go below on this machine; ``fast_floor_over_baseline`` its ratio.
 
+The frame's fixed cost, apart from pixel work: ``baseline_64x64_ms``, ``fast_64x64_ms`` and
+``reference_64x64_ms``, the same frames drawn at 64×64 (driver calls, state changes, Python, the passes'
+fixed overhead): on a GPU these are most of a small frame; ``fast_ms - fast_64x64_ms`` is its pixel work.
+
 Every time reported as a median (``K``, in ms) has its 90th percentile (``K_p90``) and maximum (``K_max``)
 beside it, over the same frames: a median alone hides hitches.
 """
@@ -188,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
     colour = ctx.texture((w, h), 4)
     depth = ctx.depth_renderbuffer((w, h))
     fbo = ctx.framebuffer([colour], depth)
+    colour_small = ctx.texture((64, 64), 4)
+    depth_small = ctx.depth_renderbuffer((64, 64))
+    fbo_small = ctx.framebuffer([colour_small], depth_small)
     out: dict[str, Any] = {"size": f"{w}x{h}", "frames": args.frames, "gl_renderer": ctx.info["GL_RENDERER"]}
     try:
         # texture-space KM
@@ -220,8 +227,17 @@ def main(argv: list[str] | None = None) -> int:
                 r.render(fbo)
             return run
 
+        def small(mode: str) -> Callable[[], None]:  # the same frame at 64×64: what is not pixel work
+            def run() -> None:
+                r.settings.mode, r.settings.taps, r.settings.lighting_cache = mode, 17, True
+                r.render(fbo_small)
+            return run
+
         cases: dict[str, Callable[[], None]] = {
             "baseline_ms": lambda: r.render_baseline(fbo),
+            "baseline_64x64_ms": lambda: r.render_baseline(fbo_small),
+            "fast_64x64_ms": small("fast"),
+            "reference_64x64_ms": small("reference"),
             "fast_ms": frame("fast"),
             "fast_direct_ms": frame("fast", cache=False),
             "reference_ms": frame("reference"),
@@ -288,11 +304,11 @@ def main(argv: list[str] | None = None) -> int:
         out["skin_pixels"] = int(mask.sum())
     finally:
         r.release()
-        fbo.release()
-        colour.release()
-        depth.release()
+        for obj in (fbo, colour, depth, fbo_small, colour_small, depth_small):
+            obj.release()
         ctx.release()
-    keys = ["baseline_ms", "fast_ms", "reference_ms", "fast_over_baseline", "reference_over_baseline",
+    keys = ["baseline_ms", "fast_ms", "reference_ms", "fast_64x64_ms", "reference_64x64_ms",
+            "fast_over_baseline", "reference_over_baseline",
             "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms"]
     keys = [k for key in keys for k in (key, f"{key}_p90", f"{key}_max") if k in out]  # spreads beside medians
     ordered = {k: round(out[k], 3) if isinstance(out[k], float) else out[k] for k in keys}

@@ -16,12 +16,13 @@ pytestmark = pytest.mark.gl
 MEDIANS = ("baseline_ms", "fast_ms", "reference_ms", "no_sss_ms", "fast_11_taps_ms", "fast_25_taps_ms",
            "fast_relight_ms", "fast_lit_pass_ms", "fast_sss_ms", "fast_composite_ms", "fast_floor_ms",
            "km_full_2048_ms", "km_tile_64_ms", "km_full_2048_dense_ms", "km_tile_64_dense_ms", "fast_direct_ms",
-           "fast_cached_ms", "reference_lit_pass_ms", "reference_sss_ms", "reference_composite_ms")
+           "fast_cached_ms", "reference_lit_pass_ms", "reference_sss_ms", "reference_composite_ms",
+           "baseline_64x64_ms", "fast_64x64_ms", "reference_64x64_ms")
 OTHERS = {"size", "frames", "gl_renderer", "km_layers", "fast_over_baseline", "reference_over_baseline",
           "fast_floor_over_baseline", "fast_vs_reference_de2000", "skin_pixels", "reference_over_fast",
           "cached_over_direct", "cached_vs_direct_de2000", "load_average_1min"}
-HEADLINE = ("baseline_ms", "fast_ms", "reference_ms", "fast_over_baseline", "reference_over_baseline",
-            "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms")
+HEADLINE = ("baseline_ms", "fast_ms", "reference_ms", "fast_64x64_ms", "reference_64x64_ms", "fast_over_baseline",
+            "reference_over_baseline", "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms")
 
 
 def test_sheer_bench_render_prints_one_json_object(capsys: pytest.CaptureFixture[str]) -> None:
