@@ -87,8 +87,7 @@ def kiosk_shots(out: Path, tmp: Path) -> None:
     _wait(lambda: False, 2.0)
     _screen_grab(kiosk).save(str(out / "kiosk_her_face.png"))
     print(f"try-on: shutter to her first made-up frame {kiosk.tryon.timings.get('tryon_first_frame_s', 0):.2f} s")
-    kiosk._allow_close = True
-    kiosk.close()
+    kiosk.close_without_pin()
 
 
 def main(argv: list[str]) -> int:
@@ -121,16 +120,16 @@ def main(argv: list[str]) -> int:
         win.library_dock.select("Lipstick Nude")
     from PySide6.QtCore import QPointF
 
-    vp._ring = vp.pick(QPointF(vp.width() * 0.62, vp.height() * 0.62))  # the brush ring on a cheek
+    vp.brush_ring = vp.pick(QPointF(vp.width() * 0.62, vp.height() * 0.62))  # the brush ring on a cheek
     vp.repaint()
     _wait(lambda: True)
     _screen_grab(win).save(str(out / "studio_main.png"))
-    vp._ring = None
-    win._set(split=0.5)
+    vp.brush_ring = None
+    win.change_settings(split=0.5)
     vp.repaint()
     _wait(lambda: True)
     vp.grabFramebuffer().save(str(out / "studio_before_after.png"))
-    win._set(split=0.0)
+    win.change_settings(split=0.0)
     win.close()
 
     kiosk_shots(out, tmp)

@@ -30,7 +30,7 @@ from typing import Any
 def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
     """The views' figures (see the module docstring); ``quick``: 3 frames and a 512² detail texture."""
     from bench.capture_synthetic import make_scene, read_env
-    from bench.lightweight import _interleaved_ms
+    from bench.lightweight import interleaved_ms
     from capture.face import Face
     from capture.pipeline import capture, linear_to_srgb8
     from capture.probe import analyse_probe
@@ -75,7 +75,7 @@ def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
 
             t0 = time.perf_counter()
             out: dict[str, Any] = {"views_size": [w, h], "views_frames": frames, "views_look": "red-lip"}
-            out.update(_interleaved_ms(ctx, {"views_baseline_ms": lambda: base.render_baseline(fbo),
+            out.update(interleaved_ms(ctx, {"views_baseline_ms": lambda: base.render_baseline(fbo),
                                              "mirror_frame_ms": lambda: mirror.render(fbo),
                                              "relight_frame_ms": lambda: relight.render(fbo),
                                              "views_swap_ms": swap}, frames))

@@ -8,6 +8,10 @@ from __future__ import annotations
 
 import argparse
 import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.commands import Subcommands
 
 #: benchmark name -> "module:function"
 BENCHMARKS: dict[str, str] = {
@@ -24,7 +28,7 @@ BENCHMARKS: dict[str, str] = {
 }
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer bench NAME [options]`` to the sub-command parsers ``sub``."""
     p = sub.add_parser("bench", help="run a benchmark and print JSON", description=__doc__)
     p.add_argument("name", choices=sorted(BENCHMARKS), help="which benchmark")

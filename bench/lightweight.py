@@ -28,8 +28,8 @@ if TYPE_CHECKING:
     import moderngl
 
 
-def _interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]], frames: int,
-                    warmup: int = 2) -> dict[str, float]:
+def interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]], frames: int,
+                   warmup: int = 2) -> dict[str, float]:
     """Median, p90 and maximum (ms, see :func:`bench.stats.spread`) of each configuration's frames.
 
     One frame of each configuration per round, so a CPU shared with other work loads them alike.
@@ -120,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         "eight_lights_shadows_ms": lambda: (use(eight, True), lw.render(fbo))[-1],
         "eight_lights_shadows_moving_ms": moving,
     }
-    out.update(_interleaved_ms(ctx, configs, args.frames))
+    out.update(interleaved_ms(ctx, configs, args.frames))
     use(eight, True)
     out["eight_lights_shadow_mode"] = lw.shadows_in_use()
     out["one_light_over_baseline"] = out["one_light_ms"] / out["baseline_ms"]

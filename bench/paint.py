@@ -355,7 +355,8 @@ def _stroke_and_undo(doc: Document, layer: Layer) -> dict[str, Any]:
     out["redo_bit_exact"] = bool(np.array_equal(before, layer.thickness))
     out["undo_peak_mb"] = round(doc.history.peak_bytes / 2**20, 3)
     out["undo_budget_mb"] = round(doc.history.budget_bytes / 2**20, 1)
-    out["stroke_tiles"] = int(sum(len(d.tiles) for d in doc.history._undo[-1].deltas)) if doc.history.can_undo else 0
+    last = doc.history.undo_step
+    out["stroke_tiles"] = int(sum(len(d.tiles) for d in last.deltas)) if last is not None else 0
     return out
 
 

@@ -105,12 +105,12 @@ def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, fr
         finally:
             in_composite[0] = False
 
-    saved = r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask, r._to_target
-    # the lit pass is the mesh draw outside the composite (which draws the mesh again, inside _to_target)
+    saved = r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask, r.draw_composite
+    # the lit pass is the mesh draw outside the composite (which draws the mesh again, inside draw_composite)
     r.gpu_head.draw = timed(saved[0], lambda: "composite_draw" if in_composite[0] else "lit")  # type: ignore[method-assign]
     r.sss.draw_pass = timed(saved[1], "sss")  # type: ignore[method-assign]
     r.sss.draw_mask = timed(saved[2], "sss")  # type: ignore[method-assign]
-    r._to_target = timed(composite, "composite")  # type: ignore[method-assign]
+    r.draw_composite = timed(composite, "composite")  # type: ignore[method-assign]
     try:
         r.render(fbo)
         per_frame: dict[str, list[float]] = {"lit": [], "sss": [], "composite": []}
@@ -120,7 +120,7 @@ def pass_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, fr
             for key in per_frame:
                 per_frame[key].append(sum(got.get(key, [0.0])))
     finally:
-        r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask, r._to_target = saved  # type: ignore[method-assign]
+        r.gpu_head.draw, r.sss.draw_pass, r.sss.draw_mask, r.draw_composite = saved  # type: ignore[method-assign]
     out: dict[str, float] = {}
     for k, v in per_frame.items():
         out.update(spread(f"{prefix}_{k}{'_pass' if k == 'lit' else ''}_ms", v, DIGITS))

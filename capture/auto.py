@@ -276,10 +276,10 @@ def warm_up() -> None:
     import OpenEXR  # noqa: F401  (the face folder's detail texture)
     import scipy.optimize  # noqa: F401  (the camera's refinement, the Phong fit)
 
-    from capture.landmarks import _get_detector
+    from capture.landmarks import face_detector
     from capture.person import canonical_topology
 
-    _get_detector()
+    face_detector()
     canonical_topology()
 
 

@@ -143,7 +143,7 @@ _lock = threading.Lock()
 _detector: Any = None
 
 
-def _get_detector() -> Any:
+def face_detector() -> Any:
     """The process's FaceMesh (static images, up to :data:`MAX_FACES` faces, irises refined), made once."""
     global _detector
     if _detector is None:
@@ -187,7 +187,7 @@ def detect_faces(photo_srgb8: np.ndarray) -> list[FaceLandmarks]:
     arr = check_photo_array(photo_srgb8)
     h, w = arr.shape[:2]
     with _lock:  # one detector per process; MediaPipe's graph is not re-entrant
-        det = _get_detector()
+        det = face_detector()
         result = det.process(arr)
     faces = []
     for lms in result.multi_face_landmarks or []:

@@ -20,14 +20,14 @@ from km.measurements import (
     MAX_ROWS,
     ImportResult,
     MeasurementImportError,
-    _default_grid,
-    _fmt_wl,
-    _invert_onto_grid,
-    _parse_float,
-    _read_text,
-    _sample_thickness,
-    _saunderson,
+    default_grid_nm,
+    format_wavelength,
+    invert_onto_grid,
+    parse_number,
     read_csv,
+    read_measurement_text,
+    sample_thickness,
+    saunderson_coefficients,
 )
 
 if TYPE_CHECKING:
@@ -54,7 +54,7 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
     """
     p = Path(path)
     source = str(p)
-    text = _read_text(p)
+    text = read_measurement_text(p)
     result = ImportResult(source=source)
     # Hand-written on purpose: colour.read_sds_from_xrite_file (documented as "minimalistic and absolutely
     # not bullet-proof") only knows lowercase 'nmNNN' fields, not CGATS's SPECTRAL_NMNNN, splits quoted
@@ -109,10 +109,10 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
     if np.any(np.diff(wl_all) <= 0):
         raise MeasurementImportError(f"{source}: the data format repeats a spectral field")
 
-    d_mm = _sample_thickness(thickness_mm, keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")),
+    d_mm = sample_thickness(thickness_mm, keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")),
                              f"{source}: keyword D_MM",
                              f"{source}: the sample thickness D is not given: add a 'D_MM 0.15' keyword")
-    saunderson = _saunderson({k.lower(): v for k, v in keywords.items()}, source)
+    saunderson = saunderson_coefficients({k.lower(): v for k, v in keywords.items()}, source)
 
     # rows -> spectra, grouped by material and role
     samples: list[tuple[str, np.ndarray]] = []  # (label, values) of valid rows
@@ -129,7 +129,7 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
             continue
         values: list[float] = []
         for j, _wl in spectral:
-            x = _parse_float(tokens[j])
+            x = parse_number(tokens[j])
             if x is None or not math.isfinite(x):
                 result.rejected.append((where, f"{fields_[j]} {tokens[j]!r} is not a finite number"))
                 break
@@ -144,7 +144,7 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
         bad = np.flatnonzero((arr < 0) | (arr > 1))
         if bad.size:
             result.rejected.append((f"{where} ({label})", f"reflectance {arr[bad[0]]:g} at "
-                                                          f"{_fmt_wl(wl_all[bad[0]])} is outside [0, 1]"))
+                                                          f"{format_wavelength(wl_all[bad[0]])} is outside [0, 1]"))
             continue
         samples.append((label, arr))
 
@@ -167,7 +167,7 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
     if name is not None and len(groups) > 1:
         raise MeasurementImportError(f"{source}: --name can only be used for a file with one material "
                                      f"(this one has {len(groups)}: {', '.join(display[k] or '?' for k in groups)})")
-    target = _default_grid() if grid is None else np.asarray(grid, dtype=np.float64)
+    target = default_grid_nm() if grid is None else np.asarray(grid, dtype=np.float64)
     instrument = keywords.get("INSTRUMENTATION", "")
     illuminant = keywords.get("ILLUMINATION_NAME", "")
     for key, group in groups.items():
@@ -183,7 +183,7 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
                       "Kubelka–Munk Eq. 6–7"
                       + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
                       + ".")
-        material = _invert_onto_grid(
+        material = invert_onto_grid(
             mat_name, (category or "other").strip().lower(), wl_all, group["R_inf"][1], group["R"][1],
             group["Rg"][1], d_mm, target, instrument=instrument, illuminant=illuminant, saunderson=saunderson,
             provenance=provenance, rejected=result.rejected)

@@ -102,16 +102,18 @@ class ImportResult:
 
 
 # --------------------------------------------------------------------------------------------------
-# shared steps
+# shared steps (the CSV reader here and the CGATS reader of km.measurement_files)
 
 
-def _default_grid() -> np.ndarray:
+def default_grid_nm() -> np.ndarray:
+    """The default wavelength grid (:data:`km.spectra.DEFAULT_GRID`) in nm, float64."""
     from km.spectra import DEFAULT_GRID
 
     return np.asarray(DEFAULT_GRID.wavelengths, dtype=np.float64)
 
 
-def _read_text(path: Path) -> str:
+def read_measurement_text(path: Path) -> str:
+    """A measurement file's text (UTF-8 or Latin-1, bounded; a binary file is a :class:`MeasurementImportError`)."""
     raw = read_bounded(path, MAX_IMPORT_BYTES, "measurement file", MeasurementImportError)
     if b"\x00" in raw[:4096]:
         raise MeasurementImportError(f"{path}: not a text file")
@@ -123,7 +125,8 @@ def _read_text(path: Path) -> str:
     raise AssertionError("latin-1 decodes any bytes")  # pragma: no cover
 
 
-def _parse_float(text: str) -> float | None:
+def parse_number(text: str) -> float | None:
+    """``text`` as a float, or None when it is not a number."""
     try:
         x = float(text.strip())
     except ValueError:
@@ -131,11 +134,12 @@ def _parse_float(text: str) -> float | None:
     return x
 
 
-def _fmt_wl(x: float) -> str:
+def format_wavelength(x: float) -> str:
+    """A wavelength for messages (``"550 nm"``)."""
     return f"{x:g} nm"
 
 
-def _invert_onto_grid(
+def invert_onto_grid(
     name: str, category: str, wl: np.ndarray, r_inf: np.ndarray, r: np.ndarray, rg: np.ndarray, d_mm: float,
     grid: np.ndarray, *, instrument: str, illuminant: str, saunderson: tuple[float, float] | None,
     provenance: str, rejected: list[Rejection], source: str = "measured",
@@ -183,9 +187,9 @@ def _invert_onto_grid(
         j = i
         while bad_idx and bad_idx[0] == j + 1 and (kinds[bad_idx[0]] or "the inversion gave no finite S, K") == kind:
             j = bad_idx.pop(0)
-        where = f"{name}: {_fmt_wl(g[i])}" if i == j else f"{name}: {g[i]:g}–{g[j]:g} nm ({j - i + 1} wavelengths)"
+        where = f"{name}: {format_wavelength(g[i])}" if i == j else f"{name}: {g[i]:g}–{g[j]:g} nm ({j - i + 1} wavelengths)"
         example = f"R∞ = {ri[i]:.6g}, R = {rr[i]:.6g}, Rg = {rgg[i]:.6g}"
-        rejected.append((where, f"{kind}{suffix} ({'at ' + _fmt_wl(g[i]) + ': ' if i != j else ''}{example})"))
+        rejected.append((where, f"{kind}{suffix} ({'at ' + format_wavelength(g[i]) + ': ' if i != j else ''}{example})"))
     keep = ~bad
     if keep.sum() < 2:
         rejected.append((name, "fewer than 2 wavelengths could be inverted; material not imported"))
@@ -218,7 +222,7 @@ def _domain_reasons(r_inf: np.ndarray, r: np.ndarray, rg: np.ndarray) -> list[st
 
 
 def _span(values: np.ndarray) -> str:
-    return _fmt_wl(values[0]) if values.size == 1 else f"{values[0]:g}–{values[-1]:g} nm"
+    return format_wavelength(values[0]) if values.size == 1 else f"{values[0]:g}–{values[-1]:g} nm"
 
 
 def _collect_triplet(rows: list[tuple[str, float, float, float, float]], rejected: list[Rejection]
@@ -251,14 +255,14 @@ def _check_reflectance(values: dict[str, float], where: str, rejected: list[Reje
 
 
 def _thickness(value: Any, where: str) -> float:
-    d = value if isinstance(value, float) else _parse_float(str(value))
+    d = value if isinstance(value, float) else parse_number(str(value))
     if d is None or not math.isfinite(d) or d <= 0 or d > 100:
         raise MeasurementImportError(f"{where}: the sample thickness D must be a number of mm in (0, 100] "
                                      f"(got {value!r})")
     return d
 
 
-def _sample_thickness(given: float | None, found: Any, where: str, missing: str) -> float:
+def sample_thickness(given: float | None, found: Any, where: str, missing: str) -> float:
     """The thickness D (mm, in (0, 100]) of the R sample.
 
     ``given`` (the ``--thickness-mm`` option) wins over ``found`` (the file's own value, or None); ``where``
@@ -271,12 +275,13 @@ def _sample_thickness(given: float | None, found: Any, where: str, missing: str)
     raise MeasurementImportError(f"{missing} or pass --thickness-mm")
 
 
-def _saunderson(meta: dict[str, str], where: str) -> tuple[float, float] | None:
+def saunderson_coefficients(meta: dict[str, str], where: str) -> tuple[float, float] | None:
+    """The header's Saunderson (k1, k2), or None when it gives neither (``where`` names the file in errors)."""
     k1, k2 = meta.get("saunderson_k1"), meta.get("saunderson_k2")
     if k1 is None and k2 is None:
         return None
-    a = _parse_float(k1 or "")
-    b = _parse_float(k2 or "")
+    a = parse_number(k1 or "")
+    b = parse_number(k2 or "")
     if a is None or b is None or not (0 <= a < 1 and 0 <= b < 1):
         raise MeasurementImportError(f"{where}: saunderson_k1 and saunderson_k2 must both be numbers in [0, 1)")
     return (a, b)
@@ -313,7 +318,7 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     """
     p = Path(path)
     source = str(p)
-    text = _read_text(p)
+    text = read_measurement_text(p)
     result = ImportResult(source=source)
     # Hand-written on purpose: colour-science's CSV reader (numpy.genfromtxt) turns a bad cell into NaN
     # and aborts or skips ragged rows without saying which line, and ignores metadata; we must report
@@ -351,9 +356,9 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     if ignored:
         result.notes.append(f"ignored column{'s' if len(ignored) > 1 else ''} {', '.join(ignored)}")
 
-    d_mm = _sample_thickness(thickness_mm, meta.get("d_mm", meta.get("d")), f"{source}: header D_mm",
+    d_mm = sample_thickness(thickness_mm, meta.get("d_mm", meta.get("d")), f"{source}: header D_mm",
                              f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' header line")
-    saunderson = _saunderson(meta, source)
+    saunderson = saunderson_coefficients(meta, source)
 
     rows: list[tuple[str, float, float, float, float]] = []
     body = lines[header_index + 1:]
@@ -369,7 +374,7 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
             continue
         values: dict[str, float] = {}
         for key, j in columns.items():
-            x = _parse_float(cells[j])
+            x = parse_number(cells[j])
             if x is None:
                 result.rejected.append((where, f"{key} {cells[j].strip()!r} is not a number"))
                 break
@@ -385,7 +390,7 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     wl, r_inf, r, rg = _collect_triplet(rows, result.rejected)
     mat_name = name or meta.get("name") or p.stem
     mat_category = (category or meta.get("category") or "other").strip().lower()
-    target = _default_grid() if grid is None else np.asarray(grid, dtype=np.float64)
+    target = default_grid_nm() if grid is None else np.asarray(grid, dtype=np.float64)
     source_kind = meta.get("source", "measured").strip().lower()
     if source_kind not in ("measured", "modelled"):
         result.notes.append(f"unknown source {source_kind!r} in the header: taken as measured")
@@ -394,7 +399,7 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
                   f"reflectance Rg at D = {d_mm:g} mm), inverted with Kubelka–Munk Eq. 6–7"
                   + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
                   + "." + (f" Original provenance: {meta['provenance']}" if meta.get("provenance") else ""))
-    material = _invert_onto_grid(
+    material = invert_onto_grid(
         mat_name, mat_category, wl, r_inf, r, rg, d_mm, target, instrument=meta.get("instrument", ""),
         illuminant=meta.get("illuminant", ""), saunderson=saunderson, provenance=provenance,
         rejected=result.rejected, source=source_kind)

@@ -12,7 +12,6 @@ in mm (through ``head.mm_per_unit``).
 from __future__ import annotations
 
 import itertools
-import math
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -23,7 +22,7 @@ from painting.atlas import Atlas, bake, check_resolution
 from painting.brush import Brush, BrushError
 from painting.document_masks import MaskEditing
 from painting.history import DEFAULT_BUDGET_BYTES, History, Step
-from painting.layer import ChangeEvent, DocumentError, Layer, as_vec3
+from painting.layer import ChangeEvent, DocumentError, Layer, as_vec3, thickness_value
 from painting.layout import build_layout
 from painting.maps_io import MAX_THICKNESS_UM
 from painting.stroke import Stroke
@@ -84,7 +83,7 @@ class Document(MaskEditing):
         self.history = History(history_budget)
         self._subscribers: list[Callable[[ChangeEvent], None]] = []
         self._stroke: Stroke | None = None
-        self._mesh: trimesh.Trimesh | None = None  # the layout as a mesh, for picking (painting.hit)
+        self._pick_mesh: trimesh.Trimesh | None = None
         self._scratches: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     @classmethod
@@ -131,7 +130,7 @@ class Document(MaskEditing):
         kernels.warm_up()
         _ = self.atlas.index
 
-    def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray]:
+    def scratch_maps(self, res: int) -> tuple[np.ndarray, np.ndarray]:
         """(mask, base) flat float32 scratch maps for strokes at ``res`` (mask is zero between strokes).
 
         Filled explicitly so the pages are resident: a dab never pays for first-touch page faults.
@@ -194,12 +193,18 @@ class Document(MaskEditing):
 
         return unsubscribe
 
-    def _emit(self, event: ChangeEvent) -> None:
+    def emit(self, event: ChangeEvent) -> None:
+        """Deliver ``event`` to every subscriber, now (the document's edits and its strokes report so)."""
         for cb in list(self._subscribers):
             cb(event)
 
     # ------------------------------------------------------------------------------------ materials
-    def _material(self, name: Any) -> tuple[str, Any, float, float]:
+    def lookup_material(self, name: Any) -> tuple[str, Any, float, float]:
+        """The library's material ``name``: (its name, the material, default and maximum thickness in µm).
+
+        Raises:
+            DocumentError: naming it, when ``name`` is not a library name.
+        """
         if not isinstance(name, str) or not name.strip():
             raise DocumentError(f"material must be a library name, got {name!r}")
         try:
@@ -214,9 +219,20 @@ class Document(MaskEditing):
         return str(getattr(mat, "name", name)), mat, thickness, maximum
 
     # ------------------------------------------------------------------------------------ layer edits
-    def _check_idle(self, what: str) -> None:
+    def require_idle(self, what: str) -> None:
+        """Raise :class:`DocumentError` ("cannot ``what`` while a stroke is in progress") during a stroke."""
         if self._stroke is not None:
             raise DocumentError(f"cannot {what} while a stroke is in progress")
+
+    def begin_stroke(self, stroke: Stroke) -> None:
+        """Make ``stroke`` the one in progress (:class:`DocumentError` when another is)."""
+        if self._stroke is not None:
+            raise DocumentError("a stroke is already in progress")
+        self._stroke = stroke
+
+    def end_stroke(self) -> None:
+        """No stroke is in progress any more (the stroke's ``with`` block ended)."""
+        self._stroke = None
 
     def add_layer(self, material: str, resolution: int | None = None, name: str | None = None,
                   max_thickness: float | None = None, index: int | None = None) -> Layer:
@@ -224,11 +240,11 @@ class Document(MaskEditing):
 
         ``resolution`` defaults to the document's; ``max_thickness`` (µm) to the material's maximum.
         """
-        self._check_idle("add a layer")
+        self.require_idle("add a layer")
         res = self.resolution if resolution is None else self._resolution(resolution)
-        mat_name, mat, default, maximum = self._material(material)
+        mat_name, mat, default, maximum = self.lookup_material(material)
         if max_thickness is not None:
-            maximum = self._thickness_value(max_thickness, "max_thickness", positive=True)
+            maximum = thickness_value(max_thickness, "max_thickness", positive=True)
         if name is not None and (not isinstance(name, str) or not name.strip()):
             raise DocumentError(f"layer name must be a non-empty string, got {name!r}")
         pos = len(self._layers) if index is None else int(index)
@@ -239,14 +255,14 @@ class Document(MaskEditing):
 
         def do() -> None:
             self._layers.insert(pos, layer)
-            self._emit(ChangeEvent("layers", layer.id, detail="added"))
+            self.emit(ChangeEvent("layers", layer.id, detail="added"))
 
         def undo() -> None:
             self._layers.remove(layer)
-            self._emit(ChangeEvent("layers", layer.id, detail="removed"))
+            self.emit(ChangeEvent("layers", layer.id, detail="removed"))
 
         do()
-        self._push(Step(f"add layer {layer.name}", undo_fn=undo, redo_fn=do, extra_bytes=layer._data.nbytes))
+        self.push_step(Step(f"add layer {layer.name}", undo_fn=undo, redo_fn=do, extra_bytes=layer.data.nbytes))
         return layer
 
     def _resolution(self, value: Any) -> int:
@@ -257,24 +273,24 @@ class Document(MaskEditing):
 
     def remove_layer(self, layer: Layer | int) -> None:
         """Remove a layer (undoable: its map is kept by the undo step)."""
-        self._check_idle("remove a layer")
+        self.require_idle("remove a layer")
         lay = self.resolve(layer)
         pos = self.index_of(lay)
 
         def do() -> None:
             self._layers.remove(lay)
-            self._emit(ChangeEvent("layers", lay.id, detail="removed"))
+            self.emit(ChangeEvent("layers", lay.id, detail="removed"))
 
         def undo() -> None:
             self._layers.insert(pos, lay)
-            self._emit(ChangeEvent("layers", lay.id, detail="added"))
+            self.emit(ChangeEvent("layers", lay.id, detail="added"))
 
         do()
-        self._push(Step(f"remove layer {lay.name}", undo_fn=undo, redo_fn=do, extra_bytes=lay._data.nbytes))
+        self.push_step(Step(f"remove layer {lay.name}", undo_fn=undo, redo_fn=do, extra_bytes=lay.data.nbytes))
 
     def move_layer(self, layer: Layer | int, index: int) -> None:
         """Move a layer to position ``index`` (0 = bottom); undoable."""
-        self._check_idle("move a layer")
+        self.require_idle("move a layer")
         lay = self.resolve(layer)
         src = self.index_of(lay)
         if not isinstance(index, (int, np.integer)) or not -len(self._layers) <= int(index) < len(self._layers):
@@ -286,11 +302,11 @@ class Document(MaskEditing):
         def move(a: int, b: int) -> Callable[[], None]:
             def run() -> None:
                 self._layers.insert(b, self._layers.pop(a))
-                self._emit(ChangeEvent("layers", lay.id, detail="moved"))
+                self.emit(ChangeEvent("layers", lay.id, detail="moved"))
             return run
 
         move(src, dst)()
-        self._push(Step(f"move layer {lay.name}", undo_fn=move(dst, src), redo_fn=move(src, dst)))
+        self.push_step(Step(f"move layer {lay.name}", undo_fn=move(dst, src), redo_fn=move(src, dst)))
 
     def rename_layer(self, layer: Layer | int, name: str) -> None:
         """Rename a layer (one undo step); as ``set_layer(layer, name=name)``."""
@@ -304,7 +320,7 @@ class Document(MaskEditing):
             **changes: ``name`` (str), ``visible`` (bool), ``opacity`` ([0, 1]), ``max_thickness`` (µm,
                 > 0), ``material`` (library name).
         """
-        self._check_idle("change a layer")
+        self.require_idle("change a layer")
         lay = self.resolve(layer)
         allowed = {"name", "visible", "opacity", "max_thickness", "material"}
         unknown = set(changes) - allowed
@@ -319,14 +335,14 @@ class Document(MaskEditing):
             elif key == "visible":
                 new["visible"] = bool(value)
             elif key == "opacity":
-                v = self._thickness_value(value, "opacity")
+                v = thickness_value(value, "opacity")
                 if v > 1.0:
                     raise DocumentError(f"opacity must be in [0, 1], got {value!r}")
                 new["opacity"] = v
             elif key == "max_thickness":
-                new["max_thickness"] = self._thickness_value(value, "max_thickness", positive=True)
+                new["max_thickness"] = thickness_value(value, "max_thickness", positive=True)
             elif key == "material":
-                mat_name, mat, default, _ = self._material(value)
+                mat_name, mat, default, _ = self.lookup_material(value)
                 new.update(material=mat_name, material_object=mat, default_thickness=default)
         old = {k: getattr(lay, k) for k in new}
 
@@ -335,14 +351,14 @@ class Document(MaskEditing):
                 for k, v in values.items():
                     setattr(lay, k, v)
                 if "material" in values:
-                    self._emit(ChangeEvent("material", lay.id, detail="material"))
+                    self.emit(ChangeEvent("material", lay.id, detail="material"))
                 for k in values:
                     if k in ("name", "visible", "opacity", "max_thickness"):
-                        self._emit(ChangeEvent("layers", lay.id, detail=k))
+                        self.emit(ChangeEvent("layers", lay.id, detail=k))
             return run
 
         apply(new)()
-        self._push(Step(f"change layer {lay.name}", undo_fn=apply(old), redo_fn=apply(new)))
+        self.push_step(Step(f"change layer {lay.name}", undo_fn=apply(old), redo_fn=apply(new)))
 
     def set_layer_material(self, layer: Layer | int, material: str) -> None:
         """Give a layer another material (library name; one undo step)."""
@@ -360,17 +376,6 @@ class Document(MaskEditing):
         """Set the most "add" builds up to on a layer (µm, > 0; one undo step)."""
         self.set_layer(layer, max_thickness=max_thickness)
 
-    @staticmethod
-    def _thickness_value(value: Any, what: str, positive: bool = False) -> float:
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise DocumentError(f"{what} must be a number, got {value!r}") from None
-        if not math.isfinite(v) or v < 0 or (positive and v == 0) or v > MAX_THICKNESS_UM:
-            raise DocumentError(f"{what} must be a finite number in {'(' if positive else '['}0, "
-                                f"{MAX_THICKNESS_UM:g}], got {value!r}")
-        return v
-
     # ------------------------------------------------------------------------------------ painting
     def stroke(self, layer: Layer | int, brush: Brush, mirror: bool | None = None) -> Stroke:
         """Begin a stroke on ``layer``; use as a context manager (``with doc.stroke(...) as s:``).
@@ -378,7 +383,7 @@ class Document(MaskEditing):
         ``mirror`` overrides ``brush.mirror``. The stroke becomes one undo step when the block ends; if
         the block raises, the stroke is rolled back and the document is unchanged.
         """
-        self._check_idle("start a stroke")
+        self.require_idle("start a stroke")
         lay = self.resolve(layer)
         if not isinstance(brush, Brush):
             raise DocumentError(f"brush must be a painting.Brush, got {type(brush).__name__}")
@@ -397,9 +402,9 @@ class Document(MaskEditing):
         ``thickness_um`` (µm) defaults to the material's default thickness and is clamped to the layer's
         maximum.
         """
-        self._check_idle("fill")
+        self.require_idle("fill")
         lay = self.resolve(layer)
-        value = lay.default_thickness if thickness_um is None else self._thickness_value(thickness_um,
+        value = lay.default_thickness if thickness_um is None else thickness_value(thickness_um,
                                                                                            "fill thickness")
         atlas = self.atlas_at(lay.resolution)
         if chart is not None:
@@ -407,26 +412,27 @@ class Document(MaskEditing):
             if not isinstance(chart, (int, np.integer)) or not 0 <= int(chart) < charts:
                 raise DocumentError(f"chart must be an integer in 0..{charts - 1}, got {chart!r}")
         with Stroke(self, lay, Brush(mode="fill"), False, detail="fill") as s:
-            s._fill_region(atlas, None if chart is None else int(chart), min(value, lay.max_thickness))
+            s.fill_region(atlas, None if chart is None else int(chart), min(value, lay.max_thickness))
 
     def set_thickness(self, layer: Layer | int, values: np.ndarray, detail: str = "import") -> None:
         """Replace a layer's whole map (µm, finite, ≥ 0, shape (H, W) of the layer) as one undo step."""
-        self._check_idle("replace a map")
+        self.require_idle("replace a map")
         lay = self.resolve(layer)
         arr = np.asarray(values)
-        if arr.shape != lay._data.shape:
+        if arr.shape != lay.data.shape:
             raise DocumentError(f"map is {arr.shape[1] if arr.ndim > 1 else '?'}×{arr.shape[0]}, layer "
                                 f"{lay.name!r} is {lay.resolution}×{lay.resolution}")
         arr = arr.astype(np.float32)
         if not np.all(np.isfinite(arr)) or arr.min(initial=0.0) < 0 or arr.max(initial=0.0) > MAX_THICKNESS_UM:
             raise DocumentError(f"map values must be finite thickness in [0, {MAX_THICKNESS_UM:g}] µm")
         with Stroke(self, lay, Brush(mode="set"), False, detail=detail) as s:
-            s._replace_all(arr)
+            s.replace_all(arr)
 
     # ------------------------------------------------------------------------------------ history
-    def _push(self, step: Step) -> None:
+    def push_step(self, step: Step) -> None:
+        """Record a finished ``step`` on the undo history (clearing redo) and send the "history" event."""
         self.history.push(step)
-        self._emit(ChangeEvent("history"))
+        self.emit(ChangeEvent("history"))
 
     @property
     def can_undo(self) -> bool:
@@ -440,7 +446,7 @@ class Document(MaskEditing):
 
     def undo(self) -> bool:
         """Undo the last step; returns False when there is none."""
-        self._check_idle("undo")
+        self.require_idle("undo")
         step = self.history.pop_undo()
         if step is None:
             return False
@@ -449,7 +455,7 @@ class Document(MaskEditing):
 
     def redo(self) -> bool:
         """Redo the last undone step; returns False when there is none."""
-        self._check_idle("redo")
+        self.require_idle("redo")
         step = self.history.pop_redo()
         if step is None:
             return False
@@ -459,18 +465,28 @@ class Document(MaskEditing):
     def _replay(self, step: Step, detail: str) -> None:
         for delta in step.deltas:
             delta.swap()
-            self._emit(ChangeEvent("paint", delta.layer.id, tuple(map(tuple, delta.tiles.tolist())), detail))
+            self.emit(ChangeEvent("paint", delta.layer.id, tuple(map(tuple, delta.tiles.tolist())), detail))
         fn = step.undo_fn if detail == "undo" else step.redo_fn
         if fn is not None:
             fn()
-        self._emit(ChangeEvent("history"))
+        self.emit(ChangeEvent("history"))
 
     def clear_history(self) -> None:
         """Forget every undo and redo step."""
         self.history.clear()
-        self._emit(ChangeEvent("history"))
+        self.emit(ChangeEvent("history"))
 
     # ------------------------------------------------------------------------------------ picking
+    @property
+    def pick_mesh(self) -> trimesh.Trimesh:
+        """The layout as a mesh, for picking (:mod:`painting.hit`).
+
+        Built on the first pick and kept: its ray structures are reused.
+        """
+        if self._pick_mesh is None:
+            self._pick_mesh = self.layout.trimesh()
+        return self._pick_mesh
+
     def hit(self, origin: ArrayLike, direction: ArrayLike) -> Hit | None:
         """First surface hit of a ray (mesh units): a :class:`painting.hit.Hit` or None."""
         from painting.hit import ray_hit
@@ -511,6 +527,6 @@ class Document(MaskEditing):
         from painting.maps_io import read_thickness
 
         lay = self.resolve(layer)
-        values = read_thickness(path, expected_shape=lay._data.shape)
+        values = read_thickness(path, expected_shape=lay.data.shape)
         self.set_thickness(lay, values, detail="import")
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from painting.brush import Brush, BrushError
 from painting.history import Step
-from painting.layer import ChangeEvent, DocumentError
+from painting.layer import ChangeEvent, DocumentError, thickness_value
 from painting.mask import (
     LayerMask,
     MaskChannel,
@@ -52,14 +52,12 @@ class MaskEditing:
     history: History
     _regions: RegionSet | None = None
 
-    if TYPE_CHECKING:  # provided by the document
+    if TYPE_CHECKING:  # the document's public API, which this part uses
         def resolve(self, layer: Layer | int) -> Layer: ...  # noqa: D102
         def atlas_at(self, resolution: int) -> Atlas: ...  # noqa: D102
-        def _check_idle(self, what: str) -> None: ...
-        def _push(self, step: Step) -> None: ...
-        def _emit(self, event: ChangeEvent) -> None: ...
-        @staticmethod
-        def _thickness_value(value: Any, what: str, positive: bool = False) -> float: ...
+        def require_idle(self, what: str) -> None: ...  # noqa: D102
+        def push_step(self, step: Step) -> None: ...  # noqa: D102
+        def emit(self, event: ChangeEvent) -> None: ...  # noqa: D102
 
     @property
     def regions(self) -> RegionSet:
@@ -134,7 +132,7 @@ class MaskEditing:
             DocumentError: an unknown or missing region (named), a bad op or feather, or a channel of
                 the wrong size or range; the document is unchanged.
         """
-        self._check_idle("change a mask")
+        self.require_idle("change a mask")
         lay = self.resolve(layer)
         if mask is not None and not isinstance(mask, LayerMask):
             raise DocumentError(f"mask must be a painting.LayerMask or None, got {type(mask).__name__}")
@@ -144,18 +142,18 @@ class MaskEditing:
             recipe = recipe_values(mask, self.regions, lay.resolution, self.atlas_at(lay.resolution).texel_mm)
             recipe.flags.writeable = False
         new_channel = None if channel is None else check_channel(channel, lay)
-        old = (lay.mask, lay.mask_channel, lay._mask_recipe)
+        old = (lay.mask, lay.mask_channel, lay.mask_recipe)
         new = (mask, new_channel, recipe)
 
         def apply(values: tuple[Any, np.ndarray | None, np.ndarray | None]) -> Callable[[], None]:
             def run() -> None:
-                lay.mask, lay.mask_channel, lay._mask_recipe = values
-                self._emit(ChangeEvent("layers", lay.id, detail="mask"))
+                lay.mask, lay.mask_channel, lay.mask_recipe = values
+                self.emit(ChangeEvent("layers", lay.id, detail="mask"))
             return run
 
         apply(new)()
         nbytes = sum(a.nbytes for a in (new_channel, recipe, old[1], old[2]) if a is not None)
-        self._push(Step(f"mask of {lay.name}", undo_fn=apply(old), redo_fn=apply(new), extra_bytes=nbytes))
+        self.push_step(Step(f"mask of {lay.name}", undo_fn=apply(old), redo_fn=apply(new), extra_bytes=nbytes))
 
     def mask_values(self, layer: Layer | int) -> np.ndarray | None:
         """The mask ``layer`` is rendered with (float32 (H, W) in [0, 1]), or None when it has none."""
@@ -168,7 +166,7 @@ class MaskEditing:
         (see :mod:`painting.mask`): "add" raises towards 2 (its amount defaults to 2), "erase" lowers
         towards 0, "set" with ``amount_um=1`` restores the recipe.
         """
-        self._check_idle("paint a mask")
+        self.require_idle("paint a mask")
         lay = self.resolve(layer)
         try:
             brush.validate()
@@ -188,10 +186,10 @@ class MaskEditing:
         there (so the feather is a soft falloff); ``thickness_um`` (µm) defaults to the material's
         default thickness and is clamped to the layer's maximum.
         """
-        self._check_idle("fill a region")
+        self.require_idle("fill a region")
         lay = self.resolve(layer)
         weights = self.region_values(region, lay.resolution)
-        value = lay.default_thickness if thickness_um is None else self._thickness_value(thickness_um,
+        value = lay.default_thickness if thickness_um is None else thickness_value(thickness_um,
                                                                                            "fill thickness")
         with Stroke(self, lay, Brush(mode="set"), False, detail="fill") as s:  # type: ignore[arg-type]
-            s._fill_soft(weights.reshape(-1), min(value, lay.max_thickness))
+            s.fill_soft(weights.reshape(-1), min(value, lay.max_thickness))

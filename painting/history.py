@@ -43,7 +43,7 @@ class TileDelta:
 
     def swap(self) -> None:
         """Exchange the stored tiles with the layer's current ones (undo and redo are the same)."""
-        arr = self.layer._data
+        arr = self.layer.data
         h, w = arr.shape
         view = arr.reshape(h // TILE, TILE, w // TILE, TILE)
         ty, tx = self.tiles[:, 0], self.tiles[:, 1]
@@ -102,6 +102,11 @@ class History:
 
     def __len__(self) -> int:
         return len(self._undo)
+
+    @property
+    def undo_step(self) -> Step | None:
+        """The step :meth:`pop_undo` would return (the last one done), or None."""
+        return self._undo[-1] if self._undo else None
 
     @property
     def undo_label(self) -> str | None:

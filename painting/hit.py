@@ -56,19 +56,16 @@ class PickTarget(Protocol):
 
     #: the paint layout picked on
     layout: UVLayout
-    #: the layout as a mesh (built on the first pick and kept: its ray structures are reused)
-    _mesh: trimesh.Trimesh | None
+
+    @property
+    def pick_mesh(self) -> trimesh.Trimesh:
+        """The layout as a mesh (built on the first pick and kept: its ray structures are reused)."""
+        ...
 
     @property
     def mm_per_unit(self) -> float:
         """Millimetres per mesh unit of the head."""
         ...
-
-
-def _mesh(doc: PickTarget) -> trimesh.Trimesh:
-    if doc._mesh is None:
-        doc._mesh = doc.layout.trimesh()
-    return doc._mesh
 
 
 def make_hit(doc: PickTarget, face: int, point: np.ndarray, distance: float) -> Hit:
@@ -96,7 +93,7 @@ def ray_hit(doc: PickTarget, origin: ArrayLike, direction: ArrayLike) -> Hit | N
     if norm == 0:
         raise PickError("ray direction must not be zero")
     d = d / norm
-    mesh = _mesh(doc)
+    mesh = doc.pick_mesh
     locations, _, tri = mesh.ray.intersects_location(o[None], d[None], multiple_hits=True)
     if len(tri) == 0:
         return None
@@ -145,7 +142,7 @@ def depth_hit(doc: PickTarget, ndc_xy: ArrayLike, depth: float, inv_view_proj: A
     if float(depth) >= 1.0:
         return None
     p = unproject(ndc_xy, depth, inv_view_proj)
-    closest, dist, tri = trimesh.proximity.closest_point(_mesh(doc), p[None])
+    closest, dist, tri = trimesh.proximity.closest_point(doc.pick_mesh, p[None])
     if float(dist[0]) * float(doc.mm_per_unit) > max_distance_mm:
         return None
     return make_hit(doc, int(tri[0]), closest[0], float(dist[0]))
@@ -199,7 +196,7 @@ def albedo_colour_at(doc: PickTarget, head: Head, point: ArrayLike, radius_texel
     p = as_vec3(point, "point", PickError)
     if head.albedo is None:
         return np.ones(3)
-    _, _, tri = trimesh.proximity.closest_point(_mesh(doc), p[None])
+    _, _, tri = trimesh.proximity.closest_point(doc.pick_mesh, p[None])
     hit = make_hit(doc, int(tri[0]), p, 0.0)
     corners = np.asarray(head.faces)[hit.head_face]
     u, v = hit.barycentric @ np.asarray(head.uv, dtype=np.float64)[corners]

@@ -8,12 +8,14 @@ through the document (:mod:`painting.document`) and its strokes (:mod:`painting.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from core.errors import SheerError
+from painting.maps_io import MAX_THICKNESS_UM
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -80,15 +82,20 @@ class Layer:
         # Filled explicitly (not np.zeros, whose pages the kernel maps on first write) so the map is
         # resident from the start: measured at 4096², first-touch faults made the mean 1 cm dab on a
         # new layer 1.3 ms instead of 0.7 ms; filling costs ~30 ms once, when the layer is added.
-        self._data = np.empty((resolution, resolution), dtype=np.float32)
-        self._data.fill(0.0)
-        self._view = self._data.view()
+        #: the writable map (float32 (H, W), µm): written only by the document, its strokes
+        #: (:mod:`painting.stroke`) and their undo records (:mod:`painting.history`), which send the events;
+        #: everyone else reads :attr:`thickness`
+        self.data = np.empty((resolution, resolution), dtype=np.float32)
+        self.data.fill(0.0)
+        self._view = self.data.view()
         self._view.flags.writeable = False
         #: the mask's recipe (a :class:`painting.mask.LayerMask`) or None; set through the document
         self.mask: Any = None
         #: the mask's paint channel (float32 (H, W) in [0, 2], neutral 1) or None; see :mod:`painting.mask`
         self.mask_channel: np.ndarray | None = None
-        self._mask_recipe: np.ndarray | None = None  # the recipe's values at this resolution (the document's)
+        #: the recipe's values at this resolution (float32 (H, W) in [0, 1], read-only) or None; set by the
+        #: document with :attr:`mask`
+        self.mask_recipe: np.ndarray | None = None
 
     @property
     def thickness(self) -> np.ndarray:
@@ -108,11 +115,11 @@ class Layer:
     def effective_thickness(self) -> np.ndarray:
         """Thickness as rendered: × opacity × the mask, zero when hidden (a new float32 array, µm)."""
         if not self.visible:
-            return np.zeros_like(self._data)
-        out = self._data * np.float32(self.opacity)
-        if self._mask_recipe is not None:
-            m = self._mask_recipe if self.mask_channel is None else \
-                self._mask_recipe + (self.mask_channel - np.float32(1.0))
+            return np.zeros_like(self.data)
+        out = self.data * np.float32(self.opacity)
+        if self.mask_recipe is not None:
+            m = self.mask_recipe if self.mask_channel is None else \
+                self.mask_recipe + (self.mask_channel - np.float32(1.0))
             out *= np.clip(m, 0.0, 1.0)
         elif self.mask_channel is not None:
             out *= np.clip(self.mask_channel, 0.0, 1.0)
@@ -121,6 +128,24 @@ class Layer:
     def __repr__(self) -> str:
         return (f"Layer(id={self.id}, name={self.name!r}, material={self.material!r}, "
                 f"resolution={self.resolution}, visible={self.visible}, opacity={self.opacity})")
+
+
+def thickness_value(value: Any, what: str, positive: bool = False) -> float:
+    """``value`` as a number the document accepts for a thickness (µm) or an opacity.
+
+    Finite, in ``[0, MAX_THICKNESS_UM]`` (``(0, …]`` when ``positive``; see :mod:`painting.maps_io`).
+
+    Raises:
+        DocumentError: naming ``what`` and the value, when it is not such a number.
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise DocumentError(f"{what} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v < 0 or (positive and v == 0) or v > MAX_THICKNESS_UM:
+        raise DocumentError(f"{what} must be a finite number in {'(' if positive else '['}0, "
+                            f"{MAX_THICKNESS_UM:g}], got {value!r}")
+    return v
 
 
 def as_vec3(value: ArrayLike, what: str, error: type[SheerError] = DocumentError) -> np.ndarray:

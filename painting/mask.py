@@ -213,21 +213,21 @@ class MaskChannel:
     """A layer's paint channel as a stroke target (what :class:`painting.stroke.Stroke` paints).
 
     Has the fields a stroke and an undo record use (``id`` — the layer's, so the renderer's paint events
-    name the layer — ``name``, ``resolution``, ``_data``, thickness bounds in channel units).
+    name the layer — ``name``, ``resolution``, ``data``, thickness bounds in channel units).
     """
 
     def __init__(self, layer: Layer, data: np.ndarray) -> None:
         self.id = layer.id
         self.name = f"{layer.name} (mask)"
         self.resolution = layer.resolution
-        self._data = data
+        self.data = data
         self.max_thickness = CHANNEL_MAX
         self.default_thickness = CHANNEL_MAX  # "add" reveals fully unless the brush names an amount
 
     @property
     def thickness(self) -> np.ndarray:
         """The channel (read-only view)."""
-        v = self._data.view()
+        v = self.data.view()
         v.flags.writeable = False
         return v
 
@@ -262,7 +262,7 @@ def effective_tiles(recipe: np.ndarray | None, channel: np.ndarray | None, tiles
 
 def layer_mask_values(layer: Layer, tiles: list[tuple[int, int]] | None = None) -> np.ndarray | None:
     """The mask ``layer`` is rendered with (:func:`effective_tiles` of its recipe and channel), or None."""
-    return effective_tiles(layer._mask_recipe, layer.mask_channel, tiles)
+    return effective_tiles(layer.mask_recipe, layer.mask_channel, tiles)
 
 
 __all__ = ["CHANNEL_MAX", "CHANNEL_NEUTRAL", "MASK_OPS", "REGION_NAMES", "LayerMask", "MaskChannel",

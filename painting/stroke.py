@@ -47,9 +47,6 @@ Pieces = list[tuple[np.ndarray, np.ndarray, np.ndarray]]
 class StrokeHost(Protocol):
     """What a stroke needs from its document (:class:`painting.document.Document` is the host)."""
 
-    #: the stroke in progress, or None (a document runs one stroke at a time)
-    _stroke: Stroke | None
-
     @property
     def mm_per_unit(self) -> float:
         """Millimetres per mesh unit of the head."""
@@ -67,15 +64,29 @@ class StrokeHost(Protocol):
         """Direction ``v`` reflected about the head's midplane."""
         ...
 
-    def _scratch(self, res: int) -> tuple[np.ndarray, np.ndarray]: ...
+    def scratch_maps(self, res: int) -> tuple[np.ndarray, np.ndarray]:
+        """(mask, base) flat float32 scratch maps shared by the strokes at ``res`` (mask zero between them)."""
+        ...
 
     def region_values(self, name: str, resolution: int) -> np.ndarray:
         """Region ``name`` at ``resolution``² texels (float32 [0, 1])."""
         ...
 
-    def _emit(self, event: ChangeEvent) -> None: ...
+    def emit(self, event: ChangeEvent) -> None:
+        """Deliver ``event`` to the document's subscribers."""
+        ...
 
-    def _push(self, step: Step) -> None: ...
+    def push_step(self, step: Step) -> None:
+        """Record a finished step on the document's undo history."""
+        ...
+
+    def begin_stroke(self, stroke: Stroke) -> None:
+        """Make ``stroke`` the one in progress (:class:`DocumentError` when another is)."""
+        ...
+
+    def end_stroke(self) -> None:
+        """No stroke is in progress any more."""
+        ...
 
 
 class Stroke:
@@ -106,12 +117,12 @@ class Stroke:
         self._open = False
         res = layer.resolution
         self._W = res
-        self._data = layer._data.reshape(-1)
+        self._data = layer.data.reshape(-1)
         # Scratch maps shared by the document's strokes at this resolution, reset tile-wise at the end of
         # each stroke, so a stroke costs nothing proportional to the map size. ``base`` receives a whole
         # 64² tile of the layer the first time the stroke touches the tile (the undo record and the
         # values dabs composite over); ``mask`` is the stroke's coverage.
-        self._mask, self._base = doc._scratch(res)
+        self._mask, self._base = doc.scratch_maps(res)
         self._nt = res // TILE
         self._touched = np.zeros(self._nt * self._nt, dtype=bool)
         self._tile_mark = np.zeros(self._nt * self._nt, dtype=bool)
@@ -138,16 +149,14 @@ class Stroke:
 
     # ---- context manager
     def __enter__(self) -> Stroke:
-        if self.doc._stroke is not None:
-            raise DocumentError("a stroke is already in progress")
-        self.doc._stroke = self
+        self.doc.begin_stroke(self)
         self._open = True
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
         self._open = False
-        self.doc._stroke = None
+        self.doc.end_stroke()
         if exc_type is not None:
             self._rollback()
             return
@@ -170,7 +179,7 @@ class Stroke:
         old = self._view(self._base)[tiles[:, 0], :, tiles[:, 1], :]  # a copy (fancy indexing)
         self._reset_scratch(tiles)
         label = f"{self.detail} on {self.layer.name}"
-        self.doc._push(Step(label, deltas=[TileDelta(self.layer, tiles, old)]))
+        self.doc.push_step(Step(label, deltas=[TileDelta(self.layer, tiles, old)]))
 
     def _rollback(self) -> None:
         tiles = self._tiles()
@@ -179,7 +188,7 @@ class Stroke:
         ty, tx = tiles[:, 0], tiles[:, 1]
         self._view(self._data)[ty, :, tx, :] = self._view(self._base)[ty, :, tx, :]
         self._reset_scratch(tiles)
-        self.doc._emit(ChangeEvent("paint", self.layer.id, tuple(map(tuple, tiles.tolist())), "rollback"))
+        self.doc.emit(ChangeEvent("paint", self.layer.id, tuple(map(tuple, tiles.tolist())), "rollback"))
 
     # ---- texel writes
     def _prepare(self, flat: np.ndarray,
@@ -286,16 +295,16 @@ class Stroke:
         if brush.mode == "fill":
             amount = min(brush.strength * self._amount, self.layer.max_thickness)
             if self._clip is not None:
-                tiles = self._fill_soft(self._clip, amount, emit=False)
+                tiles = self.fill_soft(self._clip, amount, emit=False)
             else:
                 chart = int(self.atlas.chart.reshape(-1)[index.flat[k]])
-                tiles = self._fill_region(self.atlas, chart, amount, emit=False)
+                tiles = self.fill_region(self.atlas, chart, amount, emit=False)
         else:
             # The compiled kernels once loaded, else the numpy reference: bit-identical results.
             paint = self._paint_compiled if kernels.active() else self._paint_numpy
             tiles = paint(pieces, r, np.float32(alpha), index)
         if tiles:
-            self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
+            self.doc.emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles
 
     def _path(self, last: tuple[np.ndarray, np.ndarray] | None, p: np.ndarray, n: np.ndarray, r: float,
@@ -508,8 +517,11 @@ class Stroke:
         new = t + beta * s * (gather_t - t * gather_w)
         return self._write(flat, np.maximum(new, 0.0).astype(np.float32))
 
-    def _fill_region(self, atlas: Atlas, chart: int | None, value: float,
-                     emit: bool = True) -> Tiles:
+    def fill_region(self, atlas: Atlas, chart: int | None, value: float, emit: bool = True) -> Tiles:
+        """Set every covered texel (of one ``chart``, or all) to ``value``; returns the touched tiles.
+
+        ``emit``: send the "paint" event here (a fill dab sends its own).
+        """
         cov = atlas.coverage.reshape(-1)
         if chart is None:
             flat = np.flatnonzero(cov)
@@ -519,10 +531,10 @@ class Stroke:
             return ()
         tiles = self._write(flat, np.full(len(flat), value, dtype=np.float32))
         if emit and tiles:
-            self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
+            self.doc.emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles
 
-    def _fill_soft(self, weights: np.ndarray, value: float, emit: bool = True) -> Tiles:
+    def fill_soft(self, weights: np.ndarray, value: float, emit: bool = True) -> Tiles:
         """Move every covered texel towards ``value`` (µm) by its weight (flat float32 in [0, 1]): ``t + (value − t)·w``."""
         flat = np.flatnonzero((weights > 0) & self.atlas.coverage.reshape(-1))
         if len(flat) == 0:
@@ -531,10 +543,10 @@ class Stroke:
         w = weights[flat].astype(np.float32)
         tiles = self._write(flat, (t + (np.float32(value) - t) * w).astype(np.float32))
         if emit and tiles:
-            self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
+            self.doc.emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
         return tiles
 
-    def _replace_all(self, values: np.ndarray) -> None:
+    def replace_all(self, values: np.ndarray) -> None:
         """Replace the whole map (import); only tiles that really change are recorded."""
         new = values.reshape(-1)
         c = np.flatnonzero(self._data != new)
@@ -542,4 +554,4 @@ class Stroke:
             return
         _, _, tiles = self._prepare(c)
         self._data[c] = new[c]
-        self.doc._emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))
+        self.doc.emit(ChangeEvent("paint", self.layer.id, tiles, self.detail))

@@ -392,7 +392,7 @@ def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | 
     report = TransferReport(source.head.name, target.head.name, list(warp.names), dict(warp.dropped),
                             float(np.median(loo)), float(np.max(loo)))
     for lay in source.layers:  # check every material first: a missing one changes nothing
-        target._material(lay.material)
+        target.lookup_material(lay.material)
     corrs: dict[int, Correspondence] = {}
     layers = source.layers
     for i, lay in enumerate(layers):

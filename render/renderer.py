@@ -335,7 +335,7 @@ class Renderer:
         self._set(cp, "u_mode", mode)
         self._set(cp, "u_origin", (int(vx), int(vy)))
         self._display_common(cp, tonemap, debug)
-        self._to_target(fbo, (vx, vy, w, h), rect, cp)
+        self.draw_composite(fbo, (vx, vy, w, h), rect, cp)
         ctx.scissor = None
         fbo.scissor = None
         return self.last
@@ -367,9 +367,12 @@ class Renderer:
         self._set(prog, "u_tonemap", tonemap)
         self._set(prog, "u_debug", debug)
 
-    def _to_target(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int],
-                   rect: tuple[int, int, int, int], prog: moderngl.Program) -> None:
-        """Clear ``fbo``'s viewport to the background, then run ``prog`` over the head's screen rectangle."""
+    def draw_composite(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int],
+                       rect: tuple[int, int, int, int], prog: moderngl.Program) -> None:
+        """Clear ``fbo``'s viewport to the background, then run ``prog`` over the head's screen rectangle.
+
+        The frame's composite and display pass (``sheer bench render`` times it on its own).
+        """
         ctx = self.ctx
         vx, vy, w, h = viewport
         fbo.use()

@@ -3,6 +3,7 @@ on the model packages (core, km, painting: the ``[tool.mypy]`` section of pyproj
 
 from __future__ import annotations
 
+import ast
 import os
 import shutil
 import subprocess
@@ -40,3 +41,105 @@ def test_mypy_passes_on_the_model_packages() -> None:
                           text=True)
     assert proc.returncode == 0, proc.stdout[-5000:] + proc.stderr[-2000:]
     assert "Success" in proc.stdout
+
+
+# ---------------------------------------------------------------------------------------------- shape
+#: The product's packages (tests/ and scripts/ are not held to the rules below).
+PRODUCT = ("core", "km", "shade", "painting", "project", "render", "capture", "catalogue", "app", "bench", "resources")
+
+
+def _product_trees() -> list[tuple[str, ast.Module]]:
+    out = []
+    for package in PRODUCT:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            out.append((path.relative_to(ROOT).as_posix(), ast.parse(path.read_text(encoding="utf-8"))))
+    return out
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def _type_checking_nodes(tree: ast.Module) -> set[int]:
+    """The ids of every node inside an ``if TYPE_CHECKING:`` block (declarations, not definitions)."""
+    out: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            for child in node.body:
+                out.update(id(n) for n in ast.walk(child))
+    return out
+
+
+def _defined_names(tree: ast.Module) -> set[str]:
+    """Every name a module defines: functions, classes, assigned names and attributes, arguments, imports,
+    ``__slots__`` entries and ``setattr``'s names (a bare annotation declares, it does not define)."""
+    skip = _type_checking_nodes(tree)
+    for node in ast.walk(tree):
+        if isinstance(node, ast.AnnAssign) and node.value is None:
+            skip.update(id(n) for n in ast.walk(node.target))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Attribute, ast.Name)) and isinstance(node.ctx, ast.Store):
+            names.add(node.attr if isinstance(node, ast.Attribute) else node.id)
+        elif isinstance(node, ast.arg):
+            names.add(node.arg)
+        elif isinstance(node, ast.alias):
+            names.add(node.asname or node.name.split(".")[0])
+        elif isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__slots__"
+                                                  for t in node.targets):
+            names.update(c.value for c in ast.walk(node.value) if isinstance(c, ast.Constant))
+        elif (isinstance(node, ast.Call) and ast.unparse(node.func).endswith("setattr") and len(node.args) > 1
+              and isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str)):
+            names.add(node.args[1].value)
+    return names
+
+
+#: Private members reached through another object than ``self``/``cls`` that stay allowed, (file,
+#: expression) each. Only a class's own internals, reached from its own module; and two of the standard
+#: library's names, which have no public spelling.
+PRIVATE_ACCESS_ALLOWED = {
+    # WavelengthGrid.from_wavelengths makes a grid without __init__ and fills it with the class's own _init
+    ("km/spectra.py", "obj._init"),
+    # WavelengthGrid.__eq__ compares the other grid's own fields
+    ("km/spectra.py", "other._hash"),
+    ("km/spectra.py", "other._wl"),
+    # the Atlas dataclass's cache file, recorded by its own module's bake (the bake made or loaded it)
+    ("painting/atlas.py", "cached._cache_path"),
+    ("painting/atlas.py", "atlas._cache_path"),
+    # KioskConfig.load (a classmethod) reads the fields the class's instances persist
+    ("app/kiosk/config.py", "cfg._persisted"),
+    # the standard library: os._exit is os's documented way to end a process at once (the fuzzer's
+    # forked writers die mid-save on purpose)
+    ("bench/fuzz.py", "os._exit"),
+    # the standard library: argparse has no public way to take option values that start with a minus
+    # sign ("--light -12,5,1"); tests/app/test_render_cli.py holds it to that
+    ("app/commands/render.py", "p._negative_number_matcher"),
+}
+
+
+def test_no_module_uses_another_modules_private_members() -> None:
+    """No module reaches another's private members: ``obj._name`` (obj not ``self``/``cls``) outside the
+    allow-list, ``self._name`` where the module does not define ``_name`` (a mixin calling its host's
+    internals), or ``from module import _name``."""
+    found = []
+    for rel, tree in _product_trees():
+        defined = _defined_names(tree)
+        declared = _type_checking_nodes(tree)
+        for node in ast.walk(tree):
+            if id(node) in declared:
+                continue
+            if isinstance(node, ast.Attribute) and _private(node.attr):
+                owner = node.value
+                if isinstance(owner, ast.Name) and owner.id in ("self", "cls"):
+                    if node.attr not in defined:
+                        found.append(f"{rel}:{node.lineno}: {ast.unparse(node)} ({node.attr} is not this module's)")
+                elif (rel, ast.unparse(node)) not in PRIVATE_ACCESS_ALLOWED:
+                    found.append(f"{rel}:{node.lineno}: {ast.unparse(node)}")
+            elif isinstance(node, ast.ImportFrom):
+                found += [f"{rel}:{node.lineno}: from {'.' * node.level}{node.module or ''} import {a.name}"
+                          for a in node.names if _private(a.name)]
+    assert not found, "private members of another module (give the owner a public method):\n" + "\n".join(found)

@@ -10,12 +10,16 @@ one kind. Sheer makes again whatever it needs.
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.commands import Subcommands
 
 #: The kinds ``--kind`` accepts (core.cache.KINDS; repeated here so that ``sheer --help`` imports nothing).
 _KINDS = ("atlas", "index", "layout", "looks", "render", "colour", "mesh")
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer cache`` and its sub-commands to the sub-command parsers ``sub``."""
     p = sub.add_parser("cache", help="show or clear the cache folder", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -54,8 +54,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from app.commands import Subcommands
 
-def register(sub: argparse._SubParsersAction) -> None:
+
+def register(sub: Subcommands) -> None:
     """Add ``sheer capture`` and its options to the sub-command parsers ``sub``."""
     p = sub.add_parser("capture", help="capture a relightable face from a photograph and a head",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

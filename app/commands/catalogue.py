@@ -15,7 +15,10 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from app.commands import Subcommands
 
 
 def _positive(text: str) -> int:
@@ -28,7 +31,7 @@ def _positive(text: str) -> int:
     return n
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add the ``catalogue`` command to ``sheer``'s sub-commands."""
     p = sub.add_parser("catalogue", help="render a catalogue (shades × faces × lights × views) on Dask",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -17,9 +17,13 @@ every variant the renderer can ask for, 2835 programs in 8-9 s warm, 36 s disabl
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.commands import Subcommands
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer doctor`` to the sub-command parsers ``sub``."""
     p = sub.add_parser("doctor", help="check the GL driver, shaders, assets, cache and dependencies",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -13,9 +13,13 @@ of coarse against fine; DIR/compare.png shows fine | coarse | difference (ΔE200
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.commands import Subcommands
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer head`` and its sub-commands to the sub-command parsers ``sub``."""
     p = sub.add_parser("head", help="head mesh operations (simplify)", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)

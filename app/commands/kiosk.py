@@ -24,13 +24,15 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import argparse
 
+    from app.commands import Subcommands
+
 #: The fewest digits ``--set-pin`` accepts, and with ``--allow-short-pin``; the most digits.
 MIN_PIN, MIN_SHORT_PIN, MAX_PIN = 6, 4, 12
 #: The most bytes read from a PIN file or a PIN's standard input.
 _PIN_INPUT_BYTES = 4096
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer kiosk`` and its options to the sub-command parsers ``sub``."""
     import argparse
 

@@ -18,8 +18,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from pathlib import Path
 
+    from app.commands import Subcommands
 
-def register(sub: argparse._SubParsersAction) -> None:
+
+def register(sub: Subcommands) -> None:
     """Add ``sheer look`` and its sub-commands to the sub-command parsers ``sub``."""
     p = sub.add_parser("look", help="looks and projects across heads (transfer)", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -20,11 +20,12 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from app.commands import Subcommands
     from km.library import Library
     from km.material import Material
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer materials`` and its sub-commands to the sub-command parsers ``sub``."""
     p = sub.add_parser("materials", help="list, show, plot and import cosmetic materials",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

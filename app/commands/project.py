@@ -15,9 +15,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from app.commands import Subcommands
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer project`` and its actions to the sub-command parsers ``sub``."""
     p = sub.add_parser("project", help="create, inspect, validate and export .sheer projects", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)

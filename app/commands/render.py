@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     import moderngl
     import numpy as np
 
+    from app.commands import Subcommands
     from capture.camera import Camera
     from capture.face import Face
     from km.library import Library
@@ -105,7 +106,7 @@ def _light(text: str) -> tuple[float, float, float | None, tuple[float, float, f
     return (vals[0], vals[1], vals[2] if len(vals) == 3 else None, colour)
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add the ``render`` command to ``sheer``'s sub-commands."""
     p = sub.add_parser("render", help="render a made-up face to a PNG (no display needed)", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -474,7 +475,7 @@ def _projection_camera(camera: Camera, vertices: np.ndarray, size: tuple[int, in
     return pinhole_camera(camera.K, camera.R, camera.t, camera.width, camera.height, vertices)
 
 
-def _render_lightweight(ctx: moderngl.Context, head: Head, face: object, renderer: Renderer,
+def _render_lightweight(ctx: moderngl.Context, head: Head, face: Face, renderer: Renderer,
                         doc: Document | None, exposure: float, size: tuple[int, int]) -> np.ndarray:
     """The captured ``face`` drawn by the lightweight engine (render/lightweight.py), uint8 (H, W, 3).
 

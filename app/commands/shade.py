@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from app.commands import Subcommands
     from km.skin import SkinFit
     from shade.coverage import Coverage
 
@@ -31,7 +32,7 @@ if TYPE_CHECKING:
 MAX_FIT_DE2000 = 10.0
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     """Add ``sheer shade match`` and ``sheer shade coverage`` to the sub-command parsers ``sub``."""
     p = sub.add_parser("shade", help="find the foundation that matches a skin; a range's coverage",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

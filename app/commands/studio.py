@@ -7,8 +7,10 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import argparse
 
+    from app.commands import Subcommands
 
-def register(sub: argparse._SubParsersAction) -> None:
+
+def register(sub: Subcommands) -> None:
     """Add ``sheer studio`` (the default command) to the sub-command parsers ``sub``."""
     p = sub.add_parser("studio", help="start the studio (the default)", description=__doc__)
     p.add_argument("--head", help="head mesh (default: the sample head)")

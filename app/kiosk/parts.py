@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from app.session import Session
+    from capture.face import Face
     from painting import Document
 
 log = logging.getLogger("sheer.kiosk")
@@ -26,9 +27,17 @@ class KioskEngines:
 
     config: Any
     viewport: Any
-    face: Any
-    engine: str
-    _frame_samples: list[float]
+
+    def setup_engines(self) -> None:
+        """Start on the physical engine, load the configured captured face and watch the frame times.
+
+        The window calls it once, its viewport made.
+        """
+        self.face: Face | None = None  # the configured captured face (the lightweight engine's)
+        self.engine = "physical"  # the engine in use: physical | lightweight
+        self._frame_samples: list[float] = []
+        self._load_face()
+        self.viewport.frame_drawn.connect(self._watch_frame_time)
 
     def _load_face(self) -> None:
         """The configured captured face (for the lightweight engine); a broken one is logged, not shown."""
@@ -93,7 +102,7 @@ class ShopperSession:
     session: Session
     doc: Document
     look: str
-    _look_cache: dict[str, Any]
+    look_cache: dict[str, Any]
     foundation_finder: Any
     look_buttons: dict[str, Any]
     light_buttons: dict[str, Any]
@@ -107,7 +116,7 @@ class ShopperSession:
 
     stop_attract: Callable[[], None]  # (KioskWindow's methods)
     show_main: Callable[[], None]
-    _sync: Callable[[], None]
+    refresh_products: Callable[[], None]
 
     def set_view(self, view: str) -> None:
         """Her face in the mirror view ("mirror": her photograph, its light) or relit ("relight")."""
@@ -116,9 +125,10 @@ class ShopperSession:
                 b.setChecked(False)
             self.tryon.light = None
         self.tryon.set_view(view)
-        self._show_view_buttons()
+        self.show_view_buttons()
 
-    def _show_view_buttons(self) -> None:
+    def show_view_buttons(self) -> None:
+        """Check the button of the view her face is shown in (mirror or relight)."""
         for n, b in self.view_buttons.items():
             b.setChecked(n == self.tryon.view)
 
@@ -148,7 +158,7 @@ class ShopperSession:
 
     def wear_shopper(self, session: Session) -> None:
         """Show her face on the try-on screen: the controls act on her document from now on."""
-        self._stock_looks, self._look_cache = self._look_cache, {}
+        self._stock_looks, self.look_cache = self.look_cache, {}
         self.session, self.doc = session, session.document
         self.foundation_finder.doc = self.doc
         self.foundation_finder.reset()
@@ -162,17 +172,17 @@ class ShopperSession:
         self.privacy_label.show()
         if getattr(self, "credit_label", None) is not None:
             self.credit_label.hide()  # the sample head's credit, not hers
-        self._show_view_buttons()
+        self.show_view_buttons()
         self.split.setValue(0)
         self.show_main()
-        self._sync()
+        self.refresh_products()
 
     def unwear_shopper(self) -> None:
         """Back to the sample face (or the project's)."""
         if self.session is self.stock_session:
             return
         self.session, self.doc = self.stock_session, self.stock_session.document
-        self._look_cache = getattr(self, "_stock_looks", {})
+        self.look_cache = getattr(self, "_stock_looks", {})
         self.foundation_finder.doc = self.doc
         self.foundation_finder.reset()
         self.face_stack.setCurrentWidget(self.viewport)
@@ -180,4 +190,4 @@ class ShopperSession:
         self.privacy_label.hide()
         if getattr(self, "credit_label", None) is not None:
             self.credit_label.show()
-        self._sync()
+        self.refresh_products()

@@ -52,7 +52,6 @@ if TYPE_CHECKING:
     import numpy as np
 
     from app.view.viewport import Viewport
-    from capture.face import Face
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -118,13 +117,9 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.doc = self.session.document
         self.look = "natural"
         # per look: (material, layer name, max thickness µm, map µm) of each layer, bottom first
-        self._look_cache: dict[str, list[tuple[str, str, float, np.ndarray]]] = {}
+        self.look_cache: dict[str, list[tuple[str, str, float, np.ndarray]]] = {}
         self.viewport = self._make_viewport()
-        self.face: Face | None = None
-        self.engine = "physical"  # the engine in use: physical | lightweight
-        self._frame_samples: list[float] = []
-        self._load_face()
-        self.viewport.frame_drawn.connect(self._watch_frame_time)
+        self.setup_engines()
         self.stack = QStackedWidget()
         self.tryon = TryOn(self)
         self.main_page = self._build_main()
@@ -273,8 +268,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         side.addWidget(self.split)
         side.addWidget(self.snapshot_button)
         self.foundation_finder = FoundationFinder(
-            self.library, self.doc, lambda: self.tryon.shopper.face if self.tryon.shopper else self.face, self._sync,
-            self.guard, skin_source=self.tryon.her_skin)
+            self.library, self.doc, lambda: self.tryon.shopper.face if self.tryon.shopper else self.face,
+            self.refresh_products, self.guard, skin_source=self.tryon.her_skin)
         self.foundation_finder.found.connect(self.guard(self.tryon.preview_shades))
         side.addWidget(self.foundation_finder)
         side.addWidget(self.toast)
@@ -342,7 +337,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
             # no dialogs in the kiosk: a project painted at another resolution is resampled
             load_project_into(self.doc, self.library, Path(project), resample=True)
             self.look = "project"
-            self._sync()
+            self.refresh_products()
         else:
             self.set_look("natural")
 
@@ -350,10 +345,10 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         """Apply a built-in look; painted once, then replayed from a cache (instant in attract mode)."""
         import numpy as np
 
-        cached = self._look_cache.get(name)
+        cached = self.look_cache.get(name)
         if cached is None:
             self.session.apply_look(name)
-            self._look_cache[name] = [(lay.material, lay.name, float(lay.max_thickness), np.array(lay.thickness))
+            self.look_cache[name] = [(lay.material, lay.name, float(lay.max_thickness), np.array(lay.thickness))
                                       for lay in self.doc.layers]
         else:
             for i in reversed(range(len(self.doc.layers))):
@@ -365,7 +360,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.look = name
         for n, b in self.look_buttons.items():
             b.setChecked(n == name)
-        self._sync()
+        self.refresh_products()
 
     def _layer_for(self, category: str) -> int | None:
         for i, lay in enumerate(self.doc.layers):
@@ -384,7 +379,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         k = (names.index(cur) + step) % len(names) if cur in names else 0
         self.doc.set_layer(i, material=names[k])
         self.doc.clear_history()
-        self._sync()
+        self.refresh_products()
 
     def set_light(self, name: str) -> None:
         """Light the face with the preset ``name`` (a key of ``app.settings.LIGHT_PRESETS``).
@@ -396,7 +391,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
             b.setChecked(n == name)
         if self.tryon.active:
             self.tryon.set_light(p)
-            self._show_view_buttons()
+            self.show_view_buttons()
             return
         lt = self.viewport.lighting
         lt.azimuth, lt.elevation = p["azimuth"], p["elevation"]
@@ -413,7 +408,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
     def _toggle_split(self) -> None:
         self.split.setValue(0 if self.split.value() else 50)
 
-    def _sync(self) -> None:
+    def refresh_products(self) -> None:
+        """Show each category's product on its label (the layers' materials), and on her face in the try-on."""
         for cat, label in self.product_labels.items():
             i = self._layer_for(cat)
             label.setText(self.doc.layers[i].material if i is not None else f"{cat.title()}: —")
@@ -528,6 +524,10 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
 
     def _pin_accepted(self) -> None:  # (a wrong PIN is logged and shown by the pad's guard)
         log.info("kiosk: exit with the administrator PIN")
+        self.close_without_pin()
+
+    def close_without_pin(self) -> None:
+        """Close the kiosk now, as the administrator PIN does (the screenshots script)."""
         self._allow_close = True
         self.close()
 

@@ -120,7 +120,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
 
         self.actions_by_id: dict[str, QAction] = {}
         self._build_actions()
-        self._build_toolbars()
+        self.build_toolbars()
         self.status = QLabel()
         self.statusBar().addPermanentWidget(self.status)
         self.frame_label = QLabel()
@@ -183,9 +183,9 @@ class StudioWindow(StudioToolbars, QMainWindow):
             "brush.mirror": self._toggle_mirror, "view.frame": self.viewport.frame_head,
             "view.split": self._toggle_split, "view.reference": self._toggle_reference,
             "view.overlay": self._toggle_overlay, "help.shortcuts": self.show_shortcuts,
-            "view.scale_50": lambda: self._set(interactive_scale_cap=0.5),
-            "view.scale_75": lambda: self._set(interactive_scale_cap=0.75),
-            "view.scale_100": lambda: self._set(interactive_scale_cap=1.0),
+            "view.scale_50": lambda: self.change_settings(interactive_scale_cap=0.5),
+            "view.scale_75": lambda: self.change_settings(interactive_scale_cap=0.75),
+            "view.scale_100": lambda: self.change_settings(interactive_scale_cap=1.0),
             "help.about": self.show_about,
         }
         for spec in STUDIO_ACTIONS:
@@ -265,7 +265,8 @@ class StudioWindow(StudioToolbars, QMainWindow):
             self.frame_label.setText(text)
 
     # ------------------------------------------------------------------ settings → everything
-    def _set(self, **changes: object) -> None:
+    def change_settings(self, **changes: object) -> None:
+        """Set fields of :attr:`settings` (``app.settings.StudioSettings``) and :meth:`apply` them."""
         for k, v in changes.items():
             setattr(self.settings, k, v)
         self.apply()
@@ -341,25 +342,26 @@ class StudioWindow(StudioToolbars, QMainWindow):
                 return base
         return self._env_cache[env]
 
-    def _light_preset(self, name: str) -> None:
+    def use_light_preset(self, name: str) -> None:
+        """Light the head with the preset ``name`` (a key of ``app.settings.LIGHT_PRESETS``; daylight if unknown)."""
         p = LIGHT_PRESETS.get(name, LIGHT_PRESETS["daylight"])
-        self._set(light_preset=name, light_azimuth=p["azimuth"], light_elevation=p["elevation"])
+        self.change_settings(light_preset=name, light_azimuth=p["azimuth"], light_elevation=p["elevation"])
 
     def _light_moved(self, az: float, el: float) -> None:
         self.settings.light_azimuth, self.settings.light_elevation = az, el
 
     def _brush(self, radius: float = 1.0, strength: float = 0.0) -> None:
-        self._set(brush_radius_mm=self.settings.brush_radius_mm * radius,
+        self.change_settings(brush_radius_mm=self.settings.brush_radius_mm * radius,
                   brush_strength=round(self.settings.brush_strength + strength, 2))
 
     def _mode(self, mode: str) -> None:
-        self._set(brush_mode="add" if self.settings.brush_mode == mode else mode)
+        self.change_settings(brush_mode="add" if self.settings.brush_mode == mode else mode)
 
     def _toggle_mirror(self) -> None:
-        self._set(brush_mirror=not self.settings.brush_mirror)
+        self.change_settings(brush_mirror=not self.settings.brush_mirror)
 
     def _toggle_split(self) -> None:
-        self._set(split=0.0 if self.settings.split > 0 else 0.5)
+        self.change_settings(split=0.0 if self.settings.split > 0 else 0.5)
 
     def set_render_mode(self, mode: str) -> None:
         """Fast | reference | lightweight; the lightweight mode without a captured face asks for one."""
@@ -369,7 +371,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
             self.apply()  # the widgets show the mode in use until a face is open
             self.ask_open_face()
             return
-        self._set(render_mode=mode)
+        self.change_settings(render_mode=mode)
 
     def ask_open_face(self) -> None:
         """File → Open Captured Face…: a face folder written by ``sheer capture`` (for this head)."""
@@ -384,7 +386,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
         def done(face: Face) -> None:
             self.viewport.face = face
             self.face_path = Path(folder)
-            self._set(render_mode="lightweight")
+            self.change_settings(render_mode="lightweight")
             self._update_actions()
             self.statusBar().showMessage(f"Captured face: {folder} (lightweight mode)", 6000)
             if on_done is not None:
@@ -400,17 +402,17 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self.viewport.face = None
         self.face_path = None
         if self.settings.render_mode == "lightweight":
-            self._set(render_mode="fast")
+            self.change_settings(render_mode="fast")
         else:
             self._update_actions()
             self.viewport.update()
         self.statusBar().showMessage("Captured face closed", 4000)
 
     def _toggle_reference(self) -> None:
-        self._set(render_mode="fast" if self.settings.render_mode == "reference" else "reference")
+        self.change_settings(render_mode="fast" if self.settings.render_mode == "reference" else "reference")
 
     def _toggle_overlay(self) -> None:
-        self._set(overlay=not self.settings.overlay)
+        self.change_settings(overlay=not self.settings.overlay)
 
     # ------------------------------------------------------------------ document
     def _arm_skin_pick(self) -> None:
@@ -460,14 +462,14 @@ class StudioWindow(StudioToolbars, QMainWindow):
     def _wire_layers_panel(self) -> None:
         p = self.layers_panel
         p.add_requested.connect(self.add_layer)
-        p.remove_requested.connect(lambda i: self._layer_cmd(lambda: self.doc.remove_layer(i)))
+        p.remove_requested.connect(lambda i: self.layer_command(lambda: self.doc.remove_layer(i)))
         p.move_requested.connect(self.move_layer)
-        p.rename_requested.connect(lambda i, n: self._layer_cmd(lambda: self.doc.set_layer(i, name=n)))
-        p.visibility_requested.connect(lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, visible=v)))
-        p.opacity_requested.connect(lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, opacity=v)))
+        p.rename_requested.connect(lambda i, n: self.layer_command(lambda: self.doc.set_layer(i, name=n)))
+        p.visibility_requested.connect(lambda i, v: self.layer_command(lambda: self.doc.set_layer(i, visible=v)))
+        p.opacity_requested.connect(lambda i, v: self.layer_command(lambda: self.doc.set_layer(i, opacity=v)))
         p.max_thickness_requested.connect(
-            lambda i, v: self._layer_cmd(lambda: self.doc.set_layer(i, max_thickness=v)))
-        p.material_requested.connect(lambda i, m: self._layer_cmd(lambda: self.doc.set_layer(i, material=m)))
+            lambda i, v: self.layer_command(lambda: self.doc.set_layer(i, max_thickness=v)))
+        p.material_requested.connect(lambda i, m: self.layer_command(lambda: self.doc.set_layer(i, material=m)))
         p.selection_changed.connect(self._select_layer)
         p.import_requested.connect(self.exports.ask_import_map)
         p.export_requested.connect(self.exports.ask_export_map)
@@ -478,7 +480,8 @@ class StudioWindow(StudioToolbars, QMainWindow):
             self.viewport.debug_layer_index = index  # the thickness view shows the selected layer
             self.viewport.update()
 
-    def _layer_cmd(self, fn: Callable[[], object]) -> None:
+    def layer_command(self, fn: Callable[[], object]) -> None:
+        """Run the document edit ``fn``; one the document refuses is shown in a dialog, not raised."""
         from core.errors import SheerError
 
         try:
@@ -493,13 +496,13 @@ class StudioWindow(StudioToolbars, QMainWindow):
             return
         m = self.library.get(material)
         self.selected_layer = len(self.doc.layers)
-        self._layer_cmd(lambda: self.doc.add_layer(material, name=material,
+        self.layer_command(lambda: self.doc.add_layer(material, name=material,
                                                    max_thickness=float(m.max_thickness_um)))
 
     def move_layer(self, src: int, dst: int) -> None:
         """Move the layer at document index ``src`` to ``dst`` (0 = bottom) and select it."""
         self.selected_layer = dst
-        self._layer_cmd(lambda: self.doc.move_layer(src, dst))
+        self.layer_command(lambda: self.doc.move_layer(src, dst))
 
     def undo(self) -> None:
         """Undo the last document edit (a stroke or a layer change)."""

@@ -182,7 +182,7 @@ class NewFromPhoto:
         win.viewport.face = captured.face
         win.face_path = captured.folder
         win.files.name = f"{old.files.name} on {captured.document.head.name}"
-        win.files._set_saved_state(True)  # a new, unsaved document
+        win.files.set_modified(True)  # a new, unsaved document
         win.resize(old.size())
         win.show()
         win.apply()

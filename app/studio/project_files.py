@@ -92,7 +92,8 @@ class ProjectFiles(QObject):
     def _show_title(self) -> None:
         self._window.setWindowTitle(f"{self.name}[*] — Sheer Studio")
 
-    def _set_saved_state(self, modified: bool) -> None:
+    def set_modified(self, modified: bool) -> None:
+        """Mark the document modified (unsaved) or not: the window's title and :attr:`changed` follow."""
         self._window.setWindowModified(modified)
         self._show_title()
         self.changed.emit()
@@ -116,7 +117,7 @@ class ProjectFiles(QObject):
         self.autosaver.project_path = None
         self.path, self.name = None, "Untitled"
         self.project, self.look_record = None, {"name": look, "tags": []}
-        self._set_saved_state(False)
+        self.set_modified(False)
 
     # ------------------------------------------------------------------ open
     def open_project(self, path: Path | None = None, background: bool = False) -> bool:
@@ -242,7 +243,7 @@ class ProjectFiles(QObject):
         self.autosaver.dirty = False
         self.settings.add_recent(str(path))
         self.replaced.emit()
-        self._set_saved_state(False)
+        self.set_modified(False)
         return True
 
     def _restore_view(self, project: Project) -> None:
@@ -301,7 +302,7 @@ class ProjectFiles(QObject):
         self.project, self.path, self.name = project, saved, saved.stem
         self.autosaver.saved(saved)
         self.settings.add_recent(str(saved))
-        self._set_saved_state(False)
+        self.set_modified(False)
         return True
 
     def save_self_contained(self, path: Path | None = None) -> bool:
@@ -363,7 +364,7 @@ class ProjectFiles(QObject):
         self.project, self.look_record = project, project.look
         self._restore_view(project)
         self.replaced.emit()
-        self._set_saved_state(True)
+        self.set_modified(True)
         info.path.unlink(missing_ok=True)
 
     # ------------------------------------------------------------------ close

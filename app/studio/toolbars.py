@@ -69,9 +69,9 @@ class StudioToolbars:
     selected_layer: int
 
     if TYPE_CHECKING:  # what the window implements (never defined here: they would shadow QMainWindow's)
-        def _set(self, **changes: object) -> None: ...
-        def _layer_cmd(self, fn: Callable[[], object]) -> None: ...
-        def _light_preset(self, name: str) -> None: ...
+        def change_settings(self, **changes: object) -> None: ...  # noqa: D102
+        def layer_command(self, fn: Callable[[], object]) -> None: ...  # noqa: D102
+        def use_light_preset(self, name: str) -> None: ...  # noqa: D102
         def set_render_mode(self, mode: str) -> None: ...  # noqa: D102
         def addToolBar(self, toolbar: QToolBar) -> None: ...  # noqa: D102, N802
         def addToolBarBreak(self, area: Qt.ToolBarArea) -> None: ...  # noqa: D102, N802
@@ -85,7 +85,8 @@ class StudioToolbars:
         state = self.qsettings.value("window/state")
         return isinstance(state, QByteArray) and self.restoreState(state, WINDOW_STATE_VERSION)
 
-    def _build_toolbars(self) -> None:
+    def build_toolbars(self) -> None:
+        """Make the brush bar and, on a row of its own under it, the view bar (the window calls it once)."""
         tb = WholeToolBar("Brush")
         tb.setObjectName("brush_toolbar")
         self.addToolBar(tb)
@@ -110,13 +111,13 @@ class StudioToolbars:
         tb.addWidget(self.region_picker)
         self.region_picker.attach_overlay(self.viewport)  # its Regions menu outlines regions on the face
         self.region_picker.fill_requested.connect(
-            lambda name: self.doc.layers and self._layer_cmd(
+            lambda name: self.doc.layers and self.layer_command(
                 lambda: self.doc.fill_region(self.doc.layers[self.selected_layer], name)))
-        self.radius_spin.valueChanged.connect(lambda v: self._set(brush_radius_mm=float(v)))
-        self.strength_spin.valueChanged.connect(lambda v: self._set(brush_strength=float(v)))
-        self.hardness_spin.valueChanged.connect(lambda v: self._set(brush_hardness=float(v)))
-        self.mode_combo.currentTextChanged.connect(lambda t: self._set(brush_mode=t))
-        self.mirror_check.toggled.connect(lambda on: self._set(brush_mirror=bool(on)))
+        self.radius_spin.valueChanged.connect(lambda v: self.change_settings(brush_radius_mm=float(v)))
+        self.strength_spin.valueChanged.connect(lambda v: self.change_settings(brush_strength=float(v)))
+        self.hardness_spin.valueChanged.connect(lambda v: self.change_settings(brush_hardness=float(v)))
+        self.mode_combo.currentTextChanged.connect(lambda t: self.change_settings(brush_mode=t))
+        self.mirror_check.toggled.connect(lambda on: self.change_settings(brush_mirror=bool(on)))
         # the view's controls on a row of their own under the brush's (see the module doc)
         self.addToolBarBreak(Qt.ToolBarArea.TopToolBarArea)
         vb = WholeToolBar("View")
@@ -138,8 +139,8 @@ class StudioToolbars:
             vb.addWidget(QLabel(f" {label} "))
             vb.addWidget(w)
         vb.addWidget(self.region_picker.overlay_button)  # the Regions overlay: outlines drawn over the view
-        self.light_combo.currentTextChanged.connect(self._light_preset)
-        self.env_combo.currentTextChanged.connect(lambda t: self._set(environment=t))
+        self.light_combo.currentTextChanged.connect(self.use_light_preset)
+        self.env_combo.currentTextChanged.connect(lambda t: self.change_settings(environment=t))
         self.render_combo.currentTextChanged.connect(self.set_render_mode)
-        self.debug_combo.currentIndexChanged.connect(lambda i: self._set(debug_view=int(i)))
-        self.split_slider.valueChanged.connect(lambda v: self._set(split=v / 100.0))
+        self.debug_combo.currentIndexChanged.connect(lambda i: self.change_settings(debug_view=int(i)))
+        self.split_slider.valueChanged.connect(lambda v: self.change_settings(split=v / 100.0))

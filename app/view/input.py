@@ -22,7 +22,7 @@ from PySide6.QtGui import QMouseEvent, QTabletEvent, QWheelEvent
 
 if TYPE_CHECKING:
     import moderngl
-    from PySide6.QtCore import QTimer, SignalInstance
+    from PySide6.QtCore import SignalInstance
 
     from app.view.camera import Lighting, OrbitCamera
     from app.view.gl_surface import GLSurface
@@ -41,18 +41,20 @@ class ViewportInput:
     paint_enabled: bool
     pick_next: bool
     stage: str
-    _settle_timer: QTimer
     stroke_begin: SignalInstance
     stroke_move: SignalInstance
     stroke_end: SignalInstance
     light_moved: SignalInstance
     surface_picked: SignalInstance
 
-    def _init_input(self) -> None:
-        """The pointer's state: no drag, no ring, full pressure."""
-        self._ring: np.ndarray | None = None  # the brush ring's centre on the surface (mesh units), or None
-        self._drag: str | None = None  # "paint", "orbit", "pan" or "light" while a button is down
-        self._drag_input = False  # the current drag has moved the view, a light or the makeup (note_input)
+    def init_input(self) -> None:
+        """The pointer's state: no drag, no ring, full pressure (the viewport calls it once, when made)."""
+        #: the brush ring's centre on the surface (mesh units), or None (hidden); the pointer moves it
+        self.brush_ring: np.ndarray | None = None
+        #: the drag in progress: "paint", "orbit", "pan" or "light" while a button is down, else None
+        self.drag: str | None = None
+        #: the current drag has moved the view, a light or the makeup (set by :meth:`note_input`)
+        self.drag_moved = False
         self._last = QPointF()
         self._pressure = 1.0
         self._tablet = False
@@ -61,6 +63,7 @@ class ViewportInput:
         def update(self) -> None: ...  # noqa: D102
         def note_input(self, drag: bool = False) -> None: ...  # noqa: D102
         def settle_now(self) -> None: ...  # noqa: D102
+        def settle_after_quiet(self) -> None: ...  # noqa: D102
         def makeCurrent(self) -> None: ...  # noqa: D102, N802
         def doneCurrent(self) -> None: ...  # noqa: D102, N802
         def devicePixelRatioF(self) -> float: ...  # noqa: D102, N802
@@ -93,7 +96,7 @@ class ViewportInput:
         """Start a drag: paint on the head, orbit, pan or move the light (see the module docstring)."""
         pos = event.position()
         self._last = pos
-        self._drag_input = False
+        self.drag_moved = False
         mods = event.modifiers()
         btn = event.button()
         if btn == Qt.MouseButton.LeftButton and self.pick_next:
@@ -105,23 +108,23 @@ class ViewportInput:
             event.accept()
             return
         if btn == Qt.MouseButton.LeftButton and mods & Qt.KeyboardModifier.ControlModifier:
-            self._drag = "light"
+            self.drag = "light"
         elif btn == Qt.MouseButton.LeftButton and self.paint_enabled:
             hit = self.pick(pos)
             if hit is not None:
-                self._drag = "paint"
-                self._ring = hit
+                self.drag = "paint"
+                self.brush_ring = hit
                 self.note_input(drag=True)
                 self.stroke_begin.emit(hit, self._pressure_now())
             else:
-                self._drag = "orbit"
+                self.drag = "orbit"
         elif btn == Qt.MouseButton.LeftButton:
-            self._drag = "orbit"
+            self.drag = "orbit"
         elif btn == Qt.MouseButton.MiddleButton or (
                 btn == Qt.MouseButton.RightButton and mods & Qt.KeyboardModifier.ShiftModifier):
-            self._drag = "pan"
+            self.drag = "pan"
         elif btn == Qt.MouseButton.RightButton:
-            self._drag = "orbit"
+            self.drag = "orbit"
         event.accept()
 
     def mouseMoveEvent(self, event: QMouseEvent) -> None:
@@ -129,32 +132,32 @@ class ViewportInput:
         pos = event.position()
         dx, dy = pos.x() - self._last.x(), pos.y() - self._last.y()
         self._last = pos
-        if self._drag == "orbit":
+        if self.drag == "orbit":
             self.camera.orbit(-dx * 0.4, dy * 0.4)
             self.note_input(drag=True)
-        elif self._drag == "pan":
+        elif self.drag == "pan":
             h = max(self.height(), 1)
             self.camera.pan(dx / h, dy / h)
             self.note_input(drag=True)
-        elif self._drag == "light":
+        elif self.drag == "light":
             az = self.lighting.azimuth + dx * 0.5
             el = float(np.clip(self.lighting.elevation - dy * 0.5, -80.0, 85.0))
             self.lighting.azimuth = (az + 180.0) % 360.0 - 180.0
             self.lighting.elevation = el
             self.note_input(drag=True)
             self.light_moved.emit(self.lighting.azimuth, el)
-        elif self._drag == "paint":
+        elif self.drag == "paint":
             hit = self.pick(pos)
             if hit is not None:
-                self._ring = hit
+                self.brush_ring = hit
                 self.note_input(drag=True)
                 self.stroke_move.emit(hit, self._pressure_now())
         elif self.paint_enabled:
             # hovering moves the brush ring: quick frames while the mouse moves, a full one when it rests
             ring = self.pick(pos)
-            if ring is None and self._ring is None:
+            if ring is None and self.brush_ring is None:
                 return
-            self._ring = ring
+            self.brush_ring = ring
         else:
             return  # nothing on screen depends on a hover (the kiosk)
         self.update()
@@ -166,19 +169,19 @@ class ViewportInput:
         :data:`app.view.viewport.SETTLE_MS` would only delay the full frame (the timer stays for the wheel, keys
         and the kiosk's turns, whose end cannot be seen).
         """
-        was, moved = self._drag, self._drag_input
-        self._drag, self._drag_input = None, False
+        was, moved = self.drag, self.drag_moved
+        self.drag, self.drag_moved = None, False
         if was == "paint":
             self.stroke_end.emit()
         if moved and self.stage == "interactive":
             self.settle_now()
-        elif was is not None and self.stage == "interactive" and not self._settle_timer.isActive():
-            self._settle_timer.start()  # (it runs from the last move: releasing the button is no movement)
+        elif was is not None and self.stage == "interactive":
+            self.settle_after_quiet()  # (from the last move: releasing the button is no movement)
         self.update()
 
     def leaveEvent(self, event: QEvent) -> None:
         """Hide the brush ring when the pointer leaves."""
-        self._ring = None
+        self.brush_ring = None
         self.update()
 
     def wheelEvent(self, event: QWheelEvent) -> None:

@@ -154,7 +154,7 @@ class Viewport(ViewportInput, QWidget):
         self.ctx: moderngl.Context | None = None
         self.renderer: ViewRenderer | None = None
         self.renderer_error: str | None = None  # the renderer failed in a frame (reported; the view stays empty)
-        self._init_input()
+        self.init_input()
         self.frame_ms = 0.0
         self.render_ms = 0.0  # the last frame the renderer drew (not a ring-only redraw), finished
         self.flush_ms = 0.0  # the last paintGL's share spent pushing document changes (dirty tiles' KM)
@@ -383,8 +383,8 @@ class Viewport(ViewportInput, QWidget):
         self.renderer.environment = self.environment
         self.renderer.layer_index = self.debug_layer_index
         ring = None
-        if self._ring is not None and self.paint_enabled:
-            ring = BrushRing((float(self._ring[0]), float(self._ring[1]), float(self._ring[2])),
+        if self.brush_ring is not None and self.paint_enabled:
+            ring = BrushRing((float(self.brush_ring[0]), float(self.brush_ring[1]), float(self.brush_ring[2])),
                              float(self.brush_radius_units))
         if self.renderer.face is not self.face:
             self.renderer.set_face(self.face)
@@ -465,14 +465,14 @@ class Viewport(ViewportInput, QWidget):
         wheel, keys, the kiosk's turns) settle after :data:`SETTLE_MS`.
         """
         self.last_input_time = time.perf_counter()
-        self._drag_input = drag
+        self.drag_moved = drag
         self.stage = "interactive"
         self._settle_timer.start()
         self.update()
 
     def _settle(self) -> None:
         """Input stopped: the full-resolution frame next (then the reference one in that mode)."""
-        if self._drag == "paint":  # the pen rests on the head mid-stroke: keep the stroke's frames cheap
+        if self.drag == "paint":  # the pen rests on the head mid-stroke: keep the stroke's frames cheap
             self._settle_timer.start()
             return
         quiet_ms = (time.perf_counter() - (self.last_input_time or 0.0)) * 1000.0
@@ -481,6 +481,11 @@ class Viewport(ViewportInput, QWidget):
             return
         self.stage = "settle"
         self.update()
+
+    def settle_after_quiet(self) -> None:
+        """Settle :data:`SETTLE_MS` after the last input, unless the settle timer already runs."""
+        if not self._settle_timer.isActive():
+            self._settle_timer.start()
 
     def settle_now(self) -> None:
         """The input has provably ended (a button released): the full-resolution frame next, no wait.

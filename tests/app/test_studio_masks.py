@@ -51,7 +51,7 @@ def screen_of(win: object, point: np.ndarray) -> tuple[int, int]:
 
 def test_regions_overlay_outlines_the_ticked_regions(window: object, qtbot: object) -> None:
     vp, picker = window.viewport, window.region_picker
-    vp._ring = None
+    vp.brush_ring = None
     draw(vp, qtbot)
     bare = grab(window)
     assert "lips" in picker.overlay_actions and "lash_line" in picker.overlay_actions
@@ -153,16 +153,16 @@ def test_thickness_view_shows_the_masked_thickness(window: object, qtbot: object
     lm = doc.head.metadata.landmarks
     lip = screen_of(window, lm["lower_lip"])
     cheek = screen_of(window, lm["chin"])  # (the test window's viewport is narrow: the chin is in view)
-    vp._ring = None
+    vp.brush_ring = None
     try:
-        window._set(debug_view=thickness_view)
+        window.change_settings(debug_view=thickness_view)
         draw(vp, qtbot)
         unmasked = grab(window)
         doc.set_layer_mask(lay, LayerMask((("union", "lips"),)))
         draw(vp, qtbot)
         masked = grab(window)
     finally:
-        window._set(debug_view=0)
+        window.change_settings(debug_view=0)
         draw(vp, qtbot)
 
     def at(img: np.ndarray, xy: tuple[int, int]) -> np.ndarray:

@@ -111,7 +111,7 @@ def test_save_open_round_trip_restores_layers_lights_and_camera(window: Any, tmp
     cam = window.viewport.camera
     cam.yaw, cam.pitch, cam.distance = 31.0, 12.0, 7.5
     cam.target = np.array([0.1, 1.4, 0.2])
-    window._set(light_preset="evening", light_azimuth=-42.0, light_elevation=18.0, environment="studio")
+    window.change_settings(light_preset="evening", light_azimuth=-42.0, light_elevation=18.0, environment="studio")
     path = tmp_path / "evening.sheer"
     assert window.files.save_project(path=path)
     assert not window.isWindowModified() and window.files.name == "evening"
@@ -127,7 +127,7 @@ def test_save_open_round_trip_restores_layers_lights_and_camera(window: Any, tmp
     window.add_layer("Blush Peach" if "Blush Peach" in window.library else next(iter(window.library.names())))
     cam.yaw, cam.pitch, cam.distance = -60.0, 0.0, 12.0
     cam.target = np.array([0.0, 0.0, 0.0])
-    window._set(light_preset="office", light_azimuth=0.0, light_elevation=60.0, environment="none")
+    window.change_settings(light_preset="office", light_azimuth=0.0, light_elevation=60.0, environment="none")
     assert window.files.open_project(path)
     got_layers, got_maps = _state(window)
     assert got_layers == layers

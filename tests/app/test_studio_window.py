@@ -148,12 +148,12 @@ def test_painting_changes_the_rendered_face(window: object, qtbot: object) -> No
 
     window.add_layer("Lipstick Classic Red")
     vp = window.viewport
-    vp._ring = None
+    vp.brush_ring = None
     qtbot.waitUntil(lambda: not vp.pending_changes, timeout=5000)
     before = grab(window).astype(int)
     stroke_across(window, qtbot, 0.55)
     assert vp.pending_changes
-    vp._ring = None
+    vp.brush_ring = None
     after = grab(window).astype(int)
     assert not vp.pending_changes
     assert (np.abs(after - before).max(axis=-1) > 10).sum() > 100, "the stroke did not show in the viewport"
@@ -173,7 +173,7 @@ def test_thickness_view_shows_the_selected_layer_with_a_hidden_layer_below(windo
     try:
         window.doc.set_layer(0, visible=False)
         window._select_layer(2)
-        window._set(debug_view=thickness)
+        window.change_settings(debug_view=thickness)
         draw(vp, qtbot)
         r = vp.renderer.r
         assert 0 not in r.km.active and r.settings.debug_view == "thickness"
@@ -184,7 +184,7 @@ def test_thickness_view_shows_the_selected_layer_with_a_hidden_layer_below(windo
         assert vp.renderer.debug_hidden and r.settings.debug_view == "none"
         assert vp.notice.isVisible() and "hidden" in vp.notice.text()
     finally:
-        window._set(debug_view=0)
+        window.change_settings(debug_view=0)
         window.doc.set_layer(0, visible=True)
         window._select_layer(0)
         draw(vp, qtbot)
@@ -201,7 +201,7 @@ def test_lightweight_mode_with_a_captured_face(window: object, qtbot: object, tm
     from tests.app.studio_support import write_test_face
 
     vp = window.viewport
-    vp._ring = None
+    vp.brush_ring = None
     # without a face, choosing the mode asks for one; cancelling leaves the mode as it was
     monkeypatch.setattr(QFileDialog, "getExistingDirectory", staticmethod(lambda *a, **k: ""))
     window.render_combo.setCurrentText("lightweight")
@@ -254,7 +254,7 @@ def test_lightweight_mode_shows_the_makeup(window: object, qtbot: object, tmp_pa
     from tests.app.studio_support import write_test_face
 
     vp = window.viewport
-    vp._ring = None
+    vp.brush_ring = None
     opened: list[object] = []
     window.open_face(write_test_face(tmp_path / "face"), on_done=opened.append)
     qtbot.waitUntil(lambda: len(opened) == 1, timeout=30000)
@@ -503,14 +503,14 @@ def test_brush_ring_follows_the_surface(window: object, qtbot: object) -> None:
     from PySide6.QtCore import QPoint, QPointF
 
     vp = window.viewport
-    vp._ring = None
+    vp.brush_ring = None
     plain = grab(window).astype(int)
     drawn = vp.renderer_frames
     where = QPoint(vp.width() // 2, int(vp.height() * 0.45))
     qtbot.mouseMove(vp, where)
-    qtbot.waitUntil(lambda: vp._ring is not None, timeout=3000)
+    qtbot.waitUntil(lambda: vp.brush_ring is not None, timeout=3000)
     hit = vp.pick(QPointF(where))
-    assert hit is not None and np.allclose(vp._ring, hit, atol=0.05)
+    assert hit is not None and np.allclose(vp.brush_ring, hit, atol=0.05)
     with_ring = grab(window).astype(int)
     assert (np.abs(with_ring - plain).max(axis=-1) > 25).sum() > 30
     assert vp.renderer_frames == drawn, "moving the brush ring alone must reuse the renderer's last frame"
@@ -542,7 +542,7 @@ def test_the_view_settles_once_after_input_stops(window: object, qtbot: object, 
     from app.view.viewport import SETTLE_MS
 
     vp = window.viewport
-    window._set(render_mode=mode)
+    window.change_settings(render_mode=mode)
     try:
         qtbot.waitUntil(lambda: vp.settled, timeout=10000)
         settled_before = vp.settled_frames
@@ -559,13 +559,13 @@ def test_the_view_settles_once_after_input_stops(window: object, qtbot: object, 
         assert tuple(vp.renderer.r.last.size) == vp.pixel_size()
         assert vp.renderer.drawn_by == mode and not vp.renderer.interactive
     finally:
-        window._set(render_mode="fast")
+        window.change_settings(render_mode="fast")
         qtbot.waitUntil(lambda: vp.settled, timeout=10000)
 
 
 def test_overlay_shows_interactive_and_settled_frames(window: object, qtbot: object) -> None:
     vp = window.viewport
-    window._set(overlay=True)
+    window.change_settings(overlay=True)
     try:
         vp.orbit_by(0.5)
         qtbot.waitUntil(lambda: vp.last_frame_interactive, timeout=10000)
@@ -574,7 +574,7 @@ def test_overlay_shows_interactive_and_settled_frames(window: object, qtbot: obj
         qtbot.waitUntil(lambda: vp.settled, timeout=10000)
         assert "settled 1.00×" in vp.overlay.text()
     finally:
-        window._set(overlay=False)
+        window.change_settings(overlay=False)
 
 
 def test_interactive_scale_cap_setting(window: object, qtbot: object) -> None:

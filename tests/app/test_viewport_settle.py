@@ -137,7 +137,7 @@ def test_reference_mode_release_draws_the_fast_then_the_reference_frame(window: 
     from app.view.viewport import SETTLE_MS
 
     vp = window.viewport
-    window._set(render_mode="reference")
+    window.change_settings(render_mode="reference")
     try:
         qtbot.waitUntil(lambda: vp.settled, timeout=10000)
         pos = _drag(vp, qtbot, Qt.MouseButton.RightButton, QPoint(vp.width() // 2, vp.height() // 2), 4)
@@ -150,7 +150,7 @@ def test_reference_mode_release_draws_the_fast_then_the_reference_frame(window: 
         qtbot.wait(SETTLE_MS * 3)
         assert vp.settled_frames == settled + 2
     finally:
-        window._set(render_mode="fast")
+        window.change_settings(render_mode="fast")
         qtbot.waitUntil(lambda: vp.settled, timeout=10000)
 
 
