@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from painting.tiles import TILE
+from painting.tiles import TILE, tile_of
 
 #: numba is a dependency; the numpy reference path keeps painting usable without it. It is imported only
 #: by the warm-up thread (importing it takes most of a second: never on the caller's start-up path).
@@ -73,7 +73,7 @@ def set_enabled(on: bool) -> bool:
 #: inlined helper saves a call between compiled functions, whose array arguments cost atomic reference
 #: counting (~100 ns: far more than the per-texel work). Until then the names are plain Python.
 _KERNELS = (("_sphere_runs", False), ("nearest", False), ("weights", False), ("_touch", True),
-            ("composite", False))
+            ("tile_of", True), ("composite", False))
 _jit_lock = threading.Lock()
 _jitted = False
 
@@ -341,8 +341,7 @@ def composite(sidx: np.ndarray, w: np.ndarray, alpha: np.float32, flat: np.ndarr
             hi = lo
             while hi < npad and pad_src[hi] == f:
                 dst = pad_dst[hi]
-                ntiles = _touch((dst // (res * TILE)) * nt + (dst % res) // TILE, touched, mark, tiles, ntiles,
-                                data, base, res, nt)
+                ntiles = _touch(tile_of(dst, res), touched, mark, tiles, ntiles, data, base, res, nt)
                 hi += 1
         else:
             lo = 0

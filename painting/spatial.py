@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from painting.tiles import TILE
+from painting.tiles import tile_of
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -85,7 +85,7 @@ class TexelIndex:
         cols = [pn[:, k] for k in range(6)]
         flat = flat[order].astype(np.int64)
         res = int(atlas.resolution)
-        tile = ((flat // (res * TILE)) * (res // TILE) + (flat % res) // TILE).astype(np.int32)
+        tile = tile_of(flat, res).astype(np.int32)
         has_pad = np.zeros(res * res, dtype=bool)
         has_pad[atlas.pad_src] = True
         return cls(origin=origin, cell=cell, dims=dims, cell_start=cell_start, x=cols[0], y=cols[1],

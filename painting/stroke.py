@@ -20,7 +20,7 @@ import numpy as np
 from painting import kernels
 from painting.history import Step, TileDelta
 from painting.layer import ChangeEvent, DocumentError, as_vec3
-from painting.tiles import TILE
+from painting.tiles import TILE, tile_of
 
 if TYPE_CHECKING:
     from types import TracebackType
@@ -207,9 +207,9 @@ class Stroke:
         if index is not None:
             mark[index.tile[sidx]] = True
         else:
-            mark[(flat // (res * TILE)) * nt + (flat % res) // TILE] = True
+            mark[tile_of(flat, res)] = True
         if len(dst):
-            mark[(dst // (res * TILE)) * nt + (dst % res) // TILE] = True
+            mark[tile_of(dst, res)] = True
         ids = np.flatnonzero(mark)
         mark[ids] = False
         new = ids[~self._touched[ids]]

@@ -7,8 +7,24 @@ TILE)`` (row 0 is the top row of the map). Change events, undo records and GPU u
 
 from __future__ import annotations
 
+from typing import TypeVar
+
+import numpy as np
+
 #: the side of a tile in texels
 TILE: int = 64
+
+_Index = TypeVar("_Index", int, np.ndarray)
+
+
+def tile_of(flat: _Index, res: int) -> _Index:
+    """The tile id (row · tiles per row + column) of row-major texel index ``flat`` in a map of side ``res``.
+
+    The one spelling of the formula: for a scalar or an integer array, in numpy and in the compiled kernels
+    (:mod:`painting.kernels` compiles and inlines it; numba freezes it into their on-disk cache, as it does
+    :data:`TILE`).
+    """
+    return (flat // (res * TILE)) * (res // TILE) + (flat % res) // TILE
 
 
 def tile_rects(tiles: list[tuple[int, int]], size: tuple[int, int]) -> list[tuple[int, int, int, int]]:
