@@ -51,6 +51,10 @@ HEAD_SCHEMA_VERSION = 1
 SAMPLE_HEAD = "heads/lee-perry-smith/head.glb"
 
 
+#: The skin colour (linear sRGB) of a head without an albedo (:meth:`Head.skin_rgb`).
+DEFAULT_SKIN_RGB = (0.6, 0.45, 0.38)
+
+
 class HeadError(SheerError, ValueError):
     """A head file (mesh, texture or metadata) that cannot be used; the message names the file."""
 
@@ -210,6 +214,21 @@ class Head:
         except KeyError:
             known = ", ".join(sorted(self.metadata.landmarks)) or "none"
             raise HeadError(f"head '{self.name}' has no landmark '{name}' (it has: {known})") from None
+
+    def skin_rgb(self) -> np.ndarray:
+        """The head's skin colour, linear sRGB float64 (3,): the median of the albedo's middle third.
+
+        The middle third of the texture in both directions (a face's cheeks, nose and mouth in its unwrap);
+        :data:`DEFAULT_SKIN_RGB` when the head has no albedo. The studio (Shade Finder, the library's "over
+        skin" swatch) and the kiosk (*Find my foundation*) read the head's skin so.
+        """
+        from km.srgb import srgb_decode
+
+        if self.albedo is None:
+            return np.array(DEFAULT_SKIN_RGB, dtype=np.float64)
+        h, w = self.albedo.shape[:2]
+        third = self.albedo[h // 3:2 * h // 3, w // 3:2 * w // 3, :3].reshape(-1, 3)
+        return np.asarray(np.median(srgb_decode(third.astype(np.float64) / 255.0), axis=0), dtype=np.float64)
 
     def trimesh(self) -> Any:
         """A ``trimesh.Trimesh`` of this head (not processed: vertices and faces exactly as here)."""

@@ -2,8 +2,8 @@
 
 Her skin is read from her own photograph after "Try it on me" (``skin_source``: the cheeks of her
 photograph, colour-corrected when a ColorChecker is in the frame — :mod:`shade.photo`), else the
-configured captured face's fitted diffuse colour, else the head's albedo (the median of its middle
-third). The reading and the match run in the thread pool (a checker search takes seconds). It is fitted with the skin model and the library's
+configured captured face's fitted diffuse colour, else the head's skin (:meth:`painting.head.Head.skin_rgb`:
+the median of its albedo's middle third). The reading and the match run in the thread pool (a checker search takes seconds). It is fitted with the skin model and the library's
 foundations ranked on it (:func:`shade.match.match_shades`: own skin as the target, daylight, with the
 metamerism check under the store's light F11 and warm indoor light A). Three touch-sized buttons show
 the shades over her skin; a line says in plain words which of them change under the shop's light.
@@ -32,17 +32,6 @@ if TYPE_CHECKING:
 
 SHOWN = 3
 _PLAIN_LIGHTS = {"D65": "daylight", "F11": "the shop's light", "A": "warm indoor light"}
-
-
-def head_skin_rgb(albedo: np.ndarray | None) -> np.ndarray:
-    """Linear sRGB (3,) of a head's albedo (uint8 sRGB (H, W, 3)): the median of its middle third."""
-    from km.srgb import srgb_decode
-
-    if albedo is None:
-        return np.array([0.6, 0.45, 0.38])
-    h, w = albedo.shape[:2]
-    c = srgb_decode(albedo[h // 3:2 * h // 3, w // 3:2 * w // 3, :3].reshape(-1, 3).astype(np.float64) / 255.0)
-    return np.asarray(np.median(c, axis=0), dtype=np.float64)
 
 
 def plain_warning(shade: ShadeMatch) -> str:
@@ -109,7 +98,7 @@ class FoundationFinder(QWidget):
         face = self.face()
         if face is not None:
             return np.asarray(face.params.diffuse, dtype=np.float64)
-        return head_skin_rgb(self.doc.head.albedo)
+        return self.doc.head.skin_rgb()
 
     def find(self) -> None:
         """Read her skin and rank the foundations on it in the thread pool; then show the three best."""

@@ -429,15 +429,8 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self.shade_finder.match_linear(colour, "the skin picked on the face")
 
     def _skin_colour(self) -> tuple[float, float, float]:
-        a = self.doc.head.albedo
-        if a is None:
-            return (0.6, 0.45, 0.38)
-        h, w = a.shape[:2]
-        from km.srgb import srgb_decode
-
-        c = srgb_decode(a[h // 3:2 * h // 3, w // 3:2 * w // 3, :3].reshape(-1, 3).astype(np.float32) / 255.0)
-        m = np.median(c, axis=0)
-        return (float(m[0]), float(m[1]), float(m[2]))
+        r, g, b = self.doc.head.skin_rgb()
+        return (float(r), float(g), float(b))
 
     def _on_doc_event(self, event: ChangeEvent) -> None:
         if event.kind == "history":
