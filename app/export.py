@@ -138,7 +138,7 @@ def render_image(head: Head, layers: list[LayerInput], camera: OrbitCamera, ligh
         renderer = ViewRenderer(ctx, head, layout)
         try:
             progress(0.3, "evaluating the layers")
-            renderer.r.set_layers(layers)
+            renderer.set_layers(layers)
             renderer.environment = environment
             renderer.set_face(face)
             _check_cancel(cancelled)

@@ -341,7 +341,7 @@ def _interactive_vs_settled(vp: Viewport) -> tuple[float, float, float]:
 
     settled = qimage_to_rgb(vp.grabFramebuffer())
     vp.makeCurrent()
-    skin = vp.renderer.r.skin_pixel_mask()
+    skin = vp.renderer.skin_pixel_mask()
     vp.doneCurrent()
     vp.note_input()  # the same pose, drawn as an interactive frame
     interactive = qimage_to_rgb(vp.grabFramebuffer())

@@ -32,11 +32,16 @@ if TYPE_CHECKING:
 
     import moderngl
 
+    from km.library import Library
+    from painting import Document
     from painting.head import Head
     from painting.layout import UVLayout
+    from render.binding import DocumentBinding
     from render.camera import OrbitCamera
+    from render.km_pass import LayerInput
     from render.lights import Light
     from render.lightweight import LightweightRenderer
+    from render.region_overlay import RegionOverlay
     from render.ring import BrushRing
 
 #: The view's render modes: the physical renderer's two SSS modes, and the lightweight engine.
@@ -350,6 +355,44 @@ class ViewRenderer:
         self.copy_prog["u_src"].value = 0
         self.copy_prog["u_right"].value = right
         self.copy_vao.render(self.ctx.TRIANGLE_STRIP, vertices=4)
+
+    # ------------------------------------------------------------------ what the app asks of the renderer
+    def set_layers(self, layers: list[LayerInput]) -> None:
+        """Replace the cosmetic layers and evaluate them (:meth:`render.renderer.Renderer.set_layers`)."""
+        self.r.set_layers(layers)
+
+    def bind_document(self, document: Document, library: Library | None = None,
+                      on_change: Callable[[], None] | None = None) -> DocumentBinding:
+        """A :class:`render.binding.DocumentBinding` of ``document`` to this view's renderer (close it when done)."""
+        from render.binding import DocumentBinding
+
+        return DocumentBinding(document, self.r, library, on_change=on_change)
+
+    @property
+    def defer_cache(self) -> bool:
+        """Full frames leave an out-of-date lighting cache to :meth:`build_deferred_cache` (the settle frames).
+
+        The renderer's :attr:`render.renderer.Renderer.defer_cache`.
+        """
+        return self.r.defer_cache
+
+    @defer_cache.setter
+    def defer_cache(self, on: bool) -> None:
+        self.r.defer_cache = on
+
+    def build_deferred_cache(self) -> bool:
+        """Rebuild what a :attr:`defer_cache` frame left out of date (context current); True if anything was."""
+        return self.r.build_deferred_cache()
+
+    def region_overlay(self) -> RegionOverlay:
+        """A :class:`render.region_overlay.RegionOverlay` drawn with this view's programs on its head."""
+        from render.region_overlay import RegionOverlay
+
+        return RegionOverlay(self.ctx, self.r.shaders, self.r.gpu_head)
+
+    def skin_pixel_mask(self) -> np.ndarray:
+        """The last frame's skin pixels, bool (H, W), top row first (the renderer's ``skin_pixel_mask``)."""
+        return self.r.skin_pixel_mask()
 
     def invalidate(self) -> None:
         """Draw a new frame next time even if nothing the key covers changed."""

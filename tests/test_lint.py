@@ -143,3 +143,10 @@ def test_no_module_uses_another_modules_private_members() -> None:
                 found += [f"{rel}:{node.lineno}: from {'.' * node.level}{node.module or ''} import {a.name}"
                           for a in node.names if _private(a.name)]
     assert not found, "private members of another module (give the owner a public method):\n" + "\n".join(found)
+
+
+def test_the_app_never_reaches_through_the_view_into_its_renderer() -> None:
+    """``app`` asks the view (:class:`render.view.ViewRenderer`) for what it needs: never ``….r.…``."""
+    found = [f"{rel}:{node.lineno}: {ast.unparse(node)}" for rel, tree in _product_trees() if rel.startswith("app/")
+             for node in ast.walk(tree) if isinstance(node, ast.Attribute) and node.attr == "r"]
+    assert not found, "the view's own renderer reached from the app:\n" + "\n".join(found)

@@ -63,7 +63,7 @@ class RegionPicker(QWidget):
         self.overlay_actions: dict[str, QAction] = {}
         self._viewport: Viewport | None = None
         self._overlay: RegionOverlay | None = None
-        self._overlay_for: Any = None  # the renderer the overlay was built on
+        self._overlay_for: Any = None  # the view renderer the overlay was built on
         self._overlay_stale = True  # the shown regions changed since they were uploaded
         self._watched: Any = None  # the QOpenGLContext whose destruction frees the overlay
         layout = QHBoxLayout(self)
@@ -163,17 +163,15 @@ class RegionPicker(QWidget):
 
     def _draw_overlay(self, fbo: Any) -> None:
         """The viewport's after-frame hook (its GL context current, ``fbo`` its frame)."""
-        from render.region_overlay import RegionOverlay
-
         vp = self._viewport
         view = None if vp is None else vp.renderer
         if vp is None or view is None or vp.ctx is None:
             return
-        if self._overlay is None or self._overlay_for is not view.r:
+        if self._overlay is None or self._overlay_for is not view:
             if self._overlay is not None and self._overlay.ctx is vp.ctx:
                 self._overlay.release()  # another renderer on the same context (ours is current)
-            self._overlay = RegionOverlay(vp.ctx, view.r.shaders, view.r.gpu_head)
-            self._overlay_for = view.r
+            self._overlay = view.region_overlay()
+            self._overlay_for = view
             qctx = vp.context()
             if qctx is not None and qctx is not self._watched:  # freed with the viewport's GL
                 qctx.aboutToBeDestroyed.connect(self._release_overlay)

@@ -336,13 +336,11 @@ class Viewport(ViewportInput, QWidget):
 
     def _bind(self) -> None:
         """(Re)create the binding of the document to the renderer, when both are there."""
-        from render.binding import DocumentBinding
-
         if self.binding is not None:
             self.binding.close()
             self.binding = None
         if self.document is not None and self.renderer is not None:
-            self.binding = DocumentBinding(self.document, self.renderer.r, self.library, on_change=self.update)
+            self.binding = self.renderer.bind_document(self.document, self.library, on_change=self.update)
         self.update()
 
     def apply_layer_changes(self) -> bool:
@@ -394,7 +392,7 @@ class Viewport(ViewportInput, QWidget):
         scale = self.refine.scale
         # the settle frame after a relight draws on the direct path; the lighting cache is rebuilt just after
         # it, before the next input's frames (render.Renderer.defer_cache)
-        self.renderer.r.defer_cache = self.stage == "settle"
+        self.renderer.defer_cache = self.stage == "settle"
         try:
             drew = self.renderer.render(fbo, self.pixel_size(), self.camera, self.lighting.key_light(),
                                         split=self.split, debug=self.debug, mode=frame_mode, ring=ring,
@@ -426,7 +424,7 @@ class Viewport(ViewportInput, QWidget):
         self.last_frame_interactive = interactive and drew
         if self.stage == "settle":  # the full fast frame is drawn: the reference frame (if any) next
             self.stage = "final"
-            self.renderer.r.defer_cache = False
+            self.renderer.defer_cache = False
             QTimer.singleShot(0, self._build_deferred_cache)
             if mode == "reference":
                 QTimer.singleShot(0, self.update)
@@ -503,7 +501,7 @@ class Viewport(ViewportInput, QWidget):
             return
         self.makeCurrent()
         try:
-            self.renderer.r.build_deferred_cache()
+            self.renderer.build_deferred_cache()
         except Exception:  # the next full frame rebuilds it anyway; never a traceback here
             import logging
 
