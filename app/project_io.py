@@ -22,7 +22,7 @@ import numpy as np
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from app.view.camera import Lighting, OrbitCamera
+    from app.view.camera import Lighting, ViewCamera
     from km.library import Library
     from painting import Document
     from painting.atlas import Atlas
@@ -46,7 +46,8 @@ def _vec(v: Any) -> list[float]:
     return [float(x) for x in np.asarray(v, dtype=float).reshape(3)]
 
 
-def view_state(camera: OrbitCamera, lighting: Lighting, environment: str, look: dict[str, Any] | None) -> ViewState:
+def view_state(camera: ViewCamera, lighting: Lighting, environment: str,
+               look: dict[str, Any] | None) -> ViewState:
     """The studio's view as a project stores it.
 
     The lights are the directional key light, the ambient light and the HDR environment (when
@@ -99,8 +100,8 @@ def closest_preset(lights: list[dict[str, Any]], presets: dict[str, dict[str, An
         np.asarray(presets[n]["colour"], dtype=float) * float(presets[n]["intensity"]) - want)))
 
 
-def restore_camera(camera: OrbitCamera, record: dict[str, Any] | None) -> None:
-    """Set the studio's ``OrbitCamera`` from the project's camera (its ``up`` is always +Y here)."""
+def restore_camera(camera: ViewCamera, record: dict[str, Any] | None) -> None:
+    """Set the studio's camera (a ``ViewCamera``) from the project's camera (its ``up`` is always +Y here)."""
     if not record:
         return
     target = np.asarray(record["target"], dtype=float)

@@ -45,13 +45,14 @@ import numpy as np
 
 def _render_sample() -> np.ndarray:
     """The sample head from the front (the capture's CPU rasteriser, albedo × Lambert), uint8 512²."""
-    from capture.camera import look_at
+    from capture.camera import Camera
     from capture.pipeline import linear_to_srgb8, pixel_data, sample_texture
     from km.srgb import srgb_decode
     from painting.head import load_head
 
     head = load_head()
-    cam = look_at(np.array([-0.1, 1.1, 22.0]), np.array([-0.1, 1.1, 2.0]), np.array([0.0, 1.0, 0.0]), 15.0, 512, 512)
+    cam = Camera.looking_at(np.array([-0.1, 1.1, 22.0]), np.array([-0.1, 1.1, 2.0]),
+                            np.array([0.0, 1.0, 0.0]), 15.0, 512, 512)
     pix = pixel_data(head, cam)
     albedo = srgb_decode(np.asarray(head.albedo, dtype=np.float64) / 255.0)
     lam = np.clip(np.einsum("pc,pc->p", pix.normals, pix.view), 0.0, 1.0)
@@ -113,7 +114,7 @@ FOCAL_EXPONENT = 24.0
 
 def focal_camera(head: Any, focal_mm: float, yaw_deg: float) -> Any:
     """The sweep's true camera: ``focal_mm`` (35 mm equivalent) framing :data:`FRAME_HEIGHT_MM` at the face."""
-    from capture.camera import look_at
+    from capture.camera import Camera
     from capture.exif import focal_px_from_35mm
 
     size = FOCAL_PHOTO_PX
@@ -122,8 +123,8 @@ def focal_camera(head: Any, focal_mm: float, yaw_deg: float) -> Any:
     target = np.array([0.0, 1.3, 0.0])  # the sample head's face (bench.capture_truth.case_camera's aim)
     yaw = np.radians(yaw_deg)
     fov = float(np.degrees(2 * np.arctan(size / 2 / f_px)))
-    return look_at(target + distance * np.array([np.sin(yaw), 0.0, np.cos(yaw)]), target,
-                   np.array([0.0, 1.0, 0.0]), fov, size, size)
+    return Camera.looking_at(target + distance * np.array([np.sin(yaw), 0.0, np.cos(yaw)]), target,
+                             np.array([0.0, 1.0, 0.0]), fov, size, size)
 
 
 def _eyes(landmarks: dict[str, Any]) -> np.ndarray:

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from capture.camera import Camera, look_at
+from capture.camera import Camera
 from capture.mask import landmark_region
 from capture.phong import Geometry, PhongParams, shade
 from capture.pipeline import compute_skin_mask, linear_to_srgb8, pixel_data, sample_texture
@@ -75,8 +75,8 @@ def validation_camera(size: int = 512) -> Camera:
 
     It looks along −Z at (0, 1.3, 0) (mesh units), Y up.
     """
-    return look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 6.4,
-                   size, size)
+    return Camera.looking_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]),
+                             6.4, size, size)
 
 
 def as_photographed(linear: np.ndarray) -> np.ndarray:

@@ -487,7 +487,7 @@ def case_camera(head: Head, case: Case, size: int = 512) -> Camera:
     distance); the validation's own camera for the sample and coarse heads at yaw 0 and that distance.
     """
     from bench.capture_synthetic import validation_camera
-    from capture.camera import look_at
+    from capture.camera import Camera
 
     if case.head != "canonical" and case.yaw_deg == 0.0 and case.distance_mm == 2362.5:
         return validation_camera(size)
@@ -497,7 +497,7 @@ def case_camera(head: Head, case: Case, size: int = 512) -> Camera:
     yaw = np.radians(case.yaw_deg)
     eye = target + distance * np.array([np.sin(yaw), 0.0, np.cos(yaw)])
     fov = float(np.degrees(2 * np.arctan(np.tan(np.radians(3.2)) * 2362.5 / case.distance_mm)))
-    return look_at(eye, target, np.array([0.0, 1.0, 0.0]), fov, size, size)
+    return Camera.looking_at(eye, target, np.array([0.0, 1.0, 0.0]), fov, size, size)
 
 
 def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:

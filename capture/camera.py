@@ -1,8 +1,9 @@
 """The photograph's camera: a 3×4 projection matrix, given or computed from 2D–3D correspondences.
 
-Conventions (OpenCV's): camera coordinates x right, y down, z forward (into the scene);
-``x_cam = R · X + t`` with ``X`` in mesh units; pixel ``(x, y) = (K · x_cam)[:2] / z`` where the pixel
-grid has x right, y down, and the centre of the top-left pixel at (0.5, 0.5).
+Conventions (OpenCV's, as :mod:`core.camera` states them with their conversion to OpenGL's): camera
+coordinates x right, y down, z forward (into the scene); ``x_cam = R · X + t`` with ``X`` in mesh units;
+pixel ``(x, y) = (K · x_cam)[:2] / z`` where the pixel grid has x right, y down, and the centre of the
+top-left pixel at (0.5, 0.5).
 
 From ≥ 6 correspondences: the normalised direct linear transform (Hartley & Zisserman, Alg. 7.1), the
 RQ decomposition into K, R, t, then a non-linear refinement of the reprojection error with
@@ -35,6 +36,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from capture.raster import GBuffer, rasterize
+from core.camera import Pinhole
 from core.errors import SheerError
 
 
@@ -43,8 +45,8 @@ class CameraError(SheerError, ValueError):
 
 
 @dataclass
-class Camera:
-    """A pinhole camera.
+class Camera(Pinhole):
+    """The photograph's pinhole camera (a :class:`core.camera.Pinhole`: K, R, t, size) and how it was fitted.
 
     Attributes:
         K: (3, 3) intrinsics in pixels. R: (3, 3) rotation world→camera. t: (3,) translation (mesh units).
@@ -60,40 +62,15 @@ class Camera:
             image's scale and roll from it.
         parameter_pivot: (3,) the point that covariance's rotation is about (mesh units: the centroid of the
             correspondences' mesh points), or None for a camera given directly.
+
+    The projection (``P``, ``project``, ``centre``), the GL matrices (``view``, ``clip_from_world``) and
+    :meth:`~core.camera.Pinhole.looking_at` are :class:`core.camera.Pinhole`'s.
     """
 
-    K: np.ndarray
-    R: np.ndarray
-    t: np.ndarray
-    width: int
-    height: int
     reprojection_error_px: float | None = None
     rotation_covariance_deg2: np.ndarray | None = None
     parameter_covariance: np.ndarray | None = None
     parameter_pivot: np.ndarray | None = None
-
-    @property
-    def P(self) -> np.ndarray:
-        """The (3, 4) projection matrix K [R | t]."""
-        return self.K @ np.hstack([self.R, self.t[:, None]])
-
-    @property
-    def centre(self) -> np.ndarray:
-        """The camera centre in mesh units."""
-        return -self.R.T @ self.t
-
-    def to_camera(self, points: np.ndarray) -> np.ndarray:
-        """Mesh-unit points (N, 3) → camera coordinates (N, 3)."""
-        return np.asarray(points, dtype=float) @ self.R.T + self.t
-
-    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Project mesh-unit points (N, 3): returns (pixels (N, 2), camera depth z (N,))."""
-        xc = self.to_camera(points)
-        z = xc[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            uvw = xc @ self.K.T
-            px = uvw[:, :2] / uvw[:, 2:3]
-        return px, z
 
     def gbuffer(self, vertices: np.ndarray, faces: np.ndarray, scale: float = 1.0) -> GBuffer:
         """Rasterise a mesh as this camera sees it (image ``scale`` times the photo's size)."""
@@ -104,27 +81,6 @@ class Camera:
         with np.errstate(divide="ignore"):
             d = np.where(z > 1e-9, -1.0 / z, np.inf)
         return rasterize(px * scale, d, faces, w, h, w=np.where(z > 1e-9, z, -1.0))
-
-    def clip_from_world(self, near: float, far: float, scale: float = 1.0) -> np.ndarray:
-        """The OpenGL clip-space matrix (4, 4) of this camera for an image ``scale`` times its size.
-
-        Pixel (x, y) = (K·x_cam)[:2] / z, x right, y down, pixel j covering [j, j + 1); GL's window has x
-        right, y up: x_ndc = 2x/W − 1, y_ndc = 1 − 2y/H, with w_clip = z (mesh units) and the depth range
-        [``near``, ``far``] (mesh units, 0 < near < far) mapped to [−1, 1]. An image drawn with it and read
-        back bottom row first, then flipped, lines up with the photograph pixel for pixel.
-        """
-        k = np.diag([scale, scale, 1.0]) @ self.K
-        w, h = self.width * scale, self.height * scale
-        proj = np.array([
-            [2 * k[0, 0] / w, 2 * k[0, 1] / w, 2 * k[0, 2] / w - 1, 0.0],
-            [0.0, -2 * k[1, 1] / h, 1 - 2 * k[1, 2] / h, 0.0],
-            [0.0, 0.0, (far + near) / (far - near), -2 * far * near / (far - near)],
-            [0.0, 0.0, 1.0, 0.0],
-        ])
-        rt = np.eye(4)
-        rt[:3, :3] = self.R
-        rt[:3, 3] = self.t
-        return proj @ rt
 
     def turned(self, rotvec_camera: np.ndarray, pivot: np.ndarray) -> Camera:
         """This camera with the scene turned about ``pivot`` (mesh units) by ``rotvec_camera``.
@@ -289,7 +245,7 @@ def calibrate(points2d: np.ndarray, points3d: np.ndarray, width: int, height: in
     for axis in np.vstack([np.eye(3), -np.eye(3)]):
         dist = 10.0 * extent3 if focal_px is None else focal_px * extent3 / max(extent2, 1e-12)
         up = np.array([0.0, 1.0, 0.0]) if abs(axis[1]) < 0.9 else np.array([0.0, 0.0, 1.0])
-        cam = look_at(centre + axis * dist, centre, up, 30.0, width, height)
+        cam = Camera.looking_at(centre + axis * dist, centre, up, 30.0, width, height)
         f = extent2 * dist / max(extent3, 1e-12)
         starts.append(np.concatenate([[f, width / 2, height / 2], Rotation.from_matrix(cam.R).as_rotvec(), cam.t]))
     pp = None if free_principal_point else (width / 2.0, height / 2.0)
@@ -404,19 +360,3 @@ def _read_json(path: str | Path) -> Any:
         raise CameraError(f"{path}: file not found") from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise CameraError(f"{path}: cannot read JSON: {exc}") from None
-
-
-def look_at(eye: np.ndarray, target: np.ndarray, up: np.ndarray, fov_y_deg: float, width: int,
-            height: int) -> Camera:
-    """A camera at ``eye`` looking at ``target`` (mesh units) with ``up`` pointing up in the image."""
-    eye = np.asarray(eye, dtype=float)
-    z = np.asarray(target, dtype=float) - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, np.asarray(up, dtype=float))
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z])
-    t = -R @ eye
-    f = 0.5 * height / np.tan(np.radians(fov_y_deg) / 2)
-    K = np.array([[f, 0, width / 2], [0, f, height / 2], [0, 0, 1.0]])
-    return Camera(K=K, R=R, t=t, width=width, height=height)

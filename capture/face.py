@@ -206,6 +206,9 @@ class Face:
         detail: float32 (H, W, 3) the detail texture in the head's UV space (top row first), [0, 8].
         data: face.json as read (JSON types).
         folder: the face folder it was read from (None for one made in memory).
+
+    What the renderer reads from it (``params``, ``detail``, :meth:`camera`, :meth:`light_dir`) is
+    :class:`render.captured.CapturedFace`; face.json's camera and flash are parsed here only.
     """
 
     params: PhongParams
@@ -246,14 +249,48 @@ class Face:
         return FaceLandmarks(points=np.asarray(lm["points_px"], dtype=np.float64), width=int(lm["width"]),
                              height=int(lm["height"]))
 
+    @property
+    def has_camera(self) -> bool:
+        """Whether face.json has a ``camera`` (a face folder written by hand may have none)."""
+        return isinstance(self.data.get("camera"), dict)
+
     def camera(self) -> Camera:
-        """The photograph's camera (face.json ``camera``: K, R, t in the head's mesh units, the photo's size)."""
+        """The photograph's camera (face.json ``camera``: K, R, t in the head's mesh units, the photo's size).
+
+        Raises:
+            CaptureError: naming face.json, when it has no camera or a malformed one (K and R 3×3, t 3, a
+                positive size, finite numbers).
+        """
         from capture.camera import Camera
 
-        c = self.data["camera"]
-        return Camera(K=np.asarray(c["K"], float), R=np.asarray(c["R"], float), t=np.asarray(c["t"], float),
-                      width=int(c["width"]), height=int(c["height"]),
-                      reprojection_error_px=c.get("reprojection_error_px"))
+        where = self.folder / "face.json" if self.folder is not None else "face.json"
+        c = self.data.get("camera")
+        try:
+            if not isinstance(c, dict):
+                raise TypeError
+            K, R, t = (np.asarray(c[k], dtype=np.float64) for k in ("K", "R", "t"))
+            w, h = int(c["width"]), int(c["height"])
+        except (KeyError, TypeError, ValueError):
+            raise CaptureError(f"{where}: no usable 'camera' (K, R, t, width, height)") from None
+        if K.shape != (3, 3) or R.shape != (3, 3) or t.shape != (3,) or w < 1 or h < 1 \
+                or not (np.all(np.isfinite(K)) and np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+            raise CaptureError(f"{where}: the 'camera' is malformed (K and R 3×3, t 3, a positive size)")
+        return Camera(K=K, R=R, t=t, width=w, height=h, reprojection_error_px=c.get("reprojection_error_px"))
+
+    def light_dir(self) -> np.ndarray:
+        """The captured flash's direction (``light_dir_world``): unit (3,) towards it, mesh coordinates.
+
+        Raises:
+            CaptureError: naming face.json, when it has no usable ``light_dir_world``.
+        """
+        where = self.folder / "face.json" if self.folder is not None else "face.json"
+        try:
+            d = np.asarray(self.data.get("light_dir_world", []), dtype=float)
+        except (TypeError, ValueError):
+            d = np.zeros(0)
+        if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-9:
+            raise CaptureError(f"{where}: no usable 'light_dir_world'")
+        return np.asarray(d / np.linalg.norm(d))
 
 
 def face_albedo(face: Face) -> np.ndarray:
@@ -269,7 +306,7 @@ def face_albedo(face: Face) -> np.ndarray:
 def load_face(folder: str | Path) -> Face:
     """Read a face folder written by :func:`write_face`.
 
-    Raises :class:`capture.pipeline.CaptureError` naming the file for a missing or unreadable face.json
+    Raises :class:`capture.errors.CaptureError` naming the file for a missing or unreadable face.json
     or detail.exr, a schema_version other than ``FACE_SCHEMA_VERSION`` or malformed Phong parameters.
     """
     import OpenEXR

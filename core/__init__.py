@@ -12,6 +12,9 @@
 - :mod:`core.migrations`: :class:`~core.migrations.Migrations`, upgrading a parsed JSON document
   through registered per-version steps (on a copy; a failing step is the format's own error).
 - :mod:`core.lazy`: :func:`~core.lazy.install_lazy`, lazy public names for a package's ``__init__``.
+- :mod:`core.camera`: the one camera — its conventions (OpenGL's eye and clip spaces, OpenCV's camera
+  space, pixel centres) and the conversion between them, ``look_at``, ``perspective``, ``orthographic``,
+  the pinhole camera (:class:`~core.camera.Pinhole`) and its clip matrices.
 - :mod:`core.assets`: where Sheer's files are (:func:`~core.assets.resource_path` in the ``resources``
   data package, :func:`~core.assets.find_asset` on the sample assets' search path) and the assets'
   credits.

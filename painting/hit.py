@@ -4,9 +4,9 @@ Both give a :class:`Hit` on the document's paint layout (mesh units). The depth 
 pick from the GPU depth buffer it already has: ``depth_hit`` unprojects (NDC x, y, depth) with the
 inverse view-projection matrix and snaps the point to the nearest surface triangle.
 
-Conventions: matrices are 4×4 numpy arrays acting on column vectors (``clip = P @ V @ [x, y, z, 1]``),
-OpenGL clip space (NDC z in [-1, 1]); a depth-buffer value ``d`` in [0, 1] is NDC ``z = 2d − 1`` (the
-default ``glDepthRange(0, 1)``).
+Conventions (:mod:`core.camera`'s, where the view and projection matrices are made): matrices are 4×4
+numpy arrays acting on column vectors (``clip = P @ V @ [x, y, z, 1]``), OpenGL clip space (NDC z in
+[-1, 1]); a depth-buffer value ``d`` in [0, 1] is NDC ``z = 2d − 1`` (the default ``glDepthRange(0, 1)``).
 """
 
 from __future__ import annotations
@@ -146,37 +146,6 @@ def depth_hit(doc: PickTarget, ndc_xy: ArrayLike, depth: float, inv_view_proj: A
     if float(dist[0]) * float(doc.mm_per_unit) > max_distance_mm:
         return None
     return make_hit(doc, int(tri[0]), closest[0], float(dist[0]))
-
-
-def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike = (0.0, 1.0, 0.0)) -> np.ndarray:
-    """World → view matrix (right-handed, OpenGL convention: the camera looks along −Z).
-
-    The one implementation shared by picking here and by ``render.camera``.
-    """
-    e, t, u = (np.asarray(v, dtype=np.float64) for v in (eye, target, up))
-    f = t - e
-    f /= np.linalg.norm(f)
-    s = np.cross(f, u)
-    if np.linalg.norm(s) < 1e-9:  # looking straight along ``up``: any perpendicular will do
-        s = np.cross(f, np.array([0.0, 0.0, 1.0]))
-    s /= np.linalg.norm(s)
-    uu = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, uu, -f
-    m[:3, 3] = -m[:3, :3] @ e
-    return m
-
-
-def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
-    """OpenGL perspective projection (NDC z in [−1, 1]); shared by ``render.camera``."""
-    f = 1.0 / np.tan(np.radians(fovy_deg) / 2.0)
-    m = np.zeros((4, 4))
-    m[0, 0] = f / aspect
-    m[1, 1] = f
-    m[2, 2] = (far + near) / (near - far)
-    m[2, 3] = 2.0 * far * near / (near - far)
-    m[3, 2] = -1.0
-    return m
 
 
 def albedo_colour_at(doc: PickTarget, head: Head, point: ArrayLike, radius_texels: int = 4) -> np.ndarray:

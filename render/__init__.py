@@ -56,7 +56,8 @@ Reusable pieces (for other engines, e.g. a lightweight Phong engine):
   with ``#include "name.glsl"`` resolved (no GPU needed); ``program(ctx, vert, frag, defines)``.
 - :mod:`render.gpu_head` — ``GpuHead``: the mesh in a VBO (position, normal, uv, tangent) + albedo
   (sRGB → linear), normal and optional specular/roughness textures; ``.vertex_array(program)``.
-- :mod:`render.camera` — ``OrbitCamera`` (yaw, pitch, distance, fov, target) with view/projection.
+- :mod:`render.camera` — ``OrbitCamera`` (yaw, pitch, distance, fov, target) with view/projection (the
+  matrices and their conventions: :mod:`core.camera`); :mod:`render.pinhole` — a photograph's camera as one.
 - :mod:`render.lights` — ``Light`` (directional or point, colour, intensity), ``ShadowMaps`` (PCF depth
   maps for up to 8 lights), ``Environment`` (equirectangular EXR → 9 SH coefficients of irradiance).
 - :mod:`render.km_pass` — ``KMTextureSpace``: the spectral texture-space KM evaluation (41 wavelengths,

@@ -1,7 +1,8 @@
 """Orbit camera: yaw, pitch (degrees) and distance (mesh units) around a target; perspective projection.
 
-Matrices are float64 4×4 for column vectors (``clip = P @ V @ p``); upload them transposed-free with
-``.T.astype('f4').tobytes()`` (GLSL reads column-major, i.e. the transpose of numpy's row-major bytes).
+Matrices are float64 4×4 for column vectors (``clip = P @ V @ p``), built by :mod:`core.camera` (its
+docstring states the conventions); upload them with ``.T.astype('f4').tobytes()`` (GLSL reads
+column-major, i.e. the transpose of numpy's row-major bytes).
 """
 
 from __future__ import annotations
@@ -11,19 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from painting.hit import look_at, perspective
-
-__all__ = ["OrbitCamera", "look_at", "orthographic", "perspective"]
-
-
-def orthographic(half_w: float, half_h: float, near: float, far: float) -> np.ndarray:
-    """OpenGL orthographic projection of a box ``[−half_w, half_w] × [−half_h, half_h] × [near, far]``."""
-    m = np.eye(4)
-    m[0, 0] = 1.0 / half_w
-    m[1, 1] = 1.0 / half_h
-    m[2, 2] = -2.0 / (far - near)
-    m[2, 3] = -(far + near) / (far - near)
-    return m
+from core.camera import look_at, perspective
 
 
 @dataclass

@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from core.camera import look_at, orthographic, perspective
 from core.sh import SH_COSINE, sh9_basis
-from render.camera import look_at, orthographic, perspective
 from render.errors import RenderError
 
 if TYPE_CHECKING:

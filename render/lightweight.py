@@ -40,6 +40,7 @@ if TYPE_CHECKING:
     import moderngl
 
     from painting.head import Head
+    from render.captured import CapturedFace
 
 #: Cornea radius (Wyszecki & Stiles, via the paper), millimetres.
 CORNEA_RADIUS_MM = 7.8
@@ -93,14 +94,16 @@ def face_defines(n_lights: int, shadows: int, env: bool, makeup: bool, lobes: in
 class LightweightRenderer:
     """The lightweight engine for one captured face on a ``moderngl.Context``.
 
+    The face is a :class:`render.captured.CapturedFace` (its ``params`` and ``detail`` are read).
+
     Attributes (set, then :meth:`render`): ``camera`` (:class:`OrbitCamera`), ``lights`` (≤ 8
     :class:`Light`; intensities in the photograph's units, 1 = the capture's flash), ``environment``,
     ``exposure``, ``ambient`` (None: the capture's k·A), ``shadows_on``, ``eye_highlights``, ``makeup`` (an object with ``bind(unit)`` binding
     R_top, T, R_bottom — e.g. a :class:`render.km_pass.KMTextureSpace` — or None).
     """
 
-    def __init__(self, ctx: moderngl.Context, head: Head, face: Any, shaders: ShaderLibrary | None = None,
-                 shadow_size: int = 512) -> None:
+    def __init__(self, ctx: moderngl.Context, head: Head, face: CapturedFace,
+                 shaders: ShaderLibrary | None = None, shadow_size: int = 512) -> None:
         self.ctx = ctx
         self.head = head
         self.face = face

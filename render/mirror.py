@@ -22,8 +22,8 @@ Both hold a ``km`` (:class:`KMTextureSpace`) and ``set_layers``, so a
 :class:`render.binding.DocumentBinding` keeps either in sync with a document. The document's paint maps
 must be in the head's own UVs (a head whose layout is not ``"mesh"`` is not supported here).
 
-render/ may not import capture/: the face is duck-typed (``params`` — a ``capture.phong.PhongParams`` —,
-``detail``, ``data`` with face.json's ``camera`` and ``light_dir_world``), as in :mod:`render.lightweight`.
+render/ may not import capture/: the face is a :class:`render.captured.CapturedFace` (``capture.face.Face``:
+its fitted ``params``, ``detail``, ``camera()`` and ``light_dir()``), as in :mod:`render.lightweight`.
 """
 
 from __future__ import annotations
@@ -49,6 +49,7 @@ if TYPE_CHECKING:
     from painting.head import Head
     from render.binding import DocumentBinding
     from render.camera import OrbitCamera
+    from render.captured import CapturedFace
 
 #: The relight view's largest turn from the photograph's view, degrees (yaw and pitch each).
 MAX_TURN_DEG = 25.0
@@ -56,36 +57,6 @@ MAX_TURN_DEG = 25.0
 EDGE_FEATHER_MM = 4.0
 #: n·v below which the makeup fades out towards the silhouette (mirror view).
 EDGE_NV = 0.2
-
-
-def face_camera(face: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-    """face.json's camera as (K (3, 3) pixels, R (3, 3), t (3,) mesh units, width, height pixels).
-
-    Raises:
-        RenderError: the face has no usable ``camera``.
-    """
-    cam = getattr(face, "data", {}).get("camera")
-    try:
-        K, R, t = (np.asarray(cam[k], dtype=np.float64) for k in ("K", "R", "t"))  # type: ignore[index]
-        w, h = int(cam["width"]), int(cam["height"])  # type: ignore[index]
-    except (KeyError, TypeError, ValueError):
-        raise RenderError("the face has no usable 'camera' in its face.json (K, R, t, width, height)") from None
-    if K.shape != (3, 3) or R.shape != (3, 3) or t.shape != (3,) or w < 1 or h < 1 \
-            or not (np.all(np.isfinite(K)) and np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
-        raise RenderError("the face's 'camera' is malformed (K and R 3×3, t 3, a positive size)")
-    return K, R, t, w, h
-
-
-def face_light_dir(face: Any) -> np.ndarray:
-    """The captured flash's direction (unit (3,), towards the flash, mesh coordinates).
-
-    Raises:
-        RenderError: face.json has no usable ``light_dir_world``.
-    """
-    d = np.asarray(getattr(face, "data", {}).get("light_dir_world", []), dtype=float)
-    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-9:
-        raise RenderError("the face has no usable 'light_dir_world' in its face.json")
-    return d / np.linalg.norm(d)
 
 
 def edge_weights(vertices: np.ndarray, faces: np.ndarray, mm_per_unit: float,
@@ -158,7 +129,7 @@ class MirrorView(_Layers):
     Args:
         ctx: a GL 4.5 context.
         head: the head the face was captured on (mesh units, its own UVs for the paint maps).
-        face: the captured face (``capture.face.Face``: fitted ``params``, ``data`` with the camera and the
+        face: the captured face (:class:`render.captured.CapturedFace`: fitted ``params``, the camera and the
             flash's direction).
         photo: the photograph, uint8 sRGB (H, W, 3) of the camera's size (as shot; its bytes come back
             unchanged where there is no makeup).
@@ -170,9 +141,10 @@ class MirrorView(_Layers):
     renderer's default), ``show_makeup``.
     """
 
-    def __init__(self, ctx: moderngl.Context, head: Head, face: Any, photo: np.ndarray,
+    def __init__(self, ctx: moderngl.Context, head: Head, face: CapturedFace, photo: np.ndarray,
                  shaders: ShaderLibrary | None = None, km: KMTextureSpace | None = None) -> None:
-        K, R, t, w, h = face_camera(face)
+        photo_camera = face.camera()
+        w, h = photo_camera.width, photo_camera.height
         img = np.asarray(photo)
         if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
             raise RenderError(f"the photograph must be uint8 RGB (H, W, 3), got {img.dtype} {img.shape}")
@@ -184,8 +156,8 @@ class MirrorView(_Layers):
         self.face = face
         self.size = (w, h)
         self.shaders = shaders or ShaderLibrary()
-        self.camera: OrbitCamera = pinhole_camera(K, R, t, w, h, head.vertices)
-        self.light_dir = face_light_dir(face)
+        self.camera: OrbitCamera = pinhole_camera(photo_camera, head.vertices)
+        self.light_dir = face.light_dir()
         self.spec_intensity = RenderSettings().spec_intensity
         self._init_layers(ctx, self.shaders, km)
         rgba = np.concatenate([img[::-1, :, :3], np.full((h, w, 1), 255, np.uint8)], axis=2)
@@ -342,15 +314,17 @@ class RelightView(_Layers):
     positive yaw shows more of her left cheek, positive pitch looks from above), ``lights`` (≤ 8
     :class:`Light`, photograph units: intensity 1 = the captured flash), ``ambient`` (linear RGB
     irradiance added to every light, photograph units; default the capture's k·A), ``exposure``,
-    ``engine`` (the :class:`LightweightRenderer`), ``size`` (the photograph's, pixels), ``show_makeup``.
+    ``engine`` (the :class:`LightweightRenderer`), ``size`` (the photograph's, pixels), ``photo_camera``
+    (the photograph's :class:`core.camera.Pinhole`), ``show_makeup``.
     """
 
-    def __init__(self, ctx: moderngl.Context, head: Head, face: Any, shaders: ShaderLibrary | None = None,
-                 km: KMTextureSpace | None = None, shadow_size: int = 1024) -> None:
+    def __init__(self, ctx: moderngl.Context, head: Head, face: CapturedFace,
+                 shaders: ShaderLibrary | None = None, km: KMTextureSpace | None = None,
+                 shadow_size: int = 1024) -> None:
         from render.lightweight import LightweightRenderer
 
-        self._K, self._R, self._t, w, h = face_camera(face)
-        self.size = (w, h)
+        self.photo_camera = face.camera()
+        self.size = (self.photo_camera.width, self.photo_camera.height)
         self.ctx = ctx
         self.head = head
         self.face = face
@@ -367,7 +341,7 @@ class RelightView(_Layers):
 
     def use_capture_light(self) -> None:
         """Light her as the photograph did: the captured flash (intensity 1) and the captured ambient."""
-        d = face_light_dir(self.face)
+        d = self.face.light_dir()
         self.lights = [Light("directional", tuple(float(x) for x in d),  # type: ignore[arg-type]
                              tuple(float(x) for x in self.face.params.flash_rgb), 1.0, True)]  # type: ignore[arg-type]
         self.ambient = None
@@ -382,12 +356,12 @@ class RelightView(_Layers):
         key-to-ambient ratio.
         """
         lum = np.array([0.2126, 0.7152, 0.0722])
-        to_cam = -self._R[2]  # the camera's forward axis, world coordinates, negated: towards the camera
+        to_cam = -self.photo_camera.R[2]  # the camera's forward axis (world coordinates) negated: towards it
         key = Light.directional(azimuth, elevation, intensity, tuple(float(c) for c in colour))  # type: ignore[arg-type]
         e_preset = intensity * max(float(np.dot(key.vector, to_cam)), 0.0) * float(lum @ np.asarray(colour)) \
             + float(lum @ np.asarray(ambient, dtype=float))
         p = self.face.params
-        e_capture = max(float(np.dot(face_light_dir(self.face), to_cam)), 0.0) * float(lum @ p.flash_rgb) \
+        e_capture = max(float(np.dot(self.face.light_dir(), to_cam)), 0.0) * float(lum @ p.flash_rgb) \
             + float(lum @ (p.ambient_scale * np.asarray(p.ambient_rgb)))
         if e_preset <= 0:
             raise RenderError("a light preset must light the face (its key and ambient are both dark)")
@@ -405,8 +379,7 @@ class RelightView(_Layers):
         for name, value in (("yaw", self.yaw), ("pitch", self.pitch)):
             if not (np.isfinite(value) and abs(value) <= MAX_TURN_DEG):
                 raise RenderError(f"the relight view turns at most ±{MAX_TURN_DEG:g}° ({name} {value!r})")
-        w, h = self.size
-        return pinhole_camera(self._K, self._R, self._t, w, h, self.head.vertices, self.yaw, self.pitch, self.pivot)
+        return pinhole_camera(self.photo_camera, self.head.vertices, self.yaw, self.pitch, self.pivot)
 
     def _prepare(self) -> None:
         lw = self.engine

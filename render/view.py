@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from painting.layout import UVLayout
     from render.binding import DocumentBinding
     from render.camera import OrbitCamera
+    from render.captured import CapturedFace
     from render.km_pass import LayerInput
     from render.lights import Light
     from render.lightweight import LightweightRenderer
@@ -78,7 +79,7 @@ class ViewRenderer:
         layer_index: the document layer the thickness view shows.
         debug_hidden: the thickness view's layer is hidden (the view shows the image instead).
         frames_drawn: frames drawn by an engine (not ring-only redraws).
-        face: a captured face (``capture.face.Face``) for the lightweight mode, or None.
+        face: a captured face (:class:`render.captured.CapturedFace`) for the lightweight mode, or None.
         drawn_by: the mode that drew the kept frame.
         interactive: the kept frame is an interactive one (see :meth:`render`).
         scale: the kept frame's internal scale, (0, 1] (1: full resolution).
@@ -110,15 +111,15 @@ class ViewRenderer:
         self.layer_index = 0
         self.debug_hidden = False
         self.frames_drawn = 0
-        self.face: Any = None
+        self.face: CapturedFace | None = None
         self._lw: LightweightRenderer | None = None  # the lightweight engine, created on first use
         self.drawn_by = ""
         self.interactive = False  # the kept frame is an interactive one (reduced scale, fast mode)
         self.scale = 1.0  # the kept frame's internal scale (1.0: full resolution)
 
     # ------------------------------------------------------------------ the lightweight engine
-    def set_face(self, face: Any) -> None:
-        """Use ``face`` (``capture.face.Face``, for this head) in the lightweight mode; None removes it."""
+    def set_face(self, face: CapturedFace | None) -> None:
+        """Use ``face`` (a ``CapturedFace`` of this head) in the lightweight mode; None removes it."""
         if self._lw is not None:
             self._lw.release()
             self._lw = None

@@ -364,9 +364,7 @@ def _photo_camera(args: argparse.Namespace, face: Face | None) -> Camera | None:
     ``--camera FILE``, else the capture's (``--face``, unless an orbit camera is asked for with
     ``--yaw``/``--pitch``), else None.
     """
-    import numpy as np
-
-    from capture.camera import Camera, CameraError, load_camera
+    from capture.camera import load_camera
     from core.errors import SheerError
 
     if args.camera:
@@ -378,16 +376,9 @@ def _photo_camera(args: argparse.Namespace, face: Face | None) -> Camera | None:
                              f"the file): a projection matrix is in the pixels of one image size")
         w, h = data or args.size
         return load_camera(args.camera, w, h)
-    if face is None or args.yaw is not None or args.pitch is not None:
-        return None
-    cam = face.data.get("camera")
-    if not isinstance(cam, dict):
-        return None  # a face folder without a camera (written by hand): the orbit camera
-    try:
-        return Camera(K=np.asarray(cam["K"], float), R=np.asarray(cam["R"], float), t=np.asarray(cam["t"], float),
-                      width=int(cam["width"]), height=int(cam["height"]))
-    except (KeyError, TypeError, ValueError) as exc:
-        raise CameraError(f"{args.face}/face.json: malformed 'camera' ({exc!r})") from None
+    if face is None or args.yaw is not None or args.pitch is not None or not face.has_camera:
+        return None  # no face, an orbit camera asked for, or a face folder without a camera (written by hand)
+    return face.camera()
 
 
 def _read_camera_size(path: str) -> tuple[int, int] | None:
@@ -452,27 +443,26 @@ def _captured_flash(face: Face | None) -> Light:
     face.json's ``light_dir_world`` (head space), ``phong.flash_rgb`` (luminance 1) and intensity 1 (the
     photograph's units).
     """
-    import numpy as np
-
     from core.errors import SheerError
     from render import Light
 
     assert face is not None
-    d = np.asarray(face.data.get("light_dir_world", []), dtype=float)
-    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.linalg.norm(d) < 1e-9:
-        raise SheerError(f"--light {FROM_CAPTURE}: the face folder has no usable 'light_dir_world'")
-    return Light("directional", tuple(float(x) for x in d / np.linalg.norm(d)),  # type: ignore[arg-type]
+    try:
+        d = face.light_dir()
+    except SheerError as exc:
+        raise SheerError(f"--light {FROM_CAPTURE}: {exc}") from None
+    return Light("directional", tuple(float(x) for x in d),  # type: ignore[arg-type]
                  tuple(float(x) for x in face.params.flash_rgb), 1.0, True)  # type: ignore[arg-type]
 
 
 def _projection_camera(camera: Camera, vertices: np.ndarray, size: tuple[int, int]) -> OrbitCamera:
     """An orbit camera that renders exactly what the pinhole ``camera`` sees, at any ``size`` of its aspect.
 
-    :func:`render.pinhole.pinhole_camera` with the camera's K, R, t; depth range from the head's vertices.
+    :func:`render.pinhole.pinhole_camera`; depth range from the head's vertices.
     """
     from render.pinhole import pinhole_camera
 
-    return pinhole_camera(camera.K, camera.R, camera.t, camera.width, camera.height, vertices)
+    return pinhole_camera(camera, vertices)
 
 
 def _render_lightweight(ctx: moderngl.Context, head: Head, face: Face, renderer: Renderer,

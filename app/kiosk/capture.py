@@ -159,7 +159,8 @@ def shopper_skin(face: Any) -> PhotoSkin | None:
         return None
     iod = float(np.hypot(ex1 - ex2, ey1 - ey2))
     pad = 0.15 * iod
-    w, h = int(face.data["camera"]["width"]), int(face.data["camera"]["height"])
+    camera = face.camera()
+    w, h = camera.width, camera.height
     x0, x1 = max(0, int(min(lx, rx) - pad)), min(w, int(np.ceil(max(lx, rx) + pad)))
     y0, y1 = max(0, int(min(ly, ry) - pad)), min(h, int(np.ceil(max(ly, ry) + pad)))
     if x1 - x0 < 4 or y1 - y0 < 4:

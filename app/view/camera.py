@@ -1,7 +1,8 @@
 """The viewport's camera and key light: interaction on top of ``render``'s own types.
 
-No matrix or light maths of its own: :class:`render.camera.OrbitCamera` and :class:`render.lights.Light`
-do that.
+No matrix or light maths of its own: :class:`render.camera.OrbitCamera` (on :mod:`core.camera`'s matrices)
+and :class:`render.lights.Light` do that. :class:`ViewCamera` is the orbit camera's interactive side: the
+viewport's gestures (orbit, pan, zoom, frame a box) and the studio's starting view.
 """
 
 from __future__ import annotations
@@ -12,14 +13,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from render.camera import OrbitCamera as _RenderCamera
+from render.camera import OrbitCamera
 
 if TYPE_CHECKING:
     from render.lights import Light
 
 
-class OrbitCamera(_RenderCamera):
-    """``render.camera.OrbitCamera`` with the studio's mouse interactions (orbit, pan, zoom, frame a box).
+class ViewCamera(OrbitCamera):
+    """The viewport's orbit camera, with its mouse interactions (orbit, pan, zoom, frame a box).
 
     Yaw and pitch in degrees (yaw 0 looks at the face along −Z), distance and target in mesh units.
     """

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     import moderngl
     from PySide6.QtCore import SignalInstance
 
-    from app.view.camera import Lighting, OrbitCamera
+    from app.view.camera import Lighting, ViewCamera
     from app.view.gl_surface import GLSurface
     from render.view import ViewRenderer
 
@@ -34,7 +34,7 @@ class ViewportInput:
 
     # what the viewport provides (see app.view.viewport.Viewport)
     ctx: moderngl.Context | None
-    camera: OrbitCamera
+    camera: ViewCamera
     lighting: Lighting
     surface: GLSurface
     renderer: ViewRenderer | None

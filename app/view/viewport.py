@@ -39,7 +39,7 @@ from PySide6.QtCore import QEvent, Qt, QTimer, Signal
 from PySide6.QtGui import QColor, QPainter
 from PySide6.QtWidgets import QApplication, QVBoxLayout, QWidget
 
-from app.view.camera import Lighting, OrbitCamera
+from app.view.camera import Lighting, ViewCamera
 from app.view.gl_surface import Caption, GLSurface, attach_moderngl
 from app.view.input import ViewportInput
 
@@ -134,7 +134,7 @@ class Viewport(ViewportInput, QWidget):
         self.setMinimumSize(200, 150)
         self.head = head
         self.layout_uv = layout
-        self.camera = OrbitCamera()
+        self.camera = ViewCamera()
         self.frame_head()
         self.lighting = Lighting()
         self.split = 0.0

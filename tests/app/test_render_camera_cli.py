@@ -21,7 +21,7 @@ def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A face folder with a camera (160×120, the validation's view) and a flash from the upper left."""
     import OpenEXR
 
-    from capture.camera import look_at
+    from capture.camera import Camera
     from capture.face import FACE_SCHEMA_VERSION
     from capture.phong import PhongParams
 
@@ -29,7 +29,8 @@ def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     p = PhongParams(diffuse=np.array([0.5, 0.35, 0.3]), specular=0.1, exponent=20.0, ambient_scale=1.0,
                     flash_rgb=np.array([1.2, 0.95, 0.7]) / float(np.array([1.2, 0.95, 0.7]) @ [0.2126, 0.7152, 0.0722]),
                     ambient_rgb=np.full(3, 0.02))
-    cam = look_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]), 8.0, 160, 120)
+    cam = Camera.looking_at(np.array([0.0, 1.3, 45.0]), np.array([0.0, 1.3, 0.0]), np.array([0.0, 1.0, 0.0]),
+                            8.0, 160, 120)
     light = np.array([0.3, 0.3, 1.0]) / np.linalg.norm([0.3, 0.3, 1.0])
     (d / "face.json").write_text(json.dumps({"schema_version": FACE_SCHEMA_VERSION, "phong": p.to_json(),
                                              "camera": cam.to_json(), "light_dir_world": light.tolist()}))

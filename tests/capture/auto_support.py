@@ -40,7 +40,7 @@ def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_d
     ``yaw_deg`` from the face, aims that far to its right of the face's centre (mm), so the face sits
     off-centre (to the left for a positive value).
     """
-    from capture.camera import look_at
+    from capture.camera import Camera
     from capture.pipeline import linear_to_srgb8, pixel_data, sample_texture
     from km.srgb import srgb_decode
 
@@ -51,7 +51,7 @@ def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_d
     target = target + np.array([np.cos(a), 0.0, -np.sin(a)]) * aim_mm / head.mm_per_unit
     r = np.radians(roll_deg)
     up = np.array([np.sin(r), np.cos(r), 0.0])
-    cam = look_at(eye, target, up, fov_deg, size, size)
+    cam = Camera.looking_at(eye, target, up, fov_deg, size, size)
     pix = pixel_data(head, cam)
     albedo = srgb_decode(np.asarray(head.albedo, dtype=np.float64) / 255.0)
     colour = sample_texture(albedo, pix.uv)

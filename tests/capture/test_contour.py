@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from capture.camera import Camera, look_at
+from capture.camera import Camera
 from capture.contour import (
     MIN_CONTRAST,
     ContourSamples,
@@ -114,7 +114,7 @@ def _turned_camera(yaw_deg: float) -> Camera:
     head = load_head()
     target = np.array([0.0, 1.3, 0.0])
     eye = target + 2362.5 / head.mm_per_unit * np.array([np.sin(np.radians(yaw_deg)), 0.0, np.cos(np.radians(yaw_deg))])
-    return look_at(eye, target, np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)
+    return Camera.looking_at(eye, target, np.array([0.0, 1.0, 0.0]), 6.4, 512, 512)
 
 
 def test_the_contour_is_the_faces_outline_against_the_background() -> None:

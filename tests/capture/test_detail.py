@@ -67,7 +67,7 @@ def _frontal_relit(ctx: moderngl.Context, head: Any, detail: np.ndarray, result:
 
     lw = LightweightRenderer(ctx, head, Face(params=result.params, detail=detail, data={}))
     try:
-        lw.camera = pinhole_camera(camera.K, camera.R, camera.t, camera.width, camera.height, head.vertices)
+        lw.camera = pinhole_camera(camera, head.vertices)
         lw.lights = [Light("directional", tuple(result.light_dir_world), tuple(result.params.flash_rgb), 1.0, True)]
         lw.eye_highlights = False
         return lw.render_image((camera.width, camera.height))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from capture.camera import Camera, CameraError, calibrate, look_at
+from capture.camera import Camera, CameraError, calibrate
 from capture.probe import analyse_probe, light_direction_from_highlight, synthetic_probe
 from capture.reflectance import eq3_exponent
 
@@ -19,7 +19,8 @@ def test_eq3_small_angle_limit_and_monotone() -> None:
 
 
 def test_calibrate_recovers_camera_from_noisy_points() -> None:
-    cam = look_at(np.array([0.5, 1.0, 30.0]), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0]), 10.0, 640, 480)
+    cam = Camera.looking_at(np.array([0.5, 1.0, 30.0]), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                            10.0, 640, 480)
     rng = np.random.default_rng(0)
     X = rng.uniform([-1.5, -1.0, 0.0], [1.5, 3.0, 2.5], size=(12, 3))
     x, _ = cam.project(X)
@@ -120,7 +121,7 @@ def test_camera_gbuffer_is_perspective_correct_on_paintings_rasteriser() -> None
     # capture.raster adapts painting.raster (affine barycentrics) to a camera: the position interpolated
     # with its barycentrics must project back onto each pixel's centre (affine ones miss by up to 26 px
     # on a plane this oblique), and triangles behind the camera are left out.
-    cam = look_at(np.array([0.0, 0.0, 3.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 60.0, 64, 48)
+    cam = Camera.looking_at(np.array([0.0, 0.0, 3.0]), np.zeros(3), np.array([0.0, 1.0, 0.0]), 60.0, 64, 48)
     verts = np.array([[-2.0, -1.0, 1.5], [2.0, -1.0, 1.5], [2.0, 1.0, -6.0], [-2.0, 1.0, -6.0],
                       [0.0, 0.0, 5.0], [0.5, 0.0, 5.0], [0.0, 0.5, 5.0]])  # an oblique quad; a triangle behind
     faces = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6]])

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from painting.hit import PickError, depth_hit, look_at, perspective, pixel_to_ndc, ray_hit, unproject
+from core.camera import look_at, perspective
+from painting.hit import PickError, depth_hit, pixel_to_ndc, ray_hit, unproject
 from tests.painting.helpers import make_doc
 
 

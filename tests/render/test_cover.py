@@ -98,7 +98,7 @@ def test_hull_is_left_out_where_it_cannot_cover(renderer: Renderer, gl_ctx: Any)
         proj = cam.projection(4 / 3)
         assert not cover.usable(cam.eye(), cam.view(), float(proj[2, 3] / (proj[2, 2] - 1.0)))
         # an eye just outside a face, looking at it, with a near plane beyond that face: not usable
-        from render.camera import look_at
+        from core.camera import look_at
 
         centre = cover.points[cover.faces[0]].mean(axis=0)
         eye = centre + cover._normals[0] * 0.01  # noqa: SLF001

@@ -24,7 +24,7 @@ W, H = 320, 240
 def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     import OpenEXR
 
-    from capture.camera import look_at
+    from capture.camera import Camera
     from capture.face import FACE_SCHEMA_VERSION
     from capture.phong import PhongParams
     from painting.head import load_head
@@ -36,7 +36,7 @@ def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     p = PhongParams(diffuse=np.array([0.5, 0.35, 0.3]), specular=0.1, exponent=20.0, ambient_scale=1.0,
                     ambient_rgb=np.full(3, 0.02))
     eye = mouth + np.array([0.0, 0.0, 30.0])
-    cam = look_at(eye, mouth, np.array([0.0, 1.0, 0.0]), 20.0, W, H)
+    cam = Camera.looking_at(eye, mouth, np.array([0.0, 1.0, 0.0]), 20.0, W, H)
     light = np.array([0.3, 0.3, 1.0]) / np.linalg.norm([0.3, 0.3, 1.0])
     (d / "face.json").write_text(json.dumps({"schema_version": FACE_SCHEMA_VERSION, "phong": p.to_json(),
                                              "camera": cam.to_json(), "light_dir_world": light.tolist(),

@@ -3,18 +3,23 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pytest
 
 from render.mirror import edge_weights
 from render.pinhole import pinhole_camera, turn_pivot
 
+if TYPE_CHECKING:
+    from capture.camera import Camera
 
-def _camera() -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
-    from capture.camera import look_at
 
-    cam = look_at(np.array([3.0, 2.0, 40.0]), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0]), 25.0, 320, 240)
-    return cam.K, cam.R, cam.t, cam.width, cam.height
+def _camera() -> Camera:
+    from capture.camera import Camera
+
+    return Camera.looking_at(np.array([3.0, 2.0, 40.0]), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                             25.0, 320, 240)
 
 
 def _pixels(cam: object, points: np.ndarray, size: tuple[int, int]) -> np.ndarray:
@@ -25,23 +30,23 @@ def _pixels(cam: object, points: np.ndarray, size: tuple[int, int]) -> np.ndarra
 
 
 def test_the_render_camera_draws_where_the_photographs_camera_projects() -> None:
-    from capture.camera import Camera
-
-    K, R, t, w, h = _camera()
+    photo = _camera()
+    w, h = photo.width, photo.height
     points = np.random.default_rng(1).uniform(-5, 5, (50, 3))
-    truth, _ = Camera(K=K, R=R, t=t, width=w, height=h).project(points)
+    truth, _ = photo.project(points)
     for size in ((w, h), (2 * w, 2 * h)):
-        cam = pinhole_camera(K, R, t, w, h, points)
+        cam = pinhole_camera(photo, points)
         np.testing.assert_allclose(_pixels(cam, points, size), truth * size[0] / w, atol=1e-6)
-    np.testing.assert_allclose(cam.eye(), -R.T @ t, atol=1e-9)
+    np.testing.assert_allclose(cam.eye(), -photo.R.T @ photo.t, atol=1e-9)
 
 
 def test_a_turn_orbits_the_camera_about_the_pivot() -> None:
-    K, R, t, w, h = _camera()
+    photo = _camera()
+    w, h = photo.width, photo.height
     points = np.random.default_rng(2).uniform(-5, 5, (20, 3))
     pivot = np.array([0.0, 1.0, -9.0])
-    front = pinhole_camera(K, R, t, w, h, points, pivot=pivot)
-    turned = pinhole_camera(K, R, t, w, h, points, yaw=20.0, pitch=-10.0, pivot=pivot)
+    front = pinhole_camera(photo, points, pivot=pivot)
+    turned = pinhole_camera(photo, points, yaw=20.0, pitch=-10.0, pivot=pivot)
     # the camera keeps its distance to the pivot, and moves to the subject's left (+x) and down (−y)
     assert np.linalg.norm(turned.eye() - pivot) == pytest.approx(np.linalg.norm(front.eye() - pivot))
     d = turned.eye() - front.eye()
