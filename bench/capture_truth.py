@@ -279,6 +279,9 @@ def render_photo(ctx: moderngl.Context, head: Head, texture: np.ndarray, camera:
             2 cm across at 2.4 m gives about as much behind the nose).
         occlusion: the ambient (constant or the sky's irradiance) times each vertex's
             :func:`ambient_visibility`, interpolated.
+
+    Long: one draw's GL objects (buffers, targets, the shadow map, two programs and their uniforms) are
+    made, used and released in one place, so that the ``finally`` releases each of them whatever fails.
     """
     w, h = camera.width * supersample, camera.height * supersample
     # The head's v counts from the image's top row (painting.head) and GL puts the first row uploaded at

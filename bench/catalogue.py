@@ -174,8 +174,20 @@ def main(argv: list[str]) -> int:
         args = p.parse_args(argv)
     except SystemExit as exc:  # --help, or a bad option (argparse has printed why)
         return int(exc.code or 0)
-    counts: list[int] = args.workers
     load0 = os.getloadavg()[0]
+    measured = _measure(args)
+    print(json.dumps(_figures(args, *measured, load0), indent=1))
+    return 0
+
+
+def _measure(args: argparse.Namespace) -> tuple[dict[int, list[tuple[float, float, int]]],
+                                                dict[int, list[dict[str, Any]]], float, list[float]]:
+    """The catalogue run ``args.repeats`` times per worker count, its no-op rerun, and separate processes.
+
+    Returns each worker count's runs (cluster start s, run s, images) and the workers' busy figures
+    (:func:`_busy`), the no-op rerun's seconds and the separate processes' seconds per image.
+    """
+    counts: list[int] = args.workers
     with tempfile.TemporaryDirectory(prefix="sheer-bench-catalogue-") as tmp:
         root = Path(tmp)
         spec_path = root / "bench.toml"
@@ -197,10 +209,18 @@ def main(argv: list[str]) -> int:
                     if noop.rendered:
                         raise RuntimeError("bench catalogue: the sources changed during the run (the rerun "
                                            "rendered again); run it on a tree nobody is editing")
-        first = runs[counts[0]][0]
         separate = _separate(root, args.separate, args.size)
+    return runs, busy, resume_s, separate
+
+
+def _figures(args: argparse.Namespace, runs: dict[int, list[tuple[float, float, int]]],
+             busy: dict[int, list[dict[str, Any]]], resume_s: float, separate: list[float],
+             load0: float) -> dict[str, Any]:
+    """The benchmark's JSON object from its measurements (:func:`_measure`; ``load0`` the load at the start)."""
     from render.context import render_devices
 
+    counts: list[int] = args.workers
+    first = runs[counts[0]][0]
     n = first[2]
     ips = {w: n / float(np.median([s for _, s, _ in runs[w]])) for w in counts}
     with_start = {w: float(np.median([c + s for c, s, _ in runs[w]])) for w in counts}
@@ -256,5 +276,4 @@ def main(argv: list[str]) -> int:
         "repeats": args.repeats, "cpu_count": os.cpu_count(), "egl_devices": len(render_devices()),
         "load_avg_start": round(load0, 2), "load_avg_end": round(os.getloadavg()[0], 2),
     })
-    print(json.dumps(out, indent=1))
-    return 0
+    return out

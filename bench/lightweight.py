@@ -27,6 +27,11 @@ if TYPE_CHECKING:
 
     import moderngl
 
+    from bench.capture_synthetic import SyntheticScene
+    from capture.face import Face
+    from capture.pipeline import CaptureResult
+    from painting.head import Head
+
 
 def interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]], frames: int,
                    warmup: int = 2) -> dict[str, float]:
@@ -58,10 +63,6 @@ def main(argv: list[str] | None = None) -> int:
     from capture.probe import analyse_probe
     from core.assets import find_asset
     from painting.head import load_head
-    from render.context import standalone_context
-    from render.lights import Light
-    from render.lightweight import LightweightRenderer
-    from render.renderer import Renderer
 
     p = argparse.ArgumentParser(prog="sheer bench lightweight")
     p.add_argument("--size", default="1280x720")
@@ -76,29 +77,57 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     result = capture(head, scene.photo_lin, scene.camera, probe=analyse_probe(scene.probe_lin))
     capture_s = time.perf_counter() - t0
-    robustness: dict[str, Any] = {}
-    if args.starts > 0:
-        from capture.phong import Geometry
-        from capture.phong import robustness as run_robustness
-        from capture.pipeline import pixel_data
-
-        pix = pixel_data(head, scene.camera)
-        sel = result.skin_mask[pix.rows, pix.cols]
-        geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], result.light_dir_world)
-        t1 = time.perf_counter()
-        rob = run_robustness(scene.photo_lin[pix.rows[sel], pix.cols[sel]], geo, result.params.exponent,
-                             result.params.flash_rgb, result.params.ambient_rgb, starts=args.starts)
-        robustness = {"starts": args.starts, "max_relative_std": rob["max_relative_std"],
-                      "relative_std": rob["relative_std"], "seconds": time.perf_counter() - t1}
-
+    robustness = _robustness(head, scene, result, args.starts) if args.starts > 0 else {}
     from capture.face import Face
 
-    face = Face(params=result.params, detail=result.detail, data={})
+    out = _frame_times(head, Face(params=result.params, detail=result.detail, data={}), (w, h), args.frames)
+    out["capture_s"] = capture_s
+    out["robustness"] = robustness
+    out["validation"] = {
+        "reproduction_mean_de2000_skin": result.reproduction_de2000_skin,
+        "exponent": result.exponent.s, "exponent_true": scene.params.exponent,
+        "residual_rms_luv": result.fit.rms_luv,
+    }
+    out["note"] = ("frames interleaved across configurations; eight_lights_shadows_ms: shadow maps cached while "
+                   "the lights stay still (as in the studio), compared per vertex (shadow_mode auto); "
+                   "..._moving_ms re-renders all 8 maps every frame. capture_s: probe analysis + capture "
+                   "(1024² detail texture) of the synthetic ground-truth photograph of the sample head")
+    print(json.dumps(out, indent=2))
+    return 0
+
+
+def _robustness(head: Head, scene: SyntheticScene, result: CaptureResult, starts: int) -> dict[str, Any]:
+    """The capture's Phong fit from ``starts`` random starts (:func:`capture.phong.robustness`) and its seconds."""
+    from capture.phong import Geometry
+    from capture.phong import robustness as run_robustness
+    from capture.pipeline import pixel_data
+
+    pix = pixel_data(head, scene.camera)
+    sel = result.skin_mask[pix.rows, pix.cols]
+    geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], result.light_dir_world)
+    t1 = time.perf_counter()
+    rob = run_robustness(scene.photo_lin[pix.rows[sel], pix.cols[sel]], geo, result.params.exponent,
+                         result.params.flash_rgb, result.params.ambient_rgb, starts=starts)
+    return {"starts": starts, "max_relative_std": rob["max_relative_std"],
+            "relative_std": rob["relative_std"], "seconds": time.perf_counter() - t1}
+
+
+def _frame_times(head: Head, face: Face, size: tuple[int, int], frames: int) -> dict[str, Any]:
+    """The lightweight engine's frames (one light; eight with shadows, still and moving) against the baseline.
+
+    Interleaved (:func:`interleaved_ms`) in a headless context of their own, at ``size``.
+    """
+    from render.context import standalone_context
+    from render.lights import Light
+    from render.lightweight import LightweightRenderer
+    from render.renderer import Renderer
+
+    w, h = size
     ctx = standalone_context()
     colour = ctx.renderbuffer((w, h), 4)
     depth = ctx.depth_renderbuffer((w, h))
     fbo = ctx.framebuffer(color_attachments=[colour], depth_attachment=depth)
-    out: dict[str, Any] = {"size": [w, h], "frames": args.frames, "triangles": int(len(head.faces))}
+    out: dict[str, Any] = {"size": [w, h], "frames": frames, "triangles": int(len(head.faces))}
     base = Renderer(ctx, head)
     lw = LightweightRenderer(ctx, head, face)
     lw.camera = base.camera
@@ -120,26 +149,14 @@ def main(argv: list[str] | None = None) -> int:
         "eight_lights_shadows_ms": lambda: (use(eight, True), lw.render(fbo))[-1],
         "eight_lights_shadows_moving_ms": moving,
     }
-    out.update(interleaved_ms(ctx, configs, args.frames))
+    out.update(interleaved_ms(ctx, configs, frames))
     use(eight, True)
     out["eight_lights_shadow_mode"] = lw.shadows_in_use()
     out["one_light_over_baseline"] = out["one_light_ms"] / out["baseline_ms"]
     out["eight_lights_shadows_over_baseline"] = out["eight_lights_shadows_ms"] / out["baseline_ms"]
-    out["capture_s"] = capture_s
-    out["robustness"] = robustness
-    out["validation"] = {
-        "reproduction_mean_de2000_skin": result.reproduction_de2000_skin,
-        "exponent": result.exponent.s, "exponent_true": scene.params.exponent,
-        "residual_rms_luv": result.fit.rms_luv,
-    }
-    out["note"] = ("frames interleaved across configurations; eight_lights_shadows_ms: shadow maps cached while "
-                   "the lights stay still (as in the studio), compared per vertex (shadow_mode auto); "
-                   "..._moving_ms re-renders all 8 maps every frame. capture_s: probe analysis + capture "
-                   "(1024² detail texture) of the synthetic ground-truth photograph of the sample head")
     ctx.detect_framebuffer(0).use()
     lw.release()
     base.release()
     for obj in (fbo, colour, depth):
         obj.release()
-    print(json.dumps(out, indent=2))
-    return 0
+    return out

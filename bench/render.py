@@ -54,6 +54,8 @@ if TYPE_CHECKING:
 
     import moderngl
 
+    from painting import Document
+    from render.km_pass import LayerInput
     from render.renderer import Renderer
     from render.shaders import ShaderLibrary
 
@@ -197,126 +199,166 @@ def main(argv: list[str] | None = None) -> int:
     fbo_small = ctx.framebuffer([colour_small], depth_small)
     out: dict[str, Any] = {"size": f"{w}x{h}", "frames": args.frames, "gl_renderer": ctx.info["GL_RENDERER"]}
     try:
-        # texture-space KM
         layers = [LayerInput(lay.material_object, np.array(lay.thickness), lay.opacity, lay.visible, lay.name)
                   for lay in doc.layers]
-        out["km_layers"] = len(layers)
-        out.update(spread("km_full_2048_ms", _times_ms(ctx, lambda: r.set_layers(layers), max(5, args.frames // 2), 1),
-                          DIGITS))
-        ys, xs = np.nonzero(layers[0].thickness > 0)
-        tile = (int(ys[len(ys) // 2]) // TILE, int(xs[len(xs) // 2]) // TILE)  # (row, col)
-        out.update(spread("km_tile_64_ms", _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2),
-                          DIGITS))
-        rng = np.random.default_rng(0)
-        dense = [LayerInput(lay.material, (1.0 + rng.random(lay.thickness.shape, np.float32) * 20.0))
-                 for lay in layers]
-        out.update(spread("km_full_2048_dense_ms", _times_ms(ctx, lambda: r.set_layers(dense), 2, 1), DIGITS))
-        # worst-case tile: all four layers non-zero in it
-        out.update(spread("km_tile_64_dense_ms",
-                          _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), args.frames, 2), DIGITS))
+        out.update(_km_times(ctx, r, layers, args.frames))
         r.set_layers(layers)
-
-        # frames: modes interleaved round-robin, so a CPU shared with other work weighs on all alike
-        def frame(mode: str, taps: int = 17, relight: bool = False, cache: bool = True) -> Callable[[], None]:
-            def run() -> None:
-                r.settings.mode, r.settings.taps = mode, taps
-                r.settings.lighting_cache = cache
-                if relight:
-                    r.shadows.invalidate()
-                    r.irradiance.invalidate()
-                r.render(fbo)
-            return run
-
-        def small(mode: str) -> Callable[[], None]:  # the same frame at 64×64: what is not pixel work
-            def run() -> None:
-                r.settings.mode, r.settings.taps, r.settings.lighting_cache = mode, 17, True
-                r.render(fbo_small)
-            return run
-
-        cases: dict[str, Callable[[], None]] = {
-            "baseline_ms": lambda: r.render_baseline(fbo),
-            "baseline_64x64_ms": lambda: r.render_baseline(fbo_small),
-            "fast_64x64_ms": small("fast"),
-            "reference_64x64_ms": small("reference"),
-            "fast_ms": frame("fast"),
-            "fast_direct_ms": frame("fast", cache=False),
-            "reference_ms": frame("reference"),
-            "no_sss_ms": frame("off"),
-            "fast_11_taps_ms": frame("fast", 11),
-            "fast_25_taps_ms": frame("fast", 25),
-        }
-        for fn in cases.values():  # warm-up (compiles, caches)
-            fn()
-            fn()
-        ctx.finish()
-        times: dict[str, list[float]] = {k: [] for k in cases}
-        for _ in range(args.frames):
-            for key, fn in cases.items():
-                t0 = time.perf_counter()
-                fn()
-                ctx.finish()
-                times[key].append((time.perf_counter() - t0) * 1000.0)
-        for key, ts in times.items():
-            out.update(spread(key, ts, DIGITS))
-        out.update(spread("fast_relight_ms", _times_ms(ctx, frame("fast", relight=True), max(3, args.frames // 3), 1),
-                          DIGITS))
+        out.update(_frame_times(ctx, r, fbo, fbo_small, args.frames))
         r.settings.mode, r.settings.taps = "reference", 17
         out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2), "reference"))
         r.settings.mode = "fast"
         out.update(pass_times(ctx, r, fbo, max(5, args.frames // 2)))
-        import tempfile
-
-        with tempfile.TemporaryDirectory() as tmp:
-            floor = Renderer(ctx, doc.head, layout=doc.layout, shaders=floor_shaders(tmp))
-            try:
-                floor.lights = list(r.lights)
-                floor.set_layers(layers)
-                fl: list[float] = []
-                base: list[float] = []
-                for _ in range(2):
-                    floor.render(fbo)
-                for _ in range(args.frames):  # interleaved with the baseline, like the modes above
-                    fl += _times_ms(ctx, lambda: floor.render(fbo), 1, 0)
-                    base += _times_ms(ctx, lambda: r.render_baseline(fbo), 1, 0)
-                out.update(spread("fast_floor_ms", fl, DIGITS))
-                out["fast_floor_over_baseline"] = float(np.median(fl)) / float(np.median(base))
-            finally:
-                floor.release()
-        out.update({k.replace("fast_ms", "fast_cached_ms"): v for k, v in spread("fast_ms", times["fast_ms"],
+        out.update(_floor_times(ctx, r, doc, layers, fbo, args.frames))
+        out.update({k.replace("fast_ms", "fast_cached_ms"): v for k, v in spread("fast_ms", out.pop("_fast_ms_series"),
                                                                                   DIGITS).items()})
         out["fast_over_baseline"] = out["fast_ms"] / out["baseline_ms"]
         out["reference_over_fast"] = out["reference_ms"] / out["fast_ms"]
         out["cached_over_direct"] = out["fast_ms"] / out["fast_direct_ms"]
         out["reference_over_baseline"] = out["reference_ms"] / out["baseline_ms"]
-
-        # fast vs reference on skin pixels
-        r.settings.mode = "fast"
-        img_fast = r.render_image((w, h))
-        mask = r.skin_pixel_mask()
-        r.settings.mode = "reference"
-        img_ref = r.render_image((w, h))
-        out["fast_vs_reference_de2000"] = mean_de2000(img_fast, img_ref, mask)
-        r.settings.mode, r.settings.lighting_cache = "fast", False
-        img_direct = r.render_image((w, h))
-        r.settings.lighting_cache = True
-        out["cached_vs_direct_de2000"] = mean_de2000(img_fast, img_direct, mask)
+        quality, skin_pixels = _fast_vs_reference(r, (w, h))
+        out.update(quality)
         out["load_average_1min"] = round(os.getloadavg()[0], 2)
-        out["skin_pixels"] = int(mask.sum())
+        out["skin_pixels"] = skin_pixels
     finally:
         r.release()
         for obj in (fbo, colour, depth, fbo_small, colour_small, depth_small):
             obj.release()
         ctx.release()
+    json.dump(_ordered(out), sys.stdout, indent=2)
+    print()
+    return 0
+
+
+def _km_times(ctx: moderngl.Context, r: Renderer, layers: list[LayerInput], frames: int) -> dict[str, Any]:
+    """Texture-space KM: all the layers evaluated, one 64² tile, the same with dense layers (every texel)."""
+    from render.km_pass import LayerInput
+
+    out: dict[str, Any] = {"km_layers": len(layers)}
+    out.update(spread("km_full_2048_ms", _times_ms(ctx, lambda: r.set_layers(layers), max(5, frames // 2), 1),
+                      DIGITS))
+    ys, xs = np.nonzero(layers[0].thickness > 0)
+    tile = (int(ys[len(ys) // 2]) // TILE, int(xs[len(xs) // 2]) // TILE)  # (row, col)
+    out.update(spread("km_tile_64_ms", _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), frames, 2),
+                      DIGITS))
+    rng = np.random.default_rng(0)
+    dense = [LayerInput(lay.material, (1.0 + rng.random(lay.thickness.shape, np.float32) * 20.0))
+             for lay in layers]
+    out.update(spread("km_full_2048_dense_ms", _times_ms(ctx, lambda: r.set_layers(dense), 2, 1), DIGITS))
+    # worst-case tile: all four layers non-zero in it
+    out.update(spread("km_tile_64_dense_ms",
+                      _times_ms(ctx, lambda: r.km.update_tiles(0, None, [tile]), frames, 2), DIGITS))
+    return out
+
+
+def _frame_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, fbo_small: moderngl.Framebuffer,
+                 frames: int) -> dict[str, Any]:
+    """Each mode's frame, interleaved round-robin (a CPU shared with other work weighs on all alike), and a relit one.
+
+    The fast frames' series is kept under ``_fast_ms_series`` (for ``fast_cached_ms``).
+    """
+    def frame(mode: str, taps: int = 17, relight: bool = False, cache: bool = True) -> Callable[[], None]:
+        def run() -> None:
+            r.settings.mode, r.settings.taps = mode, taps
+            r.settings.lighting_cache = cache
+            if relight:
+                r.shadows.invalidate()
+                r.irradiance.invalidate()
+            r.render(fbo)
+        return run
+
+    def small(mode: str) -> Callable[[], None]:  # the same frame at 64×64: what is not pixel work
+        def run() -> None:
+            r.settings.mode, r.settings.taps, r.settings.lighting_cache = mode, 17, True
+            r.render(fbo_small)
+        return run
+
+    cases: dict[str, Callable[[], None]] = {
+        "baseline_ms": lambda: r.render_baseline(fbo),
+        "baseline_64x64_ms": lambda: r.render_baseline(fbo_small),
+        "fast_64x64_ms": small("fast"),
+        "reference_64x64_ms": small("reference"),
+        "fast_ms": frame("fast"),
+        "fast_direct_ms": frame("fast", cache=False),
+        "reference_ms": frame("reference"),
+        "no_sss_ms": frame("off"),
+        "fast_11_taps_ms": frame("fast", 11),
+        "fast_25_taps_ms": frame("fast", 25),
+    }
+    for fn in cases.values():  # warm-up (compiles, caches)
+        fn()
+        fn()
+    ctx.finish()
+    times: dict[str, list[float]] = {k: [] for k in cases}
+    for _ in range(frames):
+        for key, fn in cases.items():
+            t0 = time.perf_counter()
+            fn()
+            ctx.finish()
+            times[key].append((time.perf_counter() - t0) * 1000.0)
+    out: dict[str, Any] = {}
+    for key, ts in times.items():
+        out.update(spread(key, ts, DIGITS))
+    out.update(spread("fast_relight_ms", _times_ms(ctx, frame("fast", relight=True), max(3, frames // 3), 1),
+                      DIGITS))
+    out["_fast_ms_series"] = times["fast_ms"]
+    return out
+
+
+def _floor_times(ctx: moderngl.Context, r: Renderer, doc: Document, layers: list[LayerInput],
+                 fbo: moderngl.Framebuffer, frames: int) -> dict[str, Any]:
+    """The fast frame with the lit pass and the composite reduced to constant writes (:func:`floor_shaders`).
+
+    Interleaved with the baseline, like the modes; ``fast_floor_over_baseline`` their medians' ratio.
+    """
+    import tempfile
+
+    from render.renderer import Renderer
+
+    with tempfile.TemporaryDirectory() as tmp:
+        floor = Renderer(ctx, doc.head, layout=doc.layout, shaders=floor_shaders(tmp))
+        try:
+            floor.lights = list(r.lights)
+            floor.set_layers(layers)
+            fl: list[float] = []
+            base: list[float] = []
+            for _ in range(2):
+                floor.render(fbo)
+            for _ in range(frames):  # interleaved with the baseline, like the modes above
+                fl += _times_ms(ctx, lambda: floor.render(fbo), 1, 0)
+                base += _times_ms(ctx, lambda: r.render_baseline(fbo), 1, 0)
+            return {**spread("fast_floor_ms", fl, DIGITS),
+                    "fast_floor_over_baseline": float(np.median(fl)) / float(np.median(base))}
+        finally:
+            floor.release()
+
+
+def _fast_vs_reference(r: Renderer, size: tuple[int, int]) -> tuple[dict[str, Any], int]:
+    """Mean ΔE2000 on skin pixels: fast against reference, and the lighting cache against the direct path.
+
+    Returns the two figures and the number of skin pixels.
+    """
+    r.settings.mode = "fast"
+    img_fast = r.render_image(size)
+    mask = r.skin_pixel_mask()
+    r.settings.mode = "reference"
+    img_ref = r.render_image(size)
+    out: dict[str, Any] = {"fast_vs_reference_de2000": mean_de2000(img_fast, img_ref, mask)}
+    r.settings.mode, r.settings.lighting_cache = "fast", False
+    img_direct = r.render_image(size)
+    r.settings.lighting_cache = True
+    out["cached_vs_direct_de2000"] = mean_de2000(img_fast, img_direct, mask)
+    return out, int(mask.sum())
+
+
+def _ordered(out: dict[str, Any]) -> dict[str, Any]:
+    """The figures with the headline keys (and their spreads) first, floats to 3 decimals."""
     keys = ["baseline_ms", "fast_ms", "reference_ms", "fast_64x64_ms", "reference_64x64_ms",
             "fast_over_baseline", "reference_over_baseline",
             "fast_vs_reference_de2000", "km_full_2048_ms", "km_tile_64_ms"]
     keys = [k for key in keys for k in (key, f"{key}_p90", f"{key}_max") if k in out]  # spreads beside medians
     ordered = {k: round(out[k], 3) if isinstance(out[k], float) else out[k] for k in keys}
     ordered.update({k: (round(v, 3) if isinstance(v, float) else v) for k, v in out.items() if k not in keys})
-    json.dump(ordered, sys.stdout, indent=2)
-    print()
-    return 0
-
+    return ordered
 
 if __name__ == "__main__":
     sys.exit(main())

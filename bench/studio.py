@@ -49,6 +49,38 @@ def main(argv: list[str]) -> int:
     """
     # start-up is timed from the process's own start (interpreter and imports included)
     t_start = time.perf_counter() - _process_age_s()
+    args = _options(argv)
+    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        return _under_xvfb(argv)
+    from PySide6.QtWidgets import QApplication
+
+    win, startup = _open_studio(args.resolution, t_start)
+    vp = win.viewport
+    # orbit at 1280×720 in fast mode, driven by real input events (a right-button drag)
+    win.settings.render_mode = "fast"
+    win.apply()
+    vp.setFixedSize(1280, 720)
+    win.resize(1280 + 700, 720 + 200)
+    for _ in range(20):
+        QApplication.processEvents()
+    size = vp.pixel_size()
+    probe = _PresentProbe(vp)
+    orbit, settles, settle_frames = _settled_drags(vp, probe, "orbit", args.orbit_seconds, 5, args.settles)
+    # a key-light drag (Ctrl + left drag): the settled frame relights (shadows, irradiance, lighting cache)
+    light, light_settles, light_frames = _settled_drags(vp, probe, "light", 1.0, 3, args.settles)
+    # the same pose, interactive and settled: how far the interactive frame is from the full one
+    compared = _interactive_vs_settled(vp)
+    paint, layer_res = _paint_drag(win, probe, args.dab_seconds)
+    result = _figures(vp, startup, size, orbit, settles, settle_frames, light, light_settles, light_frames,
+                      compared, paint, layer_res)
+    win.setWindowModified(False)  # the bench's strokes are not kept: close without the save question
+    win.close()
+    print(json.dumps(result))
+    return 0
+
+
+def _options(argv: list[str]) -> argparse.Namespace:
+    """The benchmark's options (:class:`core.errors.SheerError` for a ``--settles`` below 1)."""
     p = argparse.ArgumentParser(prog="sheer bench studio", description=__doc__)
     p.add_argument("--json", action="store_true", help="print one JSON object (the only format)")
     p.add_argument("--orbit-seconds", type=float, default=3.0, help="length of the orbit drag (s)")
@@ -63,34 +95,42 @@ def main(argv: list[str]) -> int:
         from core.errors import SheerError
 
         raise SheerError(f"--settles must be at least 1, got {args.settles}")
-    if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
-        xvfb = shutil.which("xvfb-run")
-        if xvfb is None:
-            from core.errors import SheerError
+    return args
 
-            raise SheerError("the studio benchmark needs a display (or xvfb-run)")
-        cmd = [xvfb, "-a", "-s", "-screen 0 1920x1080x24", sys.executable, "-m", "app", "bench", "studio", *argv]
-        return subprocess.call(cmd)
 
+def _under_xvfb(argv: list[str]) -> int:
+    """Run the benchmark again under ``xvfb-run`` (no display here); its exit status."""
+    xvfb = shutil.which("xvfb-run")
+    if xvfb is None:
+        from core.errors import SheerError
+
+        raise SheerError("the studio benchmark needs a display (or xvfb-run)")
+    cmd = [xvfb, "-a", "-s", "-screen 0 1920x1080x24", sys.executable, "-m", "app", "bench", "studio", *argv]
+    return subprocess.call(cmd)
+
+
+def _open_studio(resolution: int | None, t_start: float) -> tuple[Any, float]:
+    """The studio window on the sample head's natural look, shown, and its start-up to first frame (s).
+
+    It keeps its settings and recovery files in a scratch folder (no recovery offer from the user's sessions).
+    """
     import tempfile
 
-    from PySide6.QtCore import QPointF, QSettings
-    from PySide6.QtWidgets import QApplication
+    from PySide6.QtCore import QSettings
 
     from app.application import make_application
 
     make_application()
-    from app.session import BACKENDS, Session
+    from app.session import Session
     from app.settings import DEFAULT_RESOLUTION
     from app.studio.main_window import StudioWindow
-    from bench.stats import spread
     from core.errors import SheerError
 
     scratch = tempfile.mkdtemp(prefix="sheer-bench-")
     # the bench's own recovery folder: no recovery offer from the user's sessions, none left behind
     os.environ["SHEER_RECOVERY_DIR"] = os.path.join(scratch, "recovery")
     ini = os.path.join(scratch, "bench.ini")
-    session = Session.open(resolution=args.resolution or DEFAULT_RESOLUTION, look="natural")
+    session = Session.open(resolution=resolution or DEFAULT_RESOLUTION, look="natural")
     win = StudioWindow(session, qsettings=QSettings(ini, QSettings.Format.IniFormat))
     win.resize(1500, 900)
     win.show()
@@ -98,40 +138,37 @@ def main(argv: list[str]) -> int:
     _wait_until(lambda: vp.first_frame_time is not None, 120.0)
     if vp.first_frame_time is None:
         raise SheerError("bench studio: the viewport drew no frame within 120 s")
-    startup = vp.first_frame_time - t_start
+    return win, vp.first_frame_time - t_start
 
-    # orbit at 1280×720 in fast mode, driven by real input events (a right-button drag)
-    win.settings.render_mode = "fast"
-    win.apply()
-    vp.setFixedSize(1280, 720)
-    win.resize(1280 + 700, 720 + 200)
-    for _ in range(20):
-        QApplication.processEvents()
-    size = vp.pixel_size()
-    probe = _PresentProbe(vp)
+
+def _settled_drags(vp: Viewport, probe: _PresentProbe, kind: str, seconds: float, step_px: int,
+                   count: int) -> tuple[dict[str, Any], list[float], list[float]]:
+    """A ``kind`` drag of ``seconds``, then ``count`` − 1 of 0.5 s (each the other way), each from a settled view.
+
+    Returns the first drag's figures (:func:`_drag`), the settle time after each (ms) and the settled
+    frames' paintGL (ms).
+    """
     _wait_until(lambda: vp.settled, 10.0)
-    orbit = _drag(vp, probe, "orbit", args.orbit_seconds, step_px=5)
-    settle_frames: list[float] = []  # the settled frames' paintGL (ms)
-    settles = [_settle_time(vp, probe, orbit["last_event"], settle_frames)]
-    for k in range(1, args.settles):  # more drags, each released: settle times to spread (p90, max)
+    first = _drag(vp, probe, kind, seconds, step_px=step_px)
+    frames: list[float] = []
+    settles = [_settle_time(vp, probe, first["last_event"], frames)]
+    for k in range(1, count):  # more drags, each released: settle times to spread (p90, max)
         _wait_until(lambda: vp.settled, 10.0)
-        drag = _drag(vp, probe, "orbit", 0.5, step_px=5 * (-1) ** k)
-        settles.append(_settle_time(vp, probe, drag["last_event"], settle_frames))
+        drag = _drag(vp, probe, kind, 0.5, step_px=step_px * (-1) ** k)
+        settles.append(_settle_time(vp, probe, drag["last_event"], frames))
+    return first, settles, frames
 
-    # a key-light drag (Ctrl + left drag): the settled frame relights (shadows, irradiance, lighting cache)
-    _wait_until(lambda: vp.settled, 10.0)
-    light = _drag(vp, probe, "light", 1.0, step_px=3)
-    light_frames: list[float] = []
-    light_settles = [_settle_time(vp, probe, light["last_event"], light_frames)]
-    for k in range(1, args.settles):
-        _wait_until(lambda: vp.settled, 10.0)
-        drag = _drag(vp, probe, "light", 0.5, step_px=3 * (-1) ** k)
-        light_settles.append(_settle_time(vp, probe, drag["last_event"], light_frames))
 
-    # the same pose, interactive and settled: how far the interactive frame is from the full one
-    de_mean, de_p95, inter_scale = _interactive_vs_settled(vp)
+def _paint_drag(win: Any, probe: _PresentProbe, seconds: float) -> tuple[dict[str, Any], int | None]:
+    """Dab → frame on screen: a real left-button drag on the face, each move a dab, on a new layer.
 
-    # dab → frame on screen: a real left-button drag on the face, each move a dab
+    Returns the drag's figures (:func:`_drag`) and the layer's resolution.
+    """
+    from PySide6.QtCore import QPointF
+
+    from core.errors import SheerError
+
+    vp = win.viewport
     vp.orbit_by(-vp.camera.yaw)
     _wait_until(lambda: vp.settled, 10.0)
     win.add_layer(next(iter(win.library)).name)
@@ -140,13 +177,24 @@ def main(argv: list[str]) -> int:
     cx, cy = vp.width() / 2, vp.height() / 2
     if vp.pick(QPointF(cx - 60, cy)) is None:
         raise SheerError("bench studio: the stroke's start is not on the face")
-    paint = _drag(vp, probe, "paint", args.dab_seconds, step_px=2, start=(cx - 60, cy))
+    paint = _drag(vp, probe, "paint", seconds, step_px=2, start=(cx - 60, cy))
     _wait_until(lambda: vp.settled, 10.0)
-    layer_res = int(win.doc.layers[-1].thickness.shape[0]) if win.doc.layers else None
+    return paint, int(win.doc.layers[-1].thickness.shape[0]) if win.doc.layers else None
+
+
+def _figures(vp: Viewport, startup: float, size: tuple[int, int], orbit: dict[str, Any], settles: list[float],
+             settle_frames: list[float], light: dict[str, Any], light_settles: list[float],
+             light_frames: list[float], compared: tuple[float, float, float], paint: dict[str, Any],
+             layer_res: int | None) -> dict[str, Any]:
+    """The benchmark's JSON object from its measurements (the keys are explained in its ``note``)."""
+    from app.session import BACKENDS
+    from bench.stats import spread
+
+    de_mean, de_p95, inter_scale = compared
     dabs: dict[str, float | None] = {}
     for key, series in (("dab_to_frame_ms", paint["latencies_ms"]), ("dab_update_ms", paint["update_ms"])):
         dabs.update(spread(key, series, 1) if series else dict.fromkeys((key, f"{key}_p90", f"{key}_max")))
-    result = {
+    return {
         "startup_to_first_frame_s": round(startup, 3),
         "orbit_fps": round(orbit["fps"], 1),
         **spread("orbit_frame_ms", orbit["intervals_ms"], 2),
@@ -201,10 +249,6 @@ def main(argv: list[str]) -> int:
                     "dab_to_frame_ms_max": 120.0, "settle_ms": 300.0, "light_settle_ms": 300.0, "interactive_vs_settled_de2000": 2.0,
                     "first_dab_ms": "≤ 2 × dab_to_frame_ms"},
     }
-    win.setWindowModified(False)  # the bench's strokes are not kept: close without the save question
-    win.close()
-    print(json.dumps(result))
-    return 0
 
 
 class _PresentProbe:

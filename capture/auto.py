@@ -49,8 +49,9 @@ if TYPE_CHECKING:
     from capture.camera import Camera
     from capture.face import Face
     from capture.landmarks import FaceLandmarks
-    from capture.pipeline import PixelData
+    from capture.pipeline import CaptureResult, PixelData
     from capture.probe import ProbeAnalysis
+    from capture.quality import QualityReport
     from painting.head import Head
 
 #: Photographs with a longer side than this (pixels) are downscaled to it before the capture (the face
@@ -311,15 +312,9 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
             enough landmarks, a capture that cannot proceed (nothing written).
     """
     from capture.camera import calibrate
-    from capture.exif import focal_35mm_from_px, focal_px_from_35mm
-    from capture.face import face_albedo, load_face, write_face
-    from capture.landmarks import detect_faces
-    from capture.person import HEAD_FILE, PORTRAIT_FOCAL, person_head, write_person_head
+    from capture.face import load_face
     from capture.pipeline import capture, pixel_data
-    from capture.probe import analyse_probe
-    from capture.quality import QualityError, assess, eyes_open
     from km.srgb import srgb_decode
-    from painting.head import load_head
 
     if not 16 <= int(texture_size) <= 8192:
         raise CaptureError(f"texture_size must be between 16 and 8192, got {texture_size}")
@@ -327,6 +322,50 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     t_all = time.perf_counter()
     out = Path(out_dir)
     _check_out_dir(out)
+    srgb8, source, notes, downscale = _input_photo(photo, progress)
+    # The focal length before the work (a bad --focal-mm fails here): the quality gate reads the head's pose
+    # through it, as the person's head is then built (capture.person.head_pose).
+    h, w = srgb8.shape[:2]
+    size = (downscale["from"][0], downscale["from"][1]) if downscale else (w, h)
+    f35, focal_source, focal_notes = photo_focal(photo, focal_mm, size, progress)
+    notes += focal_notes
+    srgb8, face, downscale, report = _gated_face(srgb8, downscale, f35, allow_closed_eyes, timings, progress)
+    probe_analysis = _probe_analysis(probe)
+    h, w = srgb8.shape[:2]
+    focal_px, focal_record = _focal_record(f35, focal_source, w, h, progress)
+    person = head is None
+    the_head = _auto_head(head, face, out, report, focal_px, timings, progress)
+    t = time.perf_counter()
+    x, X, _ = correspondences(face, the_head, person)
+    camera = calibrate(x, X, w, h, source="the detected landmarks", good_enough_px=0.5 if person else None,
+                       focal_px=focal_px)
+    timings["camera"] = time.perf_counter() - t
+    _say(progress, f"camera from {len(x)} detected landmarks: RMS reprojection error "
+                   f"{camera.reprojection_error_px:.2f} px")
+    photo_lin = srgb_decode(srgb8 / 255.0)
+    mask = region_skin_mask(the_head, camera, photo_lin, pixel_data(the_head, camera)) if person else None
+    result = capture(the_head, photo_lin, camera, probe=probe_analysis, mask=mask, texture_size=int(texture_size),
+                     progress=progress)
+    if result.params.specular < NO_SPECULAR:
+        # Said, not silent: i_s 0 reads as a matte skin, while the photograph's shine went into the detail texture.
+        msg = ("no specular lobe found: i_s (0) and s are not measured" + (f"; {NO_SPECULAR_PERSON}" if person else "")
+               + "; the photograph's highlights are in the detail texture")
+        notes.append(msg)
+        _say(progress, f"note: {msg}")
+    extra = {"photo": PHOTO_FILE, "source_photo": source, "downscale": downscale, "notes": notes,
+             "landmarks": {**face.to_json(), "points_px": np.round(face.points, 2).tolist()},
+             "quality": report.to_json(), "head_kind": "person" if person else "given", "focal": focal_record}
+    _write_face_folder(out, result, the_head, person, srgb8, face, extra, timings, t_all)
+    _say(progress, f"wrote {out} in {time.perf_counter() - t_all:.1f} s")
+    return load_face(out)
+
+
+def _input_photo(photo: str | Path | np.ndarray, progress: Callable[[str], None] | None
+                 ) -> tuple[np.ndarray, str, list[str], dict[str, Any] | None]:
+    """The photograph ready for the capture (:func:`prepare_photo`), read from its file if it is one.
+
+    Returns uint8 sRGB (H, W, 3), the name of its source, the reading's notes and the downscale (or None).
+    """
     notes: list[str] = []
     if isinstance(photo, (str, Path)):
         srgb8, notes = read_photo_srgb8(photo)
@@ -339,13 +378,22 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     if downscale is not None:
         _say(progress, f"photo {downscale['from'][0]}×{downscale['from'][1]} downscaled to "
                        f"{downscale['to'][0]}×{downscale['to'][1]} (longer side over {MAX_PHOTO_SIDE} px)")
-    # The focal length before the work (a bad --focal-mm fails here): the quality gate reads the head's pose
-    # through it, as the person's head is then built (capture.person.head_pose).
-    h, w = srgb8.shape[:2]
-    size = (downscale["from"][0], downscale["from"][1]) if downscale else (w, h)
-    f35, focal_source, focal_notes = photo_focal(photo, focal_mm, size, progress)
-    notes += focal_notes
+    return srgb8, source, notes, downscale
 
+
+def _gated_face(srgb8: np.ndarray, downscale: dict[str, Any] | None, f35: float | None, allow_closed_eyes: bool,
+                timings: dict[str, float], progress: Callable[[str], None] | None
+                ) -> tuple[np.ndarray, FaceLandmarks, dict[str, Any] | None, QualityReport]:
+    """The photograph's face, through the quality gate (:class:`capture.quality.QualityError` if it fails).
+
+    Returns the photograph (downscaled when the face is taller than :data:`MAX_FACE_PX`), its face, the
+    downscale and the gate's report; the detection's seconds go in ``timings``.
+    """
+    from capture.exif import focal_px_from_35mm
+    from capture.landmarks import detect_faces
+    from capture.quality import QualityError, assess
+
+    h, w = srgb8.shape[:2]
     t = time.perf_counter()
     faces = detect_faces(srgb8)
     timings["landmarks"] = time.perf_counter() - t
@@ -360,13 +408,25 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     m = report.measured
     _say(progress, f"face found: yaw {m['yaw_deg']:+.1f}°, roll {m['roll_deg']:+.1f}°, "
                    f"{100 * m['face_height_ratio']:.0f} % of the frame's height; quality gate passed")
+    return srgb8, face, downscale, report
 
-    probe_analysis = None
-    if probe is not None:
-        probe_analysis = probe if not isinstance(probe, (str, Path)) else analyse_probe(
-            srgb_decode(read_photo_srgb8(probe)[0] / 255.0), source=str(probe))
 
-    h, w = srgb8.shape[:2]
+def _probe_analysis(probe: ProbeAnalysis | str | Path | None) -> ProbeAnalysis | None:
+    """The probe as given, or its mirror-ball photograph's file analysed (reflectance 1)."""
+    if not isinstance(probe, (str, Path)):
+        return probe
+    from capture.probe import analyse_probe
+    from km.srgb import srgb_decode
+
+    return analyse_probe(srgb_decode(read_photo_srgb8(probe)[0] / 255.0), source=str(probe))
+
+
+def _focal_record(f35: float | None, focal_source: str, w: int, h: int,
+                  progress: Callable[[str], None] | None) -> tuple[float | None, dict[str, Any]]:
+    """The focal length in pixels for a ``w`` × ``h`` photo (None: calibrate's prior), and face.json's record."""
+    from capture.exif import focal_35mm_from_px, focal_px_from_35mm
+    from capture.person import PORTRAIT_FOCAL
+
     focal_px = None if f35 is None else focal_px_from_35mm(f35, w, h)
     f_used = PORTRAIT_FOCAL * max(w, h) if focal_px is None else focal_px  # the prior = calibrate's
     focal_record = {"mm_35": round(focal_35mm_from_px(f_used, w, h), 2), "px": round(f_used, 2),
@@ -374,62 +434,55 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     _say(progress, f"focal length {focal_record['mm_35']:.1f} mm (35 mm equivalent), {f_used:.0f} px: "
                    + {"focal_mm": "given (--focal-mm)", "exif": "from the photo's EXIF",
                       "prior": "assumed (a portrait lens; no EXIF focal length)"}[focal_source])
-    person = head is None
+    return focal_px, focal_record
+
+
+def _auto_head(head: str | Path | Head | None, face: FaceLandmarks, out: Path, report: QualityReport,
+               focal_px: float | None, timings: dict[str, float], progress: Callable[[str], None] | None) -> Head:
+    """The head to capture on: the person's own (None; built into ``out``), a mesh file's, or the head given."""
+    from capture.person import person_head
+    from capture.quality import eyes_open
+    from painting.head import load_head
+
     t = time.perf_counter()
     the_head: Head
-    if person:
+    if head is None:
         the_head = person_head(face, out, eyes_open(report), focal_px=focal_px)
         _say(progress, f"person's head: {len(the_head.vertices)} vertices; {the_head.metadata.scale_note.split('; ')[0]}")
     elif isinstance(head, (str, Path)):
         the_head = load_head(head)
     else:
-        assert head is not None
         the_head = head
     timings["head"] = time.perf_counter() - t
+    return the_head
 
-    t = time.perf_counter()
-    x, X, _ = correspondences(face, the_head, person)
-    camera = calibrate(x, X, w, h, source="the detected landmarks", good_enough_px=0.5 if person else None,
-                       focal_px=focal_px)
-    timings["camera"] = time.perf_counter() - t
-    _say(progress, f"camera from {len(x)} detected landmarks: RMS reprojection error "
-                   f"{camera.reprojection_error_px:.2f} px")
 
-    photo_lin = srgb_decode(srgb8 / 255.0)
-    mask = None
-    if person:
-        mask = region_skin_mask(the_head, camera, photo_lin, pixel_data(the_head, camera))
-    result = capture(the_head, photo_lin, camera, probe=probe_analysis, mask=mask, texture_size=int(texture_size),
-                     progress=progress)
-    if result.params.specular < NO_SPECULAR:
-        # Said, not silent: i_s 0 reads as a matte skin, while the photograph's shine went into the detail texture.
-        msg = ("no specular lobe found: i_s (0) and s are not measured" + (f"; {NO_SPECULAR_PERSON}" if person else "")
-               + "; the photograph's highlights are in the detail texture")
-        notes.append(msg)
-        _say(progress, f"note: {msg}")
+def _write_face_folder(out: Path, result: CaptureResult, the_head: Head, person: bool, srgb8: np.ndarray,
+                       face: FaceLandmarks, extra: dict[str, Any], timings: dict[str, float], t_all: float) -> None:
+    """Write the face folder beside ``out`` and move it into place (nothing is left when it fails).
+
+    The person's head (with the albedo the capture found) and the photograph go with it; face.json gets
+    ``extra`` and the timings, the total counted from ``t_all``.
+    """
+    from PIL import Image
+
+    from capture.face import Face as FaceRecord
+    from capture.face import face_albedo, write_face
+    from capture.person import HEAD_FILE, write_person_head
 
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.partial-{uuid.uuid4().hex[:8]}")
     try:
         tmp.mkdir()
         if person:
-            from capture.face import Face as FaceRecord
-
             albedo = face_albedo(FaceRecord(params=result.params, detail=result.detail, data={}))
             write_person_head(the_head, tmp, albedo)
-        from PIL import Image
-
         Image.fromarray(srgb8).save(tmp / PHOTO_FILE)
         timings["total"] = time.perf_counter() - t_all
-        extra = {"photo": PHOTO_FILE, "source_photo": source, "downscale": downscale, "notes": notes,
-                 "landmarks": {**face.to_json(), "points_px": np.round(face.points, 2).tolist()},
-                 "quality": report.to_json(), "head_kind": "person" if person else "given", "focal": focal_record,
-                 "auto_timings_s": {k: round(v, 4) for k, v in timings.items()}}
+        extra["auto_timings_s"] = {k: round(v, 4) for k, v in timings.items()}
         write_face(result, tmp, head_path=HEAD_FILE if person else the_head.path,
                    landmarks=face.standard(), extra=extra)
         _move_into_place(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    _say(progress, f"wrote {out} in {time.perf_counter() - t_all:.1f} s")
-    return load_face(out)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -31,7 +32,7 @@ from capture.phong import (
 from capture.pose import PoseRefinement, Surface, image_similarity_covariance, pinned, refine_rotation
 from capture.raster import rasterize_uv
 from capture.reflectance import ExponentEstimate, ReflectanceMap, build_reflectance_map, estimate_exponent
-from capture.shadow import flash_shadow
+from capture.shadow import FlashShadow, flash_shadow
 from km.srgb import srgb_decode, srgb_encode
 
 if TYPE_CHECKING:
@@ -195,6 +196,27 @@ def _log(progress: Callable[[str], None] | None, msg: str) -> None:
         progress(msg)
 
 
+@dataclass
+class _FitPixels:
+    """The pixels one pass of :func:`capture` fits the Phong model on, under the capture's light.
+
+    Attributes:
+        pix: the head's pixels; sel: bool (P,) the fit's among them (skin, facing the camera, out of the
+            flash's cast shadows); colours: the photograph's linear RGB there; geo: their geometry.
+        light_world: the flash's direction (unit, mesh coordinates); flash_rgb, ambient_rgb: the light's.
+        shadow: the flash's cast shadows over the head's pixels.
+    """
+
+    pix: PixelData
+    sel: np.ndarray
+    colours: np.ndarray
+    geo: Geometry
+    light_world: np.ndarray
+    flash_rgb: np.ndarray
+    ambient_rgb: np.ndarray
+    shadow: FlashShadow
+
+
 def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None = None,
             mask: np.ndarray | None = None, texture_size: int = 1024,
             progress: Callable[[str], None] | None = None, robustness_starts: int = 0,
@@ -222,18 +244,94 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
             is the constant A itself; docs/CAPTURE.md.
     """
     t_all = time.perf_counter()
-    given_mask = mask
     timings: dict[str, float] = {}
     h, w = photo_lin.shape[:2]
     if (camera.width, camera.height) != (w, h):
         raise CaptureError(f"the camera is for {camera.width}×{camera.height} but the photo is {w}×{h}")
+    fp, exp_est = _fit_pixels(head, photo_lin, camera, probe, mask, directional_ambient, timings, progress)
+    t = time.perf_counter()
+    fit = fit_phong(fp.colours, fp.geo, exp_est.s, fp.flash_rgb, fp.ambient_rgb)
+    if refine_pose:
+        again = partial(capture, head, photo_lin, probe=probe, mask=mask, texture_size=texture_size,
+                        progress=progress, robustness_starts=robustness_starts, refine_pose=False,
+                        directional_ambient=directional_ambient)
+        turned = _capture_turned(again, head, photo_lin, camera, fp, fit.params, t_all, progress)
+        if turned is not None:
+            return turned
+    specular_joint = fit.params.specular
+    fit, exp_est, sep = _lobe_from_detail(fp, fit, exp_est, camera, (h, w), progress)
+    p = fit.params
+    k_photo = photo_ambient_scale(fp.colours, fp.geo, p)
+    timings["phong_fit"] = time.perf_counter() - t
+    _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
+                   f"ambient scale {p.ambient_scale:.3f} (the probe's photometry; the photograph alone would "
+                   f"choose {'—' if k_photo is None else f'{k_photo:.3f}'}); residual {fit.rms_luv:.2f} Luv per pixel")
+    # The paper's reflectance map (kept in the result), built once the camera is final: a capture refitted
+    # from a turned camera above builds it there instead.
+    t = time.perf_counter()
+    rmap = build_reflectance_map((fp.pix.normals @ camera.R.T)[fp.sel], fp.colours)
+    timings["reflectance_map"] = time.perf_counter() - t
+    _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
+    rob = None if robustness_starts <= 0 else _robustness(fp, exp_est.s, robustness_starts, timings, progress)
+    detail, valid, fitted, repro, de, skin_used = _reproduce(head, camera, photo_lin, fp, p, texture_size, timings,
+                                                             progress)
+    timings["total"] = time.perf_counter() - t_all
+    _log(progress, f"reproduction: mean ΔE2000 {float(de.mean()):.2f} on skin; total {timings['total']:.1f} s")
+    return CaptureResult(camera=camera, params=p, light_dir_world=fp.light_world, exponent=exp_est, fit=fit,
+                         rmap=rmap, detail=detail, detail_valid=valid, skin_mask=skin_used, photo_lin=photo_lin,
+                         fitted_render=fitted, reproduction=repro, reproduction_de2000_skin=float(de.mean()),
+                         probe=probe, timings_s=timings, robustness=rob, ambient_scale_photo=k_photo,
+                         specular_joint=specular_joint, specular_separation=sep)
 
+
+def _fit_pixels(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None,
+                mask: np.ndarray | None, directional_ambient: bool, timings: dict[str, float],
+                progress: Callable[[str], None] | None) -> tuple[_FitPixels, ExponentEstimate]:
+    """The fit's pixels and the specular exponent: the head rasterised, the skin, the light, the flash's shadows.
+
+    Records each step's seconds in ``timings`` (rasterise, mask, shadow, exponent).
+    """
+    h, w = photo_lin.shape[:2]
     t = time.perf_counter()
     pix = pixel_data(head, camera)
     timings["rasterise"] = time.perf_counter() - t
     _log(progress, f"head rasterised: {len(pix.rows)} pixels cover the head")
-
     t = time.perf_counter()
+    sel = _skin_pixels(head, camera, photo_lin, pix, mask)
+    timings["mask"] = time.perf_counter() - t
+    _log(progress, f"skin mask: {int(sel.sum())} pixels")
+    light_world, flash_rgb, ambient_rgb = _capture_light(camera, probe, pix, sel, progress)
+    # The flash's cast shadows (capture/shadow.py): out of the fit, lifted out of the detail, drawn by the model.
+    t = time.perf_counter()
+    shadow = flash_shadow(head, pix.positions, pix.normals, pix.rows, pix.cols, (h, w), light_world)
+    sel &= ~shadow.fit_excluded
+    timings["shadow"] = time.perf_counter() - t
+    _log(progress, f"flash shadow: {int(shadow.shadowed.sum())} pixels ({shadow.intersector} rays), "
+                   f"{int(sel.sum())} skin pixels left")
+    colours = photo_lin[pix.rows[sel], pix.cols[sel]]
+    t = time.perf_counter()
+    exp_est = estimate_exponent(pix.normals[sel], pix.view[sel], light_world, colours, camera.R[0],
+                                flash_rgb=flash_rgb)
+    _log(progress, f"specular exponent s = {exp_est.s:.1f} (Eq. 3 alone: {exp_est.s_eq3:.1f}; "
+                   f"fastest saturation change at {exp_est.alpha_deg:.2f}°)")
+    # With directional_ambient, the fit's ambient per pixel: the probe's irradiance for the pixel's normal
+    # (capture.ambient). The detail texture, the fitted render and the reproduction below keep the constant
+    # k·A: they are what the renderer draws (render.lightweight's ambient is one colour), so the detail
+    # carries the rest and the photograph's own view under its own light comes back.
+    ambient_px = None if not directional_ambient or probe is None or probe.ambient_sh is None else \
+        ambient_per_normal(probe.ambient_sh, pix.normals[sel] @ camera.R.T)
+    geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], light_world, ambient=ambient_px)
+    timings["exponent"] = time.perf_counter() - t
+    return _FitPixels(pix, sel, colours, geo, light_world, flash_rgb, ambient_rgb, shadow), exp_est
+
+
+def _skin_pixels(head: Head, camera: Camera, photo_lin: np.ndarray, pix: PixelData,
+                 mask: np.ndarray | None) -> np.ndarray:
+    """Bool over ``pix``: skin (``mask``, or :func:`compute_skin_mask`) facing the camera (n·v > 0.05).
+
+    :class:`CaptureError` when fewer than 200 remain.
+    """
+    h, w = photo_lin.shape[:2]
     if mask is None:
         mask = compute_skin_mask(head, camera, photo_lin, pix)
     covered = np.zeros((h, w), dtype=bool)
@@ -243,151 +341,135 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     sel &= np.einsum("pc,pc->p", pix.normals, pix.view) > 0.05
     if sel.sum() < 200:
         raise CaptureError(f"only {int(sel.sum())} skin pixels on the head; check the mask and the camera")
-    timings["mask"] = time.perf_counter() - t
-    _log(progress, f"skin mask: {int(sel.sum())} pixels")
+    return sel
 
-    # Light.
-    R = camera.R
-    if probe is not None:
-        light_world = R.T @ probe.light_dir_camera
-        flash_rgb = probe.flash_rgb
-        ambient_rgb = probe.ambient_rgb
-        _log(progress, f"probe: light θ={probe.theta_deg:.2f}° φ={probe.phi_deg:.2f}°, "
-                       f"flash hue {np.round(flash_rgb, 3).tolist()}, ambient {np.round(ambient_rgb, 4).tolist()}")
-        if probe.flash_hue_spread > FLASH_HUE_SPREAD_WARN:
-            _log(progress, f"warning: the flash's hue is uncertain: the halo's sectors disagree by "
-                           f"{100 * probe.flash_hue_spread:.1f} % (a lamp or an edge of the environment "
-                           f"behind the halo); the diffuse colour inherits that error")
-        if probe.clipped_fraction > 0.01:
-            _log(progress, f"warning: {100 * probe.clipped_fraction:.1f} % of the probe's environment is clipped "
-                           f"(lamps, windows): the ambient light is a lower bound")
-    else:
+
+def _capture_light(camera: Camera, probe: ProbeAnalysis | None, pix: PixelData, sel: np.ndarray,
+                   progress: Callable[[str], None] | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The flash's direction (unit, mesh coordinates), its colour and the ambient light's.
+
+    The probe's (with warnings where its reading is doubtful), or without one a white flash on the camera's
+    axis (towards the skin pixels' centroid) and no ambient light.
+    """
+    if probe is None:
         centroid = pix.positions[sel].mean(axis=0)
         light_world = camera.centre - centroid
         light_world /= np.linalg.norm(light_world)
-        flash_rgb = np.ones(3)
-        ambient_rgb = np.zeros(3)
         _log(progress, "no probe: a white flash on the camera axis, no ambient light")
+        return light_world, np.ones(3), np.zeros(3)
+    light_world = camera.R.T @ probe.light_dir_camera
+    flash_rgb = probe.flash_rgb
+    ambient_rgb = probe.ambient_rgb
+    _log(progress, f"probe: light θ={probe.theta_deg:.2f}° φ={probe.phi_deg:.2f}°, "
+                   f"flash hue {np.round(flash_rgb, 3).tolist()}, ambient {np.round(ambient_rgb, 4).tolist()}")
+    if probe.flash_hue_spread > FLASH_HUE_SPREAD_WARN:
+        _log(progress, f"warning: the flash's hue is uncertain: the halo's sectors disagree by "
+                       f"{100 * probe.flash_hue_spread:.1f} % (a lamp or an edge of the environment "
+                       f"behind the halo); the diffuse colour inherits that error")
+    if probe.clipped_fraction > 0.01:
+        _log(progress, f"warning: {100 * probe.clipped_fraction:.1f} % of the probe's environment is clipped "
+                       f"(lamps, windows): the ambient light is a lower bound")
+    return light_world, flash_rgb, ambient_rgb
 
-    # The flash's cast shadows (capture/shadow.py): out of the fit, lifted out of the detail, drawn by the model.
-    t = time.perf_counter()
-    shadow = flash_shadow(head, pix.positions, pix.normals, pix.rows, pix.cols, (h, w), light_world)
-    sel &= ~shadow.fit_excluded
-    timings["shadow"] = time.perf_counter() - t
-    _log(progress, f"flash shadow: {int(shadow.shadowed.sum())} pixels ({shadow.intersector} rays), "
-                   f"{int(sel.sum())} skin pixels left")
 
-    colours = photo_lin[pix.rows[sel], pix.cols[sel]]
+def _capture_turned(again: Callable[..., CaptureResult], head: Head, photo_lin: np.ndarray, camera: Camera,
+                    fp: _FitPixels, params: PhongParams, t_all: float,
+                    progress: Callable[[str], None] | None) -> CaptureResult | None:
+    """The capture run ``again`` from the camera turned to fit the specular lobe, or None when it does not turn.
 
-    # Exponent.
-    t = time.perf_counter()
-    exp_est = estimate_exponent(pix.normals[sel], pix.view[sel], light_world, colours, R[0], flash_rgb=flash_rgb)
-    _log(progress, f"specular exponent s = {exp_est.s:.1f} (Eq. 3 alone: {exp_est.s_eq3:.1f}; "
-                   f"fastest saturation change at {exp_est.alpha_deg:.2f}°)")
-    # With directional_ambient, the fit's ambient per pixel: the probe's irradiance for the pixel's normal
-    # (capture.ambient). The detail texture, the fitted render and the reproduction below keep the constant
-    # k·A: they are what the renderer draws (render.lightweight's ambient is one colour), so the detail
-    # carries the rest and the photograph's own view under its own light comes back.
-    ambient_px = None if not directional_ambient or probe is None or probe.ambient_sh is None else \
-        ambient_per_normal(probe.ambient_sh, pix.normals[sel] @ R.T)
-    geo = Geometry.from_vectors(pix.normals[sel], pix.view[sel], light_world, ambient=ambient_px)
-    timings["exponent"] = time.perf_counter() - t
+    The pose refinement (:func:`_refine_pose`) needs D, k, A and F of the first fit's ``params`` (it fits s
+    itself, i_s in closed form): the first pass stops there when the camera turns.
+    """
+    t_refine = time.perf_counter()
+    pose = _refine_pose(head, photo_lin, camera, fp.pix, fp.sel, camera.R @ fp.light_world, params)
+    t_pose = time.perf_counter() - t_refine
+    if pose is None:
+        return None
+    _log(progress, f"camera turned {np.round(pose.turn_deg, 2).tolist()}° about its x and y axes to fit the "
+                   f"specular lobe (the photograph alone: {np.round(pose.photometric_deg, 2).tolist()}°; "
+                   f"± {np.round(pose.sigma_deg, 2).tolist()}°); fitting again")
+    first = time.perf_counter() - t_all
+    result = again(camera=pose.camera)
+    result.timings_s["pose"] = t_pose
+    result.timings_s["first_fit"] = first
+    result.timings_s["total"] = time.perf_counter() - t_all
+    result.pose = pose
+    return result
 
-    # Phong fit.
-    t = time.perf_counter()
-    fit = fit_phong(colours, geo, exp_est.s, flash_rgb, ambient_rgb)
-    if refine_pose:
-        # The pose refinement needs D, k, A and F (it fits s itself, i_s in closed form): the first pass
-        # stops here when the camera turns, and the capture runs again from the turned camera.
-        t_refine = time.perf_counter()
-        pose = _refine_pose(head, photo_lin, camera, pix, sel, R @ light_world, fit.params)
-        t_pose = time.perf_counter() - t_refine
-        if pose is not None:
-            _log(progress, f"camera turned {np.round(pose.turn_deg, 2).tolist()}° about its x and y axes to fit the "
-                           f"specular lobe (the photograph alone: {np.round(pose.photometric_deg, 2).tolist()}°; "
-                           f"± {np.round(pose.sigma_deg, 2).tolist()}°); fitting again")
-            first = time.perf_counter() - t_all
-            result = capture(head, photo_lin, pose.camera, probe, given_mask, texture_size, progress,
-                             robustness_starts, refine_pose=False, directional_ambient=directional_ambient)
-            result.timings_s["pose"] = t_pose
-            result.timings_s["first_fit"] = first
-            result.timings_s["total"] = time.perf_counter() - t_all
-            result.pose = pose
-            return result
-    # The lobe (s and i_s) fitted on the photograph high-passed at a few pixels, where the skin's albedo
-    # variation no longer follows the lobe (the paper's saturation estimate and joint fit read it as
-    # part of the lobe), then D refitted with both fixed (see :func:`capture.lobe.specular_from_detail`).
-    specular_joint = fit.params.specular
+
+def _lobe_from_detail(fp: _FitPixels, fit: FitResult, exp_est: ExponentEstimate, camera: Camera,
+                      shape: tuple[int, int], progress: Callable[[str], None] | None
+                      ) -> tuple[FitResult, ExponentEstimate, DetailSpecular | None]:
+    """The lobe (s and i_s) fitted on the photograph high-passed at a few pixels, then D refitted with both fixed.
+
+    There the skin's albedo variation no longer follows the lobe (the paper's saturation estimate and joint
+    fit read it as part of the lobe; :func:`capture.lobe.specular_from_detail`). Returns the fit, the exponent
+    (the saturation curve's kept as ``s_saturation``) and the separation; the joint fit's, and None, when the
+    lobe has no unclipped core on the skin.
+    """
+    pix, sel = fp.pix, fp.sel
     # The lobe's registration corrects a head misplaced by a fraction of a pixel; a head pinned to the
     # photograph's own landmarks (the automatic capture) has none to correct, and the fit would cost the
     # kiosk ~1 s between the shutter and her first frame (3.65 s against 2.79 s, measured).
-    vectors = None if pinned(camera) else (pix.normals[sel], pix.view[sel], light_world)
+    vectors = None if pinned(camera) else (pix.normals[sel], pix.view[sel], fp.light_world)
     # With the landmarks' uncertainty, the lobe is also scaled and rolled within it (a camera's distance,
     # focal length and roll slightly off); a camera given directly keeps to the shift.
     similarity = None if vectors is None else image_similarity_covariance(
         camera, float(np.median(camera.to_camera(pix.positions[sel])[:, 2])))
-    sep = specular_from_detail(colours, geo, fit.params, pix.rows[sel], pix.cols[sel], (h, w), vectors=vectors,
+    sep = specular_from_detail(fp.colours, fp.geo, fit.params, pix.rows[sel], pix.cols[sel], shape, vectors=vectors,
                                similarity_prior=similarity)
-    if sep is not None:
-        diffuse_joint = fit.params.diffuse
-        fit = fit_phong(colours, geo, sep.exponent, flash_rgb, ambient_rgb,
-                        start=np.r_[fit.params.diffuse, sep.specular], fix_specular=True)
-        exp_est = replace(exp_est, s=sep.exponent, s_saturation=exp_est.s)
-        _log(progress, f"specular lobe on the photograph high-passed at σ = {sep.sigma_px:.1f} px: s = {sep.exponent:.2f} "
-                       f"(saturation curve {exp_est.s_saturation:.2f}), i_s = {sep.specular:.4f} (joint fit "
-                       f"{specular_joint:.4f}; the specular core's radius {sep.core_radius_px:.1f} px); D refitted, "
-                       f"moved by ΔE2000 {float(delta_e2000(fit.params.diffuse, diffuse_joint)):.2f}")
-    else:
+    if sep is None:
         _log(progress, "warning: the specular lobe has no unclipped core on the skin: s from the saturation curve "
                        "and i_s from the joint fit (both read albedo that varies under the lobe as specular)")
-    p = fit.params
-    k_photo = photo_ambient_scale(colours, geo, p)
-    timings["phong_fit"] = time.perf_counter() - t
-    _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
-                   f"ambient scale {p.ambient_scale:.3f} (the probe's photometry; the photograph alone would "
-                   f"choose {'—' if k_photo is None else f'{k_photo:.3f}'}); residual {fit.rms_luv:.2f} Luv per pixel")
-    # The paper's reflectance map (kept in the result), built once the camera is final: a capture refitted
-    # from a turned camera above builds it there instead.
+        return fit, exp_est, None
+    specular_joint, diffuse_joint = fit.params.specular, fit.params.diffuse
+    fit = fit_phong(fp.colours, fp.geo, sep.exponent, fp.flash_rgb, fp.ambient_rgb,
+                    start=np.r_[fit.params.diffuse, sep.specular], fix_specular=True)
+    exp_est = replace(exp_est, s=sep.exponent, s_saturation=exp_est.s)
+    _log(progress, f"specular lobe on the photograph high-passed at σ = {sep.sigma_px:.1f} px: s = {sep.exponent:.2f} "
+                   f"(saturation curve {exp_est.s_saturation:.2f}), i_s = {sep.specular:.4f} (joint fit "
+                   f"{specular_joint:.4f}; the specular core's radius {sep.core_radius_px:.1f} px); D refitted, "
+                   f"moved by ΔE2000 {float(delta_e2000(fit.params.diffuse, diffuse_joint)):.2f}")
+    return fit, exp_est, sep
+
+
+def _robustness(fp: _FitPixels, exponent: float, starts: int, timings: dict[str, float],
+                progress: Callable[[str], None] | None) -> dict[str, Any]:
+    """:func:`capture.phong.robustness` of the fit from ``starts`` random starts (its seconds in ``timings``)."""
+    from capture.phong import robustness
+
     t = time.perf_counter()
-    rmap = build_reflectance_map((pix.normals @ R.T)[sel], colours)
-    timings["reflectance_map"] = time.perf_counter() - t
-    _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
+    rob = robustness(fp.colours, fp.geo, exponent, fp.flash_rgb, fp.ambient_rgb, starts=starts)
+    timings["robustness"] = time.perf_counter() - t
+    _log(progress, f"robustness: {starts} random starts, max relative std {100 * rob['max_relative_std']:.3f} %")
+    return rob
 
-    rob = None
-    if robustness_starts > 0:
-        from capture.phong import robustness
 
-        t = time.perf_counter()
-        rob = robustness(colours, geo, exp_est.s, flash_rgb, ambient_rgb, starts=robustness_starts)
-        timings["robustness"] = time.perf_counter() - t
-        _log(progress, f"robustness: {robustness_starts} random starts, max relative std "
-                       f"{100 * rob['max_relative_std']:.3f} %")
+def _reproduce(head: Head, camera: Camera, photo_lin: np.ndarray, fp: _FitPixels, p: PhongParams,
+               texture_size: int, timings: dict[str, float], progress: Callable[[str], None] | None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The detail texture, and the fitted model and its reproduction (model × detail) in the photograph's pose.
 
-    # Detail texture.
+    Returns the detail texture and its seen texels, the fitted render, the reproduction, its ΔE2000 against
+    the photograph on each skin pixel of the fit, and those pixels as an image mask (H, W).
+    """
+    pix, sel = fp.pix, fp.sel
     t = time.perf_counter()
-    geo_all = Geometry.from_vectors(pix.normals, pix.view, light_world)
-    detail, valid = bake_detail(head, camera, shadow.lift(photo_lin, pix.rows, pix.cols, p, geo_all, SHADED_FLOOR),
-                                pix.depth, fitted_shading(p, light_world), texture_size)
+    geo_all = Geometry.from_vectors(pix.normals, pix.view, fp.light_world)
+    detail, valid = bake_detail(head, camera, fp.shadow.lift(photo_lin, pix.rows, pix.cols, p, geo_all, SHADED_FLOOR),
+                                pix.depth, fitted_shading(p, fp.light_world), texture_size)
     timings["detail_texture"] = time.perf_counter() - t
     _log(progress, f"detail texture {texture_size}² baked ({100 * valid.mean():.1f} % of texels seen)")
-
-    # Fitted render and reproduction (same pose).
-    geo_all = shadow.geometry(geo_all)
+    geo_all = fp.shadow.geometry(geo_all)
     fitted = np.zeros_like(photo_lin)
     fitted[pix.rows, pix.cols] = shade(p, geo_all)
     det_px = sample_texture(detail, pix.uv)
     repro = np.zeros_like(photo_lin)
     repro[pix.rows, pix.cols] = np.clip(shade(p, geo_all, clip=False) * det_px, 0, 1)
     de = delta_e2000(repro[pix.rows[sel], pix.cols[sel]], photo_lin[pix.rows[sel], pix.cols[sel]])
-    timings["total"] = time.perf_counter() - t_all
-    skin_used = np.zeros((h, w), dtype=bool)
+    skin_used = np.zeros(photo_lin.shape[:2], dtype=bool)
     skin_used[pix.rows[sel], pix.cols[sel]] = True
-    _log(progress, f"reproduction: mean ΔE2000 {float(de.mean()):.2f} on skin; total {timings['total']:.1f} s")
-    return CaptureResult(camera=camera, params=p, light_dir_world=light_world, exponent=exp_est, fit=fit,
-                         rmap=rmap, detail=detail, detail_valid=valid, skin_mask=skin_used, photo_lin=photo_lin,
-                         fitted_render=fitted, reproduction=repro, reproduction_de2000_skin=float(de.mean()),
-                         probe=probe, timings_s=timings, robustness=rob, ambient_scale_photo=k_photo,
-                         specular_joint=specular_joint, specular_separation=sep)
+    return detail, valid, fitted, repro, de, skin_used
 
 
 #: Rounds of :func:`capture.pose.refine_rotation`, each after rasterising the head again for the camera the

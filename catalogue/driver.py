@@ -261,18 +261,8 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
     result.dashboard = dashboard_link(client)
     if result.dashboard and on_dashboard is not None:
         on_dashboard(result.dashboard)
-    from catalogue.worker import worker_version
-
-    versions = client.run(worker_version)  # before any work: every worker must draw what the names say
-    expected = todo[0].version
-    other = {addr: v for addr, v in versions.items() if v != expected}
-    if other:
-        addr, v = next(iter(other.items()))
-        raise CatalogueError(f"{len(other)} of {len(versions)} Dask worker(s) run another Sheer (e.g. {addr}: "
-                             f"renderer version {v[:12]}, this one {expected[:12]}); install the same Sheer "
-                             "everywhere (or restart workers started before an update)")
     # no worker yet (a cluster still starting): one queue for whichever comes, stolen from by the others
-    workers = set(versions) or {ANY_WORKER}
+    workers = _same_version_workers(client, todo[0].version) or {ANY_WORKER}
     # runs of at most ceil(jobs / (6 × workers)) jobs, about six per worker: small enough to even out the
     # end, and a worker's runs follow each other in its share, so its caches stay warm across them
     balancer = Balancer(chunks(todo, 2 * len(workers)), sorted(workers))
@@ -339,6 +329,23 @@ def _run_jobs(client: Any, todo: list[Job], folder: Path, force_before: float | 
             submit(list(run))
         if finished and on_progress is not None:
             on_progress(done, result.total, sum(r["status"] == "rendered" for r in records.values()), len(failed))
+
+
+def _same_version_workers(client: Any, expected: str) -> set[str]:
+    """The cluster's workers (addresses), once each is known to run this Sheer (renderer version ``expected``).
+
+    Asked before any work, as every worker must draw what the names say: :class:`CatalogueError` otherwise.
+    """
+    from catalogue.worker import worker_version
+
+    versions = client.run(worker_version)
+    other = {addr: v for addr, v in versions.items() if v != expected}
+    if other:
+        addr, v = next(iter(other.items()))
+        raise CatalogueError(f"{len(other)} of {len(versions)} Dask worker(s) run another Sheer (e.g. {addr}: "
+                             f"renderer version {v[:12]}, this one {expected[:12]}); install the same Sheer "
+                             "everywhere (or restart workers started before an update)")
+    return set(versions)
 
 
 def _collect(fut: Any, chunk: list[Job], by_out: dict[str, Job], attempts: dict[str, int],

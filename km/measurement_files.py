@@ -56,6 +56,52 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
     source = str(p)
     text = read_measurement_text(p)
     result = ImportResult(source=source)
+    keywords, fields_, data = _cgats_blocks(text)
+    if fields_ is None:
+        raise MeasurementImportError(f"{source}: not a CGATS/X-Rite file: no BEGIN_DATA_FORMAT block")
+    if len(data) > MAX_ROWS:
+        raise MeasurementImportError(f"{source}: too many samples ({len(data)}, at most {MAX_ROWS})")
+    spectral, wl_all, label_col = _spectral_columns(fields_, source)
+    d_mm = sample_thickness(thickness_mm, keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")),
+                             f"{source}: keyword D_MM",
+                             f"{source}: the sample thickness D is not given: add a 'D_MM 0.15' keyword")
+    saunderson = saunderson_coefficients({k.lower(): v for k, v in keywords.items()}, source)
+    groups, display = _materials(_cgats_samples(data, fields_, spectral, label_col, wl_all, result), result)
+    if name is not None and len(groups) > 1:
+        raise MeasurementImportError(f"{source}: --name can only be used for a file with one material "
+                                     f"(this one has {len(groups)}: {', '.join(display[k] or '?' for k in groups)})")
+    target = default_grid_nm() if grid is None else np.asarray(grid, dtype=np.float64)
+    instrument = keywords.get("INSTRUMENTATION", "")
+    illuminant = keywords.get("ILLUMINATION_NAME", "")
+    for key, group in groups.items():
+        base = display[key]
+        missing = [role for role in ("R_inf", "R", "Rg") if role not in group]
+        mat_name = name or base or p.stem
+        if missing:
+            result.rejected.append((f"material {mat_name!r}", f"missing the {' and '.join(missing)} sample"
+                                                              f"{'s' if len(missing) > 1 else ''}"))
+            continue
+        provenance = (f"Measured: imported from {p.name} (CGATS samples {', '.join(repr(group[r][0]) for r in ('R_inf', 'R', 'Rg'))}"
+                      f"; D = {d_mm:g} mm{', instrument ' + instrument if instrument else ''}), inverted with "
+                      "Kubelka–Munk Eq. 6–7"
+                      + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
+                      + ".")
+        material = invert_onto_grid(
+            mat_name, (category or "other").strip().lower(), wl_all, group["R_inf"][1], group["R"][1],
+            group["Rg"][1], d_mm, target, instrument=instrument, illuminant=illuminant, saunderson=saunderson,
+            provenance=provenance, rejected=result.rejected)
+        if material is not None:
+            result.accepted.append(material)
+    if not groups and not result.rejected:
+        result.rejected.append((source, "no samples in the BEGIN_DATA block"))
+    return result
+
+
+def _cgats_blocks(text: str) -> tuple[dict[str, str], list[str] | None, list[tuple[int, str]]]:
+    """A CGATS file's header keywords (upper case), its data format's fields and its data rows.
+
+    The fields are None when the file has no data format block; a row is (line number, line).
+    """
     # Hand-written on purpose: colour.read_sds_from_xrite_file (documented as "minimalistic and absolutely
     # not bullet-proof") only knows lowercase 'nmNNN' fields, not CGATS's SPECTRAL_NMNNN, splits quoted
     # sample names at spaces, takes the name from the second column, aborts the whole file on one bad value
@@ -88,10 +134,15 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
                 state = "header"
             else:
                 data.append((lineno, line))
-    if fields_ is None:
-        raise MeasurementImportError(f"{source}: not a CGATS/X-Rite file: no BEGIN_DATA_FORMAT block")
-    if len(data) > MAX_ROWS:
-        raise MeasurementImportError(f"{source}: too many samples ({len(data)}, at most {MAX_ROWS})")
+    return keywords, fields_, data
+
+
+def _spectral_columns(fields_: list[str], source: str) -> tuple[list[tuple[int, float]], np.ndarray, int]:
+    """The spectral fields (column, wavelength nm) in wavelength order, their wavelengths and the label's column.
+
+    :class:`MeasurementImportError` naming ``source`` when there are fewer than two, one repeats, or no field
+    names the samples.
+    """
     spectral: list[tuple[int, float]] = []
     for j, f in enumerate(fields_):
         m = _SPECTRAL_FIELD_RE.match(f)
@@ -108,13 +159,15 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
     wl_all = np.array([wl for _, wl in spectral])
     if np.any(np.diff(wl_all) <= 0):
         raise MeasurementImportError(f"{source}: the data format repeats a spectral field")
+    return spectral, wl_all, label_col
 
-    d_mm = sample_thickness(thickness_mm, keywords.get("D_MM", keywords.get("SAMPLE_THICKNESS_MM")),
-                             f"{source}: keyword D_MM",
-                             f"{source}: the sample thickness D is not given: add a 'D_MM 0.15' keyword")
-    saunderson = saunderson_coefficients({k.lower(): v for k, v in keywords.items()}, source)
 
-    # rows -> spectra, grouped by material and role
+def _cgats_samples(data: list[tuple[int, str]], fields_: list[str], spectral: list[tuple[int, float]],
+                   label_col: int, wl_all: np.ndarray, result: ImportResult) -> list[tuple[str, np.ndarray]]:
+    """The valid rows as (label, reflectance in [0, 1] per wavelength); the others go to ``result.rejected``.
+
+    Values above 1 anywhere mean the file is in percent (a note says so).
+    """
     samples: list[tuple[str, np.ndarray]] = []  # (label, values) of valid rows
     parsed_rows: list[tuple[str, str, list[float]]] = []
     for lineno, line in data:
@@ -147,7 +200,15 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
                                                           f"{format_wavelength(wl_all[bad[0]])} is outside [0, 1]"))
             continue
         samples.append((label, arr))
+    return samples
 
+
+def _materials(samples: list[tuple[str, np.ndarray]], result: ImportResult
+               ) -> tuple[dict[str, dict[str, tuple[str, np.ndarray]]], dict[str, str]]:
+    """The samples grouped by material (case-folded name) and role (R_inf, R, Rg), and each material's name.
+
+    A sample without a role, or a role's second sample, goes to ``result.rejected``.
+    """
     groups: dict[str, dict[str, tuple[str, np.ndarray]]] = {}
     display: dict[str, str] = {}
     for label, arr in samples:
@@ -164,34 +225,7 @@ def read_cgats(path: str | Path, *, thickness_mm: float | None = None, name: str
             result.rejected.append((f"sample {label!r}", f"a second {role} sample for {base or 'the material'!r}"))
             continue
         group[role] = (label, arr)
-    if name is not None and len(groups) > 1:
-        raise MeasurementImportError(f"{source}: --name can only be used for a file with one material "
-                                     f"(this one has {len(groups)}: {', '.join(display[k] or '?' for k in groups)})")
-    target = default_grid_nm() if grid is None else np.asarray(grid, dtype=np.float64)
-    instrument = keywords.get("INSTRUMENTATION", "")
-    illuminant = keywords.get("ILLUMINATION_NAME", "")
-    for key, group in groups.items():
-        base = display[key]
-        missing = [role for role in ("R_inf", "R", "Rg") if role not in group]
-        mat_name = name or base or p.stem
-        if missing:
-            result.rejected.append((f"material {mat_name!r}", f"missing the {' and '.join(missing)} sample"
-                                                              f"{'s' if len(missing) > 1 else ''}"))
-            continue
-        provenance = (f"Measured: imported from {p.name} (CGATS samples {', '.join(repr(group[r][0]) for r in ('R_inf', 'R', 'Rg'))}"
-                      f"; D = {d_mm:g} mm{', instrument ' + instrument if instrument else ''}), inverted with "
-                      "Kubelka–Munk Eq. 6–7"
-                      + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
-                      + ".")
-        material = invert_onto_grid(
-            mat_name, (category or "other").strip().lower(), wl_all, group["R_inf"][1], group["R"][1],
-            group["Rg"][1], d_mm, target, instrument=instrument, illuminant=illuminant, saunderson=saunderson,
-            provenance=provenance, rejected=result.rejected)
-        if material is not None:
-            result.accepted.append(material)
-    if not groups and not result.rejected:
-        result.rejected.append((source, "no samples in the BEGIN_DATA block"))
-    return result
+    return groups, display
 
 
 # --------------------------------------------------------------------------------------------------

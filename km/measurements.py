@@ -320,12 +320,46 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     source = str(p)
     text = read_measurement_text(p)
     result = ImportResult(source=source)
+    lines = text.splitlines()
+    meta, header_index = _csv_metadata(lines)
+    if header_index is None:
+        raise MeasurementImportError(f"{source}: no header row (expected columns wavelength, R_inf, R, Rg)")
+    delimiter, header, columns = _csv_columns(lines[header_index], header_index, source, result)
+    d_mm = sample_thickness(thickness_mm, meta.get("d_mm", meta.get("d")), f"{source}: header D_mm",
+                             f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' header line")
+    saunderson = saunderson_coefficients(meta, source)
+    rows = _csv_rows(lines[header_index + 1:], header_index, delimiter, header, columns, source, result)
+    wl, r_inf, r, rg = _collect_triplet(rows, result.rejected)
+    mat_name = name or meta.get("name") or p.stem
+    mat_category = (category or meta.get("category") or "other").strip().lower()
+    target = default_grid_nm() if grid is None else np.asarray(grid, dtype=np.float64)
+    source_kind = meta.get("source", "measured").strip().lower()
+    if source_kind not in ("measured", "modelled"):
+        result.notes.append(f"unknown source {source_kind!r} in the header: taken as measured")
+        source_kind = "measured"
+    provenance = (f"{source_kind.capitalize()}: imported from {p.name} (CSV; R∞, R over a background of "
+                  f"reflectance Rg at D = {d_mm:g} mm), inverted with Kubelka–Munk Eq. 6–7"
+                  + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
+                  + "." + (f" Original provenance: {meta['provenance']}" if meta.get("provenance") else ""))
+    material = invert_onto_grid(
+        mat_name, mat_category, wl, r_inf, r, rg, d_mm, target, instrument=meta.get("instrument", ""),
+        illuminant=meta.get("illuminant", ""), saunderson=saunderson, provenance=provenance,
+        rejected=result.rejected, source=source_kind)
+    if material is not None:
+        result.accepted.append(material)
+    return result
+
+
+def _csv_metadata(lines: list[str]) -> tuple[dict[str, str], int | None]:
+    """The ``# key: value`` lines above the header (keys lower case, spaces as ``_``) and the header's index.
+
+    The index is None when the file has no header row.
+    """
     # Hand-written on purpose: colour-science's CSV reader (numpy.genfromtxt) turns a bad cell into NaN
     # and aborts or skips ragged rows without saying which line, and ignores metadata; we must report
     # every rejected row with its line number and reason, and read D from the header.
-    lines = text.splitlines()
     meta: dict[str, str] = {}
-    header_index = None
+    header_index: int | None = None
     for i, line in enumerate(lines):
         stripped = line.strip()
         if not stripped:
@@ -337,9 +371,15 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
             continue
         header_index = i
         break
-    if header_index is None:
-        raise MeasurementImportError(f"{source}: no header row (expected columns wavelength, R_inf, R, Rg)")
-    header_line = lines[header_index]
+    return meta, header_index
+
+
+def _csv_columns(header_line: str, header_index: int, source: str, result: ImportResult
+                 ) -> tuple[str, list[str], dict[str, int]]:
+    """The delimiter (tab, semicolon or comma), the header's column keys and each needed column's index.
+
+    :class:`MeasurementImportError` when a column is missing or repeated; the others are noted as ignored.
+    """
     delimiter = "\t" if "\t" in header_line else (";" if ";" in header_line and "," not in header_line else ",")
     header = [_column_key(h) for h in next(csv.reader([header_line], delimiter=delimiter))]
     columns: dict[str, int] = {}
@@ -355,13 +395,13 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     ignored = [h for j, h in enumerate(header) if j not in columns.values()]
     if ignored:
         result.notes.append(f"ignored column{'s' if len(ignored) > 1 else ''} {', '.join(ignored)}")
+    return delimiter, header, columns
 
-    d_mm = sample_thickness(thickness_mm, meta.get("d_mm", meta.get("d")), f"{source}: header D_mm",
-                             f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' header line")
-    saunderson = saunderson_coefficients(meta, source)
 
+def _csv_rows(body: list[str], header_index: int, delimiter: str, header: list[str], columns: dict[str, int],
+              source: str, result: ImportResult) -> list[tuple[str, float, float, float, float]]:
+    """The valid data rows as (where, wavelength nm, R_inf, R, Rg); the others go to ``result.rejected``."""
     rows: list[tuple[str, float, float, float, float]] = []
-    body = lines[header_index + 1:]
     if len(body) > MAX_ROWS:
         raise MeasurementImportError(f"{source}: too many rows ({len(body)}, at most {MAX_ROWS})")
     reader = csv.reader(io.StringIO("\n".join(body)), delimiter=delimiter)
@@ -386,26 +426,7 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
                 continue
             if _check_reflectance(values, where, result.rejected):
                 rows.append((where, nm, values["R_inf"], values["R"], values["Rg"]))
-
-    wl, r_inf, r, rg = _collect_triplet(rows, result.rejected)
-    mat_name = name or meta.get("name") or p.stem
-    mat_category = (category or meta.get("category") or "other").strip().lower()
-    target = default_grid_nm() if grid is None else np.asarray(grid, dtype=np.float64)
-    source_kind = meta.get("source", "measured").strip().lower()
-    if source_kind not in ("measured", "modelled"):
-        result.notes.append(f"unknown source {source_kind!r} in the header: taken as measured")
-        source_kind = "measured"
-    provenance = (f"{source_kind.capitalize()}: imported from {p.name} (CSV; R∞, R over a background of "
-                  f"reflectance Rg at D = {d_mm:g} mm), inverted with Kubelka–Munk Eq. 6–7"
-                  + (f" with Saunderson k1 = {saunderson[0]:g}, k2 = {saunderson[1]:g}" if saunderson else "")
-                  + "." + (f" Original provenance: {meta['provenance']}" if meta.get("provenance") else ""))
-    material = invert_onto_grid(
-        mat_name, mat_category, wl, r_inf, r, rg, d_mm, target, instrument=meta.get("instrument", ""),
-        illuminant=meta.get("illuminant", ""), saunderson=saunderson, provenance=provenance,
-        rejected=result.rejected, source=source_kind)
-    if material is not None:
-        result.accepted.append(material)
-    return result
+    return rows
 
 
 def export_csv(material: Material, path: str | Path) -> Path:

@@ -194,6 +194,10 @@ def weights(pn: np.ndarray, origin: np.ndarray, cell: float, dims: np.ndarray, c
     :meth:`painting.brush.Brush.falloff` with ``kind``, hardness ``h`` and the curve samples
     ``xs``/``curve``); a texel reached by several capsules keeps its largest weight (then the indices
     are ascending).
+
+    Long: one compiled pass over the candidate texels, written as the numpy reference's steps in the same
+    order (the two paths must stay bit-identical); a helper called per texel between compiled functions
+    costs its arrays' reference counting (see :data:`_KERNELS`), more than the per-texel work.
     """
     f32 = np.float32
     one = f32(1.0)

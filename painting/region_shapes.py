@@ -312,10 +312,18 @@ def _smooth_lower_lip(lips: np.ndarray, x: np.ndarray, y: np.ndarray, mouth_line
 def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tuple[np.ndarray, str]]:
     """Hard masks (bool (R, R)) and their sources from the sidecar's landmarks (face-frame mm)."""
     lm = {k: frame.mm(np.asarray(v, float)) for k, v in head.metadata.landmarks.items()}
+    src = "landmarks (sidecar) and the bake's 3D positions, front view"
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    for shapes in (_lip_shapes, _eye_shapes, _cheek_shapes, _centre_shapes):
+        out.update(shapes(head, frame, tex, lm, src))
+    return out
+
+
+def _lip_shapes(head: Head, frame: FaceFrame, tex: _Texels, lm: dict[str, np.ndarray],
+                src: str) -> dict[str, tuple[np.ndarray, str]]:
+    """The lips, upper and lower: the albedo's vermilion edge in the landmarks' mouth box, else ellipses."""
     x, y, front = tex.x, tex.y, tex.front
     out: dict[str, tuple[np.ndarray, str]] = {}
-    src = "landmarks (sidecar) and the bake's 3D positions, front view"
-
     # Lips: the mouth box from the corners and lip points, refined by the albedo's vermilion edge.
     ml, mr, up_, lo_, lc = lm["mouth_left"], lm["mouth_right"], lm["upper_lip"], lm["lower_lip"], lm["lip_centre"]
     xl, xr = max(ml[0], mr[0]), min(ml[0], mr[0])
@@ -342,7 +350,14 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
     out["upper_lip"] = (tex.image(lips & above), lip_src + "; split at the mouth line (parabola through the corners "
                         "and lip_centre)")
     out["lower_lip"] = (tex.image(lips & ~above), out["upper_lip"][1])
+    return out
 
+
+def _eye_shapes(head: Head, frame: FaceFrame, tex: _Texels, lm: dict[str, np.ndarray],
+                src: str) -> dict[str, tuple[np.ndarray, str]]:
+    """Per eye: the lash line, the eye, its lid, crease, brow bone, under-eye and brow (see the comment)."""
+    x, y, front = tex.x, tex.y, tex.front
+    out: dict[str, tuple[np.ndarray, str]] = {}
     # Eyes, per side: the lash line joins the corners (bowed 1.5 mm up); the lid, crease and brow bone are
     # nested half-ellipses over it (semi-axes 0.55 × the eye's width and 10 / 14 mm); under-eye a 12 mm
     # half-ellipse below; brows a 10 mm band on the parabola through the inner corner, brow point and
@@ -397,7 +412,14 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
                "10/14 mm high; under-eye 12 mm")
     for k, sel in parts.items():
         out[k] = (tex.image(sel), eye_src if k != "brows" else src + ": " + brow_src)
+    return out
 
+
+def _cheek_shapes(head: Head, frame: FaceFrame, tex: _Texels, lm: dict[str, np.ndarray],
+                  src: str) -> dict[str, tuple[np.ndarray, str]]:
+    """The cheeks' apples and cheekbones."""
+    x, y, front = tex.x, tex.y, tex.front
+    out: dict[str, tuple[np.ndarray, str]] = {}
     # Cheeks: the apple a 16 mm disc on the cheek landmark; the cheekbone a 10 mm capsule from just above
     # the apple up and out to the temple (22 mm past the outer eye corner, between eye and cheek).
     apple = np.zeros(len(x), bool)
@@ -410,7 +432,15 @@ def _landmark_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tu
         bone |= (tex.facing > 0.0) & _capsule(x, y, ck[:2] + np.array([6.0 * out_dir, 6.0]), temple, 10.0)
     out["cheek_apple"] = (tex.image(apple), src + ": a 16 mm disc on the cheek landmark")
     out["cheekbone"] = (tex.image(bone), src + ": a 10 mm capsule from the apple to the temple")
+    return out
 
+
+def _centre_shapes(head: Head, frame: FaceFrame, tex: _Texels, lm: dict[str, np.ndarray],
+                   src: str) -> dict[str, tuple[np.ndarray, str]]:
+    """The face's middle: nose bridge, forehead, T-zone and jawline."""
+    x, y, front = tex.x, tex.y, tex.front
+    out: dict[str, tuple[np.ndarray, str]] = {}
+    lc = lm["lip_centre"]
     # Nose, forehead, T-zone, jaw.
     na, nt, sn, fh, gn, ch = lm["nasion"], lm["nose_tip"], lm["subnasale"], lm["forehead"], lm["gnathion"], lm["chin"]
     brow_top = max(lm["left_brow"][1], lm["right_brow"][1])

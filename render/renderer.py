@@ -250,7 +250,16 @@ class Renderer:
         rect = self._screen_rect(view_proj, (w, h))
         self.last = FrameInfo((w, h), view, view_proj, rect)
 
-        # 1. shadow maps (cached until a light moves)
+        irr_key = self._light(s)
+        self._lit_pass(s, irr_key, view, view_proj, (w, h))
+        self._compose(fbo, (vx, vy, w, h), rect)
+        ctx.scissor = None
+        fbo.scissor = None
+        return self.last
+
+    def _light(self, s: RenderSettings) -> Any:
+        """Step 1: the shadow maps (cached until a light moves) and the texture-space irradiance; its key."""
+        ctx = self.ctx
         if self.shadows.size != s.shadow_size:
             self.shadows.release()
             self.shadows = ShadowMaps(ctx, self.shaders, s.shadow_size)
@@ -276,8 +285,12 @@ class Renderer:
             self._upload_lights(p)
 
         self.irradiance.update(irr_key, self.gpu_head, setup_irradiance, self.lights, env is not None)
+        return irr_key
 
-        # 2. the texture-space lighting cache (view-independent terms), then the lit pass into the G-buffer
+    def _lit_pass(self, s: RenderSettings, irr_key: Any, view: np.ndarray, view_proj: np.ndarray,
+                  size: tuple[int, int]) -> None:
+        """Step 2: the texture-space lighting cache (view-independent terms), then the lit pass into the G-buffer."""
+        w, h = size
         n = len(self.km.active)
         debug_on = DEBUG_VIEWS[s.debug_view] != 0
         cached = s.lighting_cache and self.gpu_head.paint_uv_is_mesh_uv and n > 0 and s.makeup and not debug_on
@@ -303,7 +316,12 @@ class Renderer:
         self.lit.draw(self._targets["gbuffer"], (w, h), s, self.lights, view, view_proj, self.camera.eye(),
                       self.irradiance, self.lighting if cached else None, self._lut_max, self._upload_lights)
 
-        # 3-6. SSS, composite, display
+
+    def _compose(self, fbo: moderngl.Framebuffer, viewport: tuple[int, int, int, int],
+                 rect: tuple[int, int, int, int]) -> None:
+        """Steps 3-6: SSS, the composite and the display pass into ``fbo``'s ``viewport``."""
+        s = self.settings
+        vx, vy, w, h = viewport
         tonemap = {"raw": -1, "none": 0, "aces": 1}[s.tonemap]
         px_per_mm = h / (2.0 * math.tan(math.radians(self.camera.fov_y) / 2.0)) / self.gpu_head.mm_per_unit
         t = self._targets
@@ -336,9 +354,6 @@ class Renderer:
         self._set(cp, "u_origin", (int(vx), int(vy)))
         self._display_common(cp, tonemap, debug)
         self.draw_composite(fbo, (vx, vy, w, h), rect, cp)
-        ctx.scissor = None
-        fbo.scissor = None
-        return self.last
 
     def _update_cache(self, irr_key: Any, level: int) -> bool:
         """Bring the lighting cache's ``level`` up to date with the irradiance of ``irr_key``."""

@@ -150,3 +150,32 @@ def test_the_app_never_reaches_through_the_view_into_its_renderer() -> None:
     found = [f"{rel}:{node.lineno}: {ast.unparse(node)}" for rel, tree in _product_trees() if rel.startswith("app/")
              for node in ast.walk(tree) if isinstance(node, ast.Attribute) and node.attr == "r"]
     assert not found, "the view's own renderer reached from the app:\n" + "\n".join(found)
+
+
+#: The most lines of code (from the first statement after the docstring to the function's last line) a product
+#: function may run to without saying why in its docstring.
+LONG_FUNCTION_LINES = 80
+
+
+def _code_lines(node: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """The function's lines of code, its docstring left out (a long explanation is no long function)."""
+    body = node.body
+    has_doc = isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+        and isinstance(body[0].value.value, str)
+    first = body[1] if has_doc and len(body) > 1 else body[0]
+    return (node.end_lineno or first.lineno) - first.lineno + 1
+
+
+def test_long_product_functions_say_why() -> None:
+    """A product function of more than :data:`LONG_FUNCTION_LINES` lines of code is split by concern, or its
+    docstring has a paragraph starting "Long:" that says why it reads better whole (a compiled kernel, one
+    GL draw's objects released in one place…)."""
+    found = []
+    for rel, tree in _product_trees():
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = _code_lines(node)
+                if lines > LONG_FUNCTION_LINES and "Long:" not in (ast.get_docstring(node) or ""):
+                    found.append(f"{rel}:{node.lineno}: {node.name} ({lines} lines of code)")
+    assert not found, (f"functions over {LONG_FUNCTION_LINES} lines of code without a 'Long:' reason in their "
+                       "docstring:\n" + "\n".join(sorted(found)))

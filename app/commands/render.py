@@ -183,25 +183,12 @@ def run(args: argparse.Namespace) -> int:
     Returns:
         0 (bad input raises a ``core.errors.SheerError``, which the CLI prints with exit code 2).
     """
-    import math
     import sys
 
     from core.errors import SheerError
 
     out = _check_output(args.out)
-    for name in ("yaw", "pitch", "exposure", "env_intensity"):
-        value = getattr(args, name)
-        if value is not None and not math.isfinite(value):
-            raise SheerError(f"--{name.replace('_', '-')} must be a finite number")
-    if args.light and len(args.light) > 8:
-        raise SheerError(f"at most 8 --light options, got {len(args.light)}")
-    mode = args.mode or ("lightweight" if args.face else "fast")
-    if mode == "lightweight" and not args.face:
-        raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
-    if args.light and FROM_CAPTURE in args.light and not args.face:
-        raise SheerError(f"--light {FROM_CAPTURE} needs --face FACE_DIR (the capture whose flash to reuse)")
-    if args.view is None and (args.photo or args.light_preset):
-        raise SheerError("--photo and --light-preset need --view (mirror or relight) and --face")
+    mode = _checked_mode(args)
     face = None
     if args.face:  # issue 7: a captured face (lightweight engine, or its albedo in the physical one)
         from capture.face import load_face
@@ -211,18 +198,7 @@ def run(args: argparse.Namespace) -> int:
         raise SheerError(f"--view {args.view} needs --face FACE_DIR (a folder written by 'sheer capture')")
     head_path = args.head if args.head or face is None else _captured_head_path(face, args.face)
     if args.view:
-        from types import SimpleNamespace
-
-        from app.commands.render_views import check_view_args, run_view
-
-        check_view_args(args)  # before the slow set-up
-        doc, head = load_document(args, head_path)
-        lights = _lights(args.light, args.light_color, face, 1.0)
-        image = run_view(args, face, doc, head, lights,
-                         lambda w, h: _image_size(args.size, SimpleNamespace(width=w, height=h)))  # type: ignore[arg-type]
-        _write_png(out, image)
-        print(f"wrote {out} ({image.shape[1]}×{image.shape[0]}, {args.view} view)", file=sys.stderr)
-        return 0
+        return _run_view(args, out, face, head_path)
     lightweight = mode == "lightweight"
     exposure = args.exposure if args.exposure is not None else (1.0 if lightweight else 0.85)
     photo_camera = _photo_camera(args, face)
@@ -238,11 +214,61 @@ def run(args: argparse.Namespace) -> int:
         if doc is not None:
             doc.head = head
 
+    lights = _lights(args.light, args.light_color, face, 1.0 if lightweight else 1.2)
+    image = _render(args, mode, head, doc, face, lights, exposure, photo_camera, size)
+    _write_png(out, image)
+    print(f"wrote {out} ({size[0]}×{size[1]}, {mode})", file=sys.stderr)
+    return 0
 
+
+def _checked_mode(args: argparse.Namespace) -> str:
+    """The render mode ``args`` ask for, once their numbers and their combinations are checked."""
+    import math
+
+    from core.errors import SheerError
+
+    for name in ("yaw", "pitch", "exposure", "env_intensity"):
+        value = getattr(args, name)
+        if value is not None and not math.isfinite(value):
+            raise SheerError(f"--{name.replace('_', '-')} must be a finite number")
+    if args.light and len(args.light) > 8:
+        raise SheerError(f"at most 8 --light options, got {len(args.light)}")
+    mode = args.mode or ("lightweight" if args.face else "fast")
+    if mode == "lightweight" and not args.face:
+        raise SheerError("--mode lightweight needs --face FACE_DIR (a folder written by 'sheer capture')")
+    if args.light and FROM_CAPTURE in args.light and not args.face:
+        raise SheerError(f"--light {FROM_CAPTURE} needs --face FACE_DIR (the capture whose flash to reuse)")
+    if args.view is None and (args.photo or args.light_preset):
+        raise SheerError("--photo and --light-preset need --view (mirror or relight) and --face")
+    return mode
+
+
+def _run_view(args: argparse.Namespace, out: Path, face: Face | None, head_path: str | None) -> int:
+    """``--view mirror|relight``: the captured face's view (:mod:`app.commands.render_views`), written; 0."""
+    import sys
+    from types import SimpleNamespace
+
+    from app.commands.render_views import check_view_args, run_view
+
+    check_view_args(args)  # before the slow set-up
+    doc, head = load_document(args, head_path)
+    lights = _lights(args.light, args.light_color, face, 1.0)
+    image = run_view(args, face, doc, head, lights,
+                     lambda w, h: _image_size(args.size, SimpleNamespace(width=w, height=h)))  # type: ignore[arg-type]
+    _write_png(out, image)
+    print(f"wrote {out} ({image.shape[1]}×{image.shape[0]}, {args.view} view)", file=sys.stderr)
+    return 0
+
+
+def _render(args: argparse.Namespace, mode: str, head: Head, doc: Document | None, face: Face | None,
+            lights: list[Light] | None, exposure: float, photo_camera: Camera | None,
+            size: tuple[int, int]) -> np.ndarray:
+    """The image, drawn in a headless context by the physical renderer or, in the lightweight mode, from the face."""
+    from core.errors import SheerError
     from render import DocumentBinding, Renderer
     from render.context import standalone_context
 
-    lights = _lights(args.light, args.light_color, face, 1.0 if lightweight else 1.2)
+    lightweight = mode == "lightweight"
     try:
         ctx = standalone_context()
     except Exception as exc:
@@ -256,17 +282,7 @@ def run(args: argparse.Namespace) -> int:
             s = renderer.settings
             s.exposure, s.debug_view = exposure, args.debug_view
             if args.debug_view == "thickness":  # --debug-layer is a document layer; the renderer's is a slot
-                from render.view import debug_slot
-
-                n = len(renderer.km.layers)
-                if not 0 <= args.debug_layer < max(n, 1):
-                    raise SheerError(f"--debug-layer {args.debug_layer}: there are {n} layers (0 to {n - 1})"
-                                     if n else f"--debug-layer {args.debug_layer}: there are no layers")
-                slot = debug_slot(renderer.km.active, args.debug_layer) if n else 0
-                if slot is None:
-                    raise SheerError(f"--debug-layer {args.debug_layer}: layer "
-                                     f"'{renderer.km.layers[args.debug_layer].name}' is hidden or transparent")
-                s.debug_layer = slot
+                s.debug_layer = _debug_slot(renderer, args.debug_layer)
             if not lightweight:
                 s.mode = mode
             if photo_camera is not None:
@@ -278,18 +294,30 @@ def run(args: argparse.Namespace) -> int:
             if args.env:
                 renderer.set_environment(args.env, args.env_intensity)
             if not lightweight:
-                image = renderer.render_image(size)
-            else:
-                image = _render_lightweight(ctx, head, face, renderer, doc, exposure, size)
+                return renderer.render_image(size)
+            assert face is not None
+            return _render_lightweight(ctx, head, face, renderer, doc, exposure, size)
         finally:
             if binding is not None:
                 binding.close()
             renderer.release()
     finally:
         ctx.release()
-    _write_png(out, image)
-    print(f"wrote {out} ({size[0]}×{size[1]}, {mode})", file=sys.stderr)
-    return 0
+
+
+def _debug_slot(renderer: Renderer, layer: int) -> int:
+    """The renderer's slot of document layer ``layer`` (``--debug-layer``), for the thickness view."""
+    from core.errors import SheerError
+    from render.view import debug_slot
+
+    n = len(renderer.km.layers)
+    if not 0 <= layer < max(n, 1):
+        raise SheerError(f"--debug-layer {layer}: there are {n} layers (0 to {n - 1})"
+                         if n else f"--debug-layer {layer}: there are no layers")
+    slot = debug_slot(renderer.km.active, layer) if n else 0
+    if slot is None:
+        raise SheerError(f"--debug-layer {layer}: layer '{renderer.km.layers[layer].name}' is hidden or transparent")
+    return slot
 
 
 def _write_png(out: Path, image: np.ndarray) -> None:

@@ -199,6 +199,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         return box
 
     def _build_main(self) -> QWidget:
+        """The try-on page: the invitation, the looks' bar, the face (hers or the sample's) and the side panel."""
         page = QWidget()
         self.invite = self._build_invite()
         self.look_buttons: dict[str, QPushButton] = {}
@@ -210,29 +211,32 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
             b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_look(n)))
             looks.addWidget(b)
             self.look_buttons[name] = b
-        self.product_labels: dict[str, QLabel] = {}
-        products = QGridLayout()
-        for row, cat in enumerate(CATEGORIES):
-            prev, nxt = big_button("◀", 64), big_button("▶", 64)
-            prev.setMinimumWidth(72)
-            nxt.setMinimumWidth(72)
-            label = QLabel(cat.title())
-            label.setMinimumWidth(260)
-            label.setAlignment(Qt.AlignmentFlag.AlignCenter)
-            prev.clicked.connect(self.guard(lambda _c=False, c=cat: self.swap_product(c, -1)))
-            nxt.clicked.connect(self.guard(lambda _c=False, c=cat: self.swap_product(c, +1)))
-            products.addWidget(prev, row, 0)
-            products.addWidget(label, row, 1)
-            products.addWidget(nxt, row, 2)
-            self.product_labels[cat] = label
-        lights = QHBoxLayout()
-        self.light_buttons: dict[str, QPushButton] = {}
-        for name in LIGHT_PRESETS:
-            b = big_button(name.title(), 64)
-            b.setCheckable(True)
-            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_light(n)))
-            lights.addWidget(b)
-            self.light_buttons[name] = b
+        side_box = self._build_side()
+        self.face_stack = QStackedWidget()
+        self.face_stack.addWidget(self.viewport)
+        self.face_stack.addWidget(self.tryon.shopper_view)
+        body = QHBoxLayout()
+        left = QVBoxLayout()
+        left.addWidget(self.face_stack, 1)
+        left.addWidget(self.privacy_label)  # under her face, while it is shown
+        body.addLayout(left, 3)
+        # the controls scroll rather than push the window past a small screen (the foundation finder grows)
+        self.side_panel = QScrollArea()
+        self.side_panel.setWidget(side_box)
+        self.side_panel.setWidgetResizable(True)
+        self.side_panel.setFrameShape(QFrame.Shape.NoFrame)
+        self.side_panel.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        body.addWidget(self.side_panel, 2)
+        lay = QVBoxLayout(page)
+        lay.addWidget(self.invite)
+        lay.addWidget(self.looks_bar)
+        lay.addLayout(body, 1)
+        return page
+
+    def _build_side(self) -> QWidget:
+        """The side panel: the views, the products, the light, Before|After, Save Photo, the foundation finder."""
+        products = self._build_products()
+        lights = self._build_lights()
         self.split = QSlider(Qt.Orientation.Horizontal)
         self.split.setRange(0, 100)
         self.split.setMinimumHeight(64)
@@ -242,17 +246,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.done_button = big_button("Done")
         self.done_button.clicked.connect(self.guard(self.show_start))
         self.toast = QLabel("")
-        self.view_buttons: dict[str, QPushButton] = {}
-        views = QHBoxLayout()
-        for name, text in (("mirror", "Mirror"), ("relight", "Turn and relight")):
-            b = big_button(text, 64)
-            b.setCheckable(True)
-            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_view(n)))
-            views.addWidget(b)
-            self.view_buttons[name] = b
-        self.views_bar = QWidget()
-        self.views_bar.setLayout(views)
-        self.views_bar.hide()
+        self._build_views_bar()
         self.privacy_label = QLabel(PRIVACY_LINE)
         self.privacy_label.setWordWrap(True)
         self.privacy_label.setStyleSheet("color: #b8b0a8; font-size: 14px;")
@@ -282,26 +276,52 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
             self.credit_label.setWordWrap(True)
             self.credit_label.setStyleSheet("color: #9a9a9a; font-size: 12px;")
             side.addWidget(self.credit_label)
-        self.face_stack = QStackedWidget()
-        self.face_stack.addWidget(self.viewport)
-        self.face_stack.addWidget(self.tryon.shopper_view)
-        body = QHBoxLayout()
-        left = QVBoxLayout()
-        left.addWidget(self.face_stack, 1)
-        left.addWidget(self.privacy_label)  # under her face, while it is shown
-        body.addLayout(left, 3)
-        # the controls scroll rather than push the window past a small screen (the foundation finder grows)
-        self.side_panel = QScrollArea()
-        self.side_panel.setWidget(side_box)
-        self.side_panel.setWidgetResizable(True)
-        self.side_panel.setFrameShape(QFrame.Shape.NoFrame)
-        self.side_panel.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        body.addWidget(self.side_panel, 2)
-        lay = QVBoxLayout(page)
-        lay.addWidget(self.invite)
-        lay.addWidget(self.looks_bar)
-        lay.addLayout(body, 1)
-        return page
+        return side_box
+
+    def _build_products(self) -> QGridLayout:
+        """A row per category: ◀ the product on its layer ▶."""
+        self.product_labels: dict[str, QLabel] = {}
+        products = QGridLayout()
+        for row, cat in enumerate(CATEGORIES):
+            prev, nxt = big_button("◀", 64), big_button("▶", 64)
+            prev.setMinimumWidth(72)
+            nxt.setMinimumWidth(72)
+            label = QLabel(cat.title())
+            label.setMinimumWidth(260)
+            label.setAlignment(Qt.AlignmentFlag.AlignCenter)
+            prev.clicked.connect(self.guard(lambda _c=False, c=cat: self.swap_product(c, -1)))
+            nxt.clicked.connect(self.guard(lambda _c=False, c=cat: self.swap_product(c, +1)))
+            products.addWidget(prev, row, 0)
+            products.addWidget(label, row, 1)
+            products.addWidget(nxt, row, 2)
+            self.product_labels[cat] = label
+        return products
+
+    def _build_lights(self) -> QHBoxLayout:
+        """A button per light preset."""
+        lights = QHBoxLayout()
+        self.light_buttons: dict[str, QPushButton] = {}
+        for name in LIGHT_PRESETS:
+            b = big_button(name.title(), 64)
+            b.setCheckable(True)
+            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_light(n)))
+            lights.addWidget(b)
+            self.light_buttons[name] = b
+        return lights
+
+    def _build_views_bar(self) -> None:
+        """Her face's views (mirror, turn and relight), hidden until she wears her face."""
+        self.view_buttons: dict[str, QPushButton] = {}
+        views = QHBoxLayout()
+        for name, text in (("mirror", "Mirror"), ("relight", "Turn and relight")):
+            b = big_button(text, 64)
+            b.setCheckable(True)
+            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_view(n)))
+            views.addWidget(b)
+            self.view_buttons[name] = b
+        self.views_bar = QWidget()
+        self.views_bar.setLayout(views)
+        self.views_bar.hide()
 
     # ------------------------------------------------------------------ error handling
     def guard(self, fn: Callable[..., Any]) -> Callable[..., Any]:

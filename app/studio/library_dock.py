@@ -67,6 +67,40 @@ class LibraryDock(QWidget):
         self.search.setPlaceholderText("Search materials…")
         self.category = QComboBox()
         self.list = QListWidget()
+        form = self._build_form()
+        sw = self._build_views()
+        mix = self._build_mix()
+        buttons = self._build_buttons()
+        filt = QHBoxLayout()
+        filt.addWidget(self.search, 2)
+        filt.addWidget(self.category, 1)
+        lay = QVBoxLayout(self)
+        lay.addLayout(filt)
+        lay.addWidget(self.list, 1)
+        lay.addLayout(form)
+        lay.addLayout(self.refl_holder, 2)
+        lay.addLayout(self.coef_holder, 1)
+        lay.addWidget(self.readout)
+        th = QHBoxLayout()
+        th.addWidget(QLabel("Thickness for R0/T"))
+        th.addWidget(self.thickness, 1)
+        th.addWidget(self.thickness_label)
+        lay.addLayout(th)
+        lay.addLayout(sw)
+        lay.addLayout(mix)
+        lay.addWidget(self.mix_button)
+        lay.addLayout(buttons)
+        self.search.textChanged.connect(lambda _t: self.refresh_list())
+        self.category.currentIndexChanged.connect(lambda _i: self.refresh_list())
+        self.list.currentTextChanged.connect(self.select)
+        self.name_edit.editingFinished.connect(self._rename)
+        self.category_edit.activated.connect(lambda _i: self.edit("category", self.category_edit.currentText()))
+        self.category_edit.lineEdit().editingFinished.connect(
+            lambda: self.edit("category", self.category_edit.currentText()))
+        self.refresh_list()
+
+    def _build_form(self) -> QFormLayout:
+        """The selected material's fields: name, category, thicknesses, roughness, IOR and the spectra's scales."""
         self.name_edit = QLineEdit()
         self.category_edit = QComboBox()
         self.category_edit.setEditable(True)
@@ -104,6 +138,10 @@ class LibraryDock(QWidget):
         form.addRow("Roughness", self.spins["roughness"])
         form.addRow("IOR", self.spins["ior"])
         form.addRow("Scale spectra", scale_row)
+        return form
+
+    def _build_views(self) -> QGridLayout:
+        """The plots' places (built later, :meth:`build_plots`), the readout, the thickness slider; the swatches' grid."""
         # plots
         # the pyqtgraph plots are built after the viewport's first frame (build_plots): importing
         # pyqtgraph costs about a second of start-up
@@ -125,7 +163,10 @@ class LibraryDock(QWidget):
             lab.setMinimumSize(64, 40)
             lab.setAlignment(Qt.AlignmentFlag.AlignCenter)
             sw.addWidget(lab, 0, i)
-        # mixing
+        return sw
+
+    def _build_mix(self) -> QHBoxLayout:
+        """The shade variant's row: the partner, the amount and the mix's swatch (its button below it)."""
         self.mix_with = QComboBox()
         self.mix_amount = QSlider(Qt.Orientation.Horizontal)
         self.mix_amount.setRange(0, 100)
@@ -142,7 +183,10 @@ class LibraryDock(QWidget):
         mix.addWidget(self.mix_with, 1)
         mix.addWidget(self.mix_amount, 1)
         mix.addWidget(self.mix_swatch)
-        # buttons
+        return mix
+
+    def _build_buttons(self) -> QGridLayout:
+        """Duplicate, Delete, Import Measurement…, Undo, Redo and Save Library, in two rows."""
         self.duplicate_button = QPushButton("Duplicate")
         self.delete_button = QPushButton("Delete")
         self.duplicate_button.clicked.connect(self.duplicate_current)
@@ -164,33 +208,7 @@ class LibraryDock(QWidget):
         for i, b in enumerate((self.duplicate_button, self.delete_button, self.import_button,
                                self.undo_button, self.redo_button, self.save_button)):
             buttons.addWidget(b, i // 3, i % 3)
-        filt = QHBoxLayout()
-        filt.addWidget(self.search, 2)
-        filt.addWidget(self.category, 1)
-        lay = QVBoxLayout(self)
-        lay.addLayout(filt)
-        lay.addWidget(self.list, 1)
-        lay.addLayout(form)
-        lay.addLayout(self.refl_holder, 2)
-        lay.addLayout(self.coef_holder, 1)
-        lay.addWidget(self.readout)
-        th = QHBoxLayout()
-        th.addWidget(QLabel("Thickness for R0/T"))
-        th.addWidget(self.thickness, 1)
-        th.addWidget(self.thickness_label)
-        lay.addLayout(th)
-        lay.addLayout(sw)
-        lay.addLayout(mix)
-        lay.addWidget(self.mix_button)
-        lay.addLayout(buttons)
-        self.search.textChanged.connect(lambda _t: self.refresh_list())
-        self.category.currentIndexChanged.connect(lambda _i: self.refresh_list())
-        self.list.currentTextChanged.connect(self.select)
-        self.name_edit.editingFinished.connect(self._rename)
-        self.category_edit.activated.connect(lambda _i: self.edit("category", self.category_edit.currentText()))
-        self.category_edit.lineEdit().editingFinished.connect(
-            lambda: self.edit("category", self.category_edit.currentText()))
-        self.refresh_list()
+        return buttons
 
     # ------------------------------------------------------------------ model → view
     def refresh_list(self) -> None:
