@@ -238,12 +238,17 @@ def install_layers(doc: Document, library: Library, project: Project, opened: Do
                    maps: list[np.ndarray] | None = None) -> None:
     """Replace the studio document's layers with the opened document's, and clear the undo history.
 
-    The maps are copied bit-exactly, or taken from ``maps`` (e.g. :func:`resample_layers`'s); the
-    project's embedded materials the library lacks are added to it. Call :func:`check_compatible` first.
+    The maps are copied bit-exactly, or taken from ``maps`` (e.g. :func:`resample_layers`'s). The layers
+    wear the project's embedded materials, as saved: one the library lacks is added to it, and one the
+    library holds otherwise (edited since, or in another studio) replaces the library's of that name (the
+    library file is unchanged until the library is saved). Call :func:`check_compatible` first.
     """
     for name in project.materials:
+        saved = project.material(name)
         if name not in library:
-            library.add(project.material(name))
+            library.add(saved)
+        elif library.get(name).to_json() != saved.to_json():
+            library.add(saved, replace=True)
     for i in reversed(range(len(doc.layers))):
         doc.remove_layer(i)
     for i, lay in enumerate(opened.layers):

@@ -26,15 +26,26 @@ if TYPE_CHECKING:
 BACKENDS: dict[str, str] = {"renderer": "render.Renderer", "library": "km", "document": "painting.Document"}
 
 
-def load_library() -> Library:
-    """The material library shipped with Sheer.
+def load_library(user_file: str | Path | None = None) -> Library:
+    """The material library shipped with Sheer, with the materials of ``user_file`` over it.
+
+    A material of the user's file replaces the shipped one of its name, or is added; the shipped ones
+    are always there (the built-in looks name them). The library's file is then ``user_file``, where
+    the studio saves it (when ``user_file`` does not exist: the shipped library, with no file).
 
     Raises:
-        km.library.LibraryError: a library file is missing or malformed (the message names it).
+        km.library.LibraryError: a library file is malformed (the message names it).
     """
-    from km.library import default_library
+    from pathlib import Path
 
-    return default_library()
+    from km.library import Library, default_library
+
+    library = default_library()
+    if user_file is not None and Path(user_file).is_file():
+        for material in Library.load(user_file):
+            library.add(material, replace=True)
+        library.path = Path(user_file)
+    return library
 
 
 @dataclass

@@ -41,7 +41,10 @@ with a frozen :class:`ChangeEvent`:
   "fill", "import", "undo", "redo" or "rollback". A renderer re-uploads just those tiles.
 - ``kind="layers"``: the layer list or a layer field changed; ``detail`` is "added", "removed", "moved",
   "name", "visible", "opacity" or "max_thickness".
-- ``kind="material"``: layer ``event.layer`` now uses another material.
+- ``kind="material"``: layer ``event.layer`` now uses another material, or its material was edited in
+  the library (``detail="edited"``).
+- ``kind="library"``: the document's material library was edited (``doc.replace_material``,
+  ``doc.add_materials``, ``doc.remove_material``, or their undo); ``detail`` names the material to show.
 - ``kind="history"``: ``doc.can_undo`` / ``doc.can_redo`` may have changed.
 
 Callbacks must not edit the document re-entrantly during a stroke; exceptions propagate to the caller.
@@ -56,7 +59,8 @@ index=None)``, ``doc.remove_layer(layer)``, ``doc.move_layer(layer, index)``, ``
 undo step on the same stack as strokes.
 
 Layer fields: ``id`` (stable), ``name``, ``material`` (library name), ``material_object`` (the library's
-Material), ``visible``, ``opacity`` ([0, 1], scales thickness: ``effective_thickness()``),
+Material: what is drawn and saved; a library edit through ``doc.replace_material`` replaces it on every layer
+of it, as one undo step), ``visible``, ``opacity`` ([0, 1], scales thickness: ``effective_thickness()``),
 ``max_thickness`` (µm, the most "add" builds up to), ``default_thickness`` (µm), ``resolution``,
 ``thickness``.
 

@@ -21,6 +21,7 @@ from painting import kernels
 from painting.atlas import Atlas, bake, check_resolution
 from painting.brush import Brush, BrushError
 from painting.document_masks import MaskEditing
+from painting.document_materials import MaterialEditing, material_thicknesses
 from painting.history import DEFAULT_BUDGET_BYTES, History, Step
 from painting.layer import ChangeEvent, DocumentError, Layer, as_vec3, thickness_value
 from painting.layout import build_layout
@@ -50,10 +51,11 @@ class MaterialLibrary(Protocol):
         ...
 
 
-class Document(MaskEditing):
+class Document(MaskEditing, MaterialEditing):
     """Layers of cosmetic thickness painted on a head (see :mod:`painting` for an overview).
 
-    Regions and layer masks: :class:`painting.document_masks.MaskEditing`.
+    Regions and layer masks: :class:`painting.document_masks.MaskEditing`; edits of the material library
+    that the layers follow: :class:`painting.document_materials.MaterialEditing`.
 
     Args:
         head: a :class:`painting.head.Head`.
@@ -213,9 +215,7 @@ class Document(MaskEditing):
             raise DocumentError(f"unknown material {name!r}: {exc}") from None
         except (KeyError, LookupError):
             raise DocumentError(f"unknown material {name!r}") from None
-        default = getattr(mat, "default_thickness_um", None)
-        thickness = float(getattr(mat, "thickness_um", 20.0) if default is None else default)
-        maximum = float(getattr(mat, "max_thickness_um", 100.0))
+        thickness, maximum = material_thicknesses(mat)
         return str(getattr(mat, "name", name)), mat, thickness, maximum
 
     # ------------------------------------------------------------------------------------ layer edits
@@ -313,7 +313,9 @@ class Document(MaskEditing):
         self.set_layer(layer, name=name)
 
     def set_layer(self, layer: Layer | int, **changes: Any) -> None:
-        """Change layer fields as one undoable step.
+        """Change layer fields as one undoable step (fields given their current value are left out).
+
+        Nothing changes, and no step is recorded, when every value given is the layer's already.
 
         Args:
             layer: a layer of this document, or its index.
@@ -343,7 +345,12 @@ class Document(MaskEditing):
                 new["max_thickness"] = thickness_value(value, "max_thickness", positive=True)
             elif key == "material":
                 mat_name, mat, default, _ = self.lookup_material(value)
-                new.update(material=mat_name, material_object=mat, default_thickness=default)
+                if mat_name != lay.material or mat is not lay.material_object:
+                    new.update(material=mat_name, material_object=mat, default_thickness=default)
+        new = {k: v for k, v in new.items() if k in ("material", "material_object", "default_thickness")
+               or getattr(lay, k) != v}
+        if not new:
+            return
         old = {k: getattr(lay, k) for k in new}
 
         def apply(values: dict[str, Any]) -> Callable[[], None]:

@@ -35,13 +35,17 @@ class ChangeEvent:
     Attributes:
         kind: "paint" (thickness texels of ``layer`` changed inside ``tiles``), "layers" (the list or a
             layer's name/visibility/opacity/maximum changed: see ``detail``), "material" (a layer's
-            material changed) or "history" (what undo/redo can do changed).
+            material changed: another one, or its own edited in the library), "library" (the document's
+            material library was edited: ``detail`` names the material to show, "" after a removal;
+            nothing a project saves changed unless "material" events came with it) or "history" (what
+            undo/redo can do changed).
         layer: the layer's id (stable for the document's life), or None.
         tiles: (tile row, tile column) of the touched 64² tiles, for "paint".
         detail: "stroke", "undo", "redo", "fill", "import", "rollback" for paint; "added", "removed",
             "moved", "name", "visible", "opacity", "max_thickness", "mask" (the layer's mask recipe or
             channel was replaced) for layers; "mask" for paint also means the mask's paint channel changed
-            inside ``tiles`` (the thickness the renderer shows changed there).
+            inside ``tiles`` (the thickness the renderer shows changed there); "material" (another
+            material) or "edited" (the library's material was edited) for material.
     """
 
     kind: str

@@ -173,10 +173,13 @@ class Autosaver:
         self.dirty = True
 
     def watch(self, doc: Document) -> Callable[[], None]:
-        """Mark dirty on every change event of ``doc`` (paint, layers, material); returns the unsubscribe."""
+        """Mark dirty on every change event of ``doc`` (paint, layers, material); returns the unsubscribe.
+
+        A "library" event alone (a material no layer uses was edited) changes nothing a project saves.
+        """
 
         def on_event(event: ChangeEvent) -> None:
-            if event.kind != "history":
+            if event.kind not in ("history", "library"):
                 self.dirty = True
 
         return doc.subscribe(on_event)

@@ -7,8 +7,9 @@ changes to the renderer:
 - ``"paint"`` events: the touched tiles, as (row, col) of :data:`painting.tiles.TILE`² blocks (the
   convention of :mod:`painting.tiles`), merged per layer *id* (the id stays valid while layers move); at
   the flush each id is looked up once and only those tiles are re-evaluated in texture space;
-- ``"layers"`` and ``"material"`` events: every layer is read again (:func:`layer_inputs`) and evaluated;
-- ``"history"`` events change nothing on screen.
+- ``"layers"`` and ``"material"`` events: every layer is read again (:func:`layer_inputs`) and evaluated
+  (a material edited in the document's library is a ``"material"`` event of each layer of it);
+- ``"history"`` and ``"library"`` events change nothing on screen.
 
 Layer masks (:mod:`painting.mask`) are applied here, at upload: a masked layer's thickness goes to the
 renderer multiplied by its mask. The binding keeps that product per masked layer and, for dirty tiles,
@@ -16,8 +17,10 @@ recomputes only those tiles (so a dab on a masked layer, or on its mask's channe
 any layer); the tiles still go through ``km.update_tiles``, so the lighting cache follows.
 
 The renderer's layer *i* is the document's layer *i*, hidden ones included (``visible=False``), so a
-document index is also the renderer's. A change made outside the document — a material edited in the
-library — has no event: :meth:`DocumentBinding.invalidate` asks for a full re-evaluation.
+document index is also the renderer's. Without a ``library`` the renderer draws each layer's own material
+(``layer.material_object``, what a project saves); a library given is looked up first, by name (a catalogue
+job's materials): a change made to it outside the document has no event, and
+:meth:`DocumentBinding.invalidate` asks for a full re-evaluation.
 """
 
 from __future__ import annotations
@@ -109,7 +112,7 @@ class DocumentBinding:
         self._unsubscribe: Callable[[], None] | None = doc.subscribe(self._on_event)
 
     def _on_event(self, event: ChangeEvent) -> None:
-        if event.kind == "history":
+        if event.kind in ("history", "library"):
             return
         if event.kind == "paint" and event.layer is not None:
             if not self.full:

@@ -17,14 +17,13 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--look", default="natural", help="look to start with (default: natural)")
     p.add_argument("--project", help="project file to open")
     p.add_argument("--resolution", type=int, default=None,
-                   help="thickness map resolution (texels; default: app.settings.DEFAULT_RESOLUTION)")
+                   help="thickness map resolution (texels; default: the project's, else "
+                        "app.settings.DEFAULT_RESOLUTION)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the studio until its window closes; returns the exit status."""
-    from app.settings import DEFAULT_RESOLUTION
     from app.studio.launch import run_studio
 
-    return run_studio(head=args.head, look=args.look, project=args.project,
-                      resolution=args.resolution or DEFAULT_RESOLUTION)
+    return run_studio(head=args.head, look=args.look, project=args.project, resolution=args.resolution)

@@ -126,6 +126,8 @@ class LayersPanel(QWidget):
 
     The panel holds no truth: every change is a request signal (document indices, 0 = bottom layer) the
     window turns into a document command; the document's change events then :meth:`refresh` the panel.
+    The selected layer's fields (material, opacity, maximum thickness) show that layer, whenever the
+    selection changes, and a field sends a request only when the user changed its value.
     """
 
     add_requested = Signal(str)
@@ -144,6 +146,8 @@ class LayersPanel(QWidget):
         super().__init__(parent)
         self._count = 0
         self._updating = False
+        self._layers: list[Layer] = []  # the document's layers shown (bottom first), as last refreshed
+        self._shown: dict[str, object] = {}  # the selected layer's values as its fields show them
         self.list = LayerList()
         self.list.setIconSize(self.list.iconSize().expandedTo(self.list.iconSize() * 1.6))
         self.material = QComboBox()
@@ -180,17 +184,15 @@ class LayersPanel(QWidget):
         self.export_button.clicked.connect(lambda: self._emit_current(self.export_requested))
         self.list.moved.connect(lambda a, b: self.move_requested.emit(self.doc_index(a), self.doc_index(b)))
         self.list.itemChanged.connect(self._item_changed)
+        self.list.currentRowChanged.connect(lambda _r: self._updating or self._show_selected())
         self.list.currentRowChanged.connect(lambda r: self.selection_changed.emit(self.doc_index(r)))
         self.list.currentRowChanged.connect(lambda _r: self._updating or self._refresh_mask())
         # one undo step per gesture: while the handle is dragged, only its release counts
-        self.opacity.sliderReleased.connect(
-            lambda: self._emit_current(self.opacity_requested, self.opacity.value() / 100.0))
+        self.opacity.sliderReleased.connect(lambda: self._field_edited("opacity"))
         self.opacity.valueChanged.connect(
-            lambda v: None if self.opacity.isSliderDown() else self._emit_current(self.opacity_requested, v / 100.0))
-        self.max_thickness.editingFinished.connect(
-            lambda: self._emit_current(self.max_thickness_requested, float(self.max_thickness.value())))
-        self.layer_material.activated.connect(
-            lambda _i: self._emit_current(self.material_requested, self.layer_material.currentText()))
+            lambda _v: None if self.opacity.isSliderDown() else self._field_edited("opacity"))
+        self.max_thickness.editingFinished.connect(lambda: self._field_edited("max_thickness"))
+        self.layer_material.activated.connect(lambda _i: self._field_edited("material"))
 
     def attach_document(self, doc: Document) -> MaskEditor:
         """Edit the selected layer's mask in ``doc`` (adds the mask editor below the layer's controls)."""
@@ -218,6 +220,37 @@ class LayersPanel(QWidget):
     def current_index(self) -> int:
         """The document index of the selected layer; -1 when none is selected."""
         return self.doc_index(self.list.currentRow())
+
+    def _field_values(self) -> dict[str, object]:
+        return {"opacity": self.opacity.value(), "max_thickness": float(self.max_thickness.value()),
+                "material": self.layer_material.currentText()}
+
+    def _field_edited(self, field: str) -> None:
+        """The user left or moved a field of the selected layer: request its value, if it is another."""
+        value = self._field_values()[field]
+        if self._updating or value == self._shown.get(field):
+            return  # e.g. tabbing through a field: nothing asked for
+        self._shown[field] = value
+        if field == "opacity":
+            self._emit_current(self.opacity_requested, self.opacity.value() / 100.0)
+        elif field == "max_thickness":
+            self._emit_current(self.max_thickness_requested, value)
+        else:
+            self._emit_current(self.material_requested, value)
+
+    def _show_selected(self) -> None:
+        """Show the selected layer's material, opacity and maximum thickness in its fields."""
+        i = self.current_index()
+        if not 0 <= i < len(self._layers):
+            self._shown = {}
+            return
+        lay = self._layers[i]
+        was, self._updating = self._updating, True
+        self.opacity.setValue(int(round(lay.opacity * 100)))
+        self.max_thickness.setValue(float(lay.max_thickness))
+        self.layer_material.setCurrentText(lay.material)
+        self._updating = was
+        self._shown = self._field_values()
 
     def _emit_current(self, signal: SignalInstance, *extra: object) -> None:
         if self._updating:
@@ -261,6 +294,7 @@ class LayersPanel(QWidget):
         self._updating = True
         self.list.clear()
         self._count = len(layers)
+        self._layers = list(layers)
         for lay in reversed(layers):
             item = QListWidgetItem(lay.name)
             item.setFlags(item.flags() | Qt.ItemFlag.ItemIsEditable | Qt.ItemFlag.ItemIsUserCheckable
@@ -275,10 +309,7 @@ class LayersPanel(QWidget):
         if self._count:
             keep = min(max(keep, 0), self._count - 1)
             self.list.setCurrentRow(self._count - 1 - keep)
-            lay = layers[keep]
-            self.opacity.setValue(int(round(lay.opacity * 100)))
-            self.max_thickness.setValue(float(lay.max_thickness))
-            self.layer_material.setCurrentText(lay.material)
+        self._show_selected()
         for w in (self.delete_button, self.import_button, self.export_button, self.opacity,
                   self.max_thickness, self.layer_material):
             w.setEnabled(self._count > 0)

@@ -1,9 +1,15 @@
 """The material library editor, a dock beside the studio's viewport.
 
-Search/filter, property edits (undoable), spectral plots with pyqtgraph (legends, units, hover read-out),
-a thickness slider for R0/T, swatches over black, white and the current skin, measurement import with a
-report of rejected rows, Duncan mixing with a live swatch, atomic save. Emits ``material_changed(name)``
-so the viewport updates live.
+Search/filter, property edits, spectral plots with pyqtgraph (legends, units, hover read-out), a thickness
+slider for R0/T, swatches over black, white and the current skin, measurement import with a report of
+rejected rows, Duncan mixing with a live swatch, atomic save. Emits ``material_changed(name)``.
+
+Every edit is the document's (:mod:`painting.document_materials`): one step of its undo history (Ctrl+Z,
+or this dock's Undo), and every layer of an edited material wears the edit, so the viewport shows it, the
+document is modified and a saved project embeds it. The library's own file is another matter: the studio
+starts from the shipped library with the user's saved library file over it (:func:`user_library_path`,
+:func:`app.session.load_library`); Save Library writes that file, and quitting with library edits not
+written offers to (:meth:`LibraryDock.offer_to_save`).
 """
 
 from __future__ import annotations
@@ -13,7 +19,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from PySide6.QtCore import QStandardPaths, Qt, Signal
-from PySide6.QtGui import QUndoStack
 from PySide6.QtWidgets import (
     QComboBox,
     QDoubleSpinBox,
@@ -32,19 +37,31 @@ from PySide6.QtWidgets import (
 
 from app.studio import dialogs
 from app.studio.layers_panel import colours_ready, material_rgb, swatch_icon, swatch_of
-from app.studio.library_edits import EDITABLE, Add, AddMany, Remove, Rename, SetAttr, duncan_mix
+from app.studio.library_edits import EDITABLE, duncan_mix
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from km.library import Library
+    from km.material import Material
     from km.measurements import ImportResult
+    from painting import ChangeEvent, Document
+
+
+def user_library_path() -> Path:
+    """The user's material library file (``library.json`` in the application's data folder).
+
+    The studio starts from the shipped library with this file's materials over it; Save Library writes
+    it (the shipped library is never overwritten).
+    """
+    base = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
+    return Path(base or ".") / "library.json"
+
 
 class LibraryDock(QWidget):
-    """The material library editor (see the module docstring); every edit is a step of ``undo_stack``.
+    """The material library editor (see the module docstring); every edit is a step of the document's history.
 
     Args:
-        library: the library to edit in place (the studio's; layers refer to its materials by name).
+        document: the document whose library (``document.library``, the studio's) is edited.
         skin_rgb: the skin's linear RGB in [0, 1], the background of the "over skin" swatch.
         parent: the parent widget.
 
@@ -55,12 +72,14 @@ class LibraryDock(QWidget):
 
     material_changed = Signal(object)  # a material name, or None when the set of materials changed
 
-    def __init__(self, library: Library, skin_rgb: tuple[float, float, float],
+    def __init__(self, document: Document, skin_rgb: tuple[float, float, float],
                  parent: QWidget | None = None) -> None:
         super().__init__(parent)
-        self.library = library
+        self.doc = document
+        self.library = document.library
         self.skin = skin_rgb
-        self.undo_stack = QUndoStack(self)
+        self._saved: list[Material] = self.library.materials  # as its file has them (see ``modified``)
+        self._edited = False
         self.current: str | None = None
         self._loading = False
         self.search = QLineEdit()
@@ -97,6 +116,7 @@ class LibraryDock(QWidget):
         self.category_edit.activated.connect(lambda _i: self.edit("category", self.category_edit.currentText()))
         self.category_edit.lineEdit().editingFinished.connect(
             lambda: self.edit("category", self.category_edit.currentText()))
+        self.doc.subscribe(self._on_doc_event)
         self.refresh_list()
 
     def _build_form(self) -> QFormLayout:
@@ -196,12 +216,12 @@ class LibraryDock(QWidget):
         self.undo_button = QPushButton("Undo")
         self.redo_button = QPushButton("Redo")
         self.save_button = QPushButton("Save Library")
-        self.undo_button.clicked.connect(self.undo_stack.undo)
-        self.redo_button.clicked.connect(self.undo_stack.redo)
-        self.undo_stack.canUndoChanged.connect(self.undo_button.setEnabled)
-        self.undo_stack.canRedoChanged.connect(self.redo_button.setEnabled)
-        self.undo_button.setEnabled(False)
-        self.redo_button.setEnabled(False)
+        self.undo_button.clicked.connect(lambda: self._document_edit("Undo", self.doc.undo))
+        self.redo_button.clicked.connect(lambda: self._document_edit("Redo", self.doc.redo))
+        self.undo_button.setToolTip("Undo the last edit (the document's: Edit → Undo)")
+        self.redo_button.setToolTip("Redo the last undone edit (the document's: Edit → Redo)")
+        self.undo_button.setEnabled(self.doc.can_undo)
+        self.redo_button.setEnabled(self.doc.can_redo)
         self.import_button.clicked.connect(self._ask_import)
         self.save_button.clicked.connect(lambda: self.save())
         buttons = QGridLayout()
@@ -363,20 +383,39 @@ class LibraryDock(QWidget):
         self._paint_swatch(self.mix_swatch, material_rgb(m))
         self.mix_swatch.setText(f"{100 - self.mix_amount.value()}:{self.mix_amount.value()}")
 
-    # ------------------------------------------------------------------ edits (undoable)
-    def changed(self, name: str | None, renamed_from: str | None = None) -> None:
+    # ------------------------------------------------------------------ edits (the document's, undoable)
+    def _on_doc_event(self, event: ChangeEvent) -> None:
+        if event.kind == "library":
+            self._edited = True
+            self.changed(event.detail or None)
+        elif event.kind == "history":
+            self.undo_button.setEnabled(self.doc.can_undo)
+            self.redo_button.setEnabled(self.doc.can_redo)
+
+    def changed(self, name: str | None) -> None:
         """After an edit of the library (or its undo): show ``name`` and tell the window (``material_changed``)."""
         if name is not None:
             self.current = name
         self.refresh_list()
         self.load_fields()
         self.update_views()
-        self.material_changed.emit(renamed_from or name)
-        if renamed_from:
-            self.material_changed.emit(name)
+        self.save_button.setText("Save Library*" if self.modified else "Save Library")
+        self.material_changed.emit(name)
+
+    def _document_edit(self, title: str, fn: Callable[[], object]) -> bool:
+        """Run the document edit ``fn``; one it refuses is an error message (the fields show the truth)."""
+        from core.errors import SheerError
+
+        try:
+            fn()
+        except (SheerError, ValueError) as exc:
+            dialogs.error(self, title, str(exc))
+            self.load_fields()
+            return False
+        return True
 
     def edit(self, attr: str, value: object) -> None:
-        """Set property ``attr`` (one of :data:`EDITABLE`) of the current material; undoable.
+        """Set property ``attr`` (one of :data:`EDITABLE`) of the current material; one document step.
 
         A value the material refuses (or a default thickness above the maximum) is an error message.
         """
@@ -394,24 +433,22 @@ class LibraryDock(QWidget):
             dialogs.error(self, "Material", "The default thickness cannot exceed the maximum thickness.")
             self.load_fields()
             return
-        try:
-            m.replace(**{attr: EDITABLE[attr](value)})
-        except ValueError as exc:
-            dialogs.error(self, "Material", str(exc))
-            self.load_fields()
-            return
-        self.undo_stack.push(SetAttr(self, self.current, attr, old, EDITABLE[attr](value)))
+        name = self.current
+        self._document_edit("Material", lambda: self.doc.replace_material(
+            name, m.replace(**{attr: EDITABLE[attr](value)}), f"{attr} of {name}"))
 
     def scale_spectrum(self, which: str, factor: float) -> None:
-        """Multiply the current material's K (absorption) or S (scattering) by ``factor``; undoable."""
+        """Multiply the current material's K (absorption) or S (scattering) by ``factor``; one step."""
         self.scales[which].blockSignals(True)
         self.scales[which].setValue(1.0)
         self.scales[which].blockSignals(False)
         if self._loading or self.current is None or abs(factor - 1.0) < 1e-6 or which not in ("S", "K"):
             return
-        m = self.library.get(self.current)
-        old = np.asarray(getattr(m, which), float)
-        self.undo_stack.push(SetAttr(self, self.current, which, old, old * factor))
+        name = self.current
+        m = self.library.get(name)
+        scaled = np.asarray(getattr(m, which), float) * factor
+        self._document_edit("Material", lambda: self.doc.replace_material(
+            name, m.replace(**{which: scaled}), f"{which} × {factor:g} of {name}"))
 
     def _rename(self) -> None:
         if self._loading or self.current is None:
@@ -419,31 +456,36 @@ class LibraryDock(QWidget):
         new = self.name_edit.text().strip()
         if not new or new == self.current:
             return
-        if new in self.library:
+        if new in self.library and new.casefold() != self.current.casefold():
             dialogs.error(self, "Rename material", f"A material named '{new}' already exists.")
             self.name_edit.setText(self.current)
             return
-        self.undo_stack.push(Rename(self, self.current, new))
+        old = self.current
+        if not self._document_edit("Rename material", lambda: self.doc.replace_material(
+                old, self.library.get(old).replace(name=new), f"rename {old}")):
+            self.name_edit.setText(old)
 
     def duplicate_current(self) -> None:
-        """Add a copy of the current material ("… copy", numbered when taken); undoable."""
+        """Add a copy of the current material ("… copy", numbered when taken); one document step."""
         if self.current is None:
             return
         base = f"{self.current} copy"
         name, n = base, 2
         while name in self.library:
             name, n = f"{base} {n}", n + 1
-        self.undo_stack.push(Add(self, self.library.get(self.current).replace(name=name)))
+        copy = self.library.get(self.current).replace(name=name)
+        self._document_edit("Duplicate material", lambda: self.doc.add_materials([copy], f"add {name}"))
 
     def delete_current(self) -> None:
-        """Delete the current material (refused while a layer uses it); undoable."""
+        """Delete the current material (refused while a layer uses it); one document step."""
         if self.current is None:
             return
         if self.in_use(self.current):
             dialogs.error(self, "Delete material",
                           f"'{self.current}' is used by a layer; change that layer's material first.")
             return
-        self.undo_stack.push(Remove(self, self.library.get(self.current)))
+        name = self.current
+        self._document_edit("Delete material", lambda: self.doc.remove_material(name))
 
     def create_variant(self) -> None:
         """Add the Duncan mix of the current material and the chosen partner at the slider's share; undoable."""
@@ -460,7 +502,7 @@ class LibraryDock(QWidget):
         except ValueError as exc:
             dialogs.error(self, "Shade variant", str(exc))
             return
-        self.undo_stack.push(Add(self, mixed))
+        self._document_edit("Shade variant", lambda: self.doc.add_materials([mixed], f"add {name}"))
 
     def _ask_import(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Import measurement", "",
@@ -503,7 +545,9 @@ class LibraryDock(QWidget):
             if m.name in self.library:
                 m = m.replace(name=self.library.unique_name(m.name))
             materials.append(m)
-        self.undo_stack.push(AddMany(self, materials, f"import {Path(path).name}"))
+        if not self._document_edit("Import measurement",
+                                   lambda: self.doc.add_materials(materials, f"import {Path(path).name}")):
+            return False
         if result.rejected:
             dialogs.info(self, "Import measurement",
                          f"Imported {len(materials)} material(s); {len(result.rejected)} rows or samples "
@@ -511,27 +555,67 @@ class LibraryDock(QWidget):
         return True
 
     def default_save_path(self) -> Path:
-        """Where a library is saved when it has no file of its own (the user's application data folder)."""
-        base = QStandardPaths.writableLocation(QStandardPaths.StandardLocation.AppDataLocation)
-        return Path(base or ".") / "library.json"
+        """Where a library is saved when it has no file of its own (:func:`user_library_path`)."""
+        return user_library_path()
 
-    def save(self, path: Path | None = None) -> Path | None:
-        """Save the library atomically: to ``path``, else its own file, else :meth:`default_save_path`.
+    def save_target(self) -> Path:
+        """The file Save Library writes: the library's own, else :meth:`default_save_path`.
 
-        The shipped default library is never overwritten (a user copy is saved instead). Returns the file
-        written, or None after showing why it could not be.
+        Never the shipped default library (a user copy is saved instead).
         """
         from core.assets import RESOURCES_DIR
 
         own = self.library.path
         if own is not None and Path(own).resolve().is_relative_to(RESOURCES_DIR):
             own = None  # the shipped default library is never overwritten: save a user copy
-        target = path or own or self.default_save_path()
+        return Path(own) if own is not None else self.default_save_path()
+
+    def save(self, path: Path | None = None) -> Path | None:
+        """Save the library atomically: to ``path``, else :meth:`save_target`.
+
+        Returns the file written, or None after showing why it could not be.
+        """
+        target = path or self.save_target()
         try:
             Path(target).parent.mkdir(parents=True, exist_ok=True)
             saved = self.library.save(Path(target))
         except (OSError, ValueError) as exc:
             dialogs.error(self, "Save library", f"The library could not be saved: {exc}")
             return None
-        self.undo_stack.setClean()
+        self._saved, self._edited = self.library.materials, False
+        self.save_button.setText("Save Library")
         return Path(saved or target)
+
+    # ------------------------------------------------------------------ unsaved edits
+    def changed_names(self) -> list[str]:
+        """The materials edited, added or removed since the library was loaded or saved (library order)."""
+        saved = {id(m) for m in self._saved}
+        now = self.library.materials
+        kept = {m.name.casefold() for m in now}
+        return ([m.name for m in now if id(m) not in saved]
+                + [m.name for m in self._saved if m.name.casefold() not in kept])
+
+    @property
+    def modified(self) -> bool:
+        """The library holds edits its file has not (an edit undone back to the saved state is none)."""
+        now = self.library.materials
+        return self._edited and (len(now) != len(self._saved)
+                                 or any(a is not b for a, b in zip(now, self._saved)))
+
+    def offer_to_save(self) -> bool:
+        """Before the studio quits: offer to save library edits not yet written (Save, Discard, Cancel).
+
+        Returns:
+            False when the user cancelled (or chose Save and the library could not be saved).
+        """
+        if not self.modified:
+            return True
+        names = self.changed_names()
+        shown = ", ".join(names[:4]) + (f" and {len(names) - 4} more" if len(names) > 4 else "")
+        answer = dialogs.ask(self.window(), "Unsaved library changes",
+                             f"The material library has changes not saved to {self.save_target()} ({shown}). "
+                             f"Save them?", {"save": "Save", "discard": "Discard", "cancel": "Cancel"},
+                             "save")
+        if answer == "cancel":
+            return False
+        return answer == "discard" or self.save() is not None

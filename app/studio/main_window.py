@@ -83,7 +83,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self.doc.subscribe(self._on_doc_event)
 
         self.viewport = Viewport(self.doc.head, self.doc.layout)
-        self.viewport.set_document(self.doc, self.library)  # its binding queues the document's changes
+        self.viewport.set_document(self.doc)  # its binding queues the changes; draws layers' own materials
         self.setCentralWidget(self.viewport)
         self.viewport.stroke_begin.connect(self._stroke_begin)
         self.viewport.stroke_move.connect(self._stroke_move)
@@ -107,7 +107,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self._wire_layers_panel()
         self.layers_panel.attach_document(self.doc)  # the selected layer's mask (issue #16)
         skin = self._skin_colour()
-        self.library_dock = LibraryDock(self.library, skin)
+        self.library_dock = LibraryDock(self.doc, skin)  # its edits are the document's (undoable, saved)
         self.library_dock.material_changed.connect(self._material_changed)
         self.library_dock.in_use = lambda name: any(lay.material == name for lay in self.doc.layers)
         layers_dock = self._add_dock("Layers", self.layers_panel, Qt.DockWidgetArea.LeftDockWidgetArea)
@@ -121,6 +121,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self.actions_by_id: dict[str, QAction] = {}
         self._build_actions()
         self.build_toolbars()
+        self.env_combo.currentTextChanged.connect(lambda _t: self.files.view_changed())  # saved in projects
         self.status = QLabel()
         self.statusBar().addPermanentWidget(self.status)
         self.frame_label = QLabel()
@@ -346,9 +347,11 @@ class StudioWindow(StudioToolbars, QMainWindow):
         """Light the head with the preset ``name`` (a key of ``app.settings.LIGHT_PRESETS``; daylight if unknown)."""
         p = LIGHT_PRESETS.get(name, LIGHT_PRESETS["daylight"])
         self.change_settings(light_preset=name, light_azimuth=p["azimuth"], light_elevation=p["elevation"])
+        self.files.view_changed()  # the lights are saved with the project
 
     def _light_moved(self, az: float, el: float) -> None:
         self.settings.light_azimuth, self.settings.light_elevation = az, el
+        self.files.view_changed()  # the key light is saved with the project
 
     def _brush(self, radius: float = 1.0, strength: float = 0.0) -> None:
         self.change_settings(brush_radius_mm=self.settings.brush_radius_mm * radius,
@@ -566,7 +569,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
     def closeEvent(self, event: QCloseEvent) -> None:
         """Offer to save unsaved changes (Cancel keeps the window), then save the settings and layout and release GL."""
         self._stroke_end()
-        if not self.files.offer_to_save():
+        if not self.files.offer_to_save() or not self.library_dock.offer_to_save():
             event.ignore()
             return
         self.files.close()

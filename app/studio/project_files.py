@@ -86,7 +86,7 @@ class ProjectFiles(QObject):
         self._show_title()
 
     def _on_doc_event(self, event: ChangeEvent) -> None:
-        if event.kind != "history":
+        if event.kind not in ("history", "library"):  # a library edit alone changes nothing the project saves
             self._window.setWindowModified(True)
 
     def _show_title(self) -> None:
@@ -97,6 +97,15 @@ class ProjectFiles(QObject):
         self._window.setWindowModified(modified)
         self._show_title()
         self.changed.emit()
+
+    def view_changed(self) -> None:
+        """What the project saves of the view changed (the key light, its preset, the environment).
+
+        The document is then modified (quitting asks) and due for an autosave.
+        """
+        self.autosaver.mark_dirty()
+        if not self._window.isWindowModified():
+            self.set_modified(True)
 
     # ------------------------------------------------------------------ new
     def new_project(self, look: str = "bare") -> None:

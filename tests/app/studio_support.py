@@ -89,8 +89,9 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     """An 800×600 studio window with its own settings file and recovery folder, shown and drawn once, and
     the driver that answers its dialogs.
 
-    On exit unsaved work is discarded (the real question, answered "Discard"), the environment restored
-    and, with ``check_gl_release``, the viewport must have released its GL objects without a GL error.
+    On exit unsaved work and library edits are discarded (the real questions, answered "Discard"), the
+    environment restored and, with ``check_gl_release``, the viewport must have released its GL objects
+    without a GL error.
     """
     from PySide6.QtCore import QSettings
     from pytestqt.qtbot import QtBot
@@ -115,7 +116,7 @@ def open_studio_window(qapp: object, tmp_path_factory: pytest.TempPathFactory, *
     try:
         yield win, driver
     finally:
-        driver.answers[:] = ["Discard"]
+        driver.answers[:] = ["Discard", "Discard"]  # unsaved work, then unsaved library edits (if asked)
         win.close()
         driver.stop()
         if old_recovery is None:

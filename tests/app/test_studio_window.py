@@ -339,7 +339,7 @@ def test_edit_material_updates_the_viewport(window: object, qtbot: object) -> No
     after = grab(window).astype(int)
     changed = (np.abs(after - before).max(axis=-1) > 8).mean()
     assert changed > 0.001, "editing the lipstick material did not change the viewport"
-    dock.undo_stack.undo()
+    window.undo()  # a library edit is a step of the document's history
     assert np.allclose(window.library.get(lip.material).K, k_before)
 
 
@@ -495,7 +495,7 @@ def test_library_duplicate_delete_mix_undo(window: object) -> None:
     dock.create_variant()
     assert len(window.library.names()) == len(names) + 1
     for _ in range(3):
-        dock.undo_stack.undo()
+        window.undo()
     assert list(window.library.names()) == names
 
 
@@ -531,7 +531,7 @@ def test_measurement_import_in_background_reports_rejected_rows(window: object, 
     assert any("Test Rouge" in name for name in window.library.names())
     qtbot.waitUntil(lambda: bool(driver.shown), timeout=5000)
     assert "rejected" in driver.shown[-1].text
-    window.library_dock.undo_stack.undo()
+    window.undo()
     assert len(window.library.names()) == n
 
 
