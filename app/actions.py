@@ -53,6 +53,8 @@ STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("file.export_maps_exr", "Export Layer Maps (&EXR)…", "File", "", "has_layers"),
     ActionSpec("file.export_image", "Export Rendered &Image…", "File", "Ctrl+Shift+E"),
     ActionSpec("file.export_gltf", "Export &glTF/GLB…", "File", "Ctrl+Alt+E"),
+    ActionSpec("file.export_ora", "Export &OpenRaster (GIMP, Krita)…", "File", "", "has_layers",
+               tip="each cosmetic as its colour with its coverage as alpha, and the thickness maps as data layers"),
     ActionSpec("file.render_catalogue", "Render &Catalogue…", "File", "",
                tip="render a catalogue spec (shades × faces × lights × views) in the background"),
     ActionSpec("file.quit", "&Quit", "File", "Ctrl+Q"),
@@ -81,6 +83,8 @@ STUDIO_ACTIONS: tuple[ActionSpec, ...] = (
                tip="interactive frames at most three quarters of the resolution (the default)"),
     ActionSpec("view.scale_100", "While Moving: Full Resolution", "View", checkable=True,
                tip="interactive frames up to full resolution (a strong GPU)"),
+    ActionSpec("looks.gallery", "Look &Gallery…", "Looks", "Ctrl+L",
+               tip="pick a ready-made look from thumbnails: it is added to the head as new layers (one undo step)"),
     ActionSpec("help.shortcuts", "&Keyboard Shortcuts", "Help", "F1"),
     ActionSpec("help.about", "&About Sheer", "Help"),
 )
@@ -91,7 +95,7 @@ KIOSK_ACTIONS: tuple[ActionSpec, ...] = (
     ActionSpec("view.split", "Before/After", "Kiosk", "B", checkable=True),
 )
 
-MENU_ORDER: tuple[str, ...] = ("File", "Edit", "Brush", "View", "Help")
+MENU_ORDER: tuple[str, ...] = ("File", "Edit", "Brush", "Looks", "View", "Help")
 
 
 def is_enabled(spec: ActionSpec, context: Mapping[str, bool]) -> bool:

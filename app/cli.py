@@ -68,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     args_list = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
-    if not args_list or args_list[0].startswith("--project") or args_list[0] == "--head":
+    if not args_list or args_list[0].startswith(("--project", "--look", "--head", "--resolution")):  # the studio's
         args_list = ["studio", *args_list]
     try:
         args = parser.parse_args(args_list)

@@ -29,7 +29,8 @@ from painting.maps_io import MAX_THICKNESS_UM
 from painting.stroke import Stroke
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
+    from contextlib import AbstractContextManager
     from pathlib import Path
 
     import trimesh
@@ -470,13 +471,46 @@ class Document(MaskEditing, MaterialEditing):
         return True
 
     def _replay(self, step: Step, detail: str) -> None:
+        self._replay_quietly(step, detail)
+        self.emit(ChangeEvent("history"))
+
+    def _replay_quietly(self, step: Step, detail: str) -> None:
+        """Undo (``detail`` "undo") or redo ``step``'s edits, without the "history" event."""
         for delta in step.deltas:
             delta.swap()
             self.emit(ChangeEvent("paint", delta.layer.id, tuple(map(tuple, delta.tiles.tolist())), detail))
         fn = step.undo_fn if detail == "undo" else step.redo_fn
         if fn is not None:
             fn()
-        self.emit(ChangeEvent("history"))
+
+    def grouped(self, label: str) -> AbstractContextManager[None]:
+        """``with doc.grouped(label):`` every step made inside becomes one undo step called ``label``.
+
+        E.g. a look added as new layers (a step per layer and per stroke) is undone and redone at once. The
+        steps are grouped when the block ends, also when it raises (what was done is one step to undo).
+        """
+        from contextlib import contextmanager
+
+        @contextmanager
+        def group() -> Iterator[None]:
+            mark = self.history.undo_step
+            try:
+                yield
+            finally:
+                steps = self.history.take_since(mark)
+
+                def undo() -> None:
+                    for s in reversed(steps):
+                        self._replay_quietly(s, "undo")
+
+                def redo() -> None:
+                    for s in steps:
+                        self._replay_quietly(s, "redo")
+
+                if steps:
+                    self.push_step(Step(label, undo_fn=undo, redo_fn=redo, extra_bytes=sum(s.nbytes for s in steps)))
+
+        return group()
 
     def clear_history(self) -> None:
         """Forget every undo and redo step."""

@@ -137,6 +137,18 @@ class History:
             self.dropped += 1
         self.peak_bytes = max(self.peak_bytes, self._bytes)
 
+    def take_since(self, mark: Step | None) -> list[Step]:
+        """Remove and return, oldest first, the steps done after ``mark`` (an earlier :attr:`undo_step`).
+
+        ``None`` (there was no step then), or a mark the budget has dropped since, takes every step.
+        """
+        undo = list(self._undo)
+        start = next((i + 1 for i in range(len(undo) - 1, -1, -1) if undo[i] is mark), 0) if mark is not None else 0
+        taken = undo[start:]
+        for _ in taken:
+            self._bytes -= self._undo.pop().nbytes
+        return taken
+
     def pop_undo(self) -> Step | None:
         """The last step, moved to the redo stack (the caller replays it backwards), or None."""
         if not self._undo:

@@ -1,7 +1,7 @@
 """The studio's exports and layer-map transfers.
 
-File → Export Layer Maps / glTF / Rendered Image, and a layer's thickness map exported or imported from
-the Layers panel.
+File → Export Layer Maps / glTF / Rendered Image / OpenRaster, and a layer's thickness map exported or
+imported from the Layers panel.
 
 :class:`ExportActions` asks where (file dialogs) and runs the work of :mod:`app.export` in worker threads
 with a progress dialog; results go to the status bar, failures to a message box.
@@ -11,12 +11,22 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from PySide6.QtCore import QObject, Signal
-from PySide6.QtWidgets import QFileDialog, QInputDialog, QMainWindow
+from PySide6.QtWidgets import (
+    QComboBox,
+    QDialog,
+    QDialogButtonBox,
+    QFileDialog,
+    QFormLayout,
+    QLabel,
+    QMainWindow,
+    QWidget,
+)
 
 from app.export import export_gltf, export_maps, render_image
 from app.studio import dialogs
@@ -32,6 +42,60 @@ if TYPE_CHECKING:
 
 #: The sizes File → Export Rendered Image offers (width×height in pixels; any other may be typed).
 IMAGE_SIZES: tuple[str, ...] = ("1280x720", "1920x1080", "2048x2048", "3840x2160")
+#: The side of a rendered image, in pixels (:func:`app.export.render_image` refuses others).
+IMAGE_SIDE = (16, 8192)
+
+
+def parse_image_size(text: str) -> tuple[int, int] | None:
+    """``"1920x1080"`` (or ``1920 × 1080``) → (1920, 1080); None unless both sides are within :data:`IMAGE_SIDE`."""
+    match = re.fullmatch(r"\s*(\d{1,5})\s*[xX×*]\s*(\d{1,5})\s*", text)
+    if match is None:
+        return None
+    w, h = int(match.group(1)), int(match.group(2))
+    lo, hi = IMAGE_SIDE
+    return (w, h) if lo <= w <= hi and lo <= h <= hi else None
+
+
+class ImageSizeDialog(QDialog):
+    """File → Export Rendered Image's first question, the size: one of :data:`IMAGE_SIZES` or a typed one.
+
+    OK stays disabled, and a line says why, until the text is a size (``WIDTHxHEIGHT``, each side within
+    :data:`IMAGE_SIDE`): "abc" is refused here, before any file is asked for.
+    """
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Export Rendered Image")
+        self.setMinimumWidth(420)  # the title in full, in any window manager's title bar
+        self.combo = QComboBox()
+        self.combo.setEditable(True)
+        self.combo.addItems(list(IMAGE_SIZES))
+        self.combo.setToolTip("width × height in pixels, e.g. 1920x1080 (16 to 8192 on a side)")
+        self.hint = QLabel()
+        self.buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
+        self.buttons.accepted.connect(self.accept)
+        self.buttons.rejected.connect(self.reject)
+        form = QFormLayout(self)
+        form.addRow("Size (pixels)", self.combo)
+        form.addRow(self.hint)
+        form.addRow(self.buttons)
+        self.combo.currentTextChanged.connect(self._check)
+        self._check(self.combo.currentText())
+
+    def size_chosen(self) -> tuple[int, int] | None:
+        """The size typed or chosen, or None while it is not one."""
+        return parse_image_size(self.combo.currentText())
+
+    def _check(self, text: str) -> None:
+        ok = parse_image_size(text) is not None
+        self.buttons.button(QDialogButtonBox.StandardButton.Ok).setEnabled(ok)
+        lo, hi = IMAGE_SIDE
+        self.hint.setText("width x height in pixels" if ok else f"Type a size like 1920x1080 ({lo}–{hi} pixels a side).")
+
+    def accept(self) -> None:
+        """Close with OK, only with a valid size (Enter in the field cannot pass a wrong one)."""
+        if self.size_chosen() is not None:
+            super().accept()
 
 
 class ExportActions(QObject):
@@ -127,18 +191,46 @@ class ExportActions(QObject):
 
     # ------------------------------------------------------------------ rendered image
     def ask_export_image(self) -> None:
-        """Ask for a size and a file, then :meth:`export_image`."""
-        size, ok = QInputDialog.getItem(self._window, "Rendered image", "Size", list(IMAGE_SIZES), 0, True)
-        if not ok:
+        """Ask for a size, then a file, then :meth:`export_image`.
+
+        The size's dialog (:class:`ImageSizeDialog`) accepts only a valid one, before any file is asked for.
+        """
+        dialog = ImageSizeDialog(self._window)
+        if not dialog.exec():
             return
+        size = dialog.size_chosen()
         path, _ = QFileDialog.getSaveFileName(self._window, "Export rendered image", "render.png", "PNG (*.png)")
+        if path and size is not None:
+            self.export_image(Path(path), size)
+
+    # ------------------------------------------------------------------ OpenRaster
+    def ask_export_ora(self) -> None:
+        """Ask for a file, then :meth:`export_ora` there."""
+        path, _ = QFileDialog.getSaveFileName(self._window, "Export OpenRaster", "layers.ora",
+                                              "OpenRaster (*.ora)")
         if path:
-            try:
-                w, h = (int(x) for x in size.lower().split("x"))
-            except ValueError:
-                dialogs.error(self._window, "Export image", f"'{size}' is not a size like 1920x1080.")
-                return
-            self.export_image(Path(path), (w, h))
+            self.export_ora(Path(path))
+
+    def export_ora(self, path: Path, on_done: Callable[[object], None] | None = None) -> None:
+        """Write the layers as OpenRaster for GIMP and Krita, in a worker.
+
+        :func:`project.export.document_ora_bytes`: each cosmetic in its colour with its coverage as alpha,
+        and the thickness maps as hidden data layers.
+        """
+        from core.atomicio import atomic_write_bytes
+        from project.export import document_ora_bytes
+
+        doc, name = self.doc, Path(path).stem
+        layers = [(lay.name, lay.material_object, np.array(lay.effective_thickness()), float(lay.max_thickness),
+                   float(lay.opacity), bool(lay.visible)) for lay in doc.layers]  # copies: painting goes on
+
+        def job(progress: Callable[[float, str], None], _cancelled: Callable[[], bool]) -> Path:
+            progress(0.1, "colouring the layers")
+            atomic_write_bytes(Path(path), document_ora_bytes(name, layers))
+            return Path(path)
+
+        run_task(self._window, "Exporting OpenRaster", job, on_done or self._report("OpenRaster exported"),
+                 self._fail("Export OpenRaster"))
 
     def export_image(self, path: Path, size: tuple[int, int],
                      on_done: Callable[[object], None] | None = None) -> None:

@@ -30,6 +30,7 @@ from PySide6.QtWidgets import (
     QLineEdit,
     QListWidget,
     QPushButton,
+    QSizePolicy,
     QSlider,
     QVBoxLayout,
     QWidget,
@@ -171,6 +172,9 @@ class LibraryDock(QWidget):
         self.coef_holder = QVBoxLayout()
         self.readout = QLabel("Hover a plot for values")
         self.readout.setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+        # wrapped within the dock's width: a long read-out must never widen the dock (and shrink the view)
+        self.readout.setWordWrap(True)
+        self.readout.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
         self.thickness = QSlider(Qt.Orientation.Horizontal)
         self.thickness.setRange(1, 200)
         self.thickness.setValue(10)
@@ -301,18 +305,22 @@ class LibraryDock(QWidget):
         import pyqtgraph as pg
 
         pg.setConfigOptions(antialias=True)
+        from app.studio.plots import legend_below, plain_axis
+
         self.refl_plot = pg.PlotWidget()
         self.refl_plot.setLabel("bottom", "wavelength", units="nm")
-        self.refl_plot.setLabel("left", "reflectance / transmittance (fraction)")
+        plain_axis(self.refl_plot, "left", "R, T (fraction)")  # (a longer label is cut at this height)
         self.refl_plot.setYRange(0, 1)
-        self.refl_plot.addLegend(offset=(5, 5))
+        legend_below(self.refl_plot, 2)
         self.coef_plot = pg.PlotWidget()
         self.coef_plot.setLabel("bottom", "wavelength", units="nm")
-        self.coef_plot.setLabel("left", "S, K (per mm)")
-        self.coef_plot.addLegend(offset=(5, 5))
+        plain_axis(self.coef_plot, "left", "S, K (mm⁻¹)")
+        legend_below(self.coef_plot, 2)
         for p in (self.refl_plot, self.coef_plot):
             p.setMinimumHeight(150)
             p.showGrid(x=True, y=True, alpha=0.2)
+        self.refl_plot.setMinimumHeight(230)  # its legend's rows under it, and its label whole
+        self.coef_plot.setMinimumHeight(180)
         self.refl_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.refl_plot, pos))
         self.coef_plot.scene().sigMouseMoved.connect(lambda pos: self._hover(self.coef_plot, pos))
         self.refl_holder.addWidget(self.refl_plot)
@@ -371,8 +379,8 @@ class LibraryDock(QWidget):
             return
         x = plot.plotItem.vb.mapSceneToView(pos).x()
         curves = self._curves if plot is self.refl_plot else self._coefs
-        vals = ", ".join(f"{k} {np.interp(x, self._wl, v):.3f}" for k, v in curves.items())
-        self.readout.setText(f"λ {x:.0f} nm: {vals}")
+        vals = " · ".join(f"{k} {np.interp(x, self._wl, v):.3f}" for k, v in curves.items())
+        self.readout.setText(f"λ {x:.0f} nm: {vals}")  # (wrapped within the dock, see _build_views)
 
     def _update_mix(self) -> None:
         other = self.mix_with.currentText()

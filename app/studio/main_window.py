@@ -12,13 +12,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from PySide6.QtCore import QByteArray, QSettings, Qt, QTimer
-from PySide6.QtGui import QAction, QCloseEvent, QKeySequence
+from PySide6.QtCore import QByteArray, QEvent, QObject, QSettings, QSize, Qt, QTimer
+from PySide6.QtGui import QAction, QActionGroup, QCloseEvent, QGuiApplication, QKeySequence, QResizeEvent
 from PySide6.QtWidgets import (
+    QApplication,
     QDockWidget,
     QFileDialog,
+    QFrame,
     QLabel,
     QMainWindow,
+    QMenu,
+    QScrollArea,
     QWidget,
 )
 
@@ -44,7 +48,7 @@ from app.studio.toolbars import WINDOW_STATE_VERSION, StudioToolbars
 from app.view.viewport import Viewport
 from app.workers import run_task
 from painting import Brush
-from render.view import RENDER_MODES
+from render.view import RENDER_MODES, debug_views
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -54,6 +58,53 @@ if TYPE_CHECKING:
     from painting import ChangeEvent, Stroke
 
 log = logging.getLogger("sheer.app")
+
+
+class PanelScroll(QScrollArea):
+    """A dock's panel that scrolls up and down: as wide as the panel needs, as short as the screen needs.
+
+    The panel fills the dock when there is room; when there is not, it keeps its minimum height and
+    scrolls. (QScrollArea's own resizing gives a panel with a wrapped label its preferred height,
+    which stretched its lists and tables far past the dock.)
+    """
+
+    def __init__(self, panel: QWidget) -> None:
+        super().__init__()
+        self.setFrameShape(QFrame.Shape.NoFrame)
+        self.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        self.setWidget(panel)
+        panel.installEventFilter(self)
+
+    def minimumSizeHint(self) -> QSize:  # noqa: N802 (Qt's name)
+        """The panel's minimum width (and the scroll bar's), and a height of a few rows."""
+        panel = self.widget()
+        width = panel.minimumSizeHint().width() if panel is not None else 0
+        return QSize(width + self.verticalScrollBar().sizeHint().width(), 120)
+
+    def fit_panel(self) -> None:
+        """Size the panel to the dock: its width, and its height unless the panel needs more."""
+        panel, view = self.widget(), self.viewport()
+        if panel is None:
+            return
+        least = panel.minimumSizeHint()
+        width = max(view.width(), least.width())
+        height = max(view.height(), least.height())
+        layout = panel.layout()
+        if layout is not None and layout.hasHeightForWidth():
+            height = max(height, layout.minimumHeightForWidth(width))
+        if panel.size() != QSize(width, height):
+            panel.resize(width, height)
+
+    def resizeEvent(self, event: QResizeEvent) -> None:  # noqa: N802 (Qt's name)
+        """Fit the panel to the new size."""
+        super().resizeEvent(event)
+        self.fit_panel()
+
+    def eventFilter(self, watched: QObject, event: QEvent) -> bool:  # noqa: N802 (Qt's name)
+        """Fit the panel again when its layout changes (a row shown or hidden, a longer text)."""
+        if watched is self.widget() and event.type() == QEvent.Type.LayoutRequest:
+            QTimer.singleShot(0, self.fit_panel)
+        return False
 
 
 class StudioWindow(StudioToolbars, QMainWindow):
@@ -140,11 +191,10 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self._frame_timer.start()
 
         geo = self.qsettings.value("window/geometry")
-        if isinstance(geo, QByteArray):
-            self.restoreGeometry(geo)
-        else:
-            self.resize(1280, 800)
+        if not (isinstance(geo, QByteArray) and self.restoreGeometry(geo)):
+            self.resize(1600, 1000)  # (fit_to_screen makes it smaller on a smaller screen)
         self.restore_layout()
+        self.fit_to_screen()
         self.refresh_layers()
         self.apply()
         self.setWindowModified(False)
@@ -152,11 +202,37 @@ class StudioWindow(StudioToolbars, QMainWindow):
 
     # ------------------------------------------------------------------ construction
     def _add_dock(self, title: str, widget: QWidget, area: Qt.DockWidgetArea) -> QDockWidget:
+        """A dock holding ``widget`` in a :class:`PanelScroll`.
+
+        A panel taller than the screen scrolls, so the window's minimum height is not the tallest panel's
+        (the library's made it 978 px, taller than a laptop's screen).
+        """
         dock = QDockWidget(title, self)
         dock.setObjectName(title.replace(" ", "_").lower())
-        dock.setWidget(widget)
+        scroll = PanelScroll(widget)
+        scroll.setObjectName(f"{dock.objectName()}_scroll")
+        dock.setWidget(scroll)
         self.addDockWidget(area, dock)
         return dock
+
+    def fit_to_screen(self) -> None:
+        """Keep the window (its frame and title bar too) within its screen's available area.
+
+        Centred there when it is not already inside: the first window, or one restored on a smaller screen.
+        """
+        screen = self.screen() or QGuiApplication.primaryScreen()
+        if screen is None:
+            return
+        area = screen.availableGeometry()
+        title = 32  # a window manager's title bar and borders (not known before the window is shown)
+        w = min(self.width(), area.width() - 8)
+        h = min(self.height(), area.height() - title - 8)
+        self.resize(max(w, self.minimumSizeHint().width()), max(h, self.minimumSizeHint().height()))
+        frame = self.frameGeometry()
+        frame.setHeight(self.height() + title)
+        if not area.contains(frame):
+            self.move(area.x() + max((area.width() - self.width()) // 2, 0),
+                      area.y() + max((area.height() - self.height() - title) // 2, 0))
 
     def context(self) -> dict[str, bool]:
         """The predicates actions are enabled by (``ActionSpec.enabled_when``), as they are now."""
@@ -173,6 +249,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
             "file.export_maps": self.exports.ask_export_maps,
             "file.export_maps_exr": lambda: self.exports.ask_export_maps("exr"),
             "file.export_image": self.exports.ask_export_image, "file.export_gltf": self.exports.ask_export_gltf,
+            "file.export_ora": self.exports.ask_export_ora, "looks.gallery": lambda: self.looks.show_gallery(),
             "file.quit": self.close, "file.open_face": self.ask_open_face, "file.close_face": self.close_face,
             "file.render_catalogue": lambda: CatalogueDialog.open_for(self),
             "view.mode_fast": lambda: self.set_render_mode("fast"),
@@ -213,8 +290,29 @@ class StudioWindow(StudioToolbars, QMainWindow):
             menus["File"].insertAction(file_actions[after], act)
         else:
             menus["File"].addAction(act)
-        self.recent_menu = menus["File"].addMenu("Recent Projects")
+        self.recent_menu = QMenu("Recent &Projects", self)  # above Quit, as desktop applications list them
+        menus["File"].insertMenu(self.actions_by_id["file.quit"], self.recent_menu)
+        menus["File"].insertSeparator(self.actions_by_id["file.quit"])
+        self.developer_actions = self._build_developer_menu(menus["View"])
+        from app.studio.looks_menu import LooksMenu
+
+        self.looks = LooksMenu(self, menus["Looks"])
         self._update_actions()
+
+    def _build_developer_menu(self, view_menu: QMenu) -> list[QAction]:
+        """View → Developer: the renderer's debug views (albedo, thickness…), one checked at a time."""
+        menu = view_menu.addMenu("&Developer")
+        menu.setToolTipsVisible(True)
+        group = QActionGroup(self)
+        acts = []
+        for i, name in enumerate(debug_views()):
+            act = menu.addAction("Debug View: None (the image)" if i == 0 else f"Debug View: {name}")
+            act.setObjectName(f"view.debug_{name}")
+            act.setCheckable(True)
+            act.setActionGroup(group)
+            act.triggered.connect(lambda _c=False, index=i: self.change_settings(debug_view=index))
+            acts.append(act)
+        return acts
 
     def _prepare_painting(self) -> None:
         """Load the bake's texel index and the brush kernels in the background.
@@ -231,6 +329,9 @@ class StudioWindow(StudioToolbars, QMainWindow):
         ctx = self.context()
         for spec in STUDIO_ACTIONS:
             self.actions_by_id[spec.id].setEnabled(is_enabled(spec, ctx))
+        self._update_undo()
+        for i, act in enumerate(getattr(self, "developer_actions", [])):
+            act.setChecked(i == self.settings.debug_view)
         s = self.settings
         for aid, on in (("brush.eraser", s.brush_mode == "erase"), ("brush.smooth", s.brush_mode == "smooth"),
                         ("brush.mirror", s.brush_mirror), ("view.split", s.split > 0),
@@ -247,6 +348,14 @@ class StudioWindow(StudioToolbars, QMainWindow):
             act = self.recent_menu.addAction(p)
             act.triggered.connect(lambda _c=False, path=p: self.files.offer_to_save()
                                   and self.files.open_project(Path(path), background=True))
+
+    def _update_undo(self) -> None:
+        """Edit → Undo and Redo: enabled when there is a step, named after it ("Undo stroke on Lipstick")."""
+        for aid, verb, label, can in (("edit.undo", "&Undo", self.doc.history.undo_label, self.doc.can_undo),
+                                      ("edit.redo", "&Redo", self.doc.history.redo_label, self.doc.can_redo)):
+            act = self.actions_by_id[aid]
+            act.setEnabled(can)
+            act.setText(f"{verb} {label}" if label else verb)
 
     def _refresh_swatches(self) -> None:
         """Once km's colour maths is loaded (with the renderer): the real swatches replace the placeholders."""
@@ -286,9 +395,6 @@ class StudioWindow(StudioToolbars, QMainWindow):
             combo.blockSignals(True)
             combo.setCurrentText(text)
             combo.blockSignals(False)
-        self.debug_combo.blockSignals(True)
-        self.debug_combo.setCurrentIndex(s.debug_view)
-        self.debug_combo.blockSignals(False)
         self.mirror_check.blockSignals(True)
         self.mirror_check.setChecked(s.brush_mirror)
         self.mirror_check.blockSignals(False)
@@ -318,8 +424,7 @@ class StudioWindow(StudioToolbars, QMainWindow):
         credit = self.doc.head.credit
         self.credit_label.setText(f"Head: {credit}" if credit else "")
         self.status.setText(f"brush {s.brush_radius_mm:.1f} mm · strength {s.brush_strength:.2f} · "
-                            f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''} · renderer: "
-                            f"{BACKENDS['renderer']}")
+                            f"{s.brush_mode}{' · mirror' if s.brush_mirror else ''}")
         vp.update()
 
     _env_cache: dict[str, tuple[float, float, float]] = {}
@@ -437,7 +542,9 @@ class StudioWindow(StudioToolbars, QMainWindow):
 
     def _on_doc_event(self, event: ChangeEvent) -> None:
         if event.kind == "history":
-            return  # the undo state: updated at a stroke's end, by undo/redo and by whoever cleared it
+            if self._stroke is None:  # (a stroke's own steps: its end updates the menus)
+                self._update_undo()
+            return
         if event.kind == "paint":
             # every dab: the viewport's binding queues its tiles itself (menus and undo state change at
             # the stroke's end, which updates them; undo/redo update them themselves)
@@ -494,6 +601,29 @@ class StudioWindow(StudioToolbars, QMainWindow):
         self.selected_layer = len(self.doc.layers)
         self.layer_command(lambda: self.doc.add_layer(material, name=material,
                                                    max_thickness=float(m.max_thickness_um)))
+
+    def add_look(self, name: str) -> bool:
+        """Looks → a built-in look: its layers on top of the document's, painted by its strokes, as one undo step.
+
+        The top one is selected. Returns whether it was added (a look that cannot be painted is a message).
+        """
+        from core.errors import SheerError
+        from painting.looks import apply_look
+
+        QApplication.setOverrideCursor(Qt.CursorShape.WaitCursor)
+        try:
+            with self.doc.grouped(f"look {name}"):
+                added = apply_look(self.doc, name, clear=False)
+        except SheerError as exc:
+            dialogs.error(self, "Add look", f"The look '{name}' could not be added: {exc}")
+            return False
+        finally:
+            QApplication.restoreOverrideCursor()
+        self.selected_layer = len(self.doc.layers) - 1
+        self.refresh_layers()
+        self._update_actions()
+        self.statusBar().showMessage(f"Added the look '{name}' ({len(added)} layers); Ctrl+Z takes it off.", 6000)
+        return True
 
     def move_layer(self, src: int, dst: int) -> None:
         """Move the layer at document index ``src`` to ``dst`` (0 = bottom) and select it."""

@@ -183,7 +183,11 @@ class NewFromPhoto:
         win.face_path = captured.folder
         win.files.name = f"{old.files.name} on {captured.document.head.name}"
         win.files.set_modified(True)  # a new, unsaved document
-        win.resize(old.size())
+        # the same window: its size, place, docks and the dock tab in front (e.g. the Shade Finder)
+        from app.studio.toolbars import WINDOW_STATE_VERSION
+
+        win.restoreGeometry(old.saveGeometry())
+        win.restoreState(old.saveState(WINDOW_STATE_VERSION), WINDOW_STATE_VERSION)
         win.show()
         win.apply()
         _OPENED.append(win)

@@ -50,6 +50,8 @@ TARGETS = ("own", "lighter", "darker", "warmer", "cooler")
 #: skins of the studio's coverage run (the CLI's default is 1,000)
 COVERAGE_SKINS = 400
 _COLUMNS = ("", "Shade", "µm", "ΔE00", "D65", "store", "A", "Note")
+#: the spectra plot's pens: the fitted skin's, and the made-up skin's (dashed)
+SKIN_PEN, SHADE_PEN = "#e0a050", "#50a0e0"
 
 
 class ShadeFinder(QWidget):
@@ -250,17 +252,30 @@ class ShadeFinder(QWidget):
             return
         import pyqtgraph as pg  # imported on first use: it costs about a second
 
+        from app.studio.plots import legend_below, plain_axis
+
         self.spectra_plot = pg.PlotWidget()
         self.spectra_plot.setLabel("bottom", "wavelength", units="nm")
-        self.spectra_plot.setLabel("left", "reflectance (fraction)")
-        self.spectra_plot.addLegend(offset=(5, 5))
+        plain_axis(self.spectra_plot, "left", "reflectance")  # a fraction (0.2–0.6), never "200–600"
+        legend_below(self.spectra_plot, 3)
+        self.spectra_plot.setMinimumHeight(170)
+        self.spectra_plot.showGrid(x=True, y=True, alpha=0.2)
+        self.plots.addWidget(self.spectra_plot)
+
+    def _build_coverage_plot(self) -> None:
+        """The coverage's plot, made with the first coverage: until then there is nothing to plot."""
+        if self.coverage_plot is not None:
+            return
+        import pyqtgraph as pg
+
+        from app.studio.plots import plain_axis
+
         self.coverage_plot = pg.PlotWidget()
-        self.coverage_plot.setLabel("bottom", "hue angle h_ab (degrees)")
-        self.coverage_plot.setLabel("left", "L* (lightness)")
-        for p in (self.spectra_plot, self.coverage_plot):
-            p.setMinimumHeight(140)
-            p.showGrid(x=True, y=True, alpha=0.2)
-            self.plots.addWidget(p)
+        plain_axis(self.coverage_plot, "bottom", "hue angle h_ab (°)")
+        plain_axis(self.coverage_plot, "left", "L*")
+        self.coverage_plot.setMinimumHeight(160)
+        self.coverage_plot.showGrid(x=True, y=True, alpha=0.2)
+        self.plots.addWidget(self.coverage_plot)
 
     def _plot_spectra(self) -> None:
         import pyqtgraph as pg
@@ -271,11 +286,12 @@ class ShadeFinder(QWidget):
         self._build_plots()
         wl = self.fit.grid.wavelengths
         self.spectra_plot.clear()
-        self.spectra_plot.plot(wl, self.fit.reflectance, pen=pg.mkPen("#c08060", width=2), name="fitted skin")
+        # fixed, distinct colours: the shade's own colour is a skin tone too, as the skin's is
+        self.spectra_plot.plot(wl, self.fit.reflectance, pen=pg.mkPen(SKIN_PEN, width=2), name="fitted skin")
         if self._target_r is not None and self.target.currentText() != "own":
             self.spectra_plot.plot(wl, self._target_r, pen=pg.mkPen("#909090", width=1, style=Qt.PenStyle.DashLine),
                                    name="target")
-        self.spectra_plot.plot(wl, shade.reflectance, pen=pg.mkPen(shade.swatch_hex, width=2),
+        self.spectra_plot.plot(wl, shade.reflectance, pen=pg.mkPen(SHADE_PEN, width=2, style=Qt.PenStyle.DashLine),
                                name=f"{shade.name} @ {shade.thickness_um:.0f} µm")
 
     def start_coverage(self) -> None:
@@ -302,6 +318,7 @@ class ShadeFinder(QWidget):
 
         self.coverage = cov
         self._build_plots()
+        self._build_coverage_plot()
         cmap = pg.colormap.get("viridis")
         scale = np.clip(cov.best_de2000 / max(2.0 * cov.threshold, 1e-9), 0.0, 1.0)
         colours = cmap.map(1.0 - scale, mode="qcolor")

@@ -1,11 +1,13 @@
 """The studio's toolbars: the brush bar and, on a row of its own under it, the view bar.
 
 The brush bar: radius, strength, hardness, mode, mirror, the facial region the brush keeps to (region,
-inside/avoid, Fill); the view bar: light, HDR environment, render mode, debug view, Before|After and the
-Regions overlay's menu (outlines drawn over the view). Two rows, as desktop editors set a tool's options
-apart from the view's: in one row the two bars need 1720 px since the brush bar's regions (issue #16), so
-at the studio's 1600 px (the screenshots') the Before|After slider hid behind the toolbar's » extension
-button. In two rows every control shows down to the window's minimum width: 856 px with the docks (the
+inside/avoid, Fill); the view bar: light, HDR environment, render mode, Before|After and the Regions
+overlay's menu (outlines drawn over the view). Every control says what it does in its tooltip
+(:data:`TOOLTIPS`); the renderer's debug views are View → Developer's, not the view bar's.
+
+Two rows, as desktop editors set a tool's options apart from the view's: in one row the two bars need
+1720 px since the brush bar's regions (issue #16), so at the studio's 1600 px (the screenshots') the
+Before|After slider hid behind the toolbar's » extension button. In two rows every control shows down to the window's minimum width: 856 px with the docks (the
 brush bar needs 794 px and the view bar 818–846 px with Xvfb's default font; the brush bar needed 967 px
 while it held the Regions menu and a "Region" label, so below 967 px its region picker hid behind »), and
 without them no less than the toolbars need (:class:`WholeToolBar`).
@@ -19,11 +21,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from PySide6.QtCore import QByteArray, QSize, Qt
-from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QLabel, QSlider, QToolBar
+from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QLabel, QSlider, QToolBar, QWidget
 
 from app.settings import ENVIRONMENTS, LIGHT_PRESETS
 from app.studio.region_picker import RegionPicker
-from render.view import RENDER_MODES, debug_views
+from render.view import RENDER_MODES
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -37,6 +39,20 @@ if TYPE_CHECKING:
 #: version is not restored. 1: the View toolbar on its own row (a layout of version 0 kept it beside the
 #: brush bar, where it overflows below 1720 px)
 WINDOW_STATE_VERSION = 1
+
+#: What each control of the two bars does, as its tooltip says (on the control and on its label).
+TOOLTIPS: dict[str, str] = {
+    "Radius": "Brush radius on the skin, in millimetres ( [ and ] make it smaller and larger)",
+    "Strength": "How far one stroke builds the layer up towards its full thickness (Shift+[ and Shift+])",
+    "Hardness": "The share of the radius painted at full strength: 0 a soft edge, 0.95 a hard one",
+    "Mode": "add builds the layer up, erase takes it away (E), smooth evens it out (S)",
+    "Mirror": "Paint the mirror image across the face's midline too (X)",
+    "Light": "The key light's preset (Ctrl+drag on the view moves the light)",
+    "HDR": "An HDR environment around the head, or none",
+    "Render": "fast: separable subsurface scattering; reference: sum of Gaussians, slower (R); "
+              "lightweight: a captured face (File → Open Captured Face…)",
+    "Before|After": "Drag to show the face without makeup on the left part of the view (B)",
+}
 
 
 class WholeToolBar(QToolBar):
@@ -102,10 +118,10 @@ class StudioToolbars:
         self.mode_combo = QComboBox()
         self.mode_combo.addItems(["add", "erase", "smooth"])
         self.mirror_check = QCheckBox("Mirror")
+        self.mirror_check.setToolTip(TOOLTIPS["Mirror"])
         for label, w in (("Radius", self.radius_spin), ("Strength", self.strength_spin),
                          ("Hardness", self.hardness_spin), ("Mode", self.mode_combo)):
-            tb.addWidget(QLabel(f" {label} "))
-            tb.addWidget(w)
+            _add_labelled(tb, label, w, TOOLTIPS[label])
         tb.addWidget(self.mirror_check)
         self.region_picker = RegionPicker(self.doc)  # stay inside / avoid / fill a facial region (issue #16)
         tb.addWidget(self.region_picker)
@@ -129,18 +145,24 @@ class StudioToolbars:
         self.env_combo.addItems(list(ENVIRONMENTS))
         self.render_combo = QComboBox()
         self.render_combo.addItems(list(RENDER_MODES))
-        self.debug_combo = QComboBox()
-        self.debug_combo.addItems(debug_views())
         self.split_slider = QSlider(Qt.Orientation.Horizontal)
         self.split_slider.setRange(0, 100)
         self.split_slider.setMaximumWidth(140)
-        for label, w in (("Light", self.light_combo), ("HDR", self.env_combo), ("Mode", self.render_combo),
-                         ("View", self.debug_combo), ("Before|After", self.split_slider)):
-            vb.addWidget(QLabel(f" {label} "))
-            vb.addWidget(w)
+        for label, w, tip in (("Light", self.light_combo, "Light"), ("HDR", self.env_combo, "HDR"),
+                              ("Mode", self.render_combo, "Render"),
+                              ("Before|After", self.split_slider, "Before|After")):
+            _add_labelled(vb, label, w, TOOLTIPS[tip])
         vb.addWidget(self.region_picker.overlay_button)  # the Regions overlay: outlines drawn over the view
         self.light_combo.currentTextChanged.connect(self.use_light_preset)
         self.env_combo.currentTextChanged.connect(lambda t: self.change_settings(environment=t))
         self.render_combo.currentTextChanged.connect(self.set_render_mode)
-        self.debug_combo.currentIndexChanged.connect(lambda i: self.change_settings(debug_view=int(i)))
         self.split_slider.valueChanged.connect(lambda v: self.change_settings(split=v / 100.0))
+
+
+def _add_labelled(bar: QToolBar, label: str, widget: QWidget, tip: str) -> None:
+    """Add `` label `` and ``widget`` to ``bar``, both with the tooltip ``tip``."""
+    text = QLabel(f" {label} ")
+    text.setToolTip(tip)
+    widget.setToolTip(tip)
+    bar.addWidget(text)
+    bar.addWidget(widget)

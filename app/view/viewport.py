@@ -103,6 +103,27 @@ def preload_renderer_modules(then: Callable[[], None] | None = None) -> None:
     _PRELOAD["task"] = run_task(None, "Starting the renderer", preload_renderer, done, done, show_progress=False)
 
 
+#: How far down from the top of a head :func:`face_box` reaches, in mm: the sample head's crown to below
+#: its chin (4.6 of its units at 52.5 mm per unit).
+FACE_FRAME_MM = 4.6 * 52.5
+
+
+def face_box(head: Head) -> tuple[np.ndarray, np.ndarray]:
+    """The box (low and high corners, mesh units) the F key frames.
+
+    The front of the head from its top down :data:`FACE_FRAME_MM`, in millimetres, so a head of any scale
+    is framed whole (a captured head, at 10 mm per unit, was framed on its forehead and eyes when this was
+    4.6 mesh units).
+    """
+    v = np.asarray(head.vertices)
+    top = v[:, 1].max()
+    depth = FACE_FRAME_MM / float(head.mm_per_unit)
+    face = v[(v[:, 1] > top - depth) & (v[:, 2] > v[:, 2].min() + 0.3 * np.ptp(v[:, 2]))]
+    if len(face) == 0:
+        face = v
+    return face.min(axis=0), face.max(axis=0)
+
+
 class Viewport(ViewportInput, QWidget):
     """The studio's (and the kiosk's) 3D view of a document's head and layers (see the module docstring)."""
 
@@ -522,13 +543,8 @@ class Viewport(ViewportInput, QWidget):
         self.update()
 
     def frame_head(self) -> None:
-        """Frame the face from the front (the F key)."""
-        v = self.head.vertices
-        top = v[:, 1].max()
-        face = v[(v[:, 1] > top - 4.6) & (v[:, 2] > v[:, 2].min() + 0.3 * np.ptp(v[:, 2]))]
-        if len(face) == 0:
-            face = v
-        self.camera.frame_box(face.min(axis=0), face.max(axis=0))
+        """Frame the face from the front (the F key; :func:`face_box`)."""
+        self.camera.frame_box(*face_box(self.head))
         self.update()
 
     def set_overlay(self, on: bool) -> None:

@@ -10,6 +10,7 @@ import pytest
 from PySide6.QtCore import QPoint, QPointF, Qt
 
 from app.qt_compat import pin_singletons
+from render.view import debug_views
 from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 pin_singletons()
@@ -149,7 +150,7 @@ def test_thickness_view_shows_the_masked_thickness(window: object, qtbot: object
     window.add_layer("Lipstick Classic Red")
     lay = doc.layers[-1]
     doc.fill(lay, 20.0)
-    thickness_view = window.debug_combo.findText("thickness")
+    thickness_view = debug_views().index("thickness")
     lm = doc.head.metadata.landmarks
     lip = screen_of(window, lm["lower_lip"])
     cheek = screen_of(window, lm["chin"])  # (the test window's viewport is narrow: the chin is in view)

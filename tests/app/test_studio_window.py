@@ -11,6 +11,7 @@ import pytest
 from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
+from render.view import debug_views
 from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 if TYPE_CHECKING:
@@ -169,7 +170,7 @@ def test_thickness_view_shows_the_selected_layer_with_a_hidden_layer_below(windo
     vp = window.viewport
     n = len(window.doc.layers)
     assert n >= 3
-    thickness = window.debug_combo.findText("thickness")
+    thickness = debug_views().index("thickness")
     try:
         window.doc.set_layer(0, visible=False)
         window._select_layer(2)
