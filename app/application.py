@@ -6,11 +6,36 @@ The studio (:mod:`app.studio.launch`) and the kiosk (:mod:`app.kiosk.window`) ea
 
 from __future__ import annotations
 
+import os
 import sys
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from PySide6.QtWidgets import QApplication
+
+#: The variables of which one must be set for Qt to find a display (Qt's own platform choice included).
+DISPLAY_VARIABLES = ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")
+
+
+def require_display(command: str) -> None:
+    """Refuse, in one line, to start a window without a display; call it before anything imports Qt.
+
+    Without ``DISPLAY``, ``WAYLAND_DISPLAY`` or ``QT_QPA_PLATFORM`` Qt's xcb plug-in aborts the process
+    (status 134) with a paragraph about reinstalling the application; the line says what to do instead,
+    as ``make run`` does.
+
+    Args:
+        command: the command being started (``studio``, ``kiosk``), for the line's suggestions.
+
+    Raises:
+        core.errors.SheerError: none of the variables is set.
+    """
+    from core.errors import SheerError
+
+    if any(os.environ.get(name) for name in DISPLAY_VARIABLES):
+        return
+    raise SheerError(f"no display (DISPLAY is not set): set DISPLAY to your X server, run it under a virtual one "
+                     f"with 'xvfb-run -a sheer {command}', or render without a window: 'sheer render --help'")
 
 
 def configure_qt_environment() -> None:
@@ -22,8 +47,6 @@ def configure_qt_environment() -> None:
     never make its context current (measured on Mesa 22.3 + PySide6 6.x: "Failed to make context current",
     then a crash); with EGL on both sides the order does not matter.
     """
-    import os
-
     os.environ.setdefault("QT_XCB_GL_INTEGRATION", "xcb_egl")
     os.environ.setdefault("MPLBACKEND", "Agg")  # colour-science imports pyplot; never a GUI backend
 

@@ -6,8 +6,10 @@ standard library at import time (heavy imports go inside ``func``), so ``sheer -
 headless commands never load Qt.
 
 Errors: a :class:`core.errors.SheerError` (bad input) or an ``OSError`` is printed as one line on stderr
-and exits with status 2; any other exception is an internal error (status 70), reported without a
-traceback unless ``SHEER_DEBUG=1``.
+and exits with status 2; so is a malformed option (``sheer CMD: error: …; see 'sheer CMD --help'``, without
+argparse's usage block). Any other exception is an internal error (status 70), reported without a
+traceback unless ``SHEER_DEBUG=1``. A reader that stops reading (``sheer … | head``) ends the command
+quietly with status 141, as a Unix tool killed by SIGPIPE does.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import importlib
 import os
 import sys
 import traceback
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 if TYPE_CHECKING:
     from collections.abc import Sequence
@@ -40,9 +42,27 @@ COMMAND_MODULES: tuple[str, ...] = (
 )
 
 
+#: The exit status of a command whose reader closed its output (128 + SIGPIPE, what a shell reports for a
+#: Unix tool killed by it).
+BROKEN_PIPE_STATUS = 141
+
+
+class _Parser(argparse.ArgumentParser):
+    """``argparse``'s parser, whose errors are one line: what is wrong, and where the help is.
+
+    argparse's own ``error`` prints the whole usage block first; the line that matters is then the last of
+    ten. Every sub-command's parser is of this class (``add_subparsers`` makes its parsers of the parent's
+    class).
+    """
+
+    def error(self, message: str) -> NoReturn:
+        """Print ``PROG: error: MESSAGE; see 'PROG --help'`` on stderr and exit with status 2."""
+        self.exit(2, f"{self.prog}: error: {message}; see '{self.prog} --help'\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the full argument parser from every available command module."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="sheer",
         description="Sheer: a physically based makeup design studio. Without a command, starts the studio.",
     )
@@ -62,6 +82,23 @@ def _report(message: str) -> None:
     print(f"sheer: error: {message}", file=sys.stderr)
 
 
+def _output_gone() -> None:
+    """The reader of standard output has gone (``sheer … | head``): send what is left nowhere.
+
+    Without this the interpreter, flushing standard output at exit, would fail again and print a
+    traceback-like "Exception ignored" message.
+    """
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # replaced by a non-file (a test's capture): nothing to do
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, fd)
+    finally:
+        os.close(devnull)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the process exit status."""
     from core.errors import SheerError
@@ -72,14 +109,20 @@ def main(argv: Sequence[str] | None = None) -> int:
         args_list = ["studio", *args_list]
     try:
         args = parser.parse_args(args_list)
-    except SystemExit as exc:  # argparse prints its own usage message
+    except SystemExit as exc:  # argparse printed the help, or one line (_Parser.error)
         return int(exc.code or 0)
     func = getattr(args, "func", None)
-    if func is None:
-        parser.print_help()
-        return 0
     try:
-        return int(func(args) or 0)
+        if func is None:
+            parser.print_help()
+            status = 0
+        else:
+            status = int(func(args) or 0)
+        sys.stdout.flush()  # a reader that went away is seen here, not at the interpreter's exit
+        return status
+    except BrokenPipeError:
+        _output_gone()
+        return BROKEN_PIPE_STATUS
     except SheerError as exc:
         _report(str(exc))
         return 2

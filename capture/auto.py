@@ -252,9 +252,15 @@ def photo_focal(photo: str | Path | np.ndarray, focal_mm: float | None, size: tu
 
 
 def _check_out_dir(out: Path) -> None:
-    """``out`` must be absent, empty, or a face folder (it is then replaced); :class:`CaptureError` otherwise."""
+    """``out`` must be absent, empty, or a face folder (it is then replaced); :class:`CaptureError` otherwise.
+
+    And its folder one this process can write in: checked before the capture's work, not after it.
+    """
+    from core.atomicio import check_can_create
+
     if out.exists() and (not out.is_dir() or (any(out.iterdir()) and not (out / "face.json").is_file())):
         raise CaptureError(f"{out}: exists and is not a face folder; choose a new or empty folder")
+    check_can_create(out, CaptureError)
 
 
 def _move_into_place(tmp: Path, out: Path) -> None:
@@ -340,8 +346,9 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     camera = calibrate(x, X, w, h, source="the detected landmarks", good_enough_px=0.5 if person else None,
                        focal_px=focal_px)
     timings["camera"] = time.perf_counter() - t
-    _say(progress, f"camera from {len(x)} detected landmarks: RMS reprojection error "
-                   f"{camera.reprojection_error_px:.2f} px")
+    # the person's own head is built from these landmarks, so they reproject onto themselves: no error to report
+    _say(progress, f"camera from {len(x)} detected landmarks" + ("" if person else
+                   f": RMS reprojection error {camera.reprojection_error_px:.2f} px"))
     photo_lin = srgb_decode(srgb8 / 255.0)
     mask = region_skin_mask(the_head, camera, photo_lin, pixel_data(the_head, camera)) if person else None
     result = capture(the_head, photo_lin, camera, probe=probe_analysis, mask=mask, texture_size=int(texture_size),
@@ -376,7 +383,7 @@ def _input_photo(photo: str | Path | np.ndarray, progress: Callable[[str], None]
     for n in notes:
         _say(progress, f"note: {n}")
     if downscale is not None:
-        _say(progress, f"photo {downscale['from'][0]}×{downscale['from'][1]} downscaled to "
+        _say(progress, f"note: photo {downscale['from'][0]}×{downscale['from'][1]} downscaled to "
                        f"{downscale['to'][0]}×{downscale['to'][1]} (longer side over {MAX_PHOTO_SIDE} px)")
     return srgb8, source, notes, downscale
 
@@ -404,7 +411,7 @@ def _gated_face(srgb8: np.ndarray, downscale: dict[str, Any] | None, f35: float 
     face, before = faces[0], srgb8.shape[:2]
     srgb8, face, downscale = fit_face_size(srgb8, face, downscale)
     if srgb8.shape[:2] != before:
-        _say(progress, f"photo downscaled to {srgb8.shape[1]}×{srgb8.shape[0]} (the face taller than {MAX_FACE_PX} px)")
+        _say(progress, f"note: photo downscaled to {srgb8.shape[1]}×{srgb8.shape[0]} (the face taller than {MAX_FACE_PX} px)")
     m = report.measured
     _say(progress, f"face found: yaw {m['yaw_deg']:+.1f}°, roll {m['roll_deg']:+.1f}°, "
                    f"{100 * m['face_height_ratio']:.0f} % of the frame's height; quality gate passed")
@@ -480,7 +487,7 @@ def _write_face_folder(out: Path, result: CaptureResult, the_head: Head, person:
         Image.fromarray(srgb8).save(tmp / PHOTO_FILE)
         timings["total"] = time.perf_counter() - t_all
         extra["auto_timings_s"] = {k: round(v, 4) for k, v in timings.items()}
-        write_face(result, tmp, head_path=HEAD_FILE if person else the_head.path,
+        write_face(result, tmp, head_path=tmp / HEAD_FILE if person else the_head.path,
                    landmarks=face.standard(), extra=extra)
         _move_into_place(tmp, out)
     except BaseException:

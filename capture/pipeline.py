@@ -263,9 +263,12 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     p = fit.params
     k_photo = photo_ambient_scale(fp.colours, fp.geo, p)
     timings["phong_fit"] = time.perf_counter() - t
-    _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}, "
-                   f"ambient scale {p.ambient_scale:.3f} (the probe's photometry; the photograph alone would "
-                   f"choose {'—' if k_photo is None else f'{k_photo:.3f}'}); residual {fit.rms_luv:.2f} Luv per pixel")
+    # the ambient scale is the probe's: without one there is no ambient light, and nothing to say about it
+    ambient = "" if probe is None else (f", ambient scale {p.ambient_scale:.3f} (the probe's photometry"
+                                        + ("" if k_photo is None else f"; the photograph alone would choose {k_photo:.3f}")
+                                        + ")")
+    _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}{ambient}; "
+                   f"residual {fit.rms_luv:.2f} Luv per pixel")
     # The paper's reflectance map (kept in the result), built once the camera is final: a capture refitted
     # from a turned camera above builds it there instead.
     t = time.perf_counter()

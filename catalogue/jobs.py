@@ -155,7 +155,7 @@ def load_source_head(src: HeadSource) -> Any:
     from capture.face import face_albedo, load_face
 
     face = load_face(src.face)
-    head_path = face.data.get("head") if src.path is None else src.path
+    head_path = face.head_path if src.path is None else src.path  # face.json's head, relative to its folder
     head = load_head(head_path)
     return dataclasses.replace(head, albedo=face_albedo(face))
 

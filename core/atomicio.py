@@ -15,6 +15,8 @@ import tempfile
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
+from core.errors import SheerError
+
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
 
@@ -30,7 +32,10 @@ def atomic_writer(path: str | Path, mode: str = "wb", keep_backup: bool = False,
     """
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise _naming(exc, target) from None
     tmp = Path(tmp_name)
     try:
         with os.fdopen(fd, mode, encoding=encoding) as fh:
@@ -49,10 +54,46 @@ def atomic_writer(path: str | Path, mode: str = "wb", keep_backup: bool = False,
             os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, target)
         _fsync_dir(folder)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        if exc.filename is None or exc.filename == tmp_name:
+            raise _naming(exc, target) from exc
+        raise
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def _naming(exc: OSError, target: Path) -> OSError:
+    """``exc`` naming ``target``, the file the caller asked for, instead of the hidden temporary file.
+
+    The temporary file (``.NAME.XXXXXXXX.tmp``) is this module's business: a message naming it ("Read-only
+    file system (…/.p.png.z13ce114.tmp)") sends the reader looking for a file that never existed.
+    """
+    return type(exc)(exc.errno, exc.strerror or str(exc), str(target))
+
+
+def check_can_create(path: str | Path, error: type[Exception] = SheerError) -> None:
+    """Raise ``error`` naming ``path`` when nothing can be created there; create nothing.
+
+    For a command that works long before it writes (a capture's fit): the nearest folder that exists
+    above ``path`` must be a folder this process can create a file in (checked by creating and removing
+    a temporary folder there, so a read-only file system, a missing permission or a file in the way is
+    found as the writer would find it).
+    """
+    target = Path(path).absolute()
+    above = target.parent
+    while not above.exists() and above != above.parent:
+        above = above.parent
+    if not above.is_dir():
+        raise error(f"{path}: cannot be created: {above} is a file, not a folder")
+    try:
+        probe = tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".check", dir=above)
+    except OSError as exc:
+        raise error(f"{path}: cannot be created: {exc.strerror or exc} ({above})") from None
+    os.rmdir(probe)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes, keep_backup: bool = False) -> None:

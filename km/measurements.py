@@ -87,9 +87,9 @@ class ImportResult:
     rejected: list[Rejection] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
-    def report(self) -> str:
-        """A readable multi-line summary."""
-        lines = [f"{self.source}: imported {len(self.accepted)} material{'s' if len(self.accepted) != 1 else ''}"]
+    def report(self, verb: str = "imported") -> str:
+        """A readable multi-line summary; ``verb`` says what was done ("checked" when nothing is saved)."""
+        lines = [f"{self.source}: {verb} {len(self.accepted)} material{'s' if len(self.accepted) != 1 else ''}"]
         for m in self.accepted:
             wl = m.wavelengths
             lines.append(f"  + {m.name} ({m.category}, {wl.size} wavelengths {wl[0]:g}–{wl[-1]:g} nm, "

@@ -26,12 +26,7 @@ writes nothing anywhere.
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import io
-import os
-import sys
-import threading
 import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -41,9 +36,10 @@ import numpy as np
 from core.atomicio import atomic_write_bytes
 from core.errors import SheerError
 from core.files import read_bounded
+from core.native_output import captured_output
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator, Mapping
+    from collections.abc import Mapping
 
 #: PNG text chunk holding the thickness (µm) of count 65535 (of 255 in an 8-bit file).
 SCALE_KEY = "sheer:scale_um"
@@ -128,51 +124,6 @@ def _check_size(where: str, width: int, height: int, shape: tuple[int, int] | No
 # ---------------------------------------------------------------------------------------------- EXR
 
 
-_FD_LOCK = threading.Lock()
-
-
-@contextlib.contextmanager
-def _library_output() -> Iterator[list[str]]:
-    """Capture what the OpenEXR library prints on file descriptors 1 and 2 during the block.
-
-    The binding reports some decoding failures only as a printed warning ("Exception raised reading
-    pixel data", with partly decoded pixels) and its C core prints ``EXR_ERR_*`` lines: they would
-    corrupt ``--json`` output and the one-line messages of ``sheer project validate``, and the
-    warning is our only sign that the pixels are not trustworthy. The pipes are non-blocking, so a
-    chatty library cannot block; at most the first 64 KiB are kept.
-
-    Yields:
-        A list that receives the captured text (one string per descriptor) after the block.
-    """
-    captured: list[str] = []
-    with _FD_LOCK:
-        for stream in (sys.stdout, sys.stderr):
-            with contextlib.suppress(Exception):
-                stream.flush()
-        saved: list[tuple[int, int, int]] = []  # (fd, saved copy, pipe read end)
-        try:
-            for fd in (1, 2):
-                read_end, write_end = os.pipe()
-                fcntl.fcntl(write_end, fcntl.F_SETFL, fcntl.fcntl(write_end, fcntl.F_GETFL) | os.O_NONBLOCK)
-                fcntl.fcntl(read_end, fcntl.F_SETFL, fcntl.fcntl(read_end, fcntl.F_GETFL) | os.O_NONBLOCK)
-                saved.append((fd, os.dup(fd), read_end))
-                os.dup2(write_end, fd)
-                os.close(write_end)
-            yield captured
-        finally:
-            for fd, copy, read_end in saved:
-                os.dup2(copy, fd)
-                os.close(copy)
-                chunks = []
-                with contextlib.suppress(BlockingIOError, OSError):
-                    while chunk := os.read(read_end, 65536):
-                        chunks.append(chunk)
-                        if sum(map(len, chunks)) >= 65536:
-                            break
-                os.close(read_end)
-                captured.append(b"".join(chunks).decode("utf-8", "replace"))
-
-
 def _library_complaint(captured: list[str]) -> str | None:
     """The first error line the library printed (at most 160 characters), or None."""
     lines = [line.strip() for line in "\n".join(captured).splitlines() if line.strip()]
@@ -203,7 +154,7 @@ def _exr_header(source: str | io.BytesIO, where: str) -> tuple[int, int, int, li
     import OpenEXR
 
     try:
-        with _library_output() as out:
+        with captured_output() as out:
             head = OpenEXR.File(source, header_only=True)
         complaint = _library_complaint(out)
         if complaint:
@@ -240,6 +191,33 @@ def exr_size(p: Path, max_side: int = MAX_SIDE) -> tuple[int, int]:
     return width, height
 
 
+def read_exr_channels(path: str | Path, max_side: int = MAX_SIDE) -> dict[str, np.ndarray]:
+    """Every channel of an EXR file, as the binding groups them (``RGB`` (H, W, 3) when R, G and B are there).
+
+    The size is checked from the header first (:func:`exr_size`); what the library prints while decoding
+    is captured (:func:`core.native_output.captured_output`), so a damaged file is one message, not two
+    lines of the library's output before it.
+
+    Raises:
+        MapError: naming the file: missing, unreadable, over ``max_side`` pixels a side, or damaged (the
+            library's complaint).
+    """
+    import OpenEXR
+
+    p = Path(path)
+    exr_size(p, max_side)
+    try:
+        with captured_output() as out, OpenEXR.File(str(p)) as f:
+            channels = {name: np.array(c.pixels, copy=True) for name, c in f.channels().items()}
+    except Exception as exc:  # the binding raises RuntimeError, ValueError, KeyError... for bad files
+        said = _library_complaint(out) or str(exc)
+        raise MapError(f"{p}: damaged or truncated EXR file: {said.removeprefix('Warning: ')}") from None
+    complaint = _library_complaint(out)
+    if complaint:
+        raise MapError(f"{p}: damaged or truncated EXR file: {complaint.removeprefix('Warning: ')}")
+    return channels
+
+
 def decode_exr(data: bytes, where: str, shape: tuple[int, int] | None = None) -> np.ndarray:
     """Decode EXR bytes holding one ``Y`` channel of 32-bit floats; the values are not checked.
 
@@ -268,7 +246,7 @@ def decode_exr(data: bytes, where: str, shape: tuple[int, int] | None = None) ->
         raise MapError(f"{where}: EXR channels {channels}, exactly ['Y'] expected")
     _check_size(where, width, height, shape)
     try:
-        with _library_output() as out:
+        with captured_output() as out:
             pixels = OpenEXR.File(io.BytesIO(data), separate_channels=True).channels()["Y"].pixels
     except Exception as exc:
         raise MapError(f"{where}: cannot decode the EXR pixels ({exc})") from None

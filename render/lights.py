@@ -144,32 +144,24 @@ def find_environment(name_or_path: str) -> Path:
 def read_exr_rgb(path: Path, max_side: int = 8192) -> np.ndarray:
     """float32 (H, W, 3) linear radiance of an EXR file (an HDR environment).
 
-    The size is checked from the header before decoding (at most ``max_side`` pixels a side). NaN or
+    The size is checked from the header before decoding (at most ``max_side`` pixels a side), and a damaged
+    file is one message (:func:`painting.maps_io.read_exr_channels`). NaN or
     infinite pixels are refused with a :class:`RenderError` saying how many. Negative values — the
     ringing of lossy EXR compression (DWAA/DWAB) around bright peaks, present in the sample
     environments — are set to 0, since radiance cannot be negative.
     """
-    from painting.maps_io import MapError, exr_size
+    from painting.maps_io import MapError, read_exr_channels
 
     try:
-        exr_size(Path(path), max_side)
+        chans = read_exr_channels(Path(path), max_side)
     except MapError as exc:
         raise RenderError(str(exc)) from None
-    try:
-        import OpenEXR
-
-        with OpenEXR.File(str(path)) as f:
-            chans = f.channels()
-            if "RGB" in chans:
-                rgb = np.asarray(chans["RGB"].pixels, dtype=np.float32)
-            elif all(c in chans for c in "RGB"):
-                rgb = np.stack([np.asarray(chans[c].pixels, dtype=np.float32) for c in "RGB"], axis=-1)
-            else:
-                raise RenderError(f"{path}: EXR has no RGB channels (has {sorted(chans)})")
-    except RenderError:
-        raise
-    except Exception as exc:
-        raise RenderError(f"{path}: cannot read EXR: {exc}") from None
+    if "RGB" in chans:
+        rgb = np.asarray(chans["RGB"], dtype=np.float32)
+    elif all(c in chans for c in "RGB"):
+        rgb = np.stack([np.asarray(chans[c], dtype=np.float32) for c in "RGB"], axis=-1)
+    else:
+        raise RenderError(f"{path}: EXR has no RGB channels (has {sorted(chans)})")
     if rgb.ndim != 3 or rgb.shape[2] != 3:
         raise RenderError(f"{path}: unexpected EXR shape {rgb.shape}")
     bad = int((~np.isfinite(rgb)).any(axis=-1).sum())

@@ -43,6 +43,7 @@ if TYPE_CHECKING:
 __all__ = [
     "ShadeError", "ShadeBank", "ShadeMatch", "Target", "foundations", "best_thickness", "match_shades",
     "make_target", "resolve_light", "METAMERISM_DE2000", "DEFAULT_STORE_LIGHT", "TARGET_SHIFTS",
+    "Confidence", "confidence", "FAIR_FIT_DE2000",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -64,6 +65,10 @@ TARGET_SHIFTS: dict[str, tuple[float, float, float]] = {
     "warmer": (0.0, 1.0, 3.0), "cooler": (0.0, -0.5, -3.0),
 }
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0
+#: The skin fit's residual (ΔE2000) up to which a match is of "medium" confidence: the model's known limit
+#: (no carotene: light, very yellow skins fit with a residual of 1–3; :mod:`km.skin`). Up to
+#: :data:`km.skin.GAMUT_DE2000` it is "high"; above this, "low".
+FAIR_FIT_DE2000 = 3.0
 
 
 class ShadeError(SheerError, ValueError):
@@ -319,6 +324,51 @@ def make_target(spec: str, skin: SkinFit) -> Target:
 # --------------------------------------------------------------------------------------------------
 # The match
 # --------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Confidence:
+    """How far a match can be trusted: how close the skin model came to the colour it was given.
+
+    The shades are ranked on the skin the model fitted, so a colour the model cannot make (a photograph's
+    light, white balance, make-up or shadow, or a colour that is not skin) is matched through the closest
+    skin it can, and the match is only as good as that fit.
+
+    Attributes:
+        level: ``high`` (the fit's residual within :data:`km.skin.GAMUT_DE2000`: a skin of the model),
+            ``medium`` (within :data:`FAIR_FIT_DE2000`) or ``low`` (hard to read: confirm the shade in person).
+        residual_de2000: the fit's residual.
+        words: one sentence that says so.
+    """
+
+    level: str
+    residual_de2000: float
+    words: str
+
+    @property
+    def hard_to_read(self) -> bool:
+        """Whether the skin was hard to read (``low``): the shade wants confirming in person."""
+        return self.level == "low"
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {"level": self.level, "residual_de2000": round(self.residual_de2000, 3), "words": self.words}
+
+
+def confidence(fit: SkinFit) -> Confidence:
+    """The confidence of a match made on ``fit`` (see :class:`Confidence`): the command line's and the kiosk's."""
+    from km.skin import GAMUT_DE2000
+
+    de = float(fit.residual_de2000)
+    if de <= GAMUT_DE2000:
+        return Confidence("high", de, f"the skin model reproduces this colour (ΔE2000 {de:.1f})")
+    if de <= FAIR_FIT_DE2000:
+        return Confidence("medium", de, f"the closest skin the model can make is ΔE2000 {de:.1f} away (light, very "
+                                        "yellow skins are its known limit): a close guide")
+    lab = ", ".join(f"{v:.1f}" for v in fit.target_lab)
+    return Confidence("low", de, f"hard to read: the colour (Lab {lab}) is ΔE2000 {de:.1f} from every skin the model "
+                                 "can make (the light, the camera's white balance, make-up or shadow may have changed "
+                                 "it); the closest skin is matched: confirm the shade in person")
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,9 @@
-"""A skin colour from a photograph: a region, or the cheeks of a detected face, colour-corrected by a checker.
+"""A skin colour from a region of a photograph, colour-corrected by a checker.
 
-The region is given, or found on the largest face; the camera is colour-corrected with a ColorChecker
-when the photograph holds one.
+The region is given in pixels (the face's is found with MediaPipe's landmarks by
+:mod:`capture.skin`, the one reading of a portrait's skin behind ``sheer shade match --photo`` and the
+kiosk's *Find my foundation*); the camera is colour-corrected with a ColorChecker when the photograph
+holds one.
 
 - **Checker**: ``colour-checker-detection`` finds a ColorChecker Classic (24 patches) by segmentation;
   its patches' colours are mapped to the checker's reference colours under D65 (the spectral
@@ -11,9 +13,6 @@ when the photograph holds one.
   tinted lights we tested). The skin colour is then a reflectance colour under D65.
 - **Without a checker** the photograph's sRGB values are taken as they are: the result says that the
   match assumes an sRGB camera, white balanced for the light, exposed so that white is 1.
-- **Face**: without a region, OpenCV's frontal-face Haar cascade (shipped in the ``opencv-python`` wheel
-  that ``colour-checker-detection`` depends on) finds the largest face; the skin is sampled on both
-  cheeks (fixed fractions of the face box, below the eyes and beside the nose).
 
 The colour of a region is the per-channel median of its pixels whose luminance lies between the 20th
 and 80th percentiles (drops highlights, shadows, hair and eyebrows), decoded to linear sRGB.
@@ -34,8 +33,8 @@ from km.srgb import srgb_decode
 if TYPE_CHECKING:
     from pathlib import Path
 
-__all__ = ["PhotoError", "PhotoSkin", "read_photo", "detect_checker", "find_face", "cheek_boxes",
-           "region_colour", "skin_from_photo", "checker_reference_rgb", "SRGB_ASSUMPTION", "MAX_PHOTO_PIXELS"]
+__all__ = ["PhotoError", "PhotoSkin", "read_photo", "detect_checker", "region_colour", "skin_from_photo",
+           "checker_reference_rgb", "SRGB_ASSUMPTION", "MAX_PHOTO_PIXELS"]
 
 FloatArray = NDArray[np.float64]
 Box = tuple[int, int, int, int]
@@ -48,14 +47,12 @@ CORRECTION_DEGREE = 2
 #: A detection is accepted as a checker only if its corrected patches are this close to the reference
 #: (mean ΔE2000); a checker-like pattern that is not one is ignored.
 CHECKER_ACCEPT_MEAN_DE2000 = 5.0
-#: The cheeks as fractions (x, y, w, h) of a face box (Haar boxes span brows to chin).
-CHEEKS: tuple[tuple[float, float, float, float], ...] = ((0.18, 0.52, 0.2, 0.18), (0.62, 0.52, 0.2, 0.18))
 SRGB_ASSUMPTION = ("no colour checker in the photograph: the match assumes an sRGB camera, white balanced for "
                    "the light and exposed so that white is 1")
 
 
 class PhotoError(SheerError, ValueError):
-    """A photograph that cannot be used (unreadable, a region outside it, no face and no region)."""
+    """A photograph that cannot be used (unreadable, a region outside it, no face to read the skin on)."""
 
 
 @dataclass(frozen=True)
@@ -65,7 +62,7 @@ class PhotoSkin:
     Attributes:
         linear_rgb: linear sRGB (3,), a reflectance colour under D65 when ``checker``.
         boxes: the regions sampled, (x, y, w, h) in pixels from the top-left corner.
-        source: ``region`` (given) or ``face`` (detected).
+        source: ``region`` (given) or ``face`` (the cheeks of a detected face, :mod:`capture.skin`).
         checker: whether a colour checker corrected the camera.
         checker_de2000: mean and max ΔE2000 of the corrected patches against the reference (checker only).
         note: what the result assumes (the sRGB camera assumption without a checker).
@@ -158,27 +155,6 @@ def detect_checker(encoded: FloatArray) -> tuple[FloatArray, FloatArray] | None:
     return None
 
 
-def find_face(encoded: FloatArray) -> Box | None:
-    """The largest frontal face's box (x, y, w, h) in pixels, or None (OpenCV's Haar cascade)."""
-    import cv2
-
-    grey = np.round(np.asarray(encoded) @ np.array([0.299, 0.587, 0.114]) * 255.0).astype(np.uint8)
-    cascade = cv2.CascadeClassifier(cv2.data.haarcascades + "haarcascade_frontalface_default.xml")  # type: ignore[attr-defined]
-    side = max(24, min(grey.shape) // 20)
-    faces = cascade.detectMultiScale(grey, scaleFactor=1.1, minNeighbors=5, minSize=(side, side))
-    if len(faces) == 0:
-        return None
-    x, y, w, h = max((tuple(int(v) for v in f) for f in faces), key=lambda b: b[2] * b[3])
-    return x, y, w, h
-
-
-def cheek_boxes(face: Box) -> tuple[Box, ...]:
-    """The two cheek regions (x, y, w, h) of a face box (:data:`CHEEKS`)."""
-    x, y, w, h = face
-    return tuple((x + round(fx * w), y + round(fy * h), max(1, round(fw * w)), max(1, round(fh * h)))
-                 for fx, fy, fw, fh in CHEEKS)
-
-
 def _check_box(box: Box, shape: tuple[int, ...], where: str) -> None:
     x, y, w, h = box
     height, width = shape[:2]
@@ -197,24 +173,17 @@ def region_colour(encoded: FloatArray, boxes: tuple[Box, ...]) -> FloatArray:
     return np.asarray(np.median(lin[keep] if keep.any() else lin, axis=0), dtype=np.float64)
 
 
-def skin_from_photo(path: str | Path, region: Box | None = None, *, use_checker: bool = True) -> PhotoSkin:
-    """The skin colour of a photograph (module docstring).
+def skin_from_photo(path: str | Path, region: Box, *, use_checker: bool = True, source: str = "region") -> PhotoSkin:
+    """The skin colour of ``region`` (x, y, w, h pixels from the top-left) of a photograph (module docstring).
+
+    ``source`` says where the region came from (``region``: given; ``face``: a face's cheeks).
 
     Raises:
-        PhotoError: an unreadable photograph, a region outside it, or no region and no face found.
+        PhotoError: an unreadable photograph, or a region outside it.
     """
     encoded = read_photo(path)
-    if region is not None:
-        _check_box(region, encoded.shape, str(path))
-        boxes: tuple[Box, ...] = (region,)
-        source = "region"
-    else:
-        face = find_face(encoded)
-        if face is None:
-            raise PhotoError(f"{path}: no face found in the photograph; give the skin's region with "
-                             "--region x,y,w,h (pixels)")
-        boxes = cheek_boxes(face)
-        source = "face"
+    _check_box(region, encoded.shape, str(path))
+    boxes: tuple[Box, ...] = (region,)
     rgb = region_colour(encoded, boxes)
     checker = detect_checker(encoded) if use_checker else None
     if checker is None:

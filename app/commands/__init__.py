@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:
     import argparse
+    from collections.abc import Callable, Iterable
 
 
 class Subcommands(Protocol):
@@ -22,3 +23,28 @@ class Subcommands(Protocol):
     def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser:
         """A new sub-command ``name``'s parser (``kwargs`` as for ``argparse.ArgumentParser``)."""
         ...
+
+
+class LazyHelp(str):
+    """A help string whose ``%(NAME)s`` fields come from the code's own data, read when the help is shown.
+
+    A help that lists choices (the built-in looks, the light presets, the shade targets) names them from
+    the tuple or dict the code uses, so the two cannot drift apart; the data's module is imported only
+    when ``--help`` is asked for (``sheer --help`` stays instant: argparse fills a help string with
+    ``help % params`` as it prints it).
+
+    Example: ``LazyHelp("a built-in look (%(looks)s)", looks=lambda: painting.looks.BUILTIN_LOOKS)``.
+    """
+
+    fields: dict[str, Callable[[], Iterable[object]]]
+
+    def __new__(cls, template: str, **fields: Callable[[], Iterable[object]]) -> LazyHelp:
+        """``template`` with ``%(NAME)s`` for each of ``fields`` (NAME → a function returning the values)."""
+        obj = super().__new__(cls, template)
+        obj.fields = fields
+        return obj
+
+    def __mod__(self, params: Any) -> str:
+        """The help filled: argparse's ``params`` and each field's values joined by commas."""
+        values = {name: ", ".join(str(v) for v in get()) for name, get in self.fields.items()}
+        return str.__mod__(str(self), {**params, **values})

@@ -42,7 +42,12 @@ luminance 1 and its intensity is folded into the diffuse colour D and the specul
 
 Writes FACE_DIR/face.json (parameters, light, camera, residuals), detail.exr (float32 detail texture in the
 head's UV space), report.png (photo | fitted render | difference | detail texture with the texels the
-photograph never saw in magenta, with a caption strip) and skin_mask.png.
+photograph never saw in magenta, with a caption strip) and skin_mask.png. FACE_DIR's folder is checked
+first: a folder that cannot be written fails in one line before the capture's work.
+
+Prints what matters on stderr (the face found, or the camera's reprojection error from ``--points``, the
+reproduction's ΔE2000, warnings and notes, what was written); ``--verbose`` prints every step (the head,
+the camera, the fit's numbers, the detail texture…).
 """
 
 from __future__ import annotations
@@ -88,7 +93,25 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--starts", type=int, default=0, metavar="N",
                    help="also run the Phong fit from N random starts and report the spread (paper: 200)")
     p.add_argument("--out", required=True, metavar="FACE_DIR", help="output folder")
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="print every step of the capture (default: the face found or the points' reprojection "
+                        "error, the reproduction, warnings, notes and what was written)")
     p.set_defaults(func=run)
+
+
+#: The progress lines printed without ``--verbose``: what the capture found, how well it reproduces the
+#: photograph, and what the user should know (the capture's own warnings and notes).
+SUMMARY_PREFIXES = ("face found:", "camera from correspondences:", "reproduction:", "warning:", "note:")
+
+
+def _printer(verbose: bool) -> Callable[[str], None]:
+    """The capture's ``progress``: every line with ``verbose``, else the lines of :data:`SUMMARY_PREFIXES`."""
+
+    def say(msg: str) -> None:
+        if verbose or msg.startswith(SUMMARY_PREFIXES):
+            print(f"capture: {msg}", file=sys.stderr, flush=True)
+
+    return say
 
 
 def run(args: argparse.Namespace) -> int:
@@ -101,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
     from capture.pipeline import capture, read_photo
     from capture.probe import analyse_probe
     from capture.vignetting import LensFalloff, flat_field
+    from core.atomicio import check_can_create
     from painting.head import load_head
 
     if args.texture_size is None:
@@ -117,9 +141,8 @@ def run(args: argparse.Namespace) -> int:
     if args.probe_reflectance != 1.0 and not args.probe:
         raise CaptureError("--probe-reflectance needs --probe (the mirror ball it describes)")
     falloff = None if args.vignetting is None else LensFalloff.parse(args.vignetting)
-
-    def say(msg: str) -> None:
-        print(f"capture: {msg}", file=sys.stderr, flush=True)
+    check_can_create(args.out, CaptureError)  # a folder that cannot be written fails now, not after the fit
+    say = _printer(args.verbose)
 
     if args.ambient == "directional" and not args.probe:
         raise CaptureError("--ambient directional needs --probe (the mirror ball whose sky it reads)")
@@ -169,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
     if falloff is not None:
         extra["vignetting"] = {"k1": falloff.k1, "k2": falloff.k2, "k3": falloff.k3}
     out = write_face(result, args.out, head_path=head.path, extra=extra)
-    say(f"wrote {out}/face.json, detail.exr, report.png, skin_mask.png")
+    print(f"capture: wrote {out}/: face.json, detail.exr, report.png, skin_mask.png", file=sys.stderr)
     return 0
 
 
@@ -199,5 +222,5 @@ def run_auto(args: argparse.Namespace, say: Callable[[str], None]) -> int:
     files = "face.json, detail.exr, report.png, skin_mask.png, photo.png"
     if face.data.get("head_kind") == "person":
         files += ", head.obj (+ sidecar, albedo.png, regions)"
-    say(f"wrote {args.out}/: {files}")
+    print(f"capture: wrote {args.out}/: {files}", file=sys.stderr)
     return 0

@@ -84,13 +84,15 @@ def run_simplify(args: argparse.Namespace) -> int:
         import numpy as np
         import OpenEXR
 
+        from capture.face import recorded_path
+
         detail = rebake_detail(fine, coarse, face.detail)
         face_dir = out / "face"
         face_dir.mkdir(exist_ok=True)
         hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
         OpenEXR.File(hdr, {"RGB": np.ascontiguousarray(detail, dtype=np.float32)}).write(str(face_dir / "detail.exr"))
         data = dict(face.data)
-        data["head"] = str(mesh_path)
+        data["head"] = recorded_path(mesh_path, face_dir)  # relative to face_dir: the folders move together
         data["rebaked_from"] = str(Path(args.face).resolve())
         atomic_write_text(face_dir / "face.json", json.dumps(data, indent=2))
         for extra in ("report.png", "skin_mask.png"):

@@ -153,6 +153,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"kiosk light: θ={float(light['theta_deg']):.1f}° φ={float(light['phi_deg']):.1f}° from the camera's "  # type: ignore[arg-type]
                   f"axis, flash colour {[round(float(v), 3) for v in light['flash_rgb']]}")  # type: ignore[attr-defined]
         return 0
+    from app.application import require_display
+    from app.kiosk.config import KioskConfig, require_pin
+
+    require_pin(KioskConfig.load(Path(args.config) if args.config else None))  # the first thing to set up
+    require_display("kiosk")  # before Qt is imported: its abort is a paragraph and status 134
     from app.kiosk.window import run_kiosk
 
     return run_kiosk(project=args.project, config_path=args.config, windowed=args.windowed)

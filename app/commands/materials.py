@@ -6,8 +6,9 @@
 - ``sheer materials import FILE [--library PATH] [--thickness-mm D] [--name NAME] [--category C]``
 - ``sheer materials export NAME --out FILE.csv [--library PATH]``
 
-Without ``--library`` the default library is used (read-only: ``import`` then needs ``--library``, and
-creates that file if it does not exist yet).
+Without ``--library`` the default library is used, read-only: ``import`` then only checks the file and
+reports what it would import ("checked N materials … nothing saved"); with ``--library`` it adds them to that
+library, creating the file if it does not exist yet.
 """
 
 from __future__ import annotations
@@ -228,12 +229,14 @@ def run_import(args: argparse.Namespace) -> int:
     if args.library is not None and args.library.exists():
         lib = Library.load(args.library)  # read first: a broken library stops before any work
     result = import_file(args.file, thickness_mm=args.thickness_mm, name=args.name, category=args.category)
-    print(result.report())
+    checked_only = args.library is None  # one word for one thing: "checked" here, "imported" once saved
+    print(result.report(verb="checked" if checked_only else "imported"))
     if not result.accepted:
         print("sheer: error: nothing could be imported", file=sys.stderr)
         return 1
-    if args.library is None:
-        print("(checked only: pass --library PATH to add the materials to a library)")
+    if checked_only:
+        print("nothing saved: pass --library PATH to add the material" + ("s" if len(result.accepted) != 1 else "")
+              + " to a library")
         return 0
     if lib is None:
         lib = Library(name=args.library.stem)

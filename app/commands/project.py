@@ -104,7 +104,8 @@ def _summary(project: object) -> dict:
                  "asset": project.head.asset, "files": project.head.files},
         "layers": [{"name": layer.name, "material": layer.material, "visible": layer.visible,
                     "opacity": layer.opacity, "max_thickness_um": layer.max_thickness_um,
-                    "encoding": layer.encoding, "resolution": layer.resolution, "max_um": float(layer.thickness.max(initial=0.0)),
+                    "encoding": layer.encoding, "resolution": layer.resolution,
+                    "peak_um": float(layer.thickness.max(initial=0.0)),
                     "mean_um": float(layer.thickness.mean()) if layer.thickness.size else 0.0}
                    for layer in project.layers],
         "materials": sorted(project.materials),
@@ -129,7 +130,8 @@ def run_info(args: argparse.Namespace) -> int:
     print(f"  layers ({len(summary['layers'])}, bottom first):")
     for layer in summary["layers"]:
         print(f"    {layer['name']!r:24} {layer['material']!r:24} {'shown' if layer['visible'] else 'hidden':6} "
-              f"opacity {layer['opacity']:.2f}  max {layer['max_um']:.2f} µm  mean {layer['mean_um']:.3f} µm "
+              f"opacity {layer['opacity']:.2f}  max thickness {layer['max_thickness_um']:g} µm  "
+              f"painted: peak {layer['peak_um']:.2f} µm, mean {layer['mean_um']:.3f} µm "
               f"[{layer['resolution']}² {layer['encoding']}]")
     print(f"  materials: {', '.join(summary['materials']) or 'none'}")
     print(f"  lights: {summary['lights']}; camera: {'yes' if summary['camera'] else 'no'}; "

@@ -21,9 +21,8 @@ Two views of a captured shopper (issue 15), ``--view`` with ``--face``:
   layers over it, shaded again: where there is no makeup the photograph comes back unchanged).
   Takes no camera, size, light or environment options: the photograph fixes them.
 - ``--view relight``: the lightweight engine from the capture's camera, turned by ``--yaw``/``--pitch``
-  (degrees, each within ±25) about the neck, under ``--light`` (photograph units), a kiosk preset
-  (``--light-preset daylight|office|evening|warm indoor``, scaled to the photograph's exposure) or, by
-  default, the captured flash.
+  (degrees, each within ±25) about the neck, under ``--light`` (photograph units), a kiosk light preset
+  (``--light-preset NAME``, scaled to the photograph's exposure) or, by default, the captured flash.
 
 Defaults: intensity 1.2 and exposure 0.85 for the physical modes (display units: a white Lambert surface
 facing a light of intensity 1 shows 1.0 before exposure); intensity 1 and exposure 1 for the lightweight
@@ -106,8 +105,18 @@ def _light(text: str) -> tuple[float, float, float | None, tuple[float, float, f
     return (vals[0], vals[1], vals[2] if len(vals) == 3 else None, colour)
 
 
+def _builtin_looks() -> tuple[str, ...]:
+    """The built-in looks (:data:`painting.looks.BUILTIN_LOOKS`; imported when the help is shown)."""
+    from painting.looks import BUILTIN_LOOKS
+
+    return BUILTIN_LOOKS
+
+
 def register(sub: Subcommands) -> None:
     """Add the ``render`` command to ``sheer``'s sub-commands."""
+    from app.commands import LazyHelp
+    from app.settings import ENVIRONMENTS, LIGHT_PRESETS  # plain Python: no Qt, no numpy
+
     p = sub.add_parser("render", help="render a made-up face to a PNG (no display needed)", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     # Option values may start with a minus sign: "--light -12,5,1" (argparse takes only plain negative
@@ -117,7 +126,8 @@ def register(sub: Subcommands) -> None:
                                                  "the head a --face was captured on")
     src = p.add_mutually_exclusive_group()
     src.add_argument("--project", metavar="FILE", help="a .sheer project to render")
-    src.add_argument("--look", metavar="NAME", help="a built-in look (bare, natural, evening, red-lip) or a look JSON")
+    src.add_argument("--look", metavar="NAME", help=LazyHelp("a built-in look (%(looks)s) or a look JSON",
+                                                             looks=_builtin_looks))
     p.add_argument("--size", type=_size, metavar="WxH",
                    help="image size in pixels (default 1280x720; with the capture's camera or --camera, the "
                         "photograph's size — another size must keep its aspect ratio)")
@@ -136,7 +146,8 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--camera", metavar="FILE",
                    help="a 3×4 projection matrix JSON {\"P\": [[…], […], […]]} (pixels ← mesh units, as 'sheer "
                         "capture --camera'); the image is the size it was made for, or --size")
-    p.add_argument("--env", metavar="NAME", help="HDR environment (e.g. studio, city) or an EXR path")
+    p.add_argument("--env", metavar="NAME",
+                   help=f"HDR environment ({', '.join(e for e in ENVIRONMENTS if e != 'none')}) or an EXR path")
     p.add_argument("--env-intensity", type=float, default=0.3, metavar="E", help="mean irradiance of --env")
     p.add_argument("--yaw", type=float, metavar="DEG",
                    help="orbit camera yaw in degrees (positive: subject's left; default 0) instead of the capture's camera; "
@@ -155,7 +166,7 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--photo", metavar="PATH",
                    help="--view mirror: the photograph the face was captured from (default: the face folder's)")
     p.add_argument("--light-preset", metavar="NAME",
-                   help="--view relight: a kiosk light preset (daylight, office, evening, warm indoor)")
+                   help=f"--view relight: a kiosk light preset ({', '.join(LIGHT_PRESETS)})")
     p.add_argument("--out", required=True, metavar="FILE.png", help="output PNG")
     p.set_defaults(func=run)
 
@@ -196,7 +207,7 @@ def run(args: argparse.Namespace) -> int:
         face = load_face(args.face)
     elif args.view:
         raise SheerError(f"--view {args.view} needs --face FACE_DIR (a folder written by 'sheer capture')")
-    head_path = args.head if args.head or face is None else _captured_head_path(face, args.face)
+    head_path = args.head if args.head or face is None else _captured_head_path(face)
     if args.view:
         return _run_view(args, out, face, head_path)
     lightweight = mode == "lightweight"
@@ -372,18 +383,13 @@ def load_document(args: argparse.Namespace, head_path: str | None) -> tuple[Docu
     return doc, head
 
 
-def _captured_head_path(face: Face, folder: str) -> str | None:
+def _captured_head_path(face: Face) -> str | None:
     """The head a face was captured on, when that file still exists, else None.
 
-    face.json's ``head``; a relative path is inside the face ``folder``.
+    face.json's ``head`` (:attr:`capture.face.Face.head_path`: a relative path is inside the face folder).
     """
-    from pathlib import Path
-
-    recorded = face.data.get("head")
-    if not isinstance(recorded, str):
-        return None
-    path = Path(folder) / recorded  # an absolute path stays as it is
-    return str(path) if path.is_file() else None
+    path = face.head_path
+    return str(path) if path is not None and path.is_file() else None
 
 
 def _photo_camera(args: argparse.Namespace, face: Face | None) -> Camera | None:

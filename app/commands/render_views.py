@@ -46,16 +46,13 @@ def check_view_args(args: argparse.Namespace) -> None:
 
 def photo_path(args: argparse.Namespace, face: Face) -> str:
     """The photograph the face was captured from: ``--photo``, else face.json's ``photo`` (in the folder)."""
-    from pathlib import Path
-
     from core.errors import SheerError
 
     if args.photo:
         return str(args.photo)
-    recorded = face.data.get("photo")
-    if not isinstance(recorded, str):
+    path = face.photo_path  # face.json's photo, relative to its folder
+    if path is None:
         raise SheerError(f"{args.face}: the face folder names no photograph (face.json 'photo'): give --photo PATH")
-    path = Path(args.face) / recorded
     if not path.is_file():
         raise SheerError(f"{path}: the face's photograph is missing: give --photo PATH")
     return str(path)

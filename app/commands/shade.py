@@ -1,18 +1,20 @@
 """``sheer shade``: find the foundation that matches a skin, and see which skins a range serves badly.
 
 - ``sheer shade match (--rgb R,G,B | --lab L,a,b | --face FACE_DIR | --photo P [--region x,y,w,h])
-  [--target own|lighter|darker|warmer|cooler|lab:L,a,b|rgb:R,G,B] [--illuminant D65] [--store-light F11|FILE]
-  [--top N] [--library PATH] [--json]``: the skin is fitted with the biophysical skin model
-  (:mod:`km.skin`), every foundation of the library is put on it at its best thickness
-  (:mod:`shade.match`), and the shades are ranked by ΔE2000 against the target under the illuminant,
-  with the metamerism check under daylight (D65), the store's light and warm indoor light (A).
+  [--target TARGET] [--illuminant NAME] [--store-light NAME|FILE] [--top N] [--library PATH] [--json]``:
+  the skin is fitted with the biophysical skin model (:mod:`km.skin`), every foundation of the library is
+  put on it at its best thickness (:mod:`shade.match`), and the shades are ranked by ΔE2000 against the
+  target under the illuminant, with the metamerism check under daylight (D65), the store's light and warm
+  indoor light (A). A photograph's skin is read on the cheeks of its largest face, found by MediaPipe's
+  landmarks (:mod:`capture.skin`: the kiosk's *Find my foundation* reads hers the same way), and the
+  match says how far it can be trusted (``confidence``: how close the skin model came to the colour).
 - ``sheer shade coverage [--library PATH] --out coverage.png [--skins N] [--json]``: a population of
   skins, the best shade of the library for each, a plot of the skin-tone plane coloured by that ΔE2000
   and the mixture of existing shades that would fill the largest gap (:mod:`shade.coverage`).
 
-Without ``--library`` Sheer's default library is used. Bad input (a colour the skin model cannot
-produce, a region outside the photograph, no face and no region, a library without foundation…) is
-reported in one line, exit status 2.
+Without ``--library`` Sheer's default library is used. Bad input (a typed colour the skin model cannot
+produce, a photograph's colour that is not skin at all, a region outside the photograph, no face and no
+region, a library without foundation…) is reported in one line, exit status 2.
 """
 
 from __future__ import annotations
@@ -28,12 +30,19 @@ if TYPE_CHECKING:
     from km.skin import SkinFit
     from shade.coverage import Coverage
 
-#: A skin colour further than this (ΔE2000) from every skin the model can make is refused as "not a skin".
+#: A typed colour (--rgb, --lab) or a face folder's further than this (ΔE2000) from every skin the model can
+#: make is refused as "not a skin colour".
 MAX_FIT_DE2000 = 10.0
+#: A photograph's reading is matched however far it is, with a low confidence (light, white balance and
+#: make-up move a photographed skin far from the model's); further than this it is not skin (a wall, a
+#: background) and is refused.
+MAX_PHOTO_DE2000 = 20.0
 
 
 def register(sub: Subcommands) -> None:
     """Add ``sheer shade match`` and ``sheer shade coverage`` to the sub-command parsers ``sub``."""
+    from app.commands import LazyHelp
+
     p = sub.add_parser("shade", help="find the foundation that matches a skin; a range's coverage",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ssub = p.add_subparsers(dest="shade_command", metavar="SUBCOMMAND")
@@ -45,16 +54,18 @@ def register(sub: Subcommands) -> None:
     src.add_argument("--rgb", help="the skin as R,G,B (0-255, encoded in --space; default sRGB)")
     src.add_argument("--lab", help="the skin as CIELAB L,a,b (D65)")
     src.add_argument("--face", type=Path, help="a face folder from 'sheer capture' (its fitted diffuse colour)")
-    src.add_argument("--photo", type=Path, help="a photograph (the cheeks of its face, or --region)")
+    src.add_argument("--photo", type=Path, help="a photograph (the cheeks of its largest face, or --region)")
     q.add_argument("--region", help="with --photo: the skin's region x,y,w,h in pixels from the top-left")
     q.add_argument("--space", default="sRGB", help="with --rgb: colour-science's name of the RGB space "
                                                    "(sRGB, Display P3, Adobe RGB (1998)…)")
     q.add_argument("--no-checker", action="store_true", help="with --photo: do not look for a colour checker")
-    q.add_argument("--target", default="own", help="own (default: a foundation that disappears), lighter, darker, "
-                                                   "warmer, cooler, lab:L,a,b or rgb:R,G,B")
+    q.add_argument("--target", default="own",
+                   help=LazyHelp("%(targets)s (default %(default)s: a foundation that disappears, the others a "
+                                 "step from it), lab:L,a,b or rgb:R,G,B", targets=_targets))
     q.add_argument("--illuminant", default="D65", help="light the shades are ranked under (default D65)")
-    q.add_argument("--store-light", default=None, help="the store's light for the metamerism check: a CIE name "
-                                                        "(default F11) or a CSV spectrum file wavelength_nm,power")
+    q.add_argument("--store-light", default=None,
+                   help=LazyHelp("the store's light for the metamerism check: a CIE name (default %(store)s) or a "
+                                 "CSV spectrum file wavelength_nm,power", store=_store_light))
     q.add_argument("--oxygenation", type=float, default=None, help="blood oxygenation held in the fit (0-1)")
     q.add_argument("--top", type=int, default=None, help="show the N best shades (default all)")
     q.add_argument("--library", type=Path, help=lib_help)
@@ -71,6 +82,20 @@ def register(sub: Subcommands) -> None:
                                                                  "(default 2)")
     q.add_argument("--json", action="store_true", help="print JSON")
     q.set_defaults(func=run_coverage)
+
+
+def _targets() -> list[str]:
+    """The named targets (:data:`shade.match.TARGET_SHIFTS`; imported when the help is shown)."""
+    from shade.match import TARGET_SHIFTS
+
+    return list(TARGET_SHIFTS)
+
+
+def _store_light() -> list[str]:
+    """The store's light by default (:data:`shade.match.DEFAULT_STORE_LIGHT`)."""
+    from shade.match import DEFAULT_STORE_LIGHT
+
+    return [DEFAULT_STORE_LIGHT]
 
 
 def _help(parser: argparse.ArgumentParser) -> int:
@@ -102,8 +127,9 @@ def skin_from_args(args: argparse.Namespace) -> tuple[SkinFit, dict[str, Any]]:
     """Fit the skin model to the colour the arguments give; returns the fit and where it came from.
 
     Raises:
-        core.errors.SheerError: malformed values, an unreadable source, or a colour further than
-            :data:`MAX_FIT_DE2000` from every skin of the model.
+        core.errors.SheerError: malformed values, an unreadable source, no face in a photograph, or a colour
+            further than :data:`MAX_FIT_DE2000` (a photograph's: :data:`MAX_PHOTO_DE2000`) from every skin
+            of the model.
     """
     import numpy as np
 
@@ -133,22 +159,35 @@ def skin_from_args(args: argparse.Namespace) -> tuple[SkinFit, dict[str, Any]]:
                   "note": "the capture's fitted diffuse colour (linear sRGB reflectance)"}
         fit = fit_skin(linear_rgb=diffuse, oxygenation=oxygenation)
     else:
-        from shade.photo import skin_from_photo
-
-        region = None
-        if args.region is not None:
-            x, y, w, h = _numbers(args.region, 4, "--region")
-            if not all(float(v).is_integer() for v in (x, y, w, h)):
-                raise SheerError(f"--region: x,y,w,h must be whole pixels, got {args.region}")
-            region = (int(x), int(y), int(w), int(h))
-        photo = skin_from_photo(args.photo, region, use_checker=not args.no_checker)
+        photo = _photo_skin(args)
         source = {"kind": "photo", "path": str(args.photo), **photo.to_json()}
         fit = fit_skin(linear_rgb=photo.linear_rgb, oxygenation=oxygenation)
-    if fit.residual_de2000 > MAX_FIT_DE2000:
+    limit = MAX_PHOTO_DE2000 if source["kind"] == "photo" else MAX_FIT_DE2000
+    if fit.residual_de2000 > limit:
         lab = ", ".join(f"{v:.1f}" for v in fit.target_lab)
         raise SheerError(f"the colour (Lab {lab}) is not a skin colour the skin model can produce: the closest "
-                         f"skin is ΔE2000 {fit.residual_de2000:.1f} away (at most {MAX_FIT_DE2000:g} is accepted)")
+                         f"skin is ΔE2000 {fit.residual_de2000:.1f} away (at most {limit:g} is accepted"
+                         + (" from a photograph" if source["kind"] == "photo" else "") + ")")
     return fit, source
+
+
+def _photo_skin(args: argparse.Namespace) -> Any:
+    """The skin read from ``--photo``: ``--region``'s pixels, else the cheeks of its largest face.
+
+    The face's reading is :func:`capture.skin.skin_from_portrait`, the kiosk's (MediaPipe's landmarks).
+    """
+    from core.errors import SheerError
+
+    if args.region is None:
+        from capture.skin import skin_from_portrait
+
+        return skin_from_portrait(args.photo, use_checker=not args.no_checker)
+    from shade.photo import skin_from_photo
+
+    x, y, w, h = _numbers(args.region, 4, "--region")
+    if not all(float(v).is_integer() for v in (x, y, w, h)):
+        raise SheerError(f"--region: x,y,w,h must be whole pixels, got {args.region}")
+    return skin_from_photo(args.photo, (int(x), int(y), int(w), int(h)), use_checker=not args.no_checker)
 
 
 def _to_linear_srgb(encoded: Any, space: str) -> Any:
@@ -189,7 +228,7 @@ def _credits() -> list[str]:
 def run_match(args: argparse.Namespace) -> int:
     """Rank the library's foundations on the skin and print a table or JSON; returns 0."""
     from core.errors import SheerError
-    from shade.match import make_target, match_shades
+    from shade.match import confidence, make_target, match_shades
 
     if args.top is not None and args.top < 1:
         raise SheerError(f"--top must be at least 1, got {args.top}")
@@ -200,9 +239,10 @@ def run_match(args: argparse.Namespace) -> int:
     ranked = match_shades(fit.reflectance, target.reflectance, bank, illuminant=main, lights=lights)
     shown = ranked[: args.top] if args.top else ranked
     note = source.get("note", "")
+    trust = confidence(fit)
     if args.json:
         out = {"skin": fit.to_json(), "source": source, "target": target.to_json(), "illuminant": main,
-               "lights": list(lights), "note": note, "credits": _credits(),
+               "lights": list(lights), "note": note, "confidence": trust.to_json(), "credits": _credits(),
                "shades": [{**s.to_json(), "rank": i + 1, "metamerism": s.metamerism_words()}
                           for i, s in enumerate(shown)]}
         json.dump(out, sys.stdout, indent=2, ensure_ascii=False)
@@ -211,8 +251,8 @@ def run_match(args: argparse.Namespace) -> int:
     p = fit.params
     print(f"skin: melanin {p.melanin:.3f}, blood {p.blood:.4f}, scattering {p.scattering:.2f}, "
           f"pheomelanin {p.pheomelanin:.2f}, oxygenation {p.oxygenation:.2f}; Lab "
-          f"{', '.join(f'{v:.1f}' for v in fit.lab)}; fit ΔE2000 {fit.residual_de2000:.2f}"
-          + (" (OUT OF THE MODEL'S GAMUT: the closest skin is used)" if fit.out_of_gamut else ""))
+          f"{', '.join(f'{v:.1f}' for v in fit.lab)}; fit ΔE2000 {fit.residual_de2000:.2f}")
+    print(f"confidence: {trust.level} — {trust.words}")
     if note:
         print(f"note: {note}")
     print(f"target: {target.name}; ranked under {main}; metamerism checked under {', '.join(lights)}")

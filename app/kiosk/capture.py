@@ -139,34 +139,18 @@ def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | N
 
 
 def shopper_skin(face: Any) -> PhotoSkin | None:
-    """Her skin colour read from her photograph (:func:`shade.photo.skin_from_photo`), or None.
+    """Her skin colour read from her photograph (:func:`capture.skin.skin_from_face`), or None.
 
-    The region is a band across both cheeks at the height of her ``left_cheek`` / ``right_cheek``
-    landmarks (±0.15 of the eyes' distance around them; the luminance percentiles drop the nose's
-    highlight and shadows); a ColorChecker in the frame corrects the camera. None when the face folder
-    has no photograph or landmarks (the caller then uses the fitted diffuse colour).
+    The reading ``sheer shade match --photo`` makes too: the band across both cheeks at the height of her
+    ``left_cheek`` / ``right_cheek`` landmarks, colour-corrected when a ColorChecker is in the frame. None
+    when the face folder has no photograph or landmarks, or the photograph cannot be read (logged; the
+    caller then uses the fitted diffuse colour).
     """
-    from shade.photo import PhotoError, skin_from_photo
+    from capture.skin import skin_from_face
+    from shade.photo import PhotoError
 
-    photo_path = getattr(face, "photo_path", None)
     try:
-        std = face.data["landmarks"]["standard"]
-        (lx, ly), (rx, ry) = std["left_cheek"], std["right_cheek"]
-        (ex1, ey1), (ex2, ey2) = std["left_eye"], std["right_eye"]
-    except (KeyError, TypeError, ValueError):
-        return None
-    if photo_path is None or not Path(photo_path).is_file():
-        return None
-    iod = float(np.hypot(ex1 - ex2, ey1 - ey2))
-    pad = 0.15 * iod
-    camera = face.camera()
-    w, h = camera.width, camera.height
-    x0, x1 = max(0, int(min(lx, rx) - pad)), min(w, int(np.ceil(max(lx, rx) + pad)))
-    y0, y1 = max(0, int(min(ly, ry) - pad)), min(h, int(np.ceil(max(ly, ry) + pad)))
-    if x1 - x0 < 4 or y1 - y0 < 4:
-        return None
-    try:
-        return skin_from_photo(photo_path, region=(x0, y0, x1 - x0, y1 - y0))
+        return skin_from_face(face)
     except PhotoError as exc:
         log.warning("kiosk: her skin could not be read from her photograph (%s)", exc)
         return None

@@ -1,12 +1,14 @@
 """The kiosk's "Find my foundation": the three best foundations on the shopper's skin, tap one to wear it.
 
 Her skin is read from her own photograph after "Try it on me" (``skin_source``: the cheeks of her
-photograph, colour-corrected when a ColorChecker is in the frame — :mod:`shade.photo`), else the
+photograph, colour-corrected when a ColorChecker is in the frame — :mod:`capture.skin`, the reading
+``sheer shade match --photo`` makes), else the
 configured captured face's fitted diffuse colour, else the head's skin (:meth:`painting.head.Head.skin_rgb`:
 the median of its albedo's middle third). The reading and the match run in the thread pool (a checker search takes seconds). It is fitted with the skin model and the library's
 foundations ranked on it (:func:`shade.match.match_shades`: own skin as the target, daylight, with the
 metamerism check under the store's light F11 and warm indoor light A). Three touch-sized buttons show
-the shades over her skin; a line says in plain words which of them change under the shop's light.
+the shades over her skin; a line says in plain words which of them change under the shop's light, and
+asks her to have the shade confirmed when her skin was hard to read (:func:`shade.match.confidence`).
 Tapping one gives the look's foundation layer that shade. The ``found`` signal names the three, so the
 kiosk can show each on her face (:meth:`FoundationFinder.set_preview` puts the picture on its button).
 """
@@ -114,11 +116,12 @@ class FoundationFinder(QWidget):
 
         def job(_progress: Any, _cancelled: Any) -> tuple[list[ShadeMatch], bool]:
             from km.skin import fit_skin
-            from shade.match import ShadeBank, foundations, match_shades
+            from shade.match import ShadeBank, confidence, foundations, match_shades
 
             fit = fit_skin(linear_rgb=self.skin_rgb())
             bank = ShadeBank.from_materials(foundations(self.library))
-            return match_shades(fit.reflectance, fit.reflectance, bank), bool(fit.out_of_gamut)
+            # the confidence `sheer shade match` states: low when the model cannot make her skin's colour
+            return match_shades(fit.reflectance, fit.reflectance, bank), confidence(fit).hard_to_read
 
         run_task(None, "", job, self.guard(self._show), self.guard(self._failed), show_progress=False)
 
@@ -128,7 +131,7 @@ class FoundationFinder(QWidget):
         raise RuntimeError(f"Find my foundation: {message}")
 
     def _show(self, result: tuple[list[ShadeMatch], bool]) -> None:
-        ranked, out_of_gamut = result
+        ranked, hard_to_read = result
         self.busy = False
         self.find_button.setEnabled(True)
         self.shades = ranked[:SHOWN]
@@ -141,7 +144,7 @@ class FoundationFinder(QWidget):
             b.hide()
         warnings = [w for w in (plain_warning(s) for s in self.shades) if w]
         words = " ".join(warnings) or "These match in daylight, in the shop and at home."
-        if out_of_gamut:
+        if hard_to_read:
             words += " Your skin is hard to read in this photo: please ask us to confirm the shade."
         self.message.setText(words)
         self.found.emit([s.name for s in self.shades])

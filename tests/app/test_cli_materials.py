@@ -80,7 +80,7 @@ def test_import_into_a_new_library_then_use_it(capsys: pytest.CaptureFixture[str
 
 def test_import_checks_only_without_library(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys, "import", str(DATA / "xrite_single.txt"), "--thickness-mm", "0.15", "--name", "X1")
-    assert code == 0 and "+ X1" in out and "checked only" in out
+    assert code == 0 and "+ X1" in out and "checked 1 material" in out and "nothing saved" in out
 
 
 def test_import_failures(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -48,8 +48,8 @@ class Captured(NamedTuple):
 
 @pytest.fixture(scope="module")
 def captured(inputs: dict[str, Path]) -> Captured:
-    """``sheer capture`` run once on the synthetic scene (photo, camera and probe; 256² texture) for the
-    tests that read its face folder."""
+    """``sheer capture --verbose`` run once on the synthetic scene (photo, camera and probe; 256² texture) for
+    the tests that read its face folder and its every step."""
     from app.cli import main
 
     d = inputs["dir"]
@@ -57,7 +57,7 @@ def captured(inputs: dict[str, Path]) -> Captured:
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
         rc = main(["capture", "--photo", str(d / "photo.png"), "--camera", str(d / "camera.json"),
-                   "--probe", str(d / "probe.png"), "--texture-size", "256", "--out", str(out)])
+                   "--probe", str(d / "probe.png"), "--texture-size", "256", "--out", str(out), "--verbose"])
     return Captured(rc, err.getvalue(), out)
 
 

@@ -1,4 +1,4 @@
-"""A skin colour from a photograph: the colour checker's correction, the face's cheeks, the refusals."""
+"""A skin colour from a photograph: the colour checker's correction, the face's cheeks (capture.skin), the refusals."""
 
 from __future__ import annotations
 
@@ -52,9 +52,12 @@ def test_without_a_checker_the_srgb_assumption_is_stated(tmp_path) -> None:
 
 
 def test_a_face_is_found_and_its_cheeks_sampled() -> None:
+    """The face's cheek band is found by capture.skin (MediaPipe's landmarks), inside the photograph."""
+    from capture.skin import skin_from_portrait
+
     photo = find_asset("photos/grace_hopper.jpg")
-    skin = skin_from_photo(photo, use_checker=False)
-    assert skin.source == "face" and len(skin.boxes) == 2
+    skin = skin_from_portrait(photo, use_checker=False)
+    assert skin.source == "face" and len(skin.boxes) == 1
     h, w = np.asarray(Image.open(photo)).shape[:2]
     for x, y, bw, bh in skin.boxes:
         assert x >= 0 and x + bw <= w and y >= 0 and y + bh <= h
@@ -65,8 +68,10 @@ def test_a_face_is_found_and_its_cheeks_sampled() -> None:
 def test_refusals(tmp_path) -> None:
     blank = tmp_path / "blank.png"
     Image.fromarray(np.full((120, 160, 3), 128, np.uint8)).save(blank)
+    from capture.skin import skin_from_portrait
+
     with pytest.raises(PhotoError, match="no face found in the photograph; give the skin's region"):
-        skin_from_photo(blank)
+        skin_from_portrait(blank)
     with pytest.raises(PhotoError, match=r"region 150,100,20,30 is outside the photograph \(160×120 px"):
         skin_from_photo(blank, (150, 100, 20, 30))
     junk = tmp_path / "junk.png"
