@@ -120,3 +120,16 @@ def test_the_checks_themselves() -> None:
     assert not _FORBIDDEN.search("the helper function") and not _FORBIDDEN.search("a session of 3 minutes")
     links = _LINK.findall("see [a](docs/A.md#x), ![img](docs/images/b.png) and [c](https://e.org) `[d](no.md)`")
     assert links == ["docs/A.md#x", "docs/images/b.png", "https://e.org", "no.md"]
+
+
+#: a path of the repository written in backticks: `tests/shade/test_match.py`, `app/studio/launch.py`
+_CODE_PATH = re.compile(r"`((?:app|bench|capture|catalogue|core|km|painting|project|render|resources|scripts|shade|"
+                        r"tests)/[\w./-]+\.(?:py|glsl|json|toml|csv))(?::\d+)?`")
+
+
+@pytest.mark.parametrize("doc", doc_files(), ids=lambda p: p.name)
+def test_every_file_the_docs_name_exists(doc: Path) -> None:
+    """A test, module or shader a page cites (in backticks) exists: a claim keeps its evidence when files move."""
+    missing = [f"{doc.name}:{number}: {m.group(1)}" for number, line in prose_lines(doc)
+               for m in _CODE_PATH.finditer(line) if not (ROOT / m.group(1)).exists()]
+    assert not missing, "\n".join(missing)
