@@ -99,9 +99,11 @@ def register(sub: Subcommands) -> None:
     p.set_defaults(func=run)
 
 
-#: The progress lines printed without ``--verbose``: what the capture found, how well it reproduces the
-#: photograph, and what the user should know (the capture's own warnings and notes).
-SUMMARY_PREFIXES = ("face found:", "camera from correspondences:", "reproduction:", "warning:", "note:")
+#: The progress lines printed without ``--verbose``: what the capture found, the focal length and where it came
+#: from (the photo's EXIF, --focal-mm or a prior: it decides the camera), how well it reproduces the photograph,
+#: and what the user should know (the capture's own warnings and notes).
+SUMMARY_PREFIXES = ("face found:", "focal length", "camera from correspondences:", "reproduction:", "warning:",
+                    "note:")
 
 
 def _printer(verbose: bool) -> Callable[[str], None]:

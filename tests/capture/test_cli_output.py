@@ -23,15 +23,17 @@ pytestmark = pytest.mark.slow
 
 
 def test_a_capture_says_what_matters(tmp_path: Path) -> None:
-    """A real process (MediaPipe writes below Python): four lines, each Sheer's, none of them the RMS error of a
-    head built from the same landmarks (0.00 px) or an ambient scale without a probe."""
+    """A real process (MediaPipe writes below Python): a few lines, each Sheer's (the face, the focal length and
+    where it came from, the reproduction, notes, what was written), none of them the RMS error of a head built
+    from the same landmarks (0.00 px) or an ambient scale without a probe."""
     out = tmp_path / "grace"
     done = subprocess.run([SHEER, "capture", "--photo", str(find_asset("photos/grace_hopper.jpg")), "--out", str(out),
                            "--texture-size", "64"], capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     lines = done.stderr.splitlines()
     assert all(line.startswith("capture: ") for line in lines), done.stderr  # no I0000/W0000/INFO: lines
-    assert len(lines) <= 5, done.stderr
+    assert len(lines) <= 6, done.stderr
+    assert any(line.startswith("capture: focal length") for line in lines), done.stderr
     assert lines[0].startswith("capture: face found:") and "quality gate passed" in lines[0]
     assert any(line.startswith("capture: reproduction: mean ΔE2000") for line in lines)
     assert lines[-1].startswith(f"capture: wrote {out}/: face.json")
