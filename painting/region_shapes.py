@@ -47,6 +47,8 @@ if TYPE_CHECKING:
 
 #: Texels deeper than this behind the frontmost surface at their (X, Y) are not in any region (mm).
 FRONT_DEPTH_MM = 4.0
+#: The inner mouth of a head with landmarks: hidden texels within this depth behind the lip centre (mm).
+INNER_MOUTH_DEPTH_MM = 20.0
 #: Texels whose normal is further than this from the face frame's forward axis are not in front
 #: regions (cosine); the jawline accepts side-facing texels.
 FRONT_COS = 0.2
@@ -143,11 +145,14 @@ class _Texels:
         np.maximum.at(top, key, self.z)
         self.front = (self.z >= top[key] - FRONT_DEPTH_MM) & (self.facing > FRONT_COS)
 
-    def image(self, sel: np.ndarray) -> np.ndarray:
-        """A bool (R, R) image of the selected covered texels (only where regions are allowed: the skin)."""
+    def image(self, sel: np.ndarray, anywhere: bool = False) -> np.ndarray:
+        """A bool (R, R) image of the selected covered texels, only where regions are allowed unless ``anywhere``.
+
+        Allowed: the skin and what it surrounds (see :func:`derive_regions`).
+        """
         out = np.zeros(self.shape[0] * self.shape[1], bool)
         out[self.flat[sel]] = True
-        return out.reshape(self.shape) & self.allowed
+        return out.reshape(self.shape) if anywhere else out.reshape(self.shape) & self.allowed
 
 
 def _albedo_blob(head: Head, tex: _Texels, box: np.ndarray, dark: bool = False) -> np.ndarray | None:
@@ -346,6 +351,12 @@ def _lip_shapes(head: Head, frame: FaceFrame, tex: _Texels, lm: dict[str, np.nda
         lips = front & (np.where(y >= mouth_line, e_up, e_lo) <= 1.0)
         lip_src = "ellipses through the landmarks' mouth corners and lip points (no albedo edge)"
     above = y >= mouth_line
+    # the inner mouth: inside the mouth box, the texels hidden behind the lips (the lips' inner curl, the
+    # mouth's inside), down to INNER_MOUTH_DEPTH_MM behind the lip centre
+    inner = (np.abs(x - cx) <= half) & (y <= top) & (y >= bottom) & ~front & (tex.z >= lc[2] - INNER_MOUTH_DEPTH_MM)
+    out["inner_mouth"] = (tex.image(inner, anywhere=True),
+                          f"the texels hidden behind the lips in the landmarks' mouth box (more than {FRONT_DEPTH_MM:g} mm "
+                          f"behind the frontmost surface, at most {INNER_MOUTH_DEPTH_MM:g} mm behind the lip centre)")
     out["lips"] = (tex.image(lips), lip_src)
     out["upper_lip"] = (tex.image(lips & above), lip_src + "; split at the mouth line (parabola through the corners "
                         "and lip_centre)")
@@ -479,6 +490,8 @@ def _contour_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tup
     upper = poly(("lipsUpperOuter", False), ("lipsUpperInner", True))
     lower = poly(("lipsLowerOuter", False), ("lipsLowerInner", True))
     out: dict[str, tuple[np.ndarray, str]] = {
+        "inner_mouth": (mouth_opening_texels(head, tex.shape),
+                        src.format("the triangles spanning lipsUpperInner + lipsLowerInner: the mouth's opening")),
         "upper_lip": (tex.image(upper), src.format("lipsUpperOuter − lipsUpperInner")),
         "lower_lip": (tex.image(lower), src.format("lipsLowerOuter − lipsLowerInner")),
         "lips": (tex.image(upper | lower), src.format("outer lip contour − inner lip contour")),
@@ -511,6 +524,45 @@ def _contour_shapes(head: Head, frame: FaceFrame, tex: _Texels) -> dict[str, tup
                "brow_bone": "EyeUpper2 to EyebrowLower", "under_eye": "EyeLower0 to EyeLower3"}
     for k, sel in parts.items():
         out[k] = (tex.image(sel), src.format(sources[k]))
+    return out
+
+
+def mouth_opening_faces(head: Head) -> np.ndarray:
+    """A face mesh's triangles across its mouth opening: those whose corners all lie on the inner lip contours.
+
+    MediaPipe's topology closes the mouth with them (18 in the 468-point mesh); on a smiling face they
+    span the teeth. Indices into ``head.faces`` (int64); empty for other heads.
+    """
+    if not is_face_mesh(head):
+        return np.zeros(0, np.int64)
+    inner = CONTOURS["lipsUpperInner"] + CONTOURS["lipsLowerInner"]
+    return np.flatnonzero(np.all(np.isin(np.asarray(head.faces), inner), axis=1)).astype(np.int64)
+
+
+def mouth_opening_texels(head: Head, shape: tuple[int, int]) -> np.ndarray:
+    """Bool ``shape``: the texels of the head's own UVs in the mouth opening's triangles (:func:`mouth_opening_faces`).
+
+    A texel belongs when its centre or a corner falls in one (conservative); top row first (row i covers
+    v ∈ [i/H, (i+1)/H)).
+    """
+    from matplotlib.path import Path as MplPath
+
+    h, w = shape
+    out = np.zeros(shape, bool)
+    uv = np.asarray(head.uv, float)
+    jj, ii = np.meshgrid(np.arange(w), np.arange(h))
+    for f in mouth_opening_faces(head):
+        tri = uv[np.asarray(head.faces)[f]] * (w, h)  # texel units (x = u·W, y = v·H)
+        lo = np.maximum(np.floor(tri.min(axis=0)).astype(int) - 1, 0)
+        hi = np.minimum(np.ceil(tri.max(axis=0)).astype(int) + 2, (w, h))
+        sub_j, sub_i = jj[lo[1]:hi[1], lo[0]:hi[0]], ii[lo[1]:hi[1], lo[0]:hi[0]]
+        # a texel belongs if any of its centre and corners is inside (conservative, as the atlas's coverage)
+        hit = np.zeros(sub_j.shape, bool)
+        path = MplPath(tri)
+        for dx, dy in ((0.5, 0.5), (0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)):
+            pts = np.stack([sub_j.ravel() + dx, sub_i.ravel() + dy], axis=1)
+            hit |= path.contains_points(pts).reshape(sub_j.shape)
+        out[lo[1]:hi[1], lo[0]:hi[0]] |= hit
     return out
 
 
@@ -551,9 +603,9 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
     if is_face_mesh(head):
         shapes.update(_contour_shapes(head, frame, tex))
     texel_mm = local_texel_mm(atlas)
-    excluded = [name for name in ("lips", "eyes", "brows") if name in shapes]
+    excluded = [name for name in ("lips", "eyes", "brows", "inner_mouth") if name in shapes]
     shapes["skin"] = (skin, ("the head's skin mask" if head.skin_mask is not None else "every covered texel")
-                      + " × (1 − each of the lips, eyes and brows as soft masks)")
+                      + " × (1 − each of the lips, eyes, brows and the inner mouth as soft masks)")
     if "lips" in shapes:
         from scipy.ndimage import distance_transform_edt
 

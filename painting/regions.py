@@ -58,13 +58,15 @@ REGION_NAMES: dict[str, str] = {
     "forehead": "the forehead, brows to hairline",
     "t_zone": "forehead, nose and chin",
     "jawline": "a band along the jaw from ear to chin",
-    "skin": "the facial skin as a whole, without the lips, eyes and brows",
+    "inner_mouth": "inside the mouth: a face mesh's mouth opening (over the teeth when she smiles), the lips' "
+                   "hidden inner curl; no transferred layer paints it",
+    "skin": "the facial skin as a whole, without the lips, eyes, brows and the inner mouth",
 }
 #: Default feather (full ramp width, mm) per region.
 DEFAULT_FEATHER_MM: dict[str, float] = {
     "upper_lip": 0.5, "lower_lip": 0.5, "lips": 0.5, "lip_line": 0.5, "eyes": 1.0, "lash_line": 0.5,
     "upper_eyelid": 1.0, "crease": 1.0, "brow_bone": 3.0, "under_eye": 3.0, "brows": 1.5, "cheek_apple": 10.0, "cheekbone": 10.0,
-    "nose_bridge": 3.0, "forehead": 6.0, "t_zone": 6.0, "jawline": 6.0, "skin": 3.0,
+    "nose_bridge": 3.0, "forehead": 6.0, "t_zone": 6.0, "jawline": 6.0, "skin": 3.0, "inner_mouth": 0.5,
 }
 #: Bump when the stored region format changes.
 REGIONS_FORMAT_VERSION = 1

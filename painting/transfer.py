@@ -23,6 +23,10 @@ What moves with a layer: its thickness map (µm), its mask's paint channel, its 
 name, re-evaluated on B's regions; baked into the channel when B lacks one of its regions), its
 material (the same library name and object), name, visibility, opacity and maximum thickness.
 
+What never receives paint: B's **inner mouth** (:func:`inner_mouth_texels`, its ``inner_mouth`` region: on a
+face mesh the triangles across the mouth's opening, which span the teeth when she smiles), so a transferred
+lipstick stops at her lips' inner contour as a built-in look replayed on her does.
+
 Units: mesh units of each head for positions, mm for distances, µm for thickness.
 """
 
@@ -369,6 +373,26 @@ def _move(corr: Correspondence, values: np.ndarray, source: Document, target: Do
     return out if res == corr.resolution else upsample(out, target.atlas_at(res), fill)
 
 
+def inner_mouth_texels(target: Document, resolution: int) -> np.ndarray | None:
+    """Bool (resolution, resolution): the texels of ``target``'s inner mouth, which no transferred layer paints.
+
+    Its ``inner_mouth`` region (≥ 0.5: the opening and a quarter of a millimetre around it, half the
+    region's feather); for a face-mesh head whose stored regions predate the region (a face folder
+    captured before), the mouth opening's triangles (:func:`painting.region_shapes.mouth_opening_texels`).
+    None when the head has neither.
+    """
+    from painting.layer import DocumentError
+    from painting.region_shapes import is_face_mesh, mouth_opening_texels
+
+    try:
+        inner = target.region_values("inner_mouth", resolution) >= 0.5
+    except DocumentError:
+        if not (is_face_mesh(target.head) and target.layout.source == "mesh"):
+            return None
+        inner = mouth_opening_texels(target.head, (resolution, resolution))
+    return inner if inner.any() else None
+
+
 def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | None = None,
                     max_gap_mm: float = DEFAULT_MAX_GAP_MM, max_angle_deg: float = DEFAULT_MAX_ANGLE_DEG,
                     max_resolution: int = MAX_CORRESPONDENCE_RESOLUTION,
@@ -394,6 +418,7 @@ def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | 
     for lay in source.layers:  # check every material first: a missing one changes nothing
         target.lookup_material(lay.material)
     corrs: dict[int, Correspondence] = {}
+    inner_mouth: dict[int, np.ndarray | None] = {}  # by resolution
     layers = source.layers
     for i, lay in enumerate(layers):
         res = lay.resolution
@@ -404,6 +429,10 @@ def transfer_layers(source: Document, target: Document, *, warp: LandmarkWarp | 
         corr = corrs[work]
         new = target.add_layer(lay.material, resolution=res, name=lay.name, max_thickness=lay.max_thickness)
         thickness = np.clip(_move(corr, lay.thickness, source, target), 0.0, None)
+        if res not in inner_mouth:
+            inner_mouth[res] = inner_mouth_texels(target, res)
+        if inner_mouth[res] is not None:
+            thickness[inner_mouth[res]] = 0.0
         if np.any(thickness):
             target.set_thickness(new, thickness, detail="transfer")
         target.set_layer(new, visible=lay.visible, opacity=lay.opacity)

@@ -180,7 +180,11 @@ def _round_trip_errors(a: np.ndarray, back: np.ndarray, where: np.ndarray) -> tu
 
 #: Round-trip tolerances per layer (mean |Δ| / peak, p99 |Δ| / peak, mass ratio range), measured at 512²
 #: (see the README's look-transfer table for the figures).
-ROUND_TRIP_TOLERANCE = {"Lipstick": (0.01, 0.15, 0.8, 1.1), "Lip fill": (0.01, 0.3, 0.8, 1.1),
+#: The lips' mass comes back short where part of it lands on the other head's inner mouth, which a transfer
+#: never paints (the canonical face's lips part 5.5 mm, the sample head's curl in): measured over A's texels
+#: outside its inner mouth, sample → canonical → sample 0.86 of a stroke along the mouth and 0.77 of the lips
+#: filled to their line (1.00 and 0.99 before the inner mouth was kept clear), the other way 0.87 and 0.93.
+ROUND_TRIP_TOLERANCE = {"Lipstick": (0.01, 0.15, 0.8, 1.1), "Lip fill": (0.01, 0.3, 0.7, 1.1),
                         "Blush": (0.005, 0.05, 0.97, 1.03), "Field": (0.01, 0.05, 0.98, 1.02)}
 
 
@@ -191,7 +195,9 @@ def test_round_trip_returns_the_maps(direction: str, sample_painted: Document, c
     start, (middle, _) = ((sample_painted, to_canonical) if direction.startswith("sample")
                           else (canonical_painted, to_sample))
     back, _ = transfer_document(middle, start.head)
-    where = matched_texels(middle, back) & start.atlas_at(RES).coverage
+    # a transfer never paints the inner mouth: A's texels there are left out (what lands on B's is lost: the
+    # lower bounds of the lips' mass ratios)
+    where = matched_texels(middle, back) & start.atlas_at(RES).coverage & ~(start.region_values("inner_mouth", RES) > 0.05)
     for i, name in enumerate(LAYERS):
         if name not in ROUND_TRIP_TOLERANCE:
             continue
@@ -268,8 +274,11 @@ def test_target_seams_stay_clean(sample_painted: Document, cut_canonical: Docume
         jump = np.abs(one - two)[inside]
         assert inside.sum() > 20 and float(np.median(jump)) < 0.25 and float(jump.max()) <= steepest, name
     flat_map = np.asarray(target.layers[LAYERS.index("Flat")].thickness).reshape(-1)
+    # a transfer never paints the inner mouth (painting.transfer.inner_mouth_texels): 0 there
+    inner = (target.region_values("inner_mouth", RES) >= 0.5).reshape(-1)
     matched = matched.reshape(-1)
-    assert np.allclose(flat_map[matched], 10.0, atol=1e-4)
+    assert inner.any() and np.all(flat_map[inner] == 0.0)
+    assert np.allclose(flat_map[matched & ~inner], 10.0, atol=1e-4)
     assert np.array_equal(flat_map[atlas.pad_dst], flat_map[atlas.pad_src])
     assert atlas.padded.sum() > 0 and np.all(flat_map[atlas.pad_dst] == flat_map[atlas.pad_src])
 
@@ -282,7 +291,8 @@ def test_source_seams_do_not_bleed(cut_canonical: Document) -> None:
     src.fill(flat, 10.0)
     target, _ = transfer_document(src, sample_head())
     corr = Correspondence.build(src, target, RES)
-    got = np.asarray(target.layers[0].thickness).reshape(-1)[corr.flat]
+    outside = ~(target.region_values("inner_mouth", RES) >= 0.5).reshape(-1)[corr.flat]  # never painted
+    got = np.asarray(target.layers[0].thickness).reshape(-1)[corr.flat][outside]
     assert np.allclose(got, 10.0, atol=1e-4), (got.min(), got.max())
     # the places lie in several charts, many next to a chart border (so the test can fail: measured
     # with plain bilinear taps, values down to ~2.5 µm there)
