@@ -53,7 +53,8 @@ def tiny_material(name: str = "Foundation F", s: float = 8.0) -> dict[str, Any]:
     """A small valid material JSON (``km.Material.to_json`` format)."""
     return {"name": name, "category": "foundation", "source": "modelled", "provenance": "fuzzing sample",
             "wavelengths": list(_WL), "S": [s, s, s, s], "K": [0.5, 0.8, 1.0, 1.2], "thickness_um": 20.0,
-            "max_thickness_um": 100.0, "roughness": 0.3, "ior": 1.45, "measurement": None}
+            "max_thickness_um": 100.0, "roughness": 0.3, "ior": 1.45, "measurement": None,
+            "coverage": None}
 
 
 def tiny_head(embedded: bool = True) -> HeadRef:

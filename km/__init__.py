@@ -5,8 +5,9 @@ are fractions in [0, 1]. Arrays broadcast, wavelengths on the last axis.
 
 Modules: :mod:`km.optics` (Kubelka–Munk Eq. 1–4 and 6–7, Saunderson, mixing), :mod:`km.spectra`
 (wavelength grids), :mod:`km.srgb` (the sRGB transfer functions), :mod:`km.colour` (spectra to XYZ,
-linear sRGB, Lab, ΔE2000), :mod:`km.cache` (the spectral → RGB matrix on disk), :mod:`km.material`
-(Material, Measurement), :mod:`km.measurements` (CSV and CGATS import, CSV export), :mod:`km.library`
+linear sRGB, Lab, ΔE2000), :mod:`km.cache` (the spectral → RGB matrix on disk), :mod:`km.coverage` (coverage
+classes, the contrast ratio, a layer's colour as applied), :mod:`km.material` (Material, Measurement; its
+error in :mod:`km.errors`), :mod:`km.measurements` (CSV and CGATS import, CSV export), :mod:`km.library`
 (Library, the default library).
 
 What km may import: :mod:`core`, numpy and colour-science; never :mod:`painting`, :mod:`project`,

@@ -2,7 +2,7 @@
 
 File format (UTF-8 JSON, at most :data:`MAX_FILE_BYTES`)::
 
-    {"format": "sheer.materials", "schema_version": 1, "name": str,
+    {"format": "sheer.materials", "schema_version": 2, "name": str,
      "materials": [<Material.to_json()>, ...]}
 
 Loading is all-or-nothing: the whole file is parsed, migrated and validated before a
@@ -14,6 +14,10 @@ Schema versions: files written by an older Sheer are upgraded in memory by the s
 registered with ``@MIGRATIONS.register(v)``); a file from a newer Sheer is refused. Saving is atomic
 (:mod:`core.atomicio`): a failed save never damages the file, and the previous file is kept as
 ``FILE.bak``.
+
+Versions: 1, the materials without ``coverage``; 2 (current), each material states its coverage (or
+``null``: none stated, see :mod:`km.coverage`). The step 1 → 2 gives every material ``"coverage": null``,
+so a version-1 library loads with the coverage its S and K give, saying so in its provenance.
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ if TYPE_CHECKING:
 
 FORMAT = "sheer.materials"
 #: The schema version this Sheer writes.
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: Largest library file read, in bytes.
 MAX_FILE_BYTES = 32 * 1024 * 1024
 #: Most materials in one library.
@@ -50,6 +54,18 @@ class LibraryError(SheerError, ValueError):
 
 #: ``from_version -> step(data) -> data at from_version + 1``.
 MIGRATIONS = Migrations(LibraryError)
+
+
+@MIGRATIONS.register(1)
+def _v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
+    """1 → 2: every material gets ``"coverage": null`` (it states none: its S and K give it on loading)."""
+    items = data.get("materials")
+    if isinstance(items, list):  # anything else is refused by the validation after the migration
+        for m in items:
+            if isinstance(m, dict):
+                m.setdefault("coverage", None)  # one that has it keeps it (then validated)
+    data["schema_version"] = 2
+    return data
 
 
 def migrate(data: dict[str, Any], *, source: str = "library") -> dict[str, Any]:

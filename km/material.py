@@ -30,7 +30,13 @@ A material is a JSON object with exactly these keys (``measurement`` may be ``nu
      "thickness_um": float, "max_thickness_um": float, "roughness": float, "ior": float,
      "measurement": null | {"wavelengths": [nm...], "R_inf": [...], "R": [...], "Rg": [...],
                             "D_mm": float, "instrument": str, "illuminant": str,
-                            "saunderson": null | {"k1": float, "k2": float}}}
+                            "saunderson": null | {"k1": float, "k2": float}},
+     "coverage": null | {"class": "sheer" | "medium" | "full", "contrast_ratio": null | float,
+                         "provenance": str}}
+
+``coverage`` is what the material states about its hiding (:mod:`km.coverage`: the class, and the
+contrast ratio at ``thickness_um``); null in a file means it states none, and the one its S and K give
+is used (and written back).
 
 :data:`MATERIAL_JSON_SCHEMA` is the JSON Schema of this shape. Numbers are written with Python's
 shortest round-trip ``repr``, so a save/load round trip is
@@ -49,7 +55,8 @@ from typing import Any
 
 import numpy as np
 
-from core.errors import SheerError
+from km.coverage import Coverage, applied_rgb, contrast_ratio, measured_coverage, reference_background
+from km.errors import MaterialError as MaterialError  # re-exported: its home was this module
 from km.srgb import srgb_encode
 
 #: Categories the studio knows (others are allowed if they are short lowercase words).
@@ -65,7 +72,9 @@ MAX_SAMPLES = 4096
 _CATEGORY_RE = re.compile(r"^[a-z][a-z0-9_-]{0,39}$")
 
 _MATERIAL_KEYS = ("name", "category", "source", "provenance", "wavelengths", "S", "K", "thickness_um",
-                  "max_thickness_um", "roughness", "ior", "measurement")
+                  "max_thickness_um", "roughness", "ior", "measurement", "coverage")
+#: Fields whose change changes what a material hides (:meth:`Material.replace` then recomputes its coverage).
+_OPTICAL_FIELDS = ("wavelengths", "S", "K", "thickness_um")
 _MEASUREMENT_KEYS = ("wavelengths", "R_inf", "R", "Rg", "D_mm", "instrument", "illuminant", "saunderson")
 
 
@@ -127,28 +136,19 @@ MATERIAL_JSON_SCHEMA: dict[str, Any] = {
                 },
             ]
         },
+        "coverage": {
+            "oneOf": [
+                {"type": "null"},
+                {"type": "object", "additionalProperties": False,
+                 "required": ["class", "contrast_ratio", "provenance"],
+                 "properties": {"class": {"enum": ["sheer", "medium", "full"]},
+                                "contrast_ratio": {"oneOf": [{"type": "null"},
+                                                             {"type": "number", "minimum": 0, "maximum": 1}]},
+                                "provenance": {"type": "string", "maxLength": MAX_TEXT_CHARS}}},
+            ]
+        },
     },
 }
-
-
-class MaterialError(SheerError, ValueError):
-    """An invalid material or measurement.
-
-    ``field`` is the path of the offending value (e.g. ``materials[3].S[12]``) and ``reason`` says what
-    is wrong with it; ``str()`` gives both.
-    """
-
-    def __init__(self, field: str, reason: str) -> None:
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}" if field else reason)
-
-    def within(self, prefix: str) -> MaterialError:
-        """The same error with ``prefix`` put before the field path."""
-        if not prefix:
-            return self
-        joined = f"{prefix}.{self.field}" if self.field and not self.field.startswith("[") else prefix + self.field
-        return MaterialError(joined, self.reason)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -381,6 +381,7 @@ class Material:
     source: str = "modelled"
     provenance: str = ""
     measurement: Measurement | None = field(default=None)
+    coverage: Coverage | None = field(default=None)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "name", _check_name(self.name))
@@ -403,6 +404,11 @@ class Material:
         object.__setattr__(self, "provenance", _check_text(self.provenance, "provenance"))
         if self.measurement is not None and not isinstance(self.measurement, Measurement):
             raise MaterialError("measurement", f"must be a Measurement or None, got {type(self.measurement).__name__}")
+        if self.coverage is None:
+            object.__setattr__(self, "coverage", measured_coverage(wl, self.S, self.K, self.thickness_um,
+                                                                   "the material states none"))
+        elif not isinstance(self.coverage, Coverage):
+            raise MaterialError("coverage", f"must be a Coverage or None, got {type(self.coverage).__name__}")
 
     # ---- value semantics
 
@@ -417,11 +423,17 @@ class Material:
     __hash__ = None  # type: ignore[assignment]
 
     def replace(self, **changes: Any) -> Material:
-        """A copy with some fields changed, validated again (e.g. ``m.replace(name="Rose 2")``)."""
+        """A copy with some fields changed, validated again (e.g. ``m.replace(name="Rose 2")``).
+
+        A change of S, K, the wavelengths or the default thickness changes what the material hides: unless
+        ``coverage`` is given too, the copy's coverage is the one its new S and K give.
+        """
         values = {f.name: getattr(self, f.name) for f in fields(self)}
         unknown = set(changes) - set(values)
         if unknown:
             raise TypeError(f"Material has no field {', '.join(sorted(unknown))}")
+        if "coverage" not in changes and any(k in changes for k in _OPTICAL_FIELDS):
+            changes = {**changes, "coverage": None}
         values.update(changes)
         return Material(**values)
 
@@ -512,7 +524,31 @@ class Material:
         wl = _check_wavelengths(np.asarray(wavelengths, dtype=np.float64))
         s, k = WavelengthGrid.from_wavelengths(wl).resample(np.stack([self.S, self.K]), self.wavelengths,
                                                             extrapolate=True)
-        return self.replace(wavelengths=wl, S=s, K=k)
+        # the same product on another grid: what it states about its hiding stays
+        return self.replace(wavelengths=wl, S=s, K=k, coverage=self.coverage)
+
+    # ---- hiding (km.coverage)
+
+    def contrast_ratio(self, thickness_um: float | None = None) -> float:
+        """The contrast ratio S and K give: Y over black / Y over white (D65) at ``thickness_um``.
+
+        Default: the material's own thickness. In [0, 1] (1 hides completely); see :mod:`km.coverage`.
+        """
+        return contrast_ratio(self.wavelengths, self.S, self.K,
+                              self.thickness_um if thickness_um is None else float(thickness_um))
+
+    def applied_rgb(self, background: np.ndarray | tuple[float, float, float] | str = "reference",
+                    thickness_um: float | None = None, illuminant: str = "D65") -> np.ndarray:
+        """Linear sRGB (3,) of a layer of ``thickness_um`` µm (default: its own) as applied on a background.
+
+        ``background``: linear sRGB, or ``"reference"`` for the reference skin or lip of its category
+        (:func:`km.coverage.reference_background`). Composed as the renderer composes a texel
+        (:func:`km.coverage.applied_rgb`).
+        """
+        bg = reference_background(self.category) if isinstance(background, str) and background == "reference" \
+            else np.asarray(background, float)
+        return applied_rgb(self.wavelengths, self.S, self.K,
+                           self.thickness_um if thickness_um is None else float(thickness_um), bg, illuminant)
 
     # ---- JSON
 
@@ -525,6 +561,7 @@ class Material:
             "max_thickness_um": float(self.max_thickness_um), "roughness": float(self.roughness),
             "ior": float(self.ior),
             "measurement": None if self.measurement is None else self.measurement.to_json(),
+            "coverage": None if self.coverage is None else self.coverage.to_json(),
         }
 
     @classmethod
@@ -547,8 +584,12 @@ class Material:
             measurement = None
             if d["measurement"] is not None:
                 measurement = Measurement.from_json(d["measurement"], where="measurement")
+            coverage = None if d["coverage"] is None else Coverage.from_json(d["coverage"])
+            if coverage is None:  # states none: the one S and K give, saying so
+                coverage = measured_coverage(wl, s, k, numbers["thickness_um"], "not stated in the file")
             return cls(name=name, category=d["category"], wavelengths=wl, S=s, K=k,
-                       source=d["source"], provenance=d["provenance"], measurement=measurement, **numbers)
+                       source=d["source"], provenance=d["provenance"], measurement=measurement,
+                       coverage=coverage, **numbers)
         except MaterialError as exc:
             raise exc.within(where) from None
 

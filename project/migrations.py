@@ -16,8 +16,10 @@ Version history (see ``docs/FORMAT.md``):
    ``resolution`` for every layer, layers without opacity, EXR maps only.
 2. A head object (path, asset, SHA-256 of every head file, embedded flag), per-layer
    ``resolution``/``opacity``/``encoding``/``scale_um``, ``format``, ``created_by``, ``look``.
-3. Current: per-layer ``mask`` (facial regions combined, inverted, feathered, and a paint channel map
+3. Per-layer ``mask`` (facial regions combined, inverted, feathered, and a paint channel map
    ``masks/NNN.exr``), or null.
+4. Current: every embedded material states its ``coverage`` (:mod:`km.coverage`), or null (none stated:
+   the one its S and K give).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ if TYPE_CHECKING:
     from core.migrations import Step
 
 #: The version this Sheer writes.
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 #: The oldest version it can migrate from.
 OLDEST_SCHEMA_VERSION = 1
 
@@ -138,4 +140,18 @@ def _v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
             raise ValueError("a schema_version 2 layer has a 'mask' field")
         out["layers"].append({**layer, "mask": None})
     out["schema_version"] = 3
+    return out
+
+
+@MIGRATIONS.register(3)
+def _v3_to_v4(data: dict[str, Any]) -> dict[str, Any]:
+    """3 → 4: every embedded material gets ``coverage: null`` (it states none: its S and K give it on loading)."""
+    materials = _require(data, "materials", dict)
+    out = dict(data)
+    out["materials"] = {}
+    for name, material in materials.items():
+        if not isinstance(material, dict):
+            raise ValueError(f"material {name!r} is not an object")
+        out["materials"][name] = {"coverage": None, **material}  # one that has it keeps it (then validated)
+    out["schema_version"] = 4
     return out

@@ -167,8 +167,8 @@ class TextureIrradiance:
         if self.index is None:
             self.index = self._load_index(gpu_head.uv_key)
         # E alone when only light 0 casts shadows (its visibility is E's alpha) and the padding's index is
-        # at hand (else the coverage of the third target makes it): the studio's rig writes and pads one
-        # target of three
+        # at hand (else the coverage of the third target makes it): a rig of one shadowed light writes and
+        # pads one target of three (the studio's, whose fill casts shadows too, writes all three)
         irr_only = self.index is not None and not any(lt.shadows for lt in lights[1:])
         texs, fbo = self.sets[0]
         fbo = self._irr_fbos[0] if irr_only else fbo

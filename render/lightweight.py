@@ -118,8 +118,8 @@ class LightweightRenderer:
         self.shadows_on = True
         self.eye_highlights = True
         self.makeup: Any = None
-        #: ρ_s of the layers' own specular lobes (the physical renderer's default)
-        self.layer_spec_intensity = RenderSettings().spec_intensity
+        #: the scale of the layers' own specular lobes (the physical renderer's default: 1, their Fresnel reflection)
+        self.layer_spec_intensity = RenderSettings().layer_spec_intensity
         #: linear RGB ambient irradiance (photograph units) instead of the capture's k·A, or None
         self.ambient: tuple[float, float, float] | None = None
         self.pcf_radius = 2.5

@@ -8,6 +8,7 @@ every input and draws.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -174,6 +175,8 @@ class LitPass:
         set_uniform(prog, "u_skin_roughness", float(s.skin_roughness))
         set_uniform(prog, "u_skin_f0", float(s.skin_f0))
         set_uniform(prog, "u_spec_intensity", float(s.spec_intensity))
+        set_uniform(prog, "u_layer_spec_intensity", float(s.layer_spec_intensity))
+        set_uniform(prog, "u_light_spread", math.radians(float(s.light_radius_deg)) ** 2 / 8.0)
         set_uniform(prog, "u_makeup_on", 1.0 if s.makeup and n > 0 else 0.0)
         if lighting is not None:
             set_uniform(prog, "u_lit_scale", tuple(float(x) for x in lighting.scale))

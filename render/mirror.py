@@ -137,7 +137,7 @@ class MirrorView(_Layers):
         km: a KM pass to share with another view (not released by this one), or None for its own.
 
     Attributes: ``size`` (width, height pixels), ``camera`` (the photograph's, a
-    :class:`render.camera.OrbitCamera`), ``spec_intensity`` (ρ_s of the layers' own lobes, the physical
+    :class:`render.camera.OrbitCamera`), ``spec_intensity`` (the layers' own lobes' scale, the physical
     renderer's default), ``show_makeup``.
     """
 
@@ -158,7 +158,7 @@ class MirrorView(_Layers):
         self.shaders = shaders or ShaderLibrary()
         self.camera: OrbitCamera = pinhole_camera(photo_camera, head.vertices)
         self.light_dir = face.light_dir()
-        self.spec_intensity = RenderSettings().spec_intensity
+        self.spec_intensity = RenderSettings().layer_spec_intensity
         self._init_layers(ctx, self.shaders, km)
         rgba = np.concatenate([img[::-1, :, :3], np.full((h, w, 1), 255, np.uint8)], axis=2)
         self.photo = ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes())

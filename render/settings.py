@@ -34,7 +34,14 @@ class RenderSettings:
         makeup: render the cosmetic layers (False = bare skin, for before/after).
         sss_width: scale of the skin profile (1 = d'Eon's measured skin). follow_surface: strength of
             the depth test that stops the blur at silhouettes.
-        skin_roughness (Beckmann m), skin_f0 (Fresnel at normal incidence), spec_intensity (rho_s).
+        skin_roughness (Beckmann m), skin_f0 (Fresnel at normal incidence), spec_intensity (rho_s, the
+            skin lobe's scale: d'Eon and Luebke's empirical 0.18 for skin).
+        layer_spec_intensity: the scale of the cosmetic layers' own lobes; 1 (the default) is their
+            Fresnel reflection (Huang 2013 Eq. 5: Kelemen's lobe with Schlick's Fresnel from the layer's
+            IOR), which the skin's rho_s does not scale.
+        light_radius_deg: the lights' angular radius (degrees) as the face sees them, for the highlights
+            only: a studio's soft lights are not points, and a smooth layer reflects each as a patch its
+            size (every lobe's roughness m becomes sqrt(m² + r²/8), normalised); 0: point lights.
         normal_strength: tangent-space normal map strength. background: linear RGB.
         shadow_size: shadow-map side (texels); pcf_radius: PCF radius in shadow-map texels.
         irradiance_size: side of the texture-space irradiance cache (texels).
@@ -60,6 +67,8 @@ class RenderSettings:
     skin_roughness: float = 0.35
     skin_f0: float = 0.028
     spec_intensity: float = 0.18
+    layer_spec_intensity: float = 1.0
+    light_radius_deg: float = 12.0
     normal_strength: float = 1.0
     background: tuple[float, float, float] = (0.045, 0.047, 0.052)
     shadow_size: int = 1024
@@ -85,7 +94,8 @@ class RenderSettings:
             raise RenderError(f"unknown debug view {self.debug_view!r} (known: {', '.join(DEBUG_VIEWS)})")
         if self.tonemap not in ("aces", "none", "raw"):
             raise RenderError(f"tonemap must be 'aces', 'none' or 'raw', got {self.tonemap!r}")
-        for name in ("exposure", "sss_width", "follow_surface", "skin_roughness", "spec_intensity"):
+        for name in ("exposure", "sss_width", "follow_surface", "skin_roughness", "spec_intensity",
+                     "layer_spec_intensity", "light_radius_deg"):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
                 raise RenderError(f"render setting {name} must be a finite number ≥ 0, got {v!r}")

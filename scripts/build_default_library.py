@@ -9,9 +9,10 @@ provenance. For each shade:
    recovery (Jakob & Hanika 2019: a sigmoid of a quadratic, so smooth and strictly inside (0, 1));
 3. → K/S(λ) from R∞ = 1 + K/S − √((K/S)² + 2K/S) inverted, i.e. K/S = (1 − R∞)² / (2 R∞);
 4. → S(λ) = S0 · (560 nm / λ) (scattering by sub-micron pigment falls with wavelength), K = S · K/S, with
-   S0 chosen by bisection so that a layer of the category's reference thickness hides the category's
-   fraction of the contrast between two skin-like backgrounds (reflectances 0.25 and 0.45), weighted by
-   luminance (CIE ȳ · D65): foundation hides 50 % at 20 µm, and so on (:data:`HIDING`);
+   S0 chosen by bisection so that a layer of the material's default thickness hides as its stated
+   coverage says: its contrast ratio (Y over black / Y over white, CIE 1931 2°, D65: :mod:`km.coverage`)
+   is the stated one — a cream lipstick is full coverage, 0.95 at 15 µm, a blush sheer, 0.3 at 10 µm, and
+   so on (:data:`COVERAGE`, :data:`SHADE_COVERAGE`);
 5. → the synthetic measurement of Huang et al. 2013 (Sect. 4): R∞, R of a layer of thickness D over a
    matte black card of reflectance Rg (D = 0.15 mm, or thinner when 0.15 mm would be opaque to within
    0.1 % so that R carries information), rounded to 9 significant digits as an instrument would report;
@@ -39,6 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from a checkout
     sys.path.insert(0, str(ROOT))
 
+from km.coverage import Coverage, contrast_ratio  # noqa: E402
 from km.library import Library  # noqa: E402
 from km.material import Material, Measurement  # noqa: E402
 from km.measurements import CATEGORY_DEFAULTS  # noqa: E402
@@ -47,10 +49,8 @@ from km.spectra import DEFAULT_GRID  # noqa: E402
 DEFAULT_OUT = ROOT / "resources" / "materials" / "default.json"
 #: 380–780 nm in 5 nm steps (the paper's measurement grid)
 WAVELENGTHS = np.array(DEFAULT_GRID.wavelengths)
-#: Skin-like background reflectances between which the hiding power is measured.
-CONTRAST_BACKGROUNDS = (0.25, 0.45)
 #: Measurement thicknesses tried, largest first (mm).
-MEASUREMENT_D_MM = (0.15, 0.1, 0.05, 0.03, 0.02, 0.01, 0.005)
+MEASUREMENT_D_MM = (0.15, 0.1, 0.05, 0.03, 0.02, 0.01, 0.005, 0.003, 0.002, 0.001, 0.0005, 0.0003, 0.0002, 0.0001)
 #: S(λ) = S0 · (REFERENCE_NM / λ) ** SCATTER_EXPONENT.
 REFERENCE_NM = 560.0
 SCATTER_EXPONENT = 1.0
@@ -59,23 +59,27 @@ SIGNIFICANT_DIGITS_SK = 10
 
 
 @dataclass(frozen=True)
-class Hiding:
-    """A category's hiding criterion: a layer of ``at_um`` µm hides ``fraction`` of the background contrast."""
+class Stated:
+    """A shade's stated coverage: its class and contrast ratio at its default thickness, and why."""
 
-    fraction: float
-    at_um: float
+    level: str
+    contrast_ratio: float
     why: str
 
 
-HIDING: dict[str, Hiding] = {
-    "foundation": Hiding(0.50, 20.0, "foundation evens skin: hides half the skin contrast at 20 µm"),
-    "concealer": Hiding(0.75, 25.0, "concealer covers spots: hides 75 % of the skin contrast at 25 µm"),
-    "blush": Hiding(0.15, 10.0, "blush is sheer: hides only 15 % of the skin contrast at 10 µm"),
-    "bronzer": Hiding(0.25, 10.0, "bronzer is sheer: hides 25 % of the skin contrast at 10 µm"),
-    "highlighter": Hiding(0.30, 8.0, "highlighter is a thin veil: hides 30 % of the skin contrast at 8 µm"),
-    "lipstick": Hiding(0.85, 15.0, "lipstick is strongly coloured: hides 85 % of the lip contrast at 15 µm"),
-    "eyeshadow": Hiding(0.60, 10.0, "eye shadow is buildable: hides 60 % of the skin contrast at 10 µm"),
-    "eyeliner": Hiding(0.90, 10.0, "eyeliner is dense: hides 90 % of the skin contrast at 10 µm"),
+#: Each category's usual coverage (the contrast ratio at the category's default thickness,
+#: km.measurements.CATEGORY_DEFAULTS), as products of the kind are sold and worn.
+COVERAGE: dict[str, Stated] = {
+    "foundation": Stated("sheer", 0.35, "a light-coverage liquid foundation evens the skin and lets it show "
+                         "through; dark shades hide as much as light ones"),
+    "concealer": Stated("full", 0.92, "a concealer covers: full coverage"),
+    "blush": Stated("sheer", 0.3, "a blush is sheer: a wash of colour the skin shows through"),
+    "bronzer": Stated("sheer", 0.35, "a bronzer is sheer: a warm wash the skin shows through"),
+    "highlighter": Stated("sheer", 0.3, "a highlighter is a sheer veil"),
+    "lipstick": Stated("full", 0.95, "a cream lipstick is full coverage: as applied it is its bullet's colour"),
+    "eyeshadow": Stated("medium", 0.7, "a pressed eye shadow is buildable, medium coverage: its own colour with "
+                        "the lid a little beneath"),
+    "eyeliner": Stated("full", 0.95, "a liner is dense: full coverage"),
 }
 
 #: (name, category, target colour of the opaque product as sRGB hex, note)
@@ -135,12 +139,14 @@ SHADE_FINISHES: dict[str, str] = {
     "Lipstick Red Matte": "matte", "Lipstick Red Satin": "satin", "Lipstick Red Gloss": "gloss",
     "Lipstick Sheer Red": "satin",
 }
-#: Shades whose hiding power is not their category's (name -> criterion).
-SHADE_HIDING: dict[str, Hiding] = {
-    "Lipstick Red Matte": Hiding(0.92, 15.0, "a matte lipstick is the most pigmented: hides 92 % of the lip "
-                                 "contrast at 15 µm"),
-    "Lipstick Sheer Red": Hiding(0.25, 15.0, "a sheer tint lets the lip show: hides only 25 % of the lip "
-                                 "contrast at 15 µm"),
+#: Shades whose coverage is not their category's (name -> statement).
+SHADE_COVERAGE: dict[str, Stated] = {
+    "Lipstick Red Matte": Stated("full", 0.98, "a matte lipstick is the most pigmented: full coverage"),
+    "Lipstick Red Satin": Stated("full", 0.92, "a satin lipstick is full coverage, a little less pigmented than "
+                                 "the matte"),
+    "Lipstick Red Gloss": Stated("medium", 0.7, "a glossy lipstick carries less pigment in its oils: medium "
+                                 "coverage"),
+    "Lipstick Sheer Red": Stated("sheer", 0.03, "a sheer tint (a tinted balm): the lip shows through"),
 }
 
 
@@ -149,9 +155,9 @@ def finish_of(roughness: float) -> str:
     return "matte" if roughness >= 0.4 else "gloss" if roughness < 0.12 else "satin"
 
 
-def hiding_for(name: str, category: str) -> Hiding:
-    """The hiding criterion of shade ``name`` (its own, else its category's)."""
-    return SHADE_HIDING.get(name, HIDING[category])
+def coverage_for(name: str, category: str) -> Stated:
+    """The stated coverage of shade ``name`` (its own, else its category's)."""
+    return SHADE_COVERAGE.get(name, COVERAGE[category])
 
 
 def black_card() -> np.ndarray:
@@ -177,36 +183,17 @@ def reflectance_from_hex(hex_colour: str) -> np.ndarray:
     return np.asarray(sd.values, dtype=np.float64)
 
 
-def luminance_weights() -> np.ndarray:
-    """CIE 1931 ȳ(λ) · D65(λ), normalised to sum 1, on :data:`WAVELENGTHS`."""
-    import colour
+def scattering_for_coverage(ks: np.ndarray, stated: Stated, at_um: float) -> np.ndarray:
+    """S(λ) (per mm) of the spectral shape (560/λ)^p whose layer of ``at_um`` µm has the stated contrast ratio.
 
-    shape = colour.SpectralShape(float(WAVELENGTHS[0]), float(WAVELENGTHS[-1]), 5.0)
-    ybar = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"].copy().align(shape).values[:, 1]
-    d65 = colour.SDS_ILLUMINANTS["D65"].copy().align(shape).values
-    w = ybar * d65
-    return w / w.sum()
-
-
-def contrast_passed(s: np.ndarray, k: np.ndarray, x_mm: float, weights: np.ndarray) -> float:
-    """Luminance-weighted fraction of the background contrast a layer lets through (1 = clear, 0 = opaque)."""
-    from km.optics import layer_rt, over
-
-    r0, t = layer_rt(s, k, x_mm)
-    a, b = CONTRAST_BACKGROUNDS
-    passed = (over(r0, t, np.full_like(s, b)) - over(r0, t, np.full_like(s, a))) / (b - a)
-    return float(np.sum(weights * passed))
-
-
-def scattering_for_hiding(ks: np.ndarray, hiding: Hiding, weights: np.ndarray) -> np.ndarray:
-    """S(λ) (per mm) of the spectral shape (560/λ)^p whose layer meets ``hiding``, by bisection on log S0."""
+    Bisection on log S0: the contrast ratio grows with S0 (at a fixed K/S, the layer's optical depth).
+    """
     shape = (REFERENCE_NM / WAVELENGTHS) ** SCATTER_EXPONENT
-    target = 1.0 - hiding.fraction
-    lo, hi = np.log(1e-3), np.log(1e6)
+    lo, hi = np.log(1e-3), np.log(1e7)
     for _ in range(200):
         mid = 0.5 * (lo + hi)
         s = np.exp(mid) * shape
-        if contrast_passed(s, ks * s, hiding.at_um / 1000.0, weights) > target:
+        if contrast_ratio(WAVELENGTHS, s, ks * s, at_um) < stated.contrast_ratio:
             lo = mid
         else:
             hi = mid
@@ -215,14 +202,15 @@ def scattering_for_hiding(ks: np.ndarray, hiding: Hiding, weights: np.ndarray) -
     return np.exp(0.5 * (lo + hi)) * shape
 
 
-def build_material(name: str, category: str, hex_colour: str, note: str, weights: np.ndarray) -> Material:
+def build_material(name: str, category: str, hex_colour: str, note: str) -> Material:
     """One modelled material (see the module docstring for the route)."""
     from km.optics import invert_sk, ks_from_r_inf, layer_rt, over
 
-    hiding = hiding_for(name, category)
+    stated = coverage_for(name, category)
+    thickness, max_thickness, roughness, ior = CATEGORY_DEFAULTS[category]
     r_inf = round_sig(reflectance_from_hex(hex_colour), SIGNIFICANT_DIGITS_MEASUREMENT)
     ks = ks_from_r_inf(r_inf)
-    s_model = scattering_for_hiding(ks, hiding, weights)
+    s_model = scattering_for_coverage(ks, stated, thickness)
     k_model = ks * s_model
     rg = round_sig(black_card(), SIGNIFICANT_DIGITS_MEASUREMENT)
     for d_mm in MEASUREMENT_D_MM:
@@ -236,7 +224,6 @@ def build_material(name: str, category: str, hex_colour: str, note: str, weights
     s, k = invert_sk(r_inf, r, rg, d_mm, wavelengths=WAVELENGTHS)
     s = round_sig(s, SIGNIFICANT_DIGITS_SK)
     k = round_sig(k, SIGNIFICANT_DIGITS_SK)
-    thickness, max_thickness, roughness, ior = CATEGORY_DEFAULTS[category]
     if name in SHADE_FINISHES:
         roughness, ior = FINISHES[SHADE_FINISHES[name]].roughness, FINISHES[SHADE_FINISHES[name]].ior
     finish = finish_of(roughness)
@@ -249,8 +236,9 @@ def build_material(name: str, category: str, hex_colour: str, note: str, weights
         f"Modelled, not measured: no measured cosmetic spectra are openly available. {note[0].upper()}{note[1:]}. "
         f"Target colour {hex_colour} (sRGB, the opaque product under D65) -> smooth reflectance R_inf by "
         "colour-science's Jakob 2019 spectral recovery (CIE 1931 2 deg, D65) -> K/S from R_inf -> "
-        f"S(lambda) = S0 * (560 nm / lambda), S0 set so that {hiding.why} (luminance-weighted contrast "
-        f"between backgrounds of reflectance {CONTRAST_BACKGROUNDS[0]:g} and {CONTRAST_BACKGROUNDS[1]:g}) -> "
+        f"S(lambda) = S0 * (560 nm / lambda), S0 set so that a layer of its default {thickness:g} um hides as its "
+        f"stated coverage says ({stated.level}: {stated.why}): contrast ratio {stated.contrast_ratio:g} (Y over "
+        "black / Y over white, CIE 1931 2 deg, D65) -> "
         f"synthetic measurement: R_inf, R over a matte black card (Rg 0.040-0.048) at D = {d_mm:g} mm{thinner}, "
         f"rounded to {SIGNIFICANT_DIGITS_MEASUREMENT} significant digits -> S, K re-derived from that triplet "
         f"with km.invert_sk (Huang et al. 2013, Eq. 6-7). {finish_text}; the roughness and index of refraction "
@@ -258,17 +246,19 @@ def build_material(name: str, category: str, hex_colour: str, note: str, weights
     )
     measurement = Measurement(WAVELENGTHS, r_inf, r, rg, d_mm, instrument="none (synthetic, modelled)",
                               illuminant="D65")
+    coverage = Coverage(stated.level, stated.contrast_ratio,
+                        f"Modelled, stated for the kind of product ({stated.why}); S and K are set to give it "
+                        "(scripts/build_default_library.py)")
     return Material(name=name, category=category, wavelengths=WAVELENGTHS, S=s, K=k, thickness_um=thickness,
                     max_thickness_um=max_thickness, roughness=roughness, ior=ior, source="modelled",
-                    provenance=provenance, measurement=measurement)
+                    provenance=provenance, measurement=measurement, coverage=coverage)
 
 
 def build_library(shades: tuple[tuple[str, str, str, str], ...] = SHADES) -> Library:
     """The default library (or one of ``shades``)."""
-    weights = luminance_weights()
     lib = Library(name="Sheer default materials (modelled)")
     for name, category, hex_colour, note in shades:
-        lib.add(build_material(name, category, hex_colour, note, weights))
+        lib.add(build_material(name, category, hex_colour, note))
     return lib
 
 

@@ -1,7 +1,8 @@
 """The layers panel: a view of the document's layers that sends commands back (it holds no truth).
 
 Top of the list = top layer. Drag to reorder, double-click to rename, tick to show/hide; opacity,
-maximum thickness, material, delete, import/export of the thickness map; a swatch of each material; the
+maximum thickness, material, delete, import/export of the thickness map; a swatch of each layer's material
+as applied (on the reference skin or lip at its default thickness); the
 selected layer's mask (:class:`app.studio.mask_editor.MaskEditor`, once :meth:`LayersPanel.attach_document`
 has named the document).
 """
@@ -60,6 +61,26 @@ def material_rgb(material: Material, thickness_um: float | None = None,
         lin = km.over(np.clip(r_rgb, 0.0, 1.0), np.clip(t_rgb, 0.0, 1.0), bg)
         srgb = srgb_encode(np.clip(np.asarray(lin, float), 0.0, 1.0))
     return tuple(int(round(float(c) * 255)) for c in np.clip(srgb, 0.0, 1.0))  # type: ignore[return-value]
+
+
+def applied_rgb(material: Material, background: tuple[float, float, float] | np.ndarray | None = None
+                ) -> tuple[int, int, int]:
+    """The sRGB colour (0..255 per channel) of a layer of ``material`` at its default thickness, as applied.
+
+    On ``background`` (linear RGB in [0, 1]), else on the reference skin or lip of its category
+    (``km.Material.applied_rgb``: composed as the renderer composes a texel, so the swatch is what the
+    viewport shows under a white light).
+    """
+    from km.srgb import srgb_encode
+
+    lin = material.applied_rgb("reference" if background is None else np.asarray(background, float))
+    srgb = srgb_encode(np.clip(np.asarray(lin, float), 0.0, 1.0))
+    return tuple(int(round(float(c) * 255)) for c in np.clip(srgb, 0.0, 1.0))  # type: ignore[return-value]
+
+
+def applied_swatch_of(material: Material) -> tuple[int, int, int] | None:
+    """The material as applied on its reference skin or lip (:func:`applied_rgb`), or None (see colours_ready)."""
+    return applied_rgb(material) if colours_ready() else None
 
 
 def colours_ready() -> bool:
@@ -303,8 +324,8 @@ class LayersPanel(QWidget):
             item.setData(Qt.ItemDataRole.UserRole, lay.name)
             item.setData(Qt.ItemDataRole.UserRole + 1, bool(lay.visible))
             item.setToolTip(f"{lay.material} · opacity {lay.opacity:.0%} · max {lay.max_thickness:g} µm")
-            if lay.material in library:
-                item.setIcon(swatch_icon(swatch_of(library.get(lay.material))))
+            if lay.material in library:  # the material as applied (a layer of it on the reference skin or lip)
+                item.setIcon(swatch_icon(applied_swatch_of(library.get(lay.material))))
             self.list.addItem(item)
         if self._count:
             keep = min(max(keep, 0), self._count - 1)

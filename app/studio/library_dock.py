@@ -1,7 +1,8 @@
 """The material library editor, a dock beside the studio's viewport.
 
 Search/filter, property edits, spectral plots with pyqtgraph (legends, units, hover read-out), a thickness
-slider for R0/T, swatches over black, white and the current skin, measurement import with a report of
+slider for R0/T, swatches (in the pan, as applied on the reference skin or lip, on this head, over black and
+white) and the stated coverage, measurement import with a report of
 rejected rows, Duncan mixing with a live swatch, atomic save. Emits ``material_changed(name)``.
 
 Every edit is the document's (:mod:`painting.document_materials`): one step of its undo history (Ctrl+Z,
@@ -37,8 +38,9 @@ from PySide6.QtWidgets import (
 )
 
 from app.studio import dialogs
-from app.studio.layers_panel import colours_ready, material_rgb, swatch_icon, swatch_of
+from app.studio.layers_panel import applied_rgb, colours_ready, material_rgb, swatch_icon, swatch_of
 from app.studio.library_edits import EDITABLE, duncan_mix
+from km.coverage import LIP_CATEGORIES
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -63,7 +65,7 @@ class LibraryDock(QWidget):
 
     Args:
         document: the document whose library (``document.library``, the studio's) is edited.
-        skin_rgb: the skin's linear RGB in [0, 1], the background of the "over skin" swatch.
+        skin_rgb: the skin's linear RGB in [0, 1], the background of the "on this head" swatch (skin products).
         parent: the parent widget.
 
     Attributes:
@@ -180,14 +182,39 @@ class LibraryDock(QWidget):
         self.thickness.setValue(10)
         self.thickness_label = QLabel()
         self.thickness.valueChanged.connect(lambda _v: self.update_views())
-        # swatches
-        self.swatches = {k: QLabel(k) for k in ("over black", "over white", "over skin", "R∞")}
+        # swatches: the material's own colours (its default thickness), then the contrast card (the slider's)
+        self.swatches = {k: QLabel(k) for k in ("in the pan", "as applied", "on this head", "over black",
+                                                 "over white")}
+        self.coverage_label = QLabel()
+        self.coverage_label.setWordWrap(True)
         sw = QGridLayout()
         for i, lab in enumerate(self.swatches.values()):
             lab.setMinimumSize(64, 40)
             lab.setAlignment(Qt.AlignmentFlag.AlignCenter)
-            sw.addWidget(lab, 0, i)
+            sw.addWidget(lab, i // 3, i % 3)
+        sw.addWidget(self.coverage_label, 1, 2)
         return sw
+
+    def _head_background(self, category: str) -> tuple[float, float, float]:
+        """The "on this head" swatch's background, linear RGB: the head's skin, or its bare lips for a lip product.
+
+        The lips: the median albedo of the head's ``lips`` region, else the reference lip.
+        """
+        from km.coverage import reference_background
+        from km.srgb import srgb_decode
+
+        if category not in LIP_CATEGORIES:
+            return self.skin
+        if getattr(self, "_lip", None) is None:  # once: the dock's document keeps its head
+            self._lip = tuple(float(c) for c in reference_background(category))
+            try:
+                albedo = self.doc.head.albedo
+                lips = self.doc.region_values("lips", albedo.shape[0]) >= 0.95
+                if albedo.shape[0] == albedo.shape[1] and lips.any():
+                    self._lip = tuple(float(c) for c in np.median(srgb_decode(albedo[lips] / 255.0), axis=0))
+            except Exception:  # noqa: BLE001 — no document, no albedo or no lips region: the reference lip
+                pass
+        return self._lip  # type: ignore[return-value]
 
     def _build_mix(self) -> QHBoxLayout:
         """The shade variant's row: the partner, the amount and the mix's swatch (its button below it)."""
@@ -342,10 +369,21 @@ class LibraryDock(QWidget):
         self._curves = {"R∞": m.r_inf(), f"R0 @ {t_um:.0f} µm": R, f"T @ {t_um:.0f} µm": T}
         self._coefs = {"S (per mm)": np.asarray(m.S, float), "K (per mm)": np.asarray(m.K, float)}
         self._wl = wl
-        for key, bg in (("over black", (0.0, 0.0, 0.0)), ("over white", (1.0, 1.0, 1.0)),
-                        ("over skin", self.skin)):
-            self._paint_swatch(self.swatches[key], material_rgb(m, t_um, bg))
-        self._paint_swatch(self.swatches["R∞"], material_rgb(m))
+        d_um = float(m.thickness_um)
+        self._paint_swatch(self.swatches["in the pan"], material_rgb(m),
+                           "in the pan or bullet: the opaque product's colour (R∞)")
+        self._paint_swatch(self.swatches["as applied"], applied_rgb(m),
+                           f"as applied: {d_um:g} µm (its default thickness) on the reference "
+                           f"{'lip' if m.category in LIP_CATEGORIES else 'skin'} (the sample head's)")
+        self._paint_swatch(self.swatches["on this head"], applied_rgb(m, self._head_background(m.category)),
+                           f"on this head: {d_um:g} µm on its {'lips' if m.category in LIP_CATEGORIES else 'skin'}")
+        for key, bg in (("over black", (0.0, 0.0, 0.0)), ("over white", (1.0, 1.0, 1.0))):
+            self._paint_swatch(self.swatches[key], material_rgb(m, t_um, bg), f"{key} at {t_um:.0f} µm (the slider's)")
+        cov = m.coverage
+        self.coverage_label.setText(f"{cov.level} coverage · contrast ratio {m.contrast_ratio():.2f} at {d_um:g} µm")
+        self.coverage_label.setToolTip(f"states: {cov.level}"
+                                       + (f", {cov.contrast_ratio:g}" if cov.contrast_ratio is not None else "")
+                                       + f" — {cov.provenance}")
         self._update_mix()
         if self.refl_plot is None:
             return
@@ -369,10 +407,10 @@ class LibraryDock(QWidget):
         self.coef_plot.plot(wl, self._coefs["K (per mm)"], pen=pg.mkPen("#e06060", width=2), name="K (per mm)")
 
     @staticmethod
-    def _paint_swatch(label: QLabel, rgb: tuple[int, int, int]) -> None:
+    def _paint_swatch(label: QLabel, rgb: tuple[int, int, int], what: str = "") -> None:
         fg = "#000" if sum(rgb) > 380 else "#fff"
         label.setStyleSheet(f"background: rgb{rgb}; color: {fg}; border: 1px solid #444;")
-        label.setToolTip(f"sRGB {rgb}")
+        label.setToolTip(f"{what}: sRGB {rgb}" if what else f"sRGB {rgb}")
 
     def _hover(self, plot: Any, pos: Any) -> None:
         if not hasattr(self, "_wl") or not plot.sceneBoundingRect().contains(pos):

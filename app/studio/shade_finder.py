@@ -1,7 +1,7 @@
 """The studio's Shade Finder dock: which foundation of the library matches this skin, under which lights.
 
 The skin comes from the head's albedo (:meth:`painting.head.Head.skin_rgb`, the median of its middle third,
-as the library dock's "over skin" swatch) or from a colour typed as sRGB ``R,G,B``; it is fitted with the
+as the library dock's "on this head" swatch) or from a colour typed as sRGB ``R,G,B``; it is fitted with the
 biophysical skin model (:func:`km.skin.fit_skin`) and every foundation is ranked on it (:func:`shade.match.match_shades`): the
 table shows each shade's swatch over that skin, its best thickness, ΔE2000 under the chosen light and
 under daylight / the store's light / warm indoor light, and the metamerism warning in plain words.

@@ -73,7 +73,13 @@ uniform vec3 u_eye;
 uniform float u_normal_strength;
 uniform float u_skin_roughness;
 uniform float u_skin_f0;
-uniform float u_spec_intensity;  // rho_s
+uniform float u_spec_intensity;  // rho_s (the skin's lobe)
+uniform float u_layer_spec_intensity;  // the cosmetic layers' lobes (1: their Fresnel reflection)
+// The lights' size: a light of angular radius r blurs a Beckmann lobe of roughness m into one of roughness
+// sqrt(m^2 + r^2 / 8) (the half vector moves half as far as the light; the slope variances add). Kept
+// normalised, so a smooth layer's highlight spreads into a patch the size of the light's reflection instead
+// of a point (RenderSettings.light_radius_deg; u_light_spread = r^2 / 8, r in radians).
+uniform float u_light_spread;
 uniform float u_makeup_on;
 uniform ivec3 u_has_maps;        // specular map, roughness map, skin mask present
 uniform int u_debug;             // 0 lit, 1 albedo, 2 thickness heat map, 3 R_top, 4 T, 5 irradiance, 6 unlit
@@ -109,7 +115,7 @@ void main() {
     vec4 c_s = texture(u_lit_spec, v_uv_paint);
     float layer_a = c_s.r * c_s.r * 4.0;
     float layer_m = max(c_s.g, 0.05);
-    float layer_inv_m2 = 1.0 / (layer_m * layer_m);
+    float layer_inv_m2 = 1.0 / (layer_m * layer_m + u_light_spread);
     float layer_f0 = c_s.b * 0.25;
     bool skin = c_d.a > 0.5;
 #else
@@ -159,7 +165,7 @@ void main() {
     float skin_m = mix(u_skin_roughness * rough_map, smooth_rough, smooth_cov);
     float skin_rho = u_spec_intensity * spec_map;
     float skin_m2 = max(skin_m, 0.05);
-    float skin_inv_m2 = 1.0 / (skin_m2 * skin_m2);
+    float skin_inv_m2 = 1.0 / (skin_m2 * skin_m2 + u_light_spread);
 
     // diffuse irradiance (lights, shadows, environment) from the texture-space cache
 #if CACHED
@@ -198,15 +204,15 @@ void main() {
         vec3 s = tr * (skin_rho * kelemen_lobe(ksh, skin_inv_m2, u_skin_f0));
 #if CACHED
         // the layers' highlights merged into one lobe in the cache (lit_cache.frag)
-        s += vec3(layer_a * kelemen_lobe(ksh, layer_inv_m2, layer_f0) * u_spec_intensity);
+        s += vec3(layer_a * kelemen_lobe(ksh, layer_inv_m2, layer_f0) * u_layer_spec_intensity);
 #elif NL > 0 && MAKEUP
         // zero-coverage layers add a * lobe = 0 (a branch would not save work on llvmpipe)
         float ls = 0.0;
         for (int k = 0; k < NL; ++k) {
             float a = lane8(A0, A1, k);
-            ls += a * kelemen_lobe(ksh, u_layer_inv_m2[k], u_layer_spec[k].y);
+            ls += a * kelemen_lobe(ksh, 1.0 / (1.0 / u_layer_inv_m2[k] + u_light_spread), u_layer_spec[k].y);
         }
-        s += vec3(ls * u_spec_intensity);
+        s += vec3(ls * u_layer_spec_intensity);
 #endif
         spec += s * Ei * max(ndl, 0.0);  // no `continue`: llvmpipe runs both sides anyway
     }

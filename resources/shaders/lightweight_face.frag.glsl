@@ -34,7 +34,7 @@ in vec3 v_nrm;
 uniform sampler2D u_spec0;         // per-layer specular weights (km.frag): layers 0-3, 4-7
 uniform sampler2D u_spec1;
 uniform vec3 u_eye;
-uniform float u_rho;               // the layers' specular intensity (the renderer's rho_s)
+uniform float u_rho;               // the layers' specular intensity (the renderer's layer_spec_intensity)
 #endif
 out vec4 o_colour;
 

@@ -35,7 +35,7 @@ uniform vec3 u_eye;                 // the camera's centre, mesh units
 uniform float u_spec;               // i_s
 uniform float u_shininess;          // s
 uniform float u_edge_nv;            // n.v below which the difference fades out
-uniform float u_rho;                // the layers' specular intensity (the renderer's rho_s)
+uniform float u_rho;                // the layers' specular intensity (the renderer's layer_spec_intensity)
 out vec4 o_colour;
 
 float srgb_decode1(float c) {

@@ -34,7 +34,7 @@ def test_list(capsys: pytest.CaptureFixture[str]) -> None:
 def test_show(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys, "show", "blush rose")
     assert code == 0
-    assert "Blush Rose" in out and "Modelled, not measured" in out and "D = 0.15 mm" in out
+    assert "Blush Rose" in out and "Modelled, not measured" in out and "D = 0.03 mm" in out  # its drawdown
     table = [line.split() for line in out.splitlines() if line.strip()[:3].isdigit()]
     assert [row[0] for row in table] == [str(w) for w in range(380, 781, 20)]
     code, _, err = run(capsys, "show", "Blush Rosy")

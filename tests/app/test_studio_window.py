@@ -110,7 +110,12 @@ def test_swatches_are_kms_colours(window: object) -> None:
     assert material_rgb(m, 20.0) == tuple(int(round(float(c) * 255)) for c in black)
     item = window.layers_panel.list.item(window.layers_panel.list.count() - 1)  # the bottom layer
     colour = item.icon().pixmap(8, 8).toImage().pixelColor(4, 4)
-    assert (colour.red(), colour.green(), colour.blue()) == material_rgb(m)
+    # the layer list shows the material as applied (on the reference skin, at its default thickness)
+    from app.studio.layers_panel import applied_rgb
+    from km.srgb import srgb_encode
+
+    applied = tuple(int(round(float(c) * 255)) for c in srgb_encode(np.clip(m.applied_rgb("reference"), 0, 1)))
+    assert (colour.red(), colour.green(), colour.blue()) == applied_rgb(m) == applied
 
 
 def test_title_and_actions(window: object) -> None:

@@ -370,15 +370,15 @@ def test_build_script_check_rebuilds_every_shade_byte_for_byte(tmp_path: Path) -
 
 
 def test_default_library_meets_its_hiding_criteria(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Each material hides the stated fraction of the skin contrast at its category's reference
-    thickness (foundation: half at 20 µm), using the S and K stored in the file."""
+    """Each material hides as its stated coverage says at its default thickness (a cream lipstick: full,
+    contrast ratio 0.95 at 15 µm), using the S and K stored in the file; the file states the builder's
+    coverage."""
     builder = _load_builder(monkeypatch)
-    weights = builder.luminance_weights()
-    assert builder.HIDING["foundation"].fraction == 0.5 and builder.HIDING["foundation"].at_um == 20.0
+    assert builder.COVERAGE["lipstick"].level == "full" and builder.COVERAGE["lipstick"].contrast_ratio == 0.95
     for m in km.default_library():
-        hiding = builder.hiding_for(m.name, m.category)
-        passed = builder.contrast_passed(m.S, m.K, hiding.at_um / 1000.0, weights)
-        assert passed == pytest.approx(1.0 - hiding.fraction, abs=1e-4), m.name
+        stated = builder.coverage_for(m.name, m.category)
+        assert (m.coverage.level, m.coverage.contrast_ratio) == (stated.level, stated.contrast_ratio), m.name
+        assert m.contrast_ratio() == pytest.approx(stated.contrast_ratio, abs=1e-4), m.name
 
 
 def test_special_files_are_refused(tmp_path: Path) -> None:

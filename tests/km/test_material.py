@@ -81,7 +81,7 @@ def test_json_round_trip_is_bit_identical_and_stable() -> None:
     m = m.replace(measurement=Measurement(WL, meas.R_inf, meas.R, meas.Rg, 0.15, "CS-2000", "D55", (0.04, 0.6)))
     data = m.to_json()
     assert list(data) == ["name", "category", "source", "provenance", "wavelengths", "S", "K", "thickness_um",
-                          "max_thickness_um", "roughness", "ior", "measurement"]
+                          "max_thickness_um", "roughness", "ior", "measurement", "coverage"]
     assert list(data["measurement"]) == ["wavelengths", "R_inf", "R", "Rg", "D_mm", "instrument", "illuminant",
                                          "saunderson"]
     back = Material.from_json(json.loads(json.dumps(data)))

@@ -34,7 +34,8 @@ def v1_document(mesh_digest: str) -> dict[str, Any]:
         "resolution": 64,
         "layers": [{"name": "Base", "material": "Foundation F", "visible": True, "max_thickness_um": 40.0,
                     "map": "layers/000.exr"}],
-        "materials": {"Foundation F": tiny_material()},
+        # materials as Sheer wrote them before they stated their coverage (schema_version 4)
+        "materials": {"Foundation F": {k: v for k, v in tiny_material().items() if k != "coverage"}},
         "lights": [],
         "camera": None,
     }
@@ -79,7 +80,8 @@ def test_step_1_to_2_gives_a_valid_current_document() -> None:
     before = copy.deepcopy(doc)
     out = MIGRATIONS[1](copy.deepcopy(doc))
     assert out["schema_version"] == 2
-    validate_json(MIGRATIONS[2](copy.deepcopy(out)), "migrated")  # 2 → 3 adds only the layers' masks
+    # 2 → 3 adds only the layers' masks, 3 → 4 the materials' coverage
+    validate_json(MIGRATIONS[3](MIGRATIONS[2](copy.deepcopy(out))), "migrated")
     assert out["resolution"] == 64 and out["layers"][0]["resolution"] == 64 and out["layout"] is None
     assert out["head"] == {"name": "head", "path": "v1-head/head.obj", "asset": None, "mesh": "head.obj",
                            "files": {"head.obj": "a" * 64}, "embedded": False}

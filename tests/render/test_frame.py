@@ -188,7 +188,8 @@ def test_white_layer_never_reflects_more_than_arrives(r: Renderer) -> None:
         K = np.zeros(len(wl))
 
     r.lights = [Light.directional(0.0, 0.0, 1.0)]
-    r.settings.spec_intensity = 0.0
+    r.settings.spec_intensity = 0.0  # the skin's lobe
+    r.settings.layer_spec_intensity = 0.0  # the layer's own (its Fresnel reflection would add to the diffuse)
     r.set_layers([LayerInput(White(), np.full((512, 512), 150.0, np.float32))])
     for mode in ("off", "fast", "reference"):
         r.settings.mode = mode
