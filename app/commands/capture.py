@@ -100,10 +100,11 @@ def register(sub: Subcommands) -> None:
 
 
 #: The progress lines printed without ``--verbose``: what the capture found, the focal length and where it came
-#: from (the photo's EXIF, --focal-mm or a prior: it decides the camera), how well it reproduces the photograph,
-#: and what the user should know (the capture's own warnings and notes).
-SUMMARY_PREFIXES = ("face found:", "focal length", "camera from correspondences:", "reproduction:", "warning:",
-                    "note:")
+#: from (the photo's EXIF, --focal-mm or a prior: it decides the camera), the lens's falloff divided out when
+#: --vignetting asks for it, how well it reproduces the photograph, and what the user should know (the capture's
+#: own warnings and notes).
+SUMMARY_PREFIXES = ("face found:", "focal length", "photo divided by the lens's falloff",
+                    "camera from correspondences:", "reproduction:", "warning:", "note:")
 
 
 def _printer(verbose: bool) -> Callable[[str], None]:
