@@ -1,11 +1,13 @@
 # Sheer: two commands set everything up on a fresh machine.
 #   make run   - create .venv on first use, install Sheer editable, start the studio on the sample head
-#   make test  - the whole suite (under xvfb-run when there is no display)
+#   make test  - the whole suite on 2 pytest-xdist workers (PYTEST_WORKERS=0: in one process, under
+#                xvfb-run when there is no display; each worker starts its own Xvfb)
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.sheer-installed
 PYTEST_ARGS ?=
+PYTEST_WORKERS ?= 2
 
 .PHONY: run test lint bench clean
 
@@ -26,13 +28,16 @@ run: $(STAMP)
 	$(VENV)/bin/sheer $(ARGS)
 
 # pytest exits 5 when it collected no test: the suite has tests, so that fails too (e.g. a PYTEST_ARGS
-# that selects nothing).
+# that selects nothing). The workers (pytest-xdist, tests/xdist_support.py) get a module or an xdist_group at
+# a time, each on its own X server; a worker that crashes fails the run (xdist cannot give its module to a
+# new one). PYTEST_WORKERS=0 runs the suite in one process.
+XDIST_ARGS := -n $(PYTEST_WORKERS) $(if $(filter-out 0,$(PYTEST_WORKERS)),--dist loadgroup --max-worker-restart 0)
 test: $(STAMP)
 	@if [ -z "$$DISPLAY" ]; then \
 		echo "No DISPLAY: running the suite under xvfb-run"; \
-		xvfb-run -a -s "-screen 0 1920x1080x24" $(PY) -m pytest $(PYTEST_ARGS); rc=$$?; \
+		xvfb-run -a -s "-screen 0 1920x1080x24" $(PY) -m pytest $(XDIST_ARGS) $(PYTEST_ARGS); rc=$$?; \
 	else \
-		$(PY) -m pytest $(PYTEST_ARGS); rc=$$?; \
+		$(PY) -m pytest $(XDIST_ARGS) $(PYTEST_ARGS); rc=$$?; \
 	fi; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: failing"; fi; \
 	exit $$rc

@@ -24,7 +24,12 @@ from app.camera_source import (
 if TYPE_CHECKING:
     from pathlib import Path
 
-PORTRAIT = "/work/shared/assets/photos/grace_hopper.jpg"
+
+def portrait_path() -> Path:
+    """Grace Hopper's portrait, from the sample assets' search path (core.assets)."""
+    from core.assets import find_asset
+
+    return find_asset("photos/grace_hopper.jpg")
 
 
 def write_video(path: Path, frames: int = 6, size: tuple[int, int] = (320, 240)) -> Path:
@@ -90,14 +95,14 @@ def test_the_watched_folder_takes_the_newest_new_photo_and_deletes_it(tmp_path: 
     os.utime(old, (past, past))
     src = open_source("off", str(drop))
     assert not src.live and src.read() is None
-    Image.open(PORTRAIT).save(drop / "shopper.png")
+    Image.open(portrait_path()).save(drop / "shopper.png")
     (drop / "notes.txt").write_text("not a photo", encoding="utf-8")
     deadline = time.time() + 5
     photo = None
     while photo is None and time.time() < deadline:
         photo = src.read()
         time.sleep(0.05)
-    assert photo is not None and photo.shape == np.asarray(Image.open(PORTRAIT).convert("RGB")).shape
+    assert photo is not None and photo.shape == np.asarray(Image.open(portrait_path()).convert("RGB")).shape
     assert not (drop / "shopper.png").exists(), "the shopper's photo is kept in memory only"
     assert old.exists() and src.read() is None  # an older file is not hers
 
@@ -107,7 +112,7 @@ def test_grey_and_cmyk_photos_become_rgb(tmp_path: Path, mode: str) -> None:
     from PIL import Image
 
     path = tmp_path / f"p-{mode}.jpg"
-    Image.open(PORTRAIT).convert(mode).save(path)
+    Image.open(portrait_path()).convert(mode).save(path)
     rgb = read_photo_file(path)
     assert rgb.ndim == 3 and rgb.shape[2] == 3 and rgb.dtype == np.uint8
 
@@ -119,9 +124,7 @@ def test_a_large_photo_is_reduced_and_a_truncated_one_refused(tmp_path: Path) ->
     Image.new("RGB", (3872, 2592), (200, 150, 120)).save(big)  # 10 megapixels
     assert max(read_photo_file(big).shape[:2]) == MAX_SIDE
     cut = tmp_path / "cut.jpg"
-    from pathlib import Path
-
-    data = Path(PORTRAIT).read_bytes()
+    data = portrait_path().read_bytes()
     cut.write_bytes(data[: len(data) // 3])
     with pytest.raises(CameraError, match="cut.jpg: not a readable photo"):
         read_photo_file(cut)

@@ -86,14 +86,14 @@ def test_sheer_kiosk_with_a_pin_comes_up_full_screen_and_guards_its_way_out(
     from PySide6.QtWidgets import QApplication
 
     from app.cli import main
-    from app.kiosk.config import hash_pin
     from app.kiosk.window import KioskWindow
+    from tests.app.kiosk_support import pin_hash
 
     assert shutil.which("xdotool"), "xdotool (Debian package) drives the X server in this test"
     config = tmp_path / "config" / "sheer" / "kiosk.json"
     config.parent.mkdir(parents=True)
     # 512² maps: the resolution is not what this test is about
-    config.write_text(json.dumps({"pin_hash": hash_pin(PIN), "snapshot_dir": str(tmp_path / "photos"),
+    config.write_text(json.dumps({"pin_hash": pin_hash(PIN), "snapshot_dir": str(tmp_path / "photos"),
                                   "idle_seconds": IDLE_S, "look_seconds": 2.0, "resolution": 512}),
                       encoding="utf-8")
     monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))

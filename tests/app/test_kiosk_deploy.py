@@ -30,8 +30,9 @@ def _wm_running() -> bool:
 
 
 def test_the_kiosk_fills_the_screen_under_a_window_manager(qapp: Any, qtbot: Any, tmp_path: Path) -> None:
-    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.config import KioskConfig
     from app.kiosk.window import KioskWindow
+    from tests.app.kiosk_support import pin_hash
 
     assert shutil.which("openbox") and shutil.which("xprop"), "openbox and xprop (Debian packages) run this test"
     assert not _wm_running(), "another window manager is already running on this display"
@@ -41,7 +42,7 @@ def test_the_kiosk_fills_the_screen_under_a_window_manager(qapp: Any, qtbot: Any
         while not _wm_running() and time.time() < deadline:
             time.sleep(0.1)
         assert _wm_running(), "openbox did not start"
-        cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(tmp_path / "photos"), resolution=512)
+        cfg = KioskConfig(pin_hash=pin_hash("2468"), snapshot_dir=str(tmp_path / "photos"), resolution=512)
         kiosk = KioskWindow(cfg)
         try:
             kiosk.show_full_screen()

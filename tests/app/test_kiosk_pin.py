@@ -29,11 +29,12 @@ def open_kiosk(qapp: object, folder: Path, size: tuple[int, int] = (800, 600),
     shown; closed with the PIN's permission on exit if a test has not closed it."""
     from pytestqt.qtbot import QtBot
 
-    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.config import KioskConfig
     from app.kiosk.window import KioskWindow
+    from tests.app.kiosk_support import pin_hash
 
     # 512²: fast; the resolution is not what these tests are about
-    cfg = KioskConfig(pin_hash=hash_pin("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
+    cfg = KioskConfig(pin_hash=pin_hash("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
                       fullscreen=False, resolution=512, **config)  # type: ignore[arg-type]
     win = KioskWindow(cfg)
     win.resize(*size)

@@ -33,13 +33,17 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 #: the tests that run a capture (~10 s each on this machine: MediaPipe, the person's head, the Paris fit)
 capturing = pytest.mark.slow
 
-PORTRAIT = Path("/work/shared/assets/photos/grace_hopper.jpg")
+def portrait_path() -> Path:
+    """Grace Hopper's portrait, from the sample assets' search path (core.assets)."""
+    from core.assets import find_asset
+
+    return find_asset("photos/grace_hopper.jpg")
 
 
 def portrait() -> np.ndarray:
     from PIL import Image
 
-    with Image.open(PORTRAIT) as im:
+    with Image.open(portrait_path()) as im:
         return np.asarray(im.convert("RGB"), dtype=np.uint8)
 
 
@@ -305,7 +309,7 @@ def test_a_truncated_photo_in_the_watched_folder(qapp: object, qtbot: Any, tmp_p
     before = private_folders()
     with tryon_kiosk(qapp, tmp_path, camera="off", watch_dir=str(drop)) as kiosk:
         kiosk.tryon_button.click()
-        data = PORTRAIT.read_bytes()
+        data = portrait_path().read_bytes()
         (drop / "cut.jpg").write_bytes(data[: len(data) // 3])
         qtbot.waitUntil(lambda: kiosk.screen_name == "start", timeout=10000)
         assert kiosk.start_message.text() == PHOTO_TROUBLE and "cut.jpg: not a readable photo" in kiosk.last_error

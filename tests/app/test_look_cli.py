@@ -1,22 +1,34 @@
-"""``sheer look transfer``: real processes, real .sheer files, real heads (sample head ↔ canonical face)."""
+"""``sheer look transfer``: the command line (``app.cli.main``, in this process: what the process adds, its exit
+status and one-line errors as the shell sees them, is tests/app/test_shade_cli.py's), real .sheer files, real
+heads (sample head ↔ canonical face, and Grace Hopper's own head captured by ``sheer capture``)."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.capture import portraits
+
+#: (with the other modules that read the session's capture of Grace Hopper's portrait, ``hopper_face``)
+pytestmark = pytest.mark.xdist_group(portraits.GROUP)
 REPO = Path(__file__).resolve().parents[2]
 
 
 def _sheer(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, "-m", "app", *args], cwd=REPO, capture_output=True, text=True,
-                          timeout=300)
+    """``sheer ARGS`` through the command line's entry function, in this process: its exit status and output."""
+    from app.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(list(args))
+    return subprocess.CompletedProcess(["sheer", *args], code, out.getvalue(), err.getvalue())
 
 
 def _canonical_mesh() -> Path:
@@ -132,15 +144,13 @@ def test_bad_input_is_one_line_and_writes_nothing(red_lip: Path, tmp_path: Path)
 
 
 @pytest.mark.slow
-def test_onto_a_face_captured_from_a_portrait(red_lip: Path, tmp_path: Path) -> None:
-    """`sheer capture` on Grace Hopper's portrait, then the red-lip project onto her own head."""
-    from core.assets import find_asset
-
-    face = tmp_path / "grace"
-    done = _sheer("capture", "--photo", str(find_asset("photos/grace_hopper.jpg")), "--out", str(face))
-    assert done.returncode == 0, done.stderr
+def test_onto_a_face_captured_from_a_portrait(red_lip: Path, tmp_path: Path, hopper_face: Path) -> None:
+    """`sheer capture` on Grace Hopper's portrait (the session's, ``hopper_face``: it exited 0), then the
+    red-lip project onto her own head."""
     out = tmp_path / "grace.sheer"
-    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(face), "--out", str(out))
+    before = sorted(p.relative_to(hopper_face) for p in hopper_face.rglob("*"))
+    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(hopper_face), "--out", str(out))
+    assert sorted(p.relative_to(hopper_face) for p in hopper_face.rglob("*")) == before  # the face folder is read
     assert done.returncode == 0, done.stderr
     assert "to 'Captured face'" in done.stdout
     lipstick, foundation = _lip_share(out)

@@ -16,8 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from app.kiosk.config import KioskConfig, hash_pin
+from app.kiosk.config import KioskConfig
 from app.kiosk.pin_lock import MAX_LOCK_S, PinGuard, lock_path_for, lock_seconds
+from tests.app import kiosk_support
 from tests.app.test_kiosk_config import _Terminal
 
 RIGHT, WRONG = "975318", "864297"
@@ -36,7 +37,7 @@ class Clock:
 
 @pytest.fixture(scope="module")
 def pin_hash() -> str:
-    return hash_pin(RIGHT)  # 200k PBKDF2 rounds: once per module
+    return kiosk_support.pin_hash(RIGHT)  # 200k PBKDF2 rounds: once per test process
 
 
 def _config(tmp_path: Path, pin_hash: str) -> Path:

@@ -18,13 +18,14 @@ pytestmark = [pytest.mark.qt]
 
 
 def test_the_pad_locks_shows_the_time_left_and_unlocks(qapp: object, tmp_path: Path) -> None:
-    from app.kiosk.config import KioskConfig, hash_pin
+    from app.kiosk.config import KioskConfig
     from app.kiosk.pin_lock import PinGuard
     from app.kiosk.pin_pad import PinPad
+    from tests.app.kiosk_support import pin_hash
 
     now = [1_700_000_000.0]
     path = tmp_path / "kiosk.json"
-    KioskConfig(pin_hash=hash_pin("975318")).save(path)
+    KioskConfig(pin_hash=pin_hash("975318")).save(path)
     pad = PinPad(PinGuard.for_config(KioskConfig.load(path), clock=lambda: now[0]))
     accepted: list[bool] = []
     pad.accepted.connect(lambda: accepted.append(True))

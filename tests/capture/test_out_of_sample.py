@@ -252,6 +252,8 @@ def _params() -> list[object]:
             reason = MISSED.get((name, quantity))
             strict = (name, quantity) not in STRADDLING
             marks = [pytest.mark.xfail(strict=strict, reason=f"measured {reason}")] if reason else []
+            # a case's quantities share one capture (measure's cache): one worker measures them all
+            marks.append(pytest.mark.xdist_group(f"out-of-sample-{name}"))
             out.append(pytest.param(name, quantity, marks=marks, id=f"{name}-{quantity}"))
     return out
 

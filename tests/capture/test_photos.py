@@ -1,21 +1,25 @@
 """Real photographs (public domain) with the sample head fitted from stored correspondences
-(tests/data/capture/*_points.json), captured and relit in the lightweight engine.
+(tests/data/capture/*_points.json), captured and relit in the lightweight engine. The capture is the
+session's (``portrait_capture``, tests/capture/portraits.py), which tests/render/test_mirror.py shares.
 
 ``SHEER_WRITE_DOCS=1`` also writes docs/images/capture_<name>.png: photo | fitted Phong | relit ×2.
 """
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
 
-pytestmark = [pytest.mark.slow, pytest.mark.gl]
-DATA = Path(__file__).resolve().parents[1] / "data" / "capture"
+from tests.capture import portraits
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+pytestmark = [pytest.mark.slow, pytest.mark.gl, pytest.mark.xdist_group(portraits.GROUP)]
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "images"
 
 
@@ -28,25 +32,21 @@ def _crop_box(points: np.ndarray, shape: tuple[int, ...], margin: float = 1.1) -
 
 
 @pytest.mark.parametrize("name", ["astronaut", "grace_hopper"])
-def test_photo_capture_and_relight(name: str, gl_ctx: Any, tmp_path: Path) -> None:
+def test_photo_capture_and_relight(name: str, gl_ctx: Any, tmp_path: Path,
+                                   portrait_capture: Callable[[str], portraits.PointsCapture]) -> None:
     from PIL import Image
 
-    from capture.camera import load_points
     from capture.face import Face
-    from capture.pipeline import capture, linear_to_srgb8, read_photo
-    from core.assets import find_asset
-    from painting.head import load_head
+    from capture.pipeline import linear_to_srgb8
     from render.lights import Light
     from render.lightweight import LightweightRenderer
 
-    spec = json.loads((DATA / f"{name}_points.json").read_text())
-    head = load_head()
-    photo = read_photo(find_asset(spec["photo"]))
+    captured = portrait_capture(name)
+    spec, head, photo, camera = captured.spec, captured.head, captured.photo, captured.camera
     h, w = photo.shape[:2]
-    camera = load_points(DATA / f"{name}_points.json", w, h)
     # A generic head on another person: measured 2.8 px (astronaut, face 95 px) and 5.7 px (Hopper, 185 px).
     assert camera.reprojection_error_px is not None and camera.reprojection_error_px < 0.04 * float(np.ptp([p["image"][0] for p in spec["points"]])) * 2
-    result = capture(head, photo, camera, texture_size=512)
+    result = captured.result  # capture(head, photo, camera, texture_size=512)
     assert np.isfinite(result.fit.rms_luv) and result.skin_mask.sum() > 1000
     assert result.reproduction_de2000_skin < 8.0  # a generic head on someone else's face
 

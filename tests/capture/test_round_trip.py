@@ -1,8 +1,11 @@
 """The command line round trip (issue 14): a flash photograph drawn on the GPU by another renderer
 (bench/capture_truth.py), ``sheer capture`` on it from its files alone (the photograph, the probe and
 landmarks clicked with 1 px of noise — never the true camera), then ``sheer render --face DIR --light
-from-capture`` — both through the installed ``sheer`` entry point, in their own processes — must give
-the photograph back: mean ΔE2000 over the skin pixels the capture used ≤ 2.5.
+from-capture`` — both through the command line (``app.cli.main``, in this process: the render reads the
+face folder the capture wrote, nothing else passes between them) — must give the photograph back: mean
+ΔE2000 over the skin pixels the capture used ≤ 2.5. The installed ``sheer`` entry point runs both commands
+in a process of its own (their ``--help``; a full run in a process costs its start-up four times over and
+proves nothing more).
 
 Measured (mean ΔE2000 on skin, against the photograph; 512² images, the detail texture at the CLI's
 default 1024²): ``--light from-capture`` (the lightweight engine, issue 14), and the two views of issue
@@ -26,6 +29,8 @@ tests/capture/test_detail.py for what that gains away from the photograph's view
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import subprocess
 import sys
@@ -62,9 +67,22 @@ CASES = {
 
 
 def _sheer(*args: str) -> subprocess.CompletedProcess[str]:
-    """Run the installed ``sheer`` console script (the venv's, beside this interpreter)."""
+    """``sheer ARGS`` through the command line's entry function, in this process: its exit status and output."""
+    from app.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(list(args))
+    return subprocess.CompletedProcess(["sheer", *args], code, out.getvalue(), err.getvalue())
+
+
+def test_the_installed_sheer_command_runs_capture_and_render() -> None:
+    """The venv's ``sheer`` console script (beside this interpreter), in a process of its own."""
     exe = Path(sys.executable).with_name("sheer")
-    return subprocess.run([str(exe), *args], capture_output=True, text=True, timeout=600)
+    for command in ("capture", "render"):
+        done = subprocess.run([str(exe), command, "--help"], capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        assert done.stdout.startswith(f"usage: sheer {command}"), done.stdout[:200]
 
 
 def _points_file(path: Path, scene: object) -> None:

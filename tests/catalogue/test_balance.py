@@ -15,6 +15,9 @@ if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
+#: (with tests/catalogue/test_run.py: one worker starts the session's cluster, conftest's dask_client)
+pytestmark = pytest.mark.xdist_group("dask-cluster")
+
 
 def _runs(sizes: list[int]) -> list[list[int]]:
     """Runs of consecutive job numbers of the given lengths."""

@@ -18,7 +18,8 @@ from tests.catalogue.test_glb import check_glb
 if TYPE_CHECKING:
     from pathlib import Path
 
-pytestmark = pytest.mark.gl
+#: (with tests/catalogue/test_balance.py: one worker starts the session's cluster, conftest's dask_client)
+pytestmark = [pytest.mark.gl, pytest.mark.xdist_group("dask-cluster")]
 
 
 def _pngs(folder: Path) -> dict[str, bytes]:

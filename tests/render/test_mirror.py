@@ -1,7 +1,9 @@
 """The mirror and relight views (issue 15) on real photographs: the two public-domain portraits in the assets,
 captured on the sample head from the hand-picked points in tests/data/capture/ (``sheer capture``'s
-pipeline, in process), and Grace Hopper's captured automatically (helper A's ``capture.auto``: her own
-face mesh from MediaPipe; the astronaut's face is too small in her portrait for the quality gate).
+pipeline, in process), and Grace Hopper's captured automatically (``sheer capture --photo``, in process:
+``capture.auto``, her own face mesh from MediaPipe; the astronaut's face is too small in her portrait for
+the quality gate). The captures are the session's (tests/capture/portraits.py), which
+tests/capture/test_photos.py and tests/app/test_look_cli.py share.
 
 Measured (mean ΔE2000 over the capture's skin pixels; detail texture 512²):
 
@@ -33,12 +35,12 @@ from PIL import Image
 
 from capture.phong import delta_e2000
 from km.srgb import srgb_decode
+from tests.capture import portraits
 
 if TYPE_CHECKING:
     from painting.head import Head
 
-pytestmark = [pytest.mark.slow, pytest.mark.gl]
-DATA = Path(__file__).resolve().parents[1] / "data" / "capture"
+pytestmark = [pytest.mark.slow, pytest.mark.gl, pytest.mark.xdist_group(portraits.GROUP)]
 #: The issue's targets (mean ΔE2000 on skin).
 MIRROR_BARE_DE = 1.0
 RELIGHT_DE = 3.0
@@ -47,32 +49,23 @@ RELIGHT_DE = 3.0
 class Captured:
     """A portrait captured: the face as loaded, its head, the photograph (uint8) and the skin pixels used.
 
-    ``name``: a portrait in ``DATA`` (``*_points.json``: fitted to the sample head from the hand-picked
-    points), or ``"<name>-auto"``: the automatic capture (:func:`capture.auto.capture_auto`, the person's
-    own face mesh from MediaPipe).
+    ``name``: a portrait in tests/data/capture/ (``*_points.json``: fitted to the sample head from the
+    hand-picked points; its capture, ``points``, written to ``folder``), or ``"<name>-auto"``: the automatic
+    capture (``sheer capture --photo``: :func:`capture.auto.capture_auto`, the person's own face mesh from
+    MediaPipe) in ``folder``.
     """
 
-    def __init__(self, name: str, folder: Path) -> None:
+    def __init__(self, name: str, folder: Path, points: portraits.PointsCapture | None = None) -> None:
         from capture.face import load_face, write_face
         from core.assets import find_asset
 
         self.name = name
         auto = name.endswith("-auto")
-        spec = json.loads((DATA / f"{name.removesuffix('-auto')}_points.json").read_text())
+        spec = json.loads((portraits.DATA / f"{name.removesuffix('-auto')}_points.json").read_text())
         path = find_asset(spec["photo"])
-        if auto:
-            from capture.auto import capture_auto
-
-            capture_auto(path, folder)
-        else:
-            from capture.camera import load_points
-            from capture.pipeline import capture, read_photo
-            from painting.head import load_head
-
-            head = load_head()
-            photo = read_photo(path)
-            camera = load_points(DATA / f"{name}_points.json", photo.shape[1], photo.shape[0])
-            write_face(capture(head, photo, camera, texture_size=512), folder, head_path=head.path)
+        if not auto:
+            assert points is not None and points.photo_path == path
+            write_face(points.result, folder, head_path=points.head.path)
         self.face = load_face(folder)
         self.head: Head = self.face.load_head()
         with Image.open(self.face.photo_path if auto else path) as im:
@@ -93,7 +86,10 @@ class Captured:
 
 @pytest.fixture(scope="module", params=["astronaut", "grace_hopper", "grace_hopper-auto"])
 def captured(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> Captured:
-    return Captured(request.param, tmp_path_factory.mktemp(request.param))
+    if request.param == "grace_hopper-auto":
+        return Captured(request.param, request.getfixturevalue("hopper_face"))
+    points = request.getfixturevalue("portrait_capture")(request.param)
+    return Captured(request.param, tmp_path_factory.mktemp(request.param), points)
 
 
 def _de(a8: np.ndarray, b8: np.ndarray, mask: np.ndarray) -> float:
