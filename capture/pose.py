@@ -19,7 +19,7 @@ the turn itself, and in the opposite sense on a convex face (a sphere turned abo
 the same normals at every pixel). So each pixel reads its normal and surface point from the first
 rasterisation where the turned camera moved them from (:class:`Surface`, bilinear between pixel
 centres: the geometry is smooth, and the photograph itself is never resampled). Keeping each pixel's
-first surface point and only turning its normal (the refinement before, session 7) moved the lobe by a
+first surface point and only turning its normal (an earlier refinement) moved the lobe by a
 full turn per degree wherever it lay: its preferred turn followed the truth with a slope of 0.25–0.31
 (correlation 0.26–0.41) on 32 development scenes; reading the moved geometry, 0.88–1.12 (correlation
 0.67–0.72) on 48.
@@ -39,7 +39,7 @@ development scenes (s 10–50, the head turned ±10° to ±35°, four flash plac
 noise and sensor; none the validation's) the photograph's turn was off by 3.0 and 2.8 of those σ (RMS,
 about x and y), so the covariance is scaled by the mean squared ratio, :data:`MODEL_BIAS_VARIANCE`. It
 is combined with the landmarks' Gaussian N(0, Σ) (Σ the calibration's ``rotation_covariance_deg2``) as
-two Gaussian measurements of the same turn: a = (C⁻¹ + Σ⁻¹)⁻¹ C⁻¹ â. (Session 7 weighed the whole
+two Gaussian measurements of the same turn: a = (C⁻¹ + Σ⁻¹)⁻¹ C⁻¹ â. (An earlier version weighed the whole
 high-passed residual by one constant, κ = 250 values per independent sample, on that helper's 32 scenes;
 its turn followed the truth with a slope of 0.25–0.31, so the weight hardly mattered.)
 

@@ -159,7 +159,7 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     Some full runs (2 of the 14 logged in sessions 7–8) ended "… passed" and then crashed while Python tore
     down the PySide6 wrappers ("QObject: shared QObject was deleted directly", a segmentation fault, exit
     139), after every test and fixture had finished — not anything a test checks, but it turned a green
-    suite red. The root cause is not found (session 9, hygiene note): the suspect, ``Viewport.shutdown()``
+    suite red. The root cause is not found (see git history): the suspect, ``Viewport.shutdown()``
     deleting the GL window under a live ``Viewport.surface`` wrapper, is ruled out (the wrapper is
     invalidated with the window, and every GLSurface is invalid at exit), and tests/app with the teardown
     kept, in order and with PySide's exit-time deletions shuffled, never crashed. The studio's and the

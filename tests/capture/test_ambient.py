@@ -73,7 +73,7 @@ def test_its_mean_over_all_normals_is_the_probes_mean_radiance() -> None:
 def test_the_capture_fits_the_ambient_of_each_normal(gl_ctx: moderngl.Context) -> None:
     """``capture(directional_ambient=True)`` on a GPU photograph whose ambient is the sunset's E(n)/π.
 
-    bench.capture_truth draws it (helper A's development scene, not a bench or out-of-sample case: s 10,
+    bench.capture_truth draws it (a development scene, not a bench or out-of-sample case: s 10,
     turned +20°, the flash 7° up 2° right, the true camera); the probe's flash colour is replaced by the
     true one so that only the ambient differs: the diffuse colour with the probe's A(n) against the
     constant A. Measured ΔE2000 0.333 against 0.526 (0.341 with the truth's own A(n); what is left is the

@@ -7,7 +7,7 @@ the city sky's ambient; the validation's framing, so the automatic capture downs
 with the lens's focal length — MediaPipe's landmarks on the drawn photograph, the person's own head
 built from them, its camera pinned to them.
 
-Measured (helper I, session 10; 11 GPU scenes of its own, none a bench's: the sample head (4 textured, 2
+Measured (11 GPU scenes of its own, none a bench's: the sample head (4 textured, 2
 untextured) and MediaPipe's canonical face (5), s 10–50, the head turned −12° to +15°, six flash
 placements, six skies): the automatic capture's i_s reads −83 to −100 % (0 on 8 of 11), s 1–6. The cause
 is the person's head, not the pixel integration: its normals lie 9–10° (median; p90 23°) from the drawn

@@ -97,7 +97,7 @@ are the skin's texture under the lobe (from the true camera untextured they read
 and the sensor's vignetting, which the capture cannot tell from the face's albedo: given the lens's
 falloff (``sheer capture --vignetting``, capture.vignetting) the sensor case reads i_s −3.3 % and D 0.13,
 the last −4.0 % and D 0.16.
-The noisy rows are re-measured on deb4870 (session 10): the face's outline is a third measurement of the
+The noisy rows are re-measured on deb4870: the face's outline is a third measurement of the
 camera's turn (capture.contour, fused with the landmarks and the lobe over the calibration's seven
 parameters). It moved the light 0.46 → 0.23° on yaw+30-s24-above (i_s +8.3 → +7.3 %), 0.37 → 0.40° and
 0.39 → 0.51° on the two turned −15° (whose landmarks' focal length is fitted, so the outline informs it more
