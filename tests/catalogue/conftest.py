@@ -59,12 +59,10 @@ def library_copy(tmp_path: Path) -> Path:
     return path
 
 
-@pytest.fixture(scope="package")
+@pytest.fixture(scope="session")
 def dask_client() -> Iterator[object]:
     """A real LocalCluster of 2 worker processes (one thread each, warmed by the catalogue's preload, as
-    ``sheer catalogue``'s own cluster is), on 127.0.0.1, shared by the catalogue tests (test_run and
-    test_balance, one xdist group) and closed after them: idle, the cluster still costs about 6 s of CPU a
-    minute (its heartbeats, in the workers and in this process's scheduler), for the rest of a session.
+    ``sheer catalogue``'s own cluster is), on 127.0.0.1, shared by the session.
 
     Its workers keep the renderer version of the code they loaded and refuse jobs named for another: an
     edit of the renderer's sources while these tests run fails them (correctly); run them on a tree at rest.
