@@ -40,9 +40,10 @@ GROUPS_ENV = "SHEER_XDIST_GROUPS"
 #: A test's weight when the groups are ordered (roughly seconds on a 2-core machine).
 SLOW, WINDOW, OTHER = 8.0, 1.5, 0.3
 
-#: The worker's own Xvfb and temporary folder.
+#: The worker's own Xvfb and temporary folder; the controller's groups folder.
 _XVFB: list[subprocess.Popen[bytes]] = []
 _TMP: list[str] = []
+_GROUPS: list[str] = []
 
 
 def worker_id(config: pytest.Config) -> str | None:
@@ -135,7 +136,8 @@ def start_controller(config: pytest.Config) -> None:
     workers' share of the cores for their libraries' threads (unless set): OpenBLAS's threads wait for work
     spinning, so with every worker's pool as large as the machine the captures' fits took about 1.5 times the
     CPU time (measured on 2 cores, 2 workers)."""
-    os.environ[GROUPS_ENV] = tempfile.mkdtemp(prefix="sheer-xdist-groups-")
+    _GROUPS.append(tempfile.mkdtemp(prefix="sheer-xdist-groups-"))
+    os.environ[GROUPS_ENV] = _GROUPS[-1]
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     workers = config.option.numprocesses
     share = max(1, cores // workers) if isinstance(workers, int) and workers > 0 else 1
@@ -144,8 +146,8 @@ def start_controller(config: pytest.Config) -> None:
 
 
 def end_controller() -> None:
-    folder = os.environ.pop(GROUPS_ENV, None)
-    if folder:
+    """(The controller) remove the groups' folder (the workers inherit its name, never remove it)."""
+    for folder in _GROUPS:
         shutil.rmtree(folder, ignore_errors=True)
 
 
