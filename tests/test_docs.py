@@ -115,7 +115,8 @@ def test_the_checks_themselves() -> None:
     assert slug("The camera: `--camera FILE` (a projection matrix)") == "the-camera---camera-file-a-projection-matrix"
     assert slug("Set-up: two commands") == "set-up-two-commands"
     assert slug("Is this machine ready? `sheer doctor`") == "is-this-machine-ready-sheer-doctor"
-    assert _FORBIDDEN.search("after session 7 the") and _FORBIDDEN.search("helper A's run")
+    numbered, lettered = "session" + " 7", "helper" + " A"  # split so that this file itself stays clean
+    assert _FORBIDDEN.search(f"after {numbered} the") and _FORBIDDEN.search(f"{lettered}'s run")
     assert _FORBIDDEN.search("see issue #15") and not _FORBIDDEN.search("the shopper's session ends")
     assert not _FORBIDDEN.search("the helper function") and not _FORBIDDEN.search("a session of 3 minutes")
     links = _LINK.findall("see [a](docs/A.md#x), ![img](docs/images/b.png) and [c](https://e.org) `[d](no.md)`")
