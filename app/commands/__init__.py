@@ -48,3 +48,27 @@ class LazyHelp(str):
         """The help filled: argparse's ``params`` and each field's values joined by commas."""
         values = {name: ", ".join(str(v) for v in get()) for name, get in self.fields.items()}
         return str.__mod__(str(self), {**params, **values})
+
+
+#: The help of every ``--library`` option (the commands that read materials).
+LIBRARY_HELP = "material library JSON file (default: Sheer's default library)"
+
+
+def command_group(sub: Subcommands, name: str, help: str, description: str | None) -> Subcommands:
+    """Add ``sheer NAME``, a command made of sub-commands, to ``sub``; returns the parsers its sub-commands join.
+
+    ``description`` (the command module's docstring) is shown as written; the sub-command chosen is stored
+    as ``NAME_command``; ``sheer NAME`` alone prints the command's help and exits with status 0.
+    """
+    import argparse
+
+    parser = sub.add_parser(name, help=help, description=description,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
+    group = parser.add_subparsers(dest=f"{name}_command", metavar="SUBCOMMAND")
+
+    def show_help(args: argparse.Namespace) -> int:
+        parser.print_help()
+        return 0
+
+    parser.set_defaults(func=show_help)
+    return group

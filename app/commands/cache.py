@@ -9,10 +9,11 @@ one kind. Sheer makes again whatever it needs.
 
 from __future__ import annotations
 
-import argparse
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import argparse
+
     from app.commands import Subcommands
 
 #: The kinds ``--kind`` accepts (core.cache.KINDS; repeated here so that ``sheer --help`` imports nothing).
@@ -21,10 +22,9 @@ _KINDS = ("atlas", "index", "layout", "looks", "render", "colour", "mesh")
 
 def register(sub: Subcommands) -> None:
     """Add ``sheer cache`` and its sub-commands to the sub-command parsers ``sub``."""
-    p = sub.add_parser("cache", help="show or clear the cache folder", description=__doc__,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
-    csub = p.add_subparsers(dest="cache_command", metavar="SUBCOMMAND")
-    p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
+    from app.commands import command_group
+
+    csub = command_group(sub, "cache", "show or clear the cache folder", __doc__)
     i = csub.add_parser("info", help="location, size and entries per kind, and the cap")
     i.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
     i.set_defaults(func=run_info)

@@ -12,19 +12,19 @@ of coarse against fine; DIR/compare.png shows fine | coarse | difference (ΔE200
 
 from __future__ import annotations
 
-import argparse
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import argparse
+
     from app.commands import Subcommands
 
 
 def register(sub: Subcommands) -> None:
     """Add ``sheer head`` and its sub-commands to the sub-command parsers ``sub``."""
-    p = sub.add_parser("head", help="head mesh operations (simplify)", description=__doc__,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
-    hsub = p.add_subparsers(dest="head_command", metavar="SUBCOMMAND")
-    p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
+    from app.commands import command_group
+
+    hsub = command_group(sub, "head", "head mesh operations (simplify)", __doc__)
     s = hsub.add_parser("simplify", help="a coarse head by quadric decimation, detail texture re-baked")
     s.add_argument("--faces", type=int, required=True, metavar="N", help="target triangle count")
     s.add_argument("--head", metavar="PATH", help="head mesh; default: the sample head")

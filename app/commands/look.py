@@ -12,10 +12,10 @@ sidecar, a sample head's ``resources/heads/<name>.json`` sidecar, or a face fold
 
 from __future__ import annotations
 
-import argparse
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import argparse
     from pathlib import Path
 
     from app.commands import Subcommands
@@ -23,10 +23,9 @@ if TYPE_CHECKING:
 
 def register(sub: Subcommands) -> None:
     """Add ``sheer look`` and its sub-commands to the sub-command parsers ``sub``."""
-    p = sub.add_parser("look", help="looks and projects across heads (transfer)", description=__doc__,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
-    lsub = p.add_subparsers(dest="look_command", metavar="SUBCOMMAND")
-    p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
+    from app.commands import command_group
+
+    lsub = command_group(sub, "look", "looks and projects across heads (transfer)", __doc__)
     t = lsub.add_parser("transfer", help="move a project's layers onto another head (e.g. a captured face)")
     t.add_argument("--project", required=True, metavar="IN.sheer", help="the painted project")
     t.add_argument("--head", required=True, metavar="NEW",

@@ -13,12 +13,12 @@ library, creating the file if it does not exist yet.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import argparse
     from collections.abc import Callable
 
     from app.commands import Subcommands
@@ -28,20 +28,17 @@ if TYPE_CHECKING:
 
 def register(sub: Subcommands) -> None:
     """Add ``sheer materials`` and its sub-commands to the sub-command parsers ``sub``."""
-    p = sub.add_parser("materials", help="list, show, plot and import cosmetic materials",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    msub = p.add_subparsers(dest="materials_command", metavar="SUBCOMMAND")
-    p.set_defaults(func=lambda args: _help(p))
+    from app.commands import LIBRARY_HELP, command_group
 
-    lib_help = "material library JSON file (default: Sheer's default library)"
+    msub = command_group(sub, "materials", "list, show, plot and import cosmetic materials", __doc__)
     q = msub.add_parser("list", help="list materials")
     q.add_argument("--category", help="only this category (e.g. foundation, lipstick)")
-    q.add_argument("--library", type=Path, help=lib_help)
+    q.add_argument("--library", type=Path, help=LIBRARY_HELP)
     q.set_defaults(func=run_list)
 
     q = msub.add_parser("show", help="show a material's properties, provenance and spectra")
     q.add_argument("name", help="material name (case-insensitive)")
-    q.add_argument("--library", type=Path, help=lib_help)
+    q.add_argument("--library", type=Path, help=LIBRARY_HELP)
     q.add_argument("--step-nm", type=float, default=20.0, help="wavelength step of the table (nm, default 20)")
     q.set_defaults(func=run_show)
 
@@ -51,7 +48,7 @@ def register(sub: Subcommands) -> None:
         q = msub.add_parser(command, help=what)
         q.add_argument("name", help="material name (case-insensitive)")
         q.add_argument("--out", type=Path, required=True, help=f"output {out} file")
-        q.add_argument("--library", type=Path, help=lib_help)
+        q.add_argument("--library", type=Path, help=LIBRARY_HELP)
         q.set_defaults(func=func)
 
     q = msub.add_parser("import", help="import a measurement (CSV or X-Rite/CGATS) into a library")
@@ -63,11 +60,6 @@ def register(sub: Subcommands) -> None:
     q.add_argument("--category", help="material category (default: from the file, else 'other')")
     q.add_argument("--replace", action="store_true", help="replace materials of the same name")
     q.set_defaults(func=run_import)
-
-
-def _help(parser: argparse.ArgumentParser) -> int:
-    parser.print_help()
-    return 0
 
 
 def _library(path: Path | None) -> Library:

@@ -19,13 +19,14 @@ region, a library without foundation…) is reported in one line, exit status 2.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    import argparse
+
     from app.commands import Subcommands
     from km.skin import SkinFit
     from shade.coverage import Coverage
@@ -41,13 +42,9 @@ MAX_PHOTO_DE2000 = 20.0
 
 def register(sub: Subcommands) -> None:
     """Add ``sheer shade match`` and ``sheer shade coverage`` to the sub-command parsers ``sub``."""
-    from app.commands import LazyHelp
+    from app.commands import LIBRARY_HELP, LazyHelp, command_group
 
-    p = sub.add_parser("shade", help="find the foundation that matches a skin; a range's coverage",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ssub = p.add_subparsers(dest="shade_command", metavar="SUBCOMMAND")
-    p.set_defaults(func=lambda args: _help(p))
-    lib_help = "material library JSON file (default: Sheer's default library)"
+    ssub = command_group(sub, "shade", "find the foundation that matches a skin; a range's coverage", __doc__)
 
     q = ssub.add_parser("match", help="rank the library's foundations on a skin")
     src = q.add_mutually_exclusive_group(required=True)
@@ -68,12 +65,12 @@ def register(sub: Subcommands) -> None:
                                  "CSV spectrum file wavelength_nm,power", store=_store_light))
     q.add_argument("--oxygenation", type=float, default=None, help="blood oxygenation held in the fit (0-1)")
     q.add_argument("--top", type=int, default=None, help="show the N best shades (default all)")
-    q.add_argument("--library", type=Path, help=lib_help)
+    q.add_argument("--library", type=Path, help=LIBRARY_HELP)
     q.add_argument("--json", action="store_true", help="print JSON (with the fitted skin's parameters and spectrum)")
     q.set_defaults(func=run_match)
 
     q = ssub.add_parser("coverage", help="which skins a range of foundations serves badly (plot and gap shade)")
-    q.add_argument("--library", type=Path, help=lib_help)
+    q.add_argument("--library", type=Path, help=LIBRARY_HELP)
     q.add_argument("--out", type=Path, required=True, help="the coverage plot (.png)")
     q.add_argument("--skins", type=int, default=1000, help="population size (default 1000)")
     q.add_argument("--seed", type=int, default=0, help="population seed (default 0)")
@@ -96,11 +93,6 @@ def _store_light() -> list[str]:
     from shade.match import DEFAULT_STORE_LIGHT
 
     return [DEFAULT_STORE_LIGHT]
-
-
-def _help(parser: argparse.ArgumentParser) -> int:
-    parser.print_help()
-    return 0
 
 
 def _numbers(text: str, n: int, what: str) -> list[float]:
