@@ -85,6 +85,13 @@ vec3 h16(vec3 v) { return uintBitsToFloat(floatBitsToUint(v) & uvec3(0xFFFFE000u
         acc_ += (FOLLOW(sl, C, float(d) / scale) + FOLLOW(sr, C, float(d) / scale)) * W[d]; wsum_ += 2.0 * W[d]; } \
     OUT = acc_ / wsum_; }
 
+// the vertical pass's Gaussian K (1, 2) added to SUM, cut to half precision as the per-Gaussian passes'
+// blending cuts it: its horizontal result SRC around centre C, SIGMA mm, over R whole texels (SUM_WHOLE,
+// weights in W) or N sub-texel taps (SUM_BLUR); B receives the Gaussian's blur
+#define SUM_WHOLE(SUM, B, W, K, SRC, C, SIGMA, R) { \
+    TENT(W, SIGMA * scale) WHOLE(B, SRC, C, W, R) SUM = h16(SUM + B * u_wt[K]); }
+#define SUM_BLUR(SUM, B, K, SRC, C, SIGMA, N) { BLUR(B, SRC, C, SIGMA, N) SUM = h16(SUM + B * u_wt[K]); }
+
 void main() {
     vec2 texel = 1.0 / vec2(textureSize(u_src0, 0));
     ivec2 p = ivec2(gl_FragCoord.xy), lim = textureSize(u_src0, 0) - 1, dir = ivec2(u_dir);
@@ -168,18 +175,14 @@ void main() {
 #endif
     sum = h16(b * u_wt[0]);
 #if NI > 1
-    TENT(w, u_sigma_mm.y * scale)
-    WHOLE(b, u_src1, c1, w, RI1)
-    sum = h16(sum + b * u_wt[1]);
+    SUM_WHOLE(sum, b, w, 1, u_src1, c1, u_sigma_mm.y, RI1)
 #elif NG > 1
-    BLUR(b, u_src1, c1, u_sigma_mm.y, NT1) sum = h16(sum + b * u_wt[1]);
+    SUM_BLUR(sum, b, 1, u_src1, c1, u_sigma_mm.y, NT1)
 #endif
 #if NI > 2
-    TENT(w, u_sigma_mm.z * scale)
-    WHOLE(b, u_src2, c2, w, RI2)
-    sum = h16(sum + b * u_wt[2]);
+    SUM_WHOLE(sum, b, w, 2, u_src2, c2, u_sigma_mm.z, RI2)
 #elif NG > 2
-    BLUR(b, u_src2, c2, u_sigma_mm.z, NT2) sum = h16(sum + b * u_wt[2]);
+    SUM_BLUR(sum, b, 2, u_src2, c2, u_sigma_mm.z, NT2)
 #endif
     o_0 = vec4(sum, c0.a * n_g);
 #endif
