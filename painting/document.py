@@ -12,7 +12,7 @@ in mm (through ``head.mm_per_unit``).
 from __future__ import annotations
 
 import itertools
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Literal, Protocol
 
 import numpy as np
 
@@ -454,20 +454,19 @@ class Document(MaskEditing, MaterialEditing):
 
     def undo(self) -> bool:
         """Undo the last step; returns False when there is none."""
-        self.require_idle("undo")
-        step = self.history.pop_undo()
-        if step is None:
-            return False
-        self._replay(step, "undo")
-        return True
+        return self._undo_or_redo("undo")
 
     def redo(self) -> bool:
         """Redo the last undone step; returns False when there is none."""
-        self.require_idle("redo")
-        step = self.history.pop_redo()
+        return self._undo_or_redo("redo")
+
+    def _undo_or_redo(self, detail: Literal["undo", "redo"]) -> bool:
+        """Undo (``detail`` "undo") or redo the step the history gives; returns False when there is none."""
+        self.require_idle(detail)
+        step = self.history.pop_undo() if detail == "undo" else self.history.pop_redo()
         if step is None:
             return False
-        self._replay(step, "redo")
+        self._replay(step, detail)
         return True
 
     def _replay(self, step: Step, detail: str) -> None:

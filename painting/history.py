@@ -151,18 +151,19 @@ class History:
 
     def pop_undo(self) -> Step | None:
         """The last step, moved to the redo stack (the caller replays it backwards), or None."""
-        if not self._undo:
-            return None
-        step = self._undo.pop()
-        self._redo.append(step)
-        return step
+        return self._move_last(self._undo, self._redo)
 
     def pop_redo(self) -> Step | None:
         """The last undone step, moved back to the undo stack (the caller replays it), or None."""
-        if not self._redo:
+        return self._move_last(self._redo, self._undo)
+
+    @staticmethod
+    def _move_last(source: deque[Step], target: deque[Step]) -> Step | None:
+        """The last step of ``source``, moved onto ``target``, or None when ``source`` is empty."""
+        if not source:
             return None
-        step = self._redo.pop()
-        self._undo.append(step)
+        step = source.pop()
+        target.append(step)
         return step
 
     def clear(self) -> None:
