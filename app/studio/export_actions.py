@@ -126,6 +126,11 @@ class ExportActions(QObject):
     def _fail(self, title: str) -> Callable[[str], None]:
         return lambda message: dialogs.error(self._window, title, message)
 
+    def _ask_save_path(self, title: str, name: str, filters: str) -> Path | None:
+        """The file picked in a save dialog titled ``title`` that proposes ``name``, or None when cancelled."""
+        path, _ = QFileDialog.getSaveFileName(self._window, title, name, filters)
+        return Path(path) if path else None
+
     # ------------------------------------------------------------------ layer maps
     def ask_export_maps(self, fmt: str = "png") -> None:
         """Ask for a folder, then :meth:`export_maps` there."""
@@ -179,10 +184,9 @@ class ExportActions(QObject):
     # ------------------------------------------------------------------ glTF
     def ask_export_gltf(self) -> None:
         """Ask for a file, then :meth:`export_gltf` there."""
-        path, _ = QFileDialog.getSaveFileName(self._window, "Export glTF", "face.glb",
-                                              "glTF binary (*.glb);;glTF (*.gltf)")
+        path = self._ask_save_path("Export glTF", "face.glb", "glTF binary (*.glb);;glTF (*.gltf)")
         if path:
-            self.export_gltf(Path(path))
+            self.export_gltf(path)
 
     def export_gltf(self, path: Path, on_done: Callable[[object], None] | None = None) -> None:
         """Write the head with the made-up colour baked into its texture as glTF (in a worker)."""
@@ -199,17 +203,16 @@ class ExportActions(QObject):
         if not dialog.exec():
             return
         size = dialog.size_chosen()
-        path, _ = QFileDialog.getSaveFileName(self._window, "Export rendered image", "render.png", "PNG (*.png)")
+        path = self._ask_save_path("Export rendered image", "render.png", "PNG (*.png)")
         if path and size is not None:
-            self.export_image(Path(path), size)
+            self.export_image(path, size)
 
     # ------------------------------------------------------------------ OpenRaster
     def ask_export_ora(self) -> None:
         """Ask for a file, then :meth:`export_ora` there."""
-        path, _ = QFileDialog.getSaveFileName(self._window, "Export OpenRaster", "layers.ora",
-                                              "OpenRaster (*.ora)")
+        path = self._ask_save_path("Export OpenRaster", "layers.ora", "OpenRaster (*.ora)")
         if path:
-            self.export_ora(Path(path))
+            self.export_ora(path)
 
     def export_ora(self, path: Path, on_done: Callable[[object], None] | None = None) -> None:
         """Write the layers as OpenRaster for GIMP and Krita, in a worker.
