@@ -30,7 +30,7 @@ from typing import Any
 def measure(quick: bool = False, frames: int = 9) -> dict[str, Any]:
     """The views' figures (see the module docstring); ``quick``: 3 frames and a 512² detail texture."""
     from bench.capture_synthetic import make_scene, read_env
-    from bench.lightweight import interleaved_ms
+    from bench.timing import interleaved_ms
     from capture.face import Face
     from capture.pipeline import capture, linear_to_srgb8
     from capture.probe import analyse_probe

@@ -20,40 +20,15 @@ import json
 import time
 from typing import TYPE_CHECKING, Any
 
-from bench.stats import spread
+from bench.timing import interleaved_ms
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-
-    import moderngl
 
     from bench.capture_synthetic import SyntheticScene
     from capture.face import Face
     from capture.pipeline import CaptureResult
     from painting.head import Head
-
-
-def interleaved_ms(ctx: moderngl.Context, configs: dict[str, Callable[[], None]], frames: int,
-                   warmup: int = 2) -> dict[str, float]:
-    """Median, p90 and maximum (ms, see :func:`bench.stats.spread`) of each configuration's frames.
-
-    One frame of each configuration per round, so a CPU shared with other work loads them alike.
-    """
-    times: dict[str, list[float]] = {k: [] for k in configs}
-    for fn in configs.values():
-        for _ in range(warmup):
-            fn()
-    for _ in range(frames):
-        for key, fn in configs.items():
-            ctx.finish()
-            t = time.perf_counter()
-            fn()
-            ctx.finish()
-            times[key].append((time.perf_counter() - t) * 1000.0)
-    out: dict[str, float] = {}
-    for k, v in times.items():
-        out.update(spread(k, v, digits=3))
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:

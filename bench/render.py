@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bench.stats import de2000_srgb8, spread
+from bench.timing import interleaved_times_ms
 from painting.tiles import TILE
 
 if TYPE_CHECKING:
@@ -284,17 +285,7 @@ def _frame_times(ctx: moderngl.Context, r: Renderer, fbo: moderngl.Framebuffer, 
         "fast_11_taps_ms": frame("fast", 11),
         "fast_25_taps_ms": frame("fast", 25),
     }
-    for fn in cases.values():  # warm-up (compiles, caches)
-        fn()
-        fn()
-    ctx.finish()
-    times: dict[str, list[float]] = {k: [] for k in cases}
-    for _ in range(frames):
-        for key, fn in cases.items():
-            t0 = time.perf_counter()
-            fn()
-            ctx.finish()
-            times[key].append((time.perf_counter() - t0) * 1000.0)
+    times = interleaved_times_ms(ctx, cases, frames)  # the two warm-up frames compile and fill the caches
     out: dict[str, Any] = {}
     for key, ts in times.items():
         out.update(spread(key, ts, DIGITS))
