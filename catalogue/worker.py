@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import io
 import os
@@ -44,17 +45,12 @@ KEEP_HEADS, KEEP_DOCUMENTS = 2, 4
 _STATE: WorkerState | None = None
 
 
+@functools.cache
 def worker_version() -> str:
     """The renderer version of the code this process loaded (computed once, on first use)."""
-    global _VERSION
-    if _VERSION is None:
-        from catalogue.jobs import renderer_version
+    from catalogue.jobs import renderer_version
 
-        _VERSION = renderer_version()
-    return _VERSION
-
-
-_VERSION: str | None = None
+    return renderer_version()
 
 
 def worker_state() -> WorkerState:
