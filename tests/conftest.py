@@ -163,7 +163,7 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     deleting the GL window under a live ``Viewport.surface`` wrapper, is ruled out (the wrapper is
     invalidated with the window, and every GLSurface is invalid at exit), and tests/app with the teardown
     kept, in order and with PySide's exit-time deletions shuffled, never crashed. The studio's and the
-    kiosk's own exits are tested as real processes (tests/app/test_exit.py). ``SHEER_TEST_TEARDOWN=1``
+    kiosk's own exits are tested as real processes (tests/app/studio/test_exit.py). ``SHEER_TEST_TEARDOWN=1``
     keeps the teardown, to study that crash, with the fault handler on so a crash prints the Python stack
     of every thread. Under pytest-xdist the controller and each worker leave this way, each with its own
     session's status (the controller's is the run's).

@@ -116,7 +116,7 @@ PRIVATE_ACCESS_ALLOWED = {
     # forked writers die mid-save on purpose)
     ("bench/fuzz.py", "os._exit"),
     # the standard library: argparse has no public way to take option values that start with a minus
-    # sign ("--light -12,5,1"); tests/app/test_render_cli.py holds it to that
+    # sign ("--light -12,5,1"); tests/app/commands/test_render_cli.py holds it to that
     ("app/commands/render.py", "p._negative_number_matcher"),
 }
 

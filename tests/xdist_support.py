@@ -4,8 +4,9 @@ call these.
 - **An X server and a temporary folder per worker.** Each worker starts its own Xvfb (on a display number
   Xvfb finds free, ``-displayfd``; it ends with the worker) and sets ``DISPLAY`` and ``TMPDIR`` before Qt
   or anything else reads them. Qt windows, real X input (xdotool), a window manager a test starts
-  (openbox, tests/app/test_kiosk_deploy.py) or its absence (tests/app/test_kiosk_command.py), and checks
-  of what is left in the temporary folder (the kiosk's private cache) never meet another worker's.
+  (openbox, tests/app/kiosk/test_kiosk_deploy.py) or its absence (tests/app/kiosk/test_kiosk_command.py),
+  and checks of what is left in the temporary folder (the kiosk's private cache) never meet another
+  worker's.
 - **Groups.** ``--dist loadgroup`` sends each ``xdist_group`` to one worker as a whole. A test with no
   such mark joins its module's group, so a module's module-scoped fixtures (studio and kiosk windows,
   renderers, captures) are made once, as with ``--dist loadscope``; a mark on tests of several modules

@@ -5,7 +5,8 @@ photograph the same way (the fixtures ``portrait_capture`` and ``hopper_face`` i
   hand-picked points (tests/data/capture/``<name>_points.json``) and captured with a 512² detail texture —
   ``sheer capture --points``'s pipeline (tests/capture/test_photos.py, tests/render/test_mirror.py);
 - :func:`cli_capture`: ``sheer capture --photo PHOTO --out DIR`` run through the command line in this
-  process, the automatic capture with its defaults (tests/render/test_mirror.py, tests/app/test_look_cli.py).
+  process, the automatic capture with its defaults (tests/render/test_mirror.py,
+  tests/app/commands/test_look_cli.py).
 
 The modules that share one are in one ``xdist_group`` (:data:`GROUP`), so a worker makes it once. Its
 arrays are read-only: a test that changed them in place would change what the next test sees.

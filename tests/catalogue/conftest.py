@@ -8,7 +8,8 @@ from typing import TYPE_CHECKING
 
 import pytest
 
-from tests.app.test_lightweight_render_cli import face_dir  # noqa: F401  (a captured face folder, as a fixture)
+# a captured face folder, as a fixture
+from tests.app.commands.test_lightweight_render_cli import face_dir  # noqa: F401
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator

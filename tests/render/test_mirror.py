@@ -3,7 +3,7 @@ captured on the sample head from the hand-picked points in tests/data/capture/ (
 pipeline, in process), and Grace Hopper's captured automatically (``sheer capture --photo``, in process:
 ``capture.auto``, her own face mesh from MediaPipe; the astronaut's face is too small in her portrait for
 the quality gate). The captures are the session's (tests/capture/portraits.py), which
-tests/capture/test_photos.py and tests/app/test_look_cli.py share.
+tests/capture/test_photos.py and tests/app/commands/test_look_cli.py share.
 
 Measured (mean ΔE2000 over the capture's skin pixels; detail texture 512²):
 

@@ -14,7 +14,8 @@ from PIL import Image
 if TYPE_CHECKING:
     from pathlib import Path
 
-from tests.app.test_render_camera_cli import _render  # the CLI in process: (exit code, image, stderr)
+# the CLI in process: (exit code, image, stderr)
+from tests.app.commands.test_render_camera_cli import _render
 
 pytestmark = pytest.mark.gl
 W, H = 320, 240

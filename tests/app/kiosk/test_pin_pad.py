@@ -21,7 +21,7 @@ def test_the_pad_locks_shows_the_time_left_and_unlocks(qapp: object, tmp_path: P
     from app.kiosk.config import KioskConfig
     from app.kiosk.pin_lock import PinGuard
     from app.kiosk.pin_pad import PinPad
-    from tests.app.kiosk_support import pin_hash
+    from tests.app.kiosk.kiosk_support import pin_hash
 
     now = [1_700_000_000.0]
     path = tmp_path / "kiosk.json"

@@ -70,7 +70,7 @@ def tree(folder: Path) -> set[str]:
 
 def tryon_kiosk(qapp: object, folder: Path, **config: Any) -> contextlib.AbstractContextManager[KioskWindow]:
     """A 1280×800 kiosk (PIN 2468, snapshots under ``folder``/photos) with ``config`` fields set."""
-    from tests.app.test_kiosk_pin import open_kiosk
+    from tests.app.kiosk.test_kiosk_pin import open_kiosk
 
     return open_kiosk(qapp, folder, (1280, 800), **config)
 
@@ -275,7 +275,7 @@ def test_a_kiosk_without_a_camera_takes_the_photo_from_its_watched_folder(qapp: 
 
     from app.cli import main
     from app.kiosk.config import KioskConfig
-    from tests.app.test_kiosk_light import _write_probe
+    from tests.app.kiosk.test_kiosk_light import _write_probe
 
     light = np.array([0.2, -0.3, -1.0])
     light /= np.linalg.norm(light)

@@ -3,7 +3,7 @@
 ``app.kiosk.config.hash_pin`` runs the production PBKDF2 (200,000 rounds, a random salt): a kiosk window or
 configuration file in a test needs a valid stored hash, not a fresh one each time, so each PIN is hashed
 once and its hash reused. The hashing itself (its salt, its rounds, the PIN not in the stored text) is
-tested on fresh hashes in tests/app/test_kiosk_pin.py and tests/app/test_kiosk_config.py.
+tested on fresh hashes in tests/app/kiosk/test_kiosk_pin.py and tests/app/kiosk/test_kiosk_config.py.
 """
 
 from __future__ import annotations

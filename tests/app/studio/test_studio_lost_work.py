@@ -24,7 +24,7 @@ import pytest
 from PySide6.QtCore import QPoint, Qt
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_input import RED, click_row, pick_material, type_into
+from tests.app.studio.studio_input import RED, click_row, pick_material, type_into
 from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
 
 if TYPE_CHECKING:

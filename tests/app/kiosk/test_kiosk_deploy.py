@@ -20,7 +20,7 @@ pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def _wm_running() -> bool:
@@ -32,7 +32,7 @@ def _wm_running() -> bool:
 def test_the_kiosk_fills_the_screen_under_a_window_manager(qapp: Any, qtbot: Any, tmp_path: Path) -> None:
     from app.kiosk.config import KioskConfig
     from app.kiosk.window import KioskWindow
-    from tests.app.kiosk_support import pin_hash
+    from tests.app.kiosk.kiosk_support import pin_hash
 
     assert shutil.which("openbox") and shutil.which("xprop"), "openbox and xprop (Debian packages) run this test"
     assert not _wm_running(), "another window manager is already running on this display"

@@ -1,6 +1,6 @@
 """``sheer look transfer``: the command line (``app.cli.main``, in this process: what the process adds, its exit
-status and one-line errors as the shell sees them, is tests/app/test_shade_cli.py's), real .sheer files, real
-heads (sample head ↔ canonical face, and Grace Hopper's own head captured by ``sheer capture``)."""
+status and one-line errors as the shell sees them, is tests/app/commands/test_shade_cli.py's), real .sheer
+files, real heads (sample head ↔ canonical face, and Grace Hopper's own head captured by ``sheer capture``)."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from tests.capture import portraits
 
 #: (with the other modules that read the session's capture of Grace Hopper's portrait, ``hopper_face``)
 pytestmark = pytest.mark.xdist_group(portraits.GROUP)
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def _sheer(*args: str) -> subprocess.CompletedProcess[str]:

@@ -18,11 +18,11 @@ import pytest
 
 from app.kiosk.config import KioskConfig
 from app.kiosk.pin_lock import MAX_LOCK_S, PinGuard, lock_path_for, lock_seconds
-from tests.app import kiosk_support
-from tests.app.test_kiosk_config import _Terminal
+from tests.app.kiosk import kiosk_support
+from tests.app.kiosk.test_kiosk_config import _Terminal
 
 RIGHT, WRONG = "975318", "864297"
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 class Clock:

@@ -14,7 +14,7 @@ from capture.face import Face
 from capture.phong import PhongParams
 from km.skin import fit_skin
 from shade.match import ShadeBank, ShadeMatch, foundations, match_shades
-from tests.app.test_kiosk_pin import open_kiosk
+from tests.app.kiosk.test_kiosk_pin import open_kiosk
 
 if TYPE_CHECKING:
     from collections.abc import Iterator

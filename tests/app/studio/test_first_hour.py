@@ -14,7 +14,7 @@ import pytest
 from PySide6.QtCore import QPoint, QPointF, QSettings, Qt
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_input import RED, click_row, pick_material, type_into
+from tests.app.studio.studio_input import RED, click_row, pick_material, type_into
 from tests.app.studio_support import DialogDriver
 
 if TYPE_CHECKING:

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
 SHEER = str(Path(sys.executable).with_name("sheer"))
-DATA = Path(__file__).resolve().parents[1] / "data" / "materials"
+DATA = Path(__file__).resolve().parents[2] / "data" / "materials"
 
 
 def sheer(*args: str, env: dict[str, str] | None = None, cwd: str | Path | None = None,

@@ -16,7 +16,7 @@ import numpy as np
 if TYPE_CHECKING:
     import pytest
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[3]
 
 
 def _sheer(env: dict[str, str], *args: str) -> subprocess.CompletedProcess[str]:

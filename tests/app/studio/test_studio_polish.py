@@ -31,7 +31,7 @@ pin_singletons()
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 studio = studio_fixture(wait_full_quality=False)
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def settle() -> None:

@@ -12,7 +12,7 @@ from app.cli import main
 if TYPE_CHECKING:
     import pytest
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "materials"
+DATA = Path(__file__).resolve().parents[2] / "data" / "materials"
 
 
 def run(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:

@@ -87,7 +87,7 @@ def test_sheer_kiosk_with_a_pin_comes_up_full_screen_and_guards_its_way_out(
 
     from app.cli import main
     from app.kiosk.window import KioskWindow
-    from tests.app.kiosk_support import pin_hash
+    from tests.app.kiosk.kiosk_support import pin_hash
 
     assert shutil.which("xdotool"), "xdotool (Debian package) drives the X server in this test"
     config = tmp_path / "config" / "sheer" / "kiosk.json"

@@ -31,7 +31,7 @@ def open_kiosk(qapp: object, folder: Path, size: tuple[int, int] = (800, 600),
 
     from app.kiosk.config import KioskConfig
     from app.kiosk.window import KioskWindow
-    from tests.app.kiosk_support import pin_hash
+    from tests.app.kiosk.kiosk_support import pin_hash
 
     # 512²: fast; the resolution is not what these tests are about
     cfg = KioskConfig(pin_hash=pin_hash("2468"), snapshot_dir=str(folder / "photos"), idle_seconds=600,
