@@ -29,8 +29,6 @@ tests/capture/test_detail.py for what that gains away from the photograph's view
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import subprocess
 import sys
@@ -45,6 +43,7 @@ from bench.capture_truth import Case, draw_case
 from capture.phong import delta_e2000
 from capture.pipeline import linear_to_srgb8
 from km.srgb import srgb_decode
+from tests.cli_support import sheer as _sheer
 
 if TYPE_CHECKING:
     import moderngl
@@ -64,16 +63,6 @@ CASES = {
                              ambient="irradiance", yaw_deg=30.0), 0.7),
     "dark-skin-s60": (Case("sample", 60.0, 0.10, (0.25, 0.15, 0.11), "city", (-6.0, 9.0), camera="noisy"), 0.5),
 }
-
-
-def _sheer(*args: str) -> subprocess.CompletedProcess[str]:
-    """``sheer ARGS`` through the command line's entry function, in this process: its exit status and output."""
-    from app.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(list(args))
-    return subprocess.CompletedProcess(["sheer", *args], code, out.getvalue(), err.getvalue())
 
 
 def test_the_installed_sheer_command_runs_capture_and_render() -> None:

@@ -4,31 +4,19 @@ files, real heads (sample head ↔ canonical face, and Grace Hopper's own head c
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tests.capture import portraits
+from tests.cli_support import sheer
 
 #: (with the other modules that read the session's capture of Grace Hopper's portrait, ``hopper_face``)
 pytestmark = pytest.mark.xdist_group(portraits.GROUP)
 REPO = Path(__file__).resolve().parents[3]
-
-
-def _sheer(*args: str) -> subprocess.CompletedProcess[str]:
-    """``sheer ARGS`` through the command line's entry function, in this process: its exit status and output."""
-    from app.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(list(args))
-    return subprocess.CompletedProcess(["sheer", *args], code, out.getvalue(), err.getvalue())
 
 
 def _canonical_mesh() -> Path:
@@ -40,7 +28,7 @@ def _canonical_mesh() -> Path:
 @pytest.fixture(scope="module")
 def red_lip(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("look") / "red-lip.sheer"
-    done = _sheer("project", "new", "--out", str(path), "--look", "red-lip", "--resolution", "256")
+    done = sheer("project", "new", "--out", str(path), "--look", "red-lip", "--resolution", "256")
     assert done.returncode == 0, done.stderr
     return path
 
@@ -61,12 +49,12 @@ def _lip_share(project_path: Path) -> tuple[float, float]:
 
 def test_transfer_round_trip_through_real_files(red_lip: Path, tmp_path: Path) -> None:
     face = tmp_path / "face.sheer"
-    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(REPO / "resources/heads/canonical-face.json"),
-                  "--out", str(face), "--embed-head")
+    done = sheer("look", "transfer", "--project", str(red_lip), "--head", str(REPO / "resources/heads/canonical-face.json"),
+                 "--out", str(face), "--embed-head")
     assert done.returncode == 0, done.stderr
     assert "2 layer(s)" in done.stdout and "MediaPipe canonical face" in done.stdout
-    assert _sheer("project", "validate", str(face)).returncode == 0  # every check of docs/FORMAT.md
-    info = _sheer("project", "info", str(face), "--json")
+    assert sheer("project", "validate", str(face)).returncode == 0  # every check of docs/FORMAT.md
+    info = sheer("project", "info", str(face), "--json")
     assert info.returncode == 0, info.stderr
     data = json.loads(info.stdout)
     assert [lay["name"] for lay in data["layers"]] == ["Foundation", "Lipstick"]
@@ -75,12 +63,12 @@ def test_transfer_round_trip_through_real_files(red_lip: Path, tmp_path: Path) -
     assert lipstick > 0.9 and foundation < 0.05, (lipstick, foundation)
     # …and back onto the sample head: a .sheer on it again, the lipstick on its lips
     back = tmp_path / "back.sheer"
-    done = _sheer("look", "transfer", "--project", str(face), "--head", str(tmp_path / "missing.obj"), "--out", str(back))
+    done = sheer("look", "transfer", "--project", str(face), "--head", str(tmp_path / "missing.obj"), "--out", str(back))
     assert done.returncode == 2 and "missing.obj: not found" in done.stderr and "Traceback" not in done.stderr
     from core.assets import find_asset
     from painting.head import SAMPLE_HEAD
 
-    done = _sheer("look", "transfer", "--project", str(face), "--head", str(find_asset(SAMPLE_HEAD)), "--out", str(back))
+    done = sheer("look", "transfer", "--project", str(face), "--head", str(find_asset(SAMPLE_HEAD)), "--out", str(back))
     assert done.returncode == 0, done.stderr
     original, _ = _lip_share(red_lip)
     lipstick, foundation = _lip_share(back)
@@ -108,12 +96,12 @@ def test_a_face_folder_and_a_sidecar_name_the_head(red_lip: Path, tmp_path: Path
                  {"RGB": np.ones((8, 8, 3), np.float32)}).write(str(folder / "detail.exr"))
     (folder / "face.json").write_text(json.dumps({"schema_version": 1, "phong": params.to_json(), "head": "head.obj"}))
     out = tmp_path / "on-face.sheer"
-    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(folder), "--out", str(out))
+    done = sheer("look", "transfer", "--project", str(red_lip), "--head", str(folder), "--out", str(out))
     assert done.returncode == 0, done.stderr
-    assert json.loads(_sheer("project", "info", str(out), "--json").stdout)["head"]["path"] == str(folder / "head.obj")
+    assert json.loads(sheer("project", "info", str(out), "--json").stdout)["head"]["path"] == str(folder / "head.obj")
     out2 = tmp_path / "by-sidecar.sheer"
-    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(folder / "head.obj.sheer-head.json"),
-                  "--out", str(out2))
+    done = sheer("look", "transfer", "--project", str(red_lip), "--head", str(folder / "head.obj.sheer-head.json"),
+                 "--out", str(out2))
     assert done.returncode == 0, done.stderr
 
 
@@ -134,12 +122,12 @@ def test_bad_input_is_one_line_and_writes_nothing(red_lip: Path, tmp_path: Path)
     ]
     for extra, message in cases:
         args = ["look", "transfer", "--project", str(red_lip), "--out", str(out), *extra]
-        done = _sheer(*args)
+        done = sheer(*args)
         assert done.returncode == 2 and message in done.stderr, (extra, done.stderr)
         assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
         assert not out.exists() and not list(tmp_path.glob("*.tmp*"))
-    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(_canonical_mesh()),
-                  "--out", str(tmp_path / "out.png"))
+    done = sheer("look", "transfer", "--project", str(red_lip), "--head", str(_canonical_mesh()),
+                 "--out", str(tmp_path / "out.png"))
     assert done.returncode == 2 and "must be a .sheer file" in done.stderr
 
 
@@ -149,7 +137,7 @@ def test_onto_a_face_captured_from_a_portrait(red_lip: Path, tmp_path: Path, hop
     red-lip project onto her own head."""
     out = tmp_path / "grace.sheer"
     before = sorted(p.relative_to(hopper_face) for p in hopper_face.rglob("*"))
-    done = _sheer("look", "transfer", "--project", str(red_lip), "--head", str(hopper_face), "--out", str(out))
+    done = sheer("look", "transfer", "--project", str(red_lip), "--head", str(hopper_face), "--out", str(out))
     assert sorted(p.relative_to(hopper_face) for p in hopper_face.rglob("*")) == before  # the face folder is read
     assert done.returncode == 0, done.stderr
     assert "to 'Captured face'" in done.stdout
