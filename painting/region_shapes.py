@@ -34,7 +34,9 @@ from painting.regions import (
     feather,
     local_texel_mm,
     mesh_digest,
+    reach_texels,
     regions_file,
+    signed_distance,
     spread_to_padding,
     stored_mesh,
 )
@@ -607,11 +609,7 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
     shapes["skin"] = (skin, ("the head's skin mask" if head.skin_mask is not None else "every covered texel")
                       + " × (1 − each of the lips, eyes, brows and the inner mouth as soft masks)")
     if "lips" in shapes:
-        from scipy.ndimage import distance_transform_edt
-
-        lips = shapes["lips"][0]
-        signed = np.where(lips, distance_transform_edt(lips) - 0.5, 0.5 - distance_transform_edt(~lips)) * texel_mm
-        shapes["lip_line"] = (np.abs(signed) <= 0.75, "a 1.5 mm band on the lips' outline")
+        shapes["lip_line"] = (_outline_band(shapes["lips"][0], 0.75, texel_mm), "a 1.5 mm band on the lips' outline")
     soft: dict[str, np.ndarray] = {}
     for name in REGION_NAMES:  # "skin" last: it needs the others' soft masks
         if name not in shapes or not shapes[name][0].any():
@@ -633,6 +631,19 @@ def derive_regions(head: Head, atlas: Atlas, head_uv: bool = True) -> RegionSet:
         mask.flags.writeable = False
         out.regions[name] = Region(name, mask, f, source)
     return out
+
+
+def _outline_band(inside: np.ndarray, half_mm: float, texel_mm: np.ndarray) -> np.ndarray:
+    """The texels within ``half_mm`` (surface distance through ``texel_mm``) of the outline of ``inside``."""
+    if not inside.any():  # no outline: the distances of an all-outside array, as scipy gives them
+        from scipy.ndimage import distance_transform_edt
+
+        signed = np.where(inside, distance_transform_edt(inside) - 0.5, 0.5 - distance_transform_edt(~inside))
+        return np.asarray(np.abs(signed * texel_mm) <= half_mm)
+    win, signed_texels = signed_distance(inside, reach_texels(half_mm, texel_mm))
+    band = np.zeros(inside.shape, bool)
+    band[win] = np.abs(signed_texels * texel_mm[win]) <= half_mm
+    return band
 
 
 def _skin_mask(head: Head, atlas: Atlas) -> np.ndarray:

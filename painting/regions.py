@@ -209,24 +209,61 @@ def local_texel_mm(atlas: Atlas) -> np.ndarray:
     return np.asarray(median_filter(step, size=5), dtype=np.float64)
 
 
+def signed_distance(inside: np.ndarray, reach: int) -> tuple[tuple[slice, slice], np.ndarray]:
+    """Signed Euclidean distance in texels to the outline of ``inside`` (bool, not empty), on a window.
+
+    The distance is ``d_in − 0.5`` inside (``d_in``: texels to the nearest outside texel) and
+    ``0.5 − d_out`` outside (``d_out``: to the nearest inside texel), as
+    ``scipy.ndimage.distance_transform_edt`` gives them on the whole array. Computed on the window of
+    ``inside``'s bounding box grown by ``reach`` (≥ 1) texels: the same values there (every inside
+    texel lies in the window, and an outside texel beyond it is no nearer than the window's border ring,
+    which is outside), and every texel beyond it is outside, more than ``reach`` texels from the outline.
+
+    Returns:
+        The window (row and column slices) and the signed distances on it (float64).
+    """
+    from scipy.ndimage import distance_transform_edt
+
+    rows = np.flatnonzero(inside.any(axis=1))
+    cols = np.flatnonzero(inside.any(axis=0))
+    reach = max(int(reach), 1)
+    win = (slice(max(int(rows[0]) - reach, 0), min(int(rows[-1]) + reach + 1, inside.shape[0])),
+           slice(max(int(cols[0]) - reach, 0), min(int(cols[-1]) + reach + 1, inside.shape[1])))
+    part = inside[win]
+    d_in = distance_transform_edt(part)  # inside: texels to the nearest outside texel
+    d_out = distance_transform_edt(~part)
+    return win, np.where(part, d_in - 0.5, 0.5 - d_out)
+
+
+def reach_texels(reach_mm: float, texel_mm: np.ndarray | float) -> int:
+    """Texels that surely span ``reach_mm`` of surface (with two to spare) at the smallest texel size."""
+    smallest = float(np.min(texel_mm))
+    if not np.isfinite(smallest) or smallest <= 0:
+        return 1 << 30  # no bound: the window is the whole array
+    return min(int(np.ceil(reach_mm / smallest)) + 2, 1 << 30)
+
+
 def feather(hard: np.ndarray, feather_mm: float, texel_mm: np.ndarray) -> np.ndarray:
     """A hard mask's soft version: a linear ramp ``feather_mm`` wide centred on its outline.
 
     Distances are Euclidean in texels (``scipy.ndimage.distance_transform_edt``) times the local texel
     size ``texel_mm`` (mm per texel). Returns float32 in [0, 1]; 1 deep inside, 0 beyond
     ``feather_mm / 2`` outside. ``feather_mm = 0`` gives the hard mask.
-    """
-    from scipy.ndimage import distance_transform_edt
 
+    The distances are computed near the mask only (:func:`signed_distance`): a texel farther outside
+    than half the feather is 0 either way.
+    """
     inside = np.asarray(hard, dtype=bool)
     if not inside.any():
         return np.zeros(inside.shape, np.float32)
     if feather_mm <= 0:
         return inside.astype(np.float32)
-    d_in = distance_transform_edt(inside)  # inside: texels to the nearest outside texel
-    d_out = distance_transform_edt(~inside)
-    signed = np.where(inside, d_in - 0.5, 0.5 - d_out) * texel_mm  # mm, + inside
-    return np.clip(0.5 + signed / feather_mm, 0.0, 1.0).astype(np.float32)
+    texel = np.broadcast_to(np.asarray(texel_mm, dtype=np.float64), inside.shape)
+    win, signed_texels = signed_distance(inside, reach_texels(0.5 * feather_mm, texel))
+    signed = signed_texels * texel[win]  # mm, + inside
+    out = np.zeros(inside.shape, np.float32)
+    out[win] = np.clip(0.5 + signed / feather_mm, 0.0, 1.0).astype(np.float32)
+    return out
 
 
 def spread_to_padding(mask: np.ndarray, atlas: Atlas) -> np.ndarray:
