@@ -337,13 +337,70 @@ def locate(log: str, vertex_files: list[str], fragment_files: list[str]) -> tupl
     return tuple(out)
 
 
+_DEFINE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+class StageSources:
+    """The stages' sources as :meth:`render.shaders.ShaderLibrary.source` gives them, each shader read once.
+
+    A program's stage is its shader's expanded text (includes resolved) with the program's defines after
+    the ``#version`` line; the expansion is the same for every program, so it is done once per shader
+    (and checked against ``source`` on first use: a shader whose text this cannot rebuild exactly is
+    asked of the library each time).
+    """
+
+    def __init__(self, lib: ShaderLibrary) -> None:
+        self.lib = lib
+        self._parts: dict[str, tuple[str, str] | None] = {}  # name -> (#version line, the rest)
+        self._names: dict[str, frozenset[str]] = {}
+
+    def source(self, name: str, defines: dict[str, object]) -> str:
+        """``ShaderLibrary.source(name, defines)``."""
+        if name not in self._parts:
+            plain = self.lib.source(name, {})
+            version, _, rest = plain.partition("\n")
+            self._parts[name] = (version, rest)
+            if self._join(name, defines) != self.lib.source(name, dict(defines)):
+                self._parts[name] = None
+        if self._parts[name] is None or not all(_DEFINE_NAME.fullmatch(k) for k in defines):
+            return self.lib.source(name, dict(defines))  # the library's own text (or its error)
+        return self._join(name, defines)
+
+    def _join(self, name: str, defines: dict[str, object]) -> str:
+        parts = self._parts[name]
+        assert parts is not None
+        return "".join([parts[0], "\n", *(f"#define {k} {v}\n" for k, v in defines.items()), parts[1]])
+
+    def used_defines(self, name: str, defines: dict[str, object]) -> dict[str, object]:
+        """The ``defines`` shader ``name`` can see (a compiler sees nothing else of the others).
+
+        Those whose name its text (includes resolved) contains as a word, those the values of these
+        contain, and so on; of the others a compiler sees only their own ``#define`` lines (macros never
+        expanded).
+        """
+        if name not in self._names:
+            self._names[name] = frozenset(_DEFINE_NAME.findall(self.lib.source(name, {})))
+        words = self._names[name]
+        used: set[str] = set()
+        todo = [k for k in defines if k in words]
+        while todo:
+            k = todo.pop()
+            if k not in used:
+                used.add(k)
+                todo += [w for w in _DEFINE_NAME.findall(str(defines[k])) if w in defines]
+        return {k: v for k, v in defines.items() if k in used}
+
+
 def build_all(ctx: moderngl.Context, specs: list[ProgramSpec], shaders: ShaderLibrary | None = None,
               deadline_s: float | None = None) -> tuple[int, list[BuildFailure]]:
     """Build (and release) each program on ``ctx``; returns (programs tried, the failures among them).
 
     ``deadline_s``: start no program after this many seconds (the count says how many were tried).
+    The sources are :meth:`render.shaders.ShaderLibrary.source`'s (through :class:`StageSources`: each
+    shader expanded once) and a refused program's log reads as :meth:`ShaderLibrary.program`'s.
     """
     lib = shaders or ShaderLibrary()
+    sources = StageSources(lib)
     t0 = time.perf_counter()
     tried = 0
     failures: list[BuildFailure] = []
@@ -351,11 +408,15 @@ def build_all(ctx: moderngl.Context, specs: list[ProgramSpec], shaders: ShaderLi
         if deadline_s is not None and time.perf_counter() - t0 > deadline_s:
             break
         try:
-            lib.program(ctx, spec.vertex, spec.fragment, dict(spec.defines)).release()
+            defines = dict(spec.defines)
+            vs, fs = sources.source(spec.vertex, defines), sources.source(spec.fragment, defines)
+            try:
+                ctx.program(vertex_shader=vs, fragment_shader=fs).release()
+            except Exception as exc:  # moderngl raises its own Error with the compiler log
+                raise RenderError(f"shader program {spec.vertex} + {spec.fragment} failed to build: {exc}") from None
         except RenderError as exc:
             log = str(exc)
             failures.append(BuildFailure(spec, log, locate(log, lib.include_order(spec.vertex),
                                                            lib.include_order(spec.fragment))))
         tried += 1
     return tried, failures
-

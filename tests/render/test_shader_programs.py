@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pytest
 
-from render.programs import ProgramSpec, build_all, locate, programs
+from render.programs import ProgramSpec, StageSources, build_all, locate, programs
 from render.shaders import ShaderLibrary, default_shader_dir
 
 if TYPE_CHECKING:
@@ -33,25 +33,49 @@ GLSLANG = "glslangValidator"
 _FILE_HEADER = re.compile(r"^(\S+\.(?:vert|frag))$")
 
 
+def _define_files(specs: list[ProgramSpec]) -> list[str]:
+    """Sources that hold every distinct ``#define`` line of the programs (one value of a name per source).
+
+    :func:`glslang_check` checks each shader with the defines its text names; these check the lines of
+    the others (a macro never expanded is its ``#define`` line alone: a reserved name would fail there).
+    """
+    values: dict[str, list[int]] = {}
+    for spec in specs:
+        for key, value in spec.defines:
+            if value not in values.setdefault(key, []):
+                values[key].append(value)
+    return ["#version 450 core\n" + "".join(f"#define {k} {v[j]}\n" for k, v in values.items() if j < len(v))
+            + "void main() {}\n" for j in range(max((len(v) for v in values.values()), default=0))]
+
+
 def glslang_check(specs: list[ProgramSpec], lib: ShaderLibrary, folder: Path) -> list[str]:
     """``file.glsl:line: message`` for every message glslang gives on the programs' shaders.
 
-    Each distinct source (a shader with its defines) is written once into ``folder`` and checked in
-    batches (one glslang process checks a few hundred files in about a second).
+    Each distinct shader (a shader with the defines its text names, :meth:`StageSources.used_defines`:
+    the others are never expanded, so they change nothing glslang sees but their ``#define`` lines, which
+    :func:`_define_files` checks) is written once into ``folder`` and checked in batches (one glslang
+    process checks a few hundred files in about a second).
     """
     exe = shutil.which(GLSLANG)
     assert exe, (f"{GLSLANG} not found: install Debian's glslang-tools (README, 'Debian packages'; "
                  ".ci/run installs it)")
-    names: dict[str, str] = {}  # file written -> shader name
-    sources: dict[str, str] = {}
+    stages = StageSources(lib)
+    names: dict[str, str | None] = {}  # file written -> shader name (None: the programs' #define lines)
+    written: set[tuple[str, tuple[tuple[str, object], ...]]] = set()
+
+    def write(src: str, stage: str, name: str | None) -> None:
+        path = folder / f"{len(names):05d}.{stage}"
+        path.write_text(src, encoding="utf-8")
+        names[path.name] = name
+
     for spec in specs:
         for name, stage in ((spec.vertex, "vert"), (spec.fragment, "frag")):
-            src = lib.source(name, dict(spec.defines))
-            if src not in sources:
-                path = folder / f"{len(sources):05d}.{stage}"
-                path.write_text(src, encoding="utf-8")
-                sources[src] = path.name
-                names[path.name] = name
+            used = stages.used_defines(name, dict(spec.defines))
+            if (name, tuple(used.items())) not in written:
+                written.add((name, tuple(used.items())))
+                write(stages.source(name, used), stage, name)
+    for src in _define_files(specs):
+        write(src, "frag", None)
     files = sorted(names)
     messages: list[str] = []
     for i in range(0, len(files), 400):
@@ -63,8 +87,9 @@ def glslang_check(specs: list[ProgramSpec], lib: ShaderLibrary, folder: Path) ->
                 current = head.group(1)
                 continue
             if line.startswith(("ERROR:", "WARNING:")) and current:
-                order = lib.include_order(names[current])
-                for entry in locate(line, order, order) or (f"{names[current]}: {line}",):
+                shader = names[current]
+                order = lib.include_order(shader) if shader else ["the programs' #define lines"]
+                for entry in locate(line, order, order) or (f"{shader}: {line}",):
                     if entry not in messages:
                         messages.append(entry)
         assert run.returncode in (0, 2), f"{GLSLANG} failed to run ({run.returncode}): {run.stderr[-500:]}"
