@@ -4,7 +4,7 @@ on the model packages (core, km, painting: the ``[tool.mypy]`` section of pyproj
 from __future__ import annotations
 
 import ast
-import os
+import functools
 import shutil
 import subprocess
 import sys
@@ -37,7 +37,10 @@ def test_import_contracts_kept() -> None:
 
 
 def test_mypy_passes_on_the_model_packages() -> None:
-    proc = subprocess.run([_tool("mypy"), "--cache-dir", os.devnull], cwd=ROOT, capture_output=True,
+    # mypy's own incremental cache, the one `mypy` run by hand in the checkout keeps (.mypy_cache, which
+    # mypy keeps out of git with a .gitignore of its own): unchanged modules are not checked again (a
+    # change rechecks the module and those that depend on it; a new mypy or configuration, everything)
+    proc = subprocess.run([_tool("mypy"), "--cache-dir", str(ROOT / ".mypy_cache")], cwd=ROOT, capture_output=True,
                           text=True)
     assert proc.returncode == 0, proc.stdout[-5000:] + proc.stderr[-2000:]
     assert "Success" in proc.stdout
@@ -48,37 +51,45 @@ def test_mypy_passes_on_the_model_packages() -> None:
 PRODUCT = ("core", "km", "shade", "painting", "project", "render", "capture", "catalogue", "app", "bench", "resources")
 
 
-def _product_trees() -> list[tuple[str, ast.Module]]:
+@functools.cache
+def _product_trees() -> tuple[tuple[str, tuple[ast.AST, ...]], ...]:
+    """Each product module's path and every node of its tree (``ast.walk``'s order), parsed and walked once
+    for the module's tests (which only read them)."""
     out = []
     for package in PRODUCT:
         for path in sorted((ROOT / package).rglob("*.py")):
-            out.append((path.relative_to(ROOT).as_posix(), ast.parse(path.read_text(encoding="utf-8"))))
-    return out
+            tree = ast.parse(path.read_text(encoding="utf-8"))
+            out.append((path.relative_to(ROOT).as_posix(), tuple(ast.walk(tree))))
+    return tuple(out)
 
 
 def _private(name: str) -> bool:
     return name.startswith("_") and not name.startswith("__")
 
 
-def _type_checking_nodes(tree: ast.Module) -> set[int]:
+def _type_checking_nodes(nodes: tuple[ast.AST, ...]) -> set[int]:
     """The ids of every node inside an ``if TYPE_CHECKING:`` block (declarations, not definitions)."""
     out: set[int] = set()
-    for node in ast.walk(tree):
+    for node in nodes:
         if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
             for child in node.body:
                 out.update(id(n) for n in ast.walk(child))
     return out
 
 
-def _defined_names(tree: ast.Module) -> set[str]:
+def _defined_names(nodes: tuple[ast.AST, ...], declared: set[int]) -> set[str]:
     """Every name a module defines: functions, classes, assigned names and attributes, arguments, imports,
-    ``__slots__`` entries and ``setattr``'s names (a bare annotation declares, it does not define)."""
-    skip = _type_checking_nodes(tree)
-    for node in ast.walk(tree):
+    ``__slots__`` entries and ``setattr``'s names (a bare annotation declares, it does not define).
+
+    ``nodes``: the module's nodes; ``declared``: those in ``if TYPE_CHECKING:`` blocks
+    (:func:`_type_checking_nodes`).
+    """
+    skip = set(declared)
+    for node in nodes:
         if isinstance(node, ast.AnnAssign) and node.value is None:
             skip.update(id(n) for n in ast.walk(node.target))
     names: set[str] = set()
-    for node in ast.walk(tree):
+    for node in nodes:
         if id(node) in skip:
             continue
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
@@ -126,10 +137,10 @@ def test_no_module_uses_another_modules_private_members() -> None:
     allow-list, ``self._name`` where the module does not define ``_name`` (a mixin calling its host's
     internals), or ``from module import _name``."""
     found = []
-    for rel, tree in _product_trees():
-        defined = _defined_names(tree)
-        declared = _type_checking_nodes(tree)
-        for node in ast.walk(tree):
+    for rel, nodes in _product_trees():
+        declared = _type_checking_nodes(nodes)
+        defined = _defined_names(nodes, declared)
+        for node in nodes:
             if id(node) in declared:
                 continue
             if isinstance(node, ast.Attribute) and _private(node.attr):
@@ -147,8 +158,8 @@ def test_no_module_uses_another_modules_private_members() -> None:
 
 def test_the_app_never_reaches_through_the_view_into_its_renderer() -> None:
     """``app`` asks the view (:class:`render.view.ViewRenderer`) for what it needs: never ``….r.…``."""
-    found = [f"{rel}:{node.lineno}: {ast.unparse(node)}" for rel, tree in _product_trees() if rel.startswith("app/")
-             for node in ast.walk(tree) if isinstance(node, ast.Attribute) and node.attr == "r"]
+    found = [f"{rel}:{node.lineno}: {ast.unparse(node)}" for rel, nodes in _product_trees() if rel.startswith("app/")
+             for node in nodes if isinstance(node, ast.Attribute) and node.attr == "r"]
     assert not found, "the view's own renderer reached from the app:\n" + "\n".join(found)
 
 
@@ -171,8 +182,8 @@ def test_long_product_functions_say_why() -> None:
     docstring has a paragraph starting "Long:" that says why it reads better whole (a compiled kernel, one
     GL draw's objects released in one place…)."""
     found = []
-    for rel, tree in _product_trees():
-        for node in ast.walk(tree):
+    for rel, nodes in _product_trees():
+        for node in nodes:
             if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 lines = _code_lines(node)
                 if lines > LONG_FUNCTION_LINES and "Long:" not in (ast.get_docstring(node) or ""):
