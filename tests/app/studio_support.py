@@ -145,6 +145,41 @@ def studio_fixture(**options: bool) -> Any:
     return studio
 
 
+def window_fixture(look: str = "natural") -> Any:
+    """A pytest fixture named ``window``: the module's studio window (the ``studio`` fixture's first item)
+    brought back by :func:`reset_studio` on ``look`` before each test, whatever the tests before left in it.
+
+    A test module takes it as ``window = window_fixture()``.
+    """
+    import pytest
+
+    @pytest.fixture
+    def window(studio: tuple[Any, DialogDriver]) -> Any:
+        reset_studio(studio[0], look)
+        return studio[0]
+
+    return window
+
+
+def driver_fixture() -> Any:
+    """A pytest fixture named ``driver``: the module window's dialog driver with nothing answered yet; every
+    answer a test prepares must be asked for by the end of the test.
+
+    A test module takes it as ``driver = driver_fixture()``.
+    """
+    import pytest
+
+    @pytest.fixture
+    def driver(studio: tuple[Any, DialogDriver]) -> Iterator[DialogDriver]:
+        d = studio[1]
+        d.shown.clear()
+        d.answers.clear()
+        yield d
+        assert not d.answers, f"prepared answers never asked for: {d.answers}"
+
+    return driver
+
+
 def reset_studio(win: Any, look: str = "natural") -> None:
     """Bring a module's shared studio window back to the state it opened in, for a test that must not see
     what the tests before it left: File → New on the built-in ``look`` (untitled, unmodified, no undo

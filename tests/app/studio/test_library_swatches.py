@@ -10,19 +10,14 @@ import numpy as np
 import pytest
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
+from tests.app.studio_support import studio_fixture, window_fixture
 
 pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 studio = studio_fixture()
-
-
-@pytest.fixture
-def window(studio: tuple[object, DialogDriver]) -> object:
-    reset_studio(studio[0])
-    return studio[0]
+window = window_fixture()
 
 
 def swatch(label: object) -> tuple[int, int, int]:

@@ -10,7 +10,7 @@ from app.qt_compat import pin_singletons
 from km.skin import fit_skin
 from km.srgb import srgb_decode
 from shade.match import ShadeBank, foundations, match_shades
-from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
+from tests.app.studio_support import studio_fixture, window_fixture
 
 pin_singletons()
 
@@ -18,12 +18,7 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
 studio = studio_fixture()
-
-
-@pytest.fixture
-def window(studio: tuple[object, DialogDriver]) -> object:
-    reset_studio(studio[0])
-    return studio[0]
+window = window_fixture()
 
 
 def test_the_dock_is_in_the_studio(window: object) -> None:

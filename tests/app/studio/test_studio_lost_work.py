@@ -25,10 +25,9 @@ from PySide6.QtCore import QPoint, Qt
 
 from app.qt_compat import pin_singletons
 from tests.app.studio.studio_input import RED, click_row, pick_material, type_into
-from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
+from tests.app.studio_support import DialogDriver, driver_fixture, reset_studio, studio_fixture
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
     from pathlib import Path
 
 pin_singletons()
@@ -46,14 +45,7 @@ def window(studio: tuple[Any, DialogDriver], tmp_path: Path, monkeypatch: pytest
     return studio[0]
 
 
-@pytest.fixture
-def driver(studio: tuple[Any, DialogDriver]) -> Iterator[DialogDriver]:
-    """The window's dialog driver, with nothing answered yet; every prepared answer must be used."""
-    d = studio[1]
-    d.shown.clear()
-    d.answers.clear()
-    yield d
-    assert not d.answers, f"prepared answers never asked for: {d.answers}"
+driver = driver_fixture()
 
 
 def quit_answering(window: Any, driver: DialogDriver, answer: str) -> str:

@@ -18,38 +18,21 @@ import numpy as np
 import pytest
 
 from app.qt_compat import pin_singletons
-from tests.app.studio_support import DialogDriver, open_studio_window, reset_studio
+from tests.app.studio_support import driver_fixture, studio_fixture, window_fixture
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
+    from tests.app.studio_support import DialogDriver
 
 pin_singletons()
 
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
-@pytest.fixture(scope="module")
-def studio(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, DialogDriver]]:
-    with open_studio_window(qapp, tmp_path_factory, wait_full_quality=False, check_gl_release=False) as pair:
-        yield pair
-
-
-@pytest.fixture
-def window(studio: tuple[Any, DialogDriver]) -> Any:
-    """The module's window as it opened (see ``reset_studio``): an untitled, unmodified document, whatever
-    project the tests before opened, saved or recovered."""
-    reset_studio(studio[0])
-    return studio[0]
-
-
-@pytest.fixture
-def driver(studio: tuple[Any, DialogDriver]) -> Iterator[DialogDriver]:
-    """The window's dialog driver, with nothing answered yet; every prepared answer must be used."""
-    d = studio[1]
-    d.shown.clear()
-    d.answers.clear()
-    yield d
-    assert not d.answers, f"prepared answers never asked for: {d.answers}"
+studio = studio_fixture(wait_full_quality=False, check_gl_release=False)
+#: the module's window as it opened: an untitled, unmodified document, whatever project the tests before
+#: opened, saved or recovered
+window = window_fixture()
+driver = driver_fixture()
 
 
 RELINK_MISSING = {"Locate head…", "Cancel"}

@@ -12,7 +12,7 @@ from PySide6.QtCore import Qt
 
 from app.qt_compat import pin_singletons
 from render.view import debug_views
-from tests.app.studio_support import DialogDriver, reset_studio, studio_fixture
+from tests.app.studio_support import DialogDriver, studio_fixture, window_fixture
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -23,13 +23,7 @@ pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 
 studio = studio_fixture()
-
-
-@pytest.fixture
-def window(studio: tuple[object, DialogDriver]) -> object:
-    """The module's window as it opened (see ``reset_studio``), whatever the tests before left in it."""
-    reset_studio(studio[0])
-    return studio[0]
+window = window_fixture()
 
 
 @pytest.fixture
