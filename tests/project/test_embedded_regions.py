@@ -15,6 +15,7 @@ from painting.regions import mesh_digest, regions_file, stored_mesh
 from project.document import document_from_project, project_from_document
 from project.heads import make_head_ref
 from project.io import project_bytes, read_project
+from tests.project.layers import masked_lipstick
 
 
 @pytest.fixture(scope="module")
@@ -25,9 +26,7 @@ def doc() -> Document:
 def test_embedded_sample_head_masks_equal_the_head_by_path(doc: Document) -> None:
     from painting.head import find_sidecar
 
-    lay = doc.add_layer("Lipstick Classic Red", name="Lipstick")
-    doc.fill(lay, 20.0)
-    doc.set_layer_mask(lay, LayerMask((("union", "lips"), ("union", "lash_line")), feather_mm=0.5))
+    lay = masked_lipstick(doc, LayerMask((("union", "lips"), ("union", "lash_line")), feather_mm=0.5))
     try:
         by_path = project_from_document(doc, name="by path")
         embedded = project_from_document(doc, name="embedded", head=make_head_ref(None, embed=True))

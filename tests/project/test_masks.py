@@ -16,6 +16,7 @@ from project.document import document_from_project, project_from_document
 from project.errors import ProjectError
 from project.io import open_project, project_bytes, read_project
 from project.migrations import SCHEMA_VERSION
+from tests.project.layers import masked_lipstick
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "project"
 
@@ -26,9 +27,7 @@ def doc() -> Document:
 
 
 def test_a_project_with_masks_reopens_identical(doc: Document) -> None:
-    lay = doc.add_layer("Lipstick Classic Red", name="Lipstick")
-    doc.fill(lay, 20.0)
-    doc.set_layer_mask(lay, LayerMask((("union", "lips"), ("subtract", "lip_line")), feather_mm=0.5))
+    lay = masked_lipstick(doc, LayerMask((("union", "lips"), ("subtract", "lip_line")), feather_mm=0.5))
     with doc.mask_stroke(lay, Brush(radius_mm=5.0, mode="erase")) as s:
         s.dab(doc.head.metadata.landmarks["lower_lip"])
     plain = doc.add_layer("Foundation Beige", name="Foundation")
