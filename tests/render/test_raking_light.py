@@ -19,29 +19,13 @@ import numpy as np
 import pytest
 
 from render.lights import Light, default_lights
-from render.renderer import Renderer
 
 if TYPE_CHECKING:
-    from collections.abc import Iterator
+    from render.renderer import Renderer
 
 pytestmark = pytest.mark.gl
 N = 1024  # the irradiance cache's side (RenderSettings().irradiance_size)
 LUMA = np.array([0.2126, 0.7152, 0.0722])
-
-
-@pytest.fixture(scope="module")
-def doc() -> Any:
-    from painting import Document
-
-    return Document.from_head(resolution=512)
-
-
-@pytest.fixture(scope="module")
-def renderer(_gl_session_ctx: Any, doc: Any) -> Iterator[Renderer]:
-    r = Renderer(_gl_session_ctx, doc.head, layout=doc.layout)
-    yield r
-    r.release()
-    assert _gl_session_ctx.error == "GL_NO_ERROR"
 
 
 def rig(az: float, el: float) -> list[Light]:
