@@ -17,14 +17,22 @@ def spread(key: str, values: Sequence[float], digits: int = 2) -> dict[str, floa
         key: the median's name (e.g. ``save_ms``); the others are ``key + "_p90"`` (linear
             interpolation between order statistics) and ``key + "_max"``.
         values: at least one sample, in the unit ``key`` names.
-        digits: decimals kept.
+        digits: decimals kept (a figure these would round to 0 keeps three significant digits instead:
+            a short time is small, not nothing).
 
     Returns:
         The three figures by name, in the unit of ``values``.
     """
     arr = np.asarray(values, dtype=np.float64)
-    return {key: round(float(np.median(arr)), digits), f"{key}_p90": round(float(np.percentile(arr, 90)), digits),
-            f"{key}_max": round(float(arr.max()), digits)}
+    return {key: _rounded(float(np.median(arr)), digits),
+            f"{key}_p90": _rounded(float(np.percentile(arr, 90)), digits),
+            f"{key}_max": _rounded(float(arr.max()), digits)}
+
+
+def _rounded(value: float, digits: int) -> float:
+    """``value`` to ``digits`` decimals, or to three significant digits where those decimals give 0 (not 0)."""
+    out = round(value, digits)
+    return float(f"{value:.3g}") if out == 0 and value != 0 else out
 
 
 def de2000_srgb8(a: np.ndarray, b: np.ndarray, mask: np.ndarray) -> np.ndarray:
