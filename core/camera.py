@@ -29,7 +29,7 @@ May import numpy only (it is :mod:`core`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
@@ -179,6 +179,26 @@ class Pinhole:
     def fov_y(self) -> float:
         """The vertical field of view, degrees."""
         return math.degrees(2 * math.atan(self.height / (2 * float(np.asarray(self.K)[1, 1]))))
+
+    def scaled_to(self: _P, width: int, height: int) -> _P:
+        """This camera for the same photograph resampled to ``width`` × ``height`` pixels (pose unchanged).
+
+        The intrinsics scale with the image, x by ``width / self.width`` and y by ``height / self.height``:
+        pixel positions are continuous, pixel j covering [j, j + 1) (module docstring), so a point at (x, y)
+        in this image is at (x·sx, y·sy) in the resampled one, its principal point included.
+
+        Raises:
+            ValueError: a size that is not positive, or an aspect ratio that disagrees with this camera's by
+                more than a pixel (measured in the smaller of the two images: the rounding of a resize).
+        """
+        w, h = int(width), int(height)
+        if w < 1 or h < 1:
+            raise ValueError(f"an image size must be positive, got {w}×{h}")
+        (sw, sh), (bw, bh) = sorted(((self.width, self.height), (w, h)), key=lambda s: s[0] * s[1])
+        if abs(sw - sh * bw / bh) > 1.0 or abs(sh - sw * bh / bw) > 1.0:
+            raise ValueError(f"a {w}×{h} image is not of the camera's {self.width}×{self.height} aspect ratio")
+        k = np.diag([w / self.width, h / self.height, 1.0]) @ np.asarray(self.K, dtype=np.float64)
+        return replace(self, K=k, width=w, height=h)
 
     def to_camera(self, points: ArrayLike) -> np.ndarray:
         """Mesh-unit points (N, 3) → camera coordinates (N, 3)."""

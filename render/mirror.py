@@ -44,6 +44,7 @@ from render.shaders import ShaderLibrary
 if TYPE_CHECKING:
     import moderngl
 
+    from core.camera import Pinhole
     from km.library import Library
     from painting import Document
     from painting.head import Head
@@ -83,6 +84,30 @@ def edge_weights(vertices: np.ndarray, faces: np.ndarray, mm_per_unit: float,
     dist, _ = cKDTree(v[boundary]).query(v, k=1)
     x = np.clip(dist * float(mm_per_unit) / feather_mm, 0.0, 1.0)
     return x * x * (3.0 - 2.0 * x)
+
+
+def photo_camera_at(face: CapturedFace, width: int, height: int) -> Pinhole:
+    """The face's photograph camera for her photograph at ``width`` × ``height`` pixels.
+
+    The capture may have fitted the face on a reduced copy of the photograph (face.json ``downscale``:
+    ``capture.auto.MAX_FACE_PX``); the photograph itself — the size the copy was reduced ``from``, or any
+    size at least the capture's of the same aspect ratio (within a pixel) — draws with the camera's
+    intrinsics scaled to it (:meth:`core.camera.Pinhole.scaled_to`).
+
+    Raises:
+        RenderError: a smaller photograph, or one of another aspect ratio.
+    """
+    cam = face.camera()
+    if (width, height) == (cam.width, cam.height):
+        return cam
+    why = "smaller" if width < cam.width or height < cam.height else ""
+    if not why:
+        try:
+            return cam.scaled_to(width, height)
+        except ValueError:
+            why = "of another aspect ratio"
+    raise RenderError(f"the photograph is {width}×{height} but the face was captured from a {cam.width}×"
+                      f"{cam.height} one ({why}: give that photograph or the original it was reduced from)")
 
 
 class _Layers:
@@ -131,32 +156,32 @@ class MirrorView(_Layers):
         head: the head the face was captured on (mesh units, its own UVs for the paint maps).
         face: the captured face (:class:`render.captured.CapturedFace`: fitted ``params``, the camera and the
             flash's direction).
-        photo: the photograph, uint8 sRGB (H, W, 3) of the camera's size (as shot; its bytes come back
-            unchanged where there is no makeup).
+        photo: the photograph, uint8 sRGB (H, W, 3) (as shot; its bytes come back unchanged where there is no
+            makeup): the size the face was captured from or, where the capture fitted a reduced copy, the
+            original at its own resolution (any size at least the capture's of its aspect ratio:
+            :func:`photo_camera_at`). The view draws at the photograph's size: the albedo is the photograph's
+            own pixel divided by the fitted shading, so every pixel keeps her photograph's detail; the
+            makeup's texture-space maps are sampled with linear filtering (smooth edges at any size).
         shaders: a shader library to share, or None.
         km: a KM pass to share with another view (not released by this one), or None for its own.
 
-    Attributes: ``size`` (width, height pixels), ``camera`` (the photograph's, a
+    Attributes: ``size`` (the photograph's width, height, pixels), ``camera`` (the photograph's, a
     :class:`render.camera.OrbitCamera`), ``spec_intensity`` (the layers' own lobes' scale, the physical
     renderer's default), ``show_makeup``.
     """
 
     def __init__(self, ctx: moderngl.Context, head: Head, face: CapturedFace, photo: np.ndarray,
                  shaders: ShaderLibrary | None = None, km: KMTextureSpace | None = None) -> None:
-        photo_camera = face.camera()
-        w, h = photo_camera.width, photo_camera.height
         img = np.asarray(photo)
         if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] not in (3, 4):
             raise RenderError(f"the photograph must be uint8 RGB (H, W, 3), got {img.dtype} {img.shape}")
-        if img.shape[:2] != (h, w):
-            raise RenderError(f"the photograph is {img.shape[1]}×{img.shape[0]} but the face was captured "
-                              f"from a {w}×{h} one")
+        h, w = img.shape[:2]
         self.ctx = ctx
         self.head = head
         self.face = face
         self.size = (w, h)
         self.shaders = shaders or ShaderLibrary()
-        self.camera: OrbitCamera = pinhole_camera(photo_camera, head.vertices)
+        self.camera: OrbitCamera = pinhole_camera(photo_camera_at(face, w, h), head.vertices)
         self.light_dir = face.light_dir()
         self.spec_intensity = RenderSettings().layer_spec_intensity
         self._init_layers(ctx, self.shaders, km)

@@ -45,7 +45,11 @@ def check_view_args(args: argparse.Namespace) -> None:
 
 
 def photo_path(args: argparse.Namespace, face: Face) -> str:
-    """The photograph the face was captured from: ``--photo``, else face.json's ``photo`` (in the folder)."""
+    """The photograph the face was captured from: ``--photo``, else face.json's ``photo`` (in the folder).
+
+    ``--photo`` may be the original of a photograph the capture reduced (face.json ``downscale``): the
+    mirror is then drawn at the original's resolution.
+    """
     from core.errors import SheerError
 
     if args.photo:
@@ -59,15 +63,18 @@ def photo_path(args: argparse.Namespace, face: Face) -> str:
 
 
 def read_photo_srgb8(path: str) -> np.ndarray:
-    """A photograph as uint8 sRGB (H, W, 3); a clear one-line error when it cannot be read."""
+    """A photograph as uint8 sRGB (H, W, 3), upright (its EXIF orientation applied, as the capture reads it).
+
+    A clear one-line error when it cannot be read.
+    """
     import numpy as np
-    from PIL import Image, UnidentifiedImageError
+    from PIL import Image, ImageOps, UnidentifiedImageError
 
     from core.errors import SheerError
 
     try:
         with Image.open(path) as im:
-            return np.asarray(im.convert("RGB"), dtype=np.uint8)
+            return np.asarray(ImageOps.exif_transpose(im).convert("RGB"), dtype=np.uint8)
     except FileNotFoundError:
         raise SheerError(f"{path}: photo not found") from None
     except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
@@ -91,7 +98,16 @@ def run_view(args: argparse.Namespace, face: Face, doc: Document | None, head: H
     from render.context import standalone_context
     from render.mirror import MirrorView, RelightView
 
-    photo = read_photo_srgb8(photo_path(args, face)) if args.view == "mirror" else None
+    path = photo_path(args, face) if args.view == "mirror" else None
+    photo = read_photo_srgb8(path) if path is not None else None
+    if photo is not None:
+        from render.errors import RenderError
+        from render.mirror import photo_camera_at
+
+        try:  # her photograph at its own resolution: the capture's size, or the original it was reduced from
+            photo_camera_at(face, photo.shape[1], photo.shape[0])
+        except RenderError as exc:
+            raise SheerError(f"{path}: {exc}") from None
     try:
         ctx = standalone_context()
     except Exception as exc:

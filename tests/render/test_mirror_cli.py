@@ -47,6 +47,9 @@ def face_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     rng = np.random.default_rng(7)
     Image.fromarray(rng.integers(0, 256, (H, W, 3), dtype=np.uint8)).save(d / "photo.png")
     Image.fromarray(rng.integers(0, 256, (H // 2, W // 2, 3), dtype=np.uint8)).save(d / "small.png")
+    # the original the capture's 320×240 copy was "reduced from" (another aspect, 401×240, is not hers)
+    Image.fromarray(rng.integers(0, 256, (3 * H, 3 * W, 3), dtype=np.uint8)).save(d / "original.png")
+    Image.fromarray(rng.integers(0, 256, (H, W + 81, 3), dtype=np.uint8)).save(d / "wide.png")
     return d
 
 
@@ -66,6 +69,59 @@ def test_mirror_bare_is_the_photograph_and_lipstick_changes_the_mouth(face_dir: 
     # the camera looks at the mouth: the change is around the middle of the frame (lips, and the foundation)
     assert abs(np.median(rows) - H / 2) < H / 4 and abs(np.median(cols) - W / 2) < W / 4
     assert not changed[:, :10].any() and not changed[:10].any()  # the background is untouched
+
+
+def test_mirror_of_the_original_photograph_is_drawn_at_its_own_resolution(face_dir: Path, tmp_path: Path) -> None:
+    """``--photo ORIGINAL``: the photograph the capture's copy was reduced from (3× here) is drawn at its own
+    size, its bytes back where there is no makeup, the makeup where it lies in the capture's copy."""
+    original = np.asarray(Image.open(face_dir / "original.png"))
+    code, bare, err = _render("--face", str(face_dir), "--view", "mirror", "--photo", str(face_dir / "original.png"),
+                              "--out", str(tmp_path / "a.png"))
+    assert code == 0, err
+    assert bare is not None and np.array_equal(bare, original)
+    small, big = ([*args, "--view", "mirror", "--look", "red-lip", "--out", str(tmp_path / f"{i}.png")]
+                  for i, args in enumerate((["--face", str(face_dir)],
+                                            ["--face", str(face_dir), "--photo", str(face_dir / "original.png")])))
+    code, lips_small, err = _render(*small)
+    assert code == 0 and lips_small is not None, err
+    code, lips, err = _render(*big)
+    assert code == 0 and lips is not None and lips.shape == (3 * H, 3 * W, 3), err
+    changed = np.abs(lips.astype(int) - original.astype(int)).max(axis=2) > 2
+    photo = np.asarray(Image.open(face_dir / "photo.png"))
+    changed_small = np.abs(lips_small.astype(int) - photo.astype(int)).max(axis=2) > 2
+    # the same makeup in the same place: 9 pixels for each of the copy's, its middle where the copy's is
+    assert 0.8 < changed.sum() / (9 * changed_small.sum()) < 1.25
+    rows, cols = np.nonzero(changed)
+    rows_s, cols_s = np.nonzero(changed_small)
+    assert abs(np.median(rows) / 3 - np.median(rows_s)) < 1.5 and abs(np.median(cols) / 3 - np.median(cols_s)) < 1.5
+    assert not changed[:, :30].any() and not changed[:30].any()  # the background is untouched
+
+
+def test_mirror_refuses_a_photograph_of_another_aspect_naming_it(face_dir: Path, tmp_path: Path,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = _render("--face", str(face_dir), "--view", "mirror", "--photo", str(face_dir / "wide.png"),
+                           "--out", str(tmp_path / "x.png"))
+    err += capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"{face_dir / 'wide.png'}: the photograph is 401×240 but the face was captured from a 320×240 one " \
+           "(of another aspect ratio" in err
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_mirror_reads_the_photograph_upright(face_dir: Path, tmp_path: Path) -> None:
+    """An original whose EXIF orientation turns it (a phone's portrait) is read upright, as the capture reads it."""
+    original = Image.open(face_dir / "original.png")
+    exif = Image.Exif()
+    exif[0x0112] = 6  # rotate 90° clockwise to view
+    original.transpose(Image.Transpose.ROTATE_90).save(tmp_path / "turned.jpg", exif=exif, quality=100)
+    with Image.open(tmp_path / "turned.jpg") as im:
+        from PIL import ImageOps
+
+        upright = np.asarray(ImageOps.exif_transpose(im).convert("RGB"))
+    code, bare, err = _render("--face", str(face_dir), "--view", "mirror", "--photo", str(tmp_path / "turned.jpg"),
+                              "--out", str(tmp_path / "a.png"))
+    assert code == 0, err
+    assert bare is not None and np.array_equal(bare, upright)
 
 
 def test_relight_turns_and_takes_presets_and_lights(face_dir: Path, tmp_path: Path) -> None:

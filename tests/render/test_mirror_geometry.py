@@ -40,6 +40,44 @@ def test_the_render_camera_draws_where_the_photographs_camera_projects() -> None
     np.testing.assert_allclose(cam.eye(), -photo.R.T @ photo.t, atol=1e-9)
 
 
+def test_the_camera_scales_with_its_photograph() -> None:
+    """``Pinhole.scaled_to``: a point's pixel scales with the image (the capture's 713×836 copy of a 1024×1200
+    photograph, each side rounded), the pose and the camera's kind kept; another aspect ratio is refused."""
+    from capture.camera import Camera
+
+    small = Camera.looking_at(np.array([3.0, 2.0, 40.0]), np.array([0.0, 1.0, 0.0]), np.array([0.0, 1.0, 0.0]),
+                              25.0, 713, 836)
+    big = small.scaled_to(1024, 1200)
+    assert isinstance(big, Camera) and (big.width, big.height) == (1024, 1200)
+    assert np.array_equal(big.R, small.R) and np.array_equal(big.t, small.t)
+    points = np.random.default_rng(2).uniform(-5, 5, (50, 3))
+    np.testing.assert_allclose(big.project(points)[0], small.project(points)[0] * [1024 / 713, 1200 / 836],
+                               rtol=1e-12)
+    np.testing.assert_allclose(big.scaled_to(713, 836).K, small.K, rtol=1e-12)  # and back
+    for size in ((1024, 1250), (1100, 1200), (0, 836)):
+        with pytest.raises(ValueError, match="aspect ratio|positive"):
+            small.scaled_to(*size)
+
+
+def test_the_mirror_takes_the_photograph_its_capture_was_reduced_from() -> None:
+    """:func:`render.mirror.photo_camera_at`: the capture's own size, or a larger one of its aspect ratio."""
+    from render.errors import RenderError
+    from render.mirror import photo_camera_at
+
+    class Face:
+        def camera(self) -> Camera:
+            return _camera()
+
+    face = Face()
+    assert photo_camera_at(face, 320, 240) is not None  # type: ignore[arg-type]
+    big = photo_camera_at(face, 1280, 960)  # type: ignore[arg-type]
+    np.testing.assert_allclose(big.K[:2], _camera().K[:2] * 4)
+    with pytest.raises(RenderError, match="160×120 but the face was captured from a 320×240 one \\(smaller"):
+        photo_camera_at(face, 160, 120)  # type: ignore[arg-type]
+    with pytest.raises(RenderError, match="of another aspect ratio"):
+        photo_camera_at(face, 1280, 1000)  # type: ignore[arg-type]
+
+
 def test_a_turn_orbits_the_camera_about_the_pivot() -> None:
     photo = _camera()
     w, h = photo.width, photo.height
