@@ -180,14 +180,7 @@ def _albedo_blob(head: Head, tex: _Texels, box: np.ndarray, dark: bool = False) 
     feature = -rgb.sum(axis=1) if dark else (rgb[:, 0] - rgb[:, 1]) / (rgb.sum(axis=1) + 1.0)
     # smoothed over ~0.6 mm (a normalised Gaussian inside the box), so the edge follows the colour, not
     # the scan's pore-level noise
-    img = np.zeros(res * res)
-    wgt = np.zeros(res * res)
-    img[flat] = feature
-    wgt[flat] = 1.0
-    sigma = 0.6 / max(tex.texel_mm, 1e-6)
-    num = ndimage.gaussian_filter(img.reshape(res, res), sigma)
-    den = ndimage.gaussian_filter(wgt.reshape(res, res), sigma)
-    feature = (num / np.maximum(den, 1e-9)).reshape(-1)[flat]
+    feature = _smoothed(feature, flat, res, 0.6 / max(tex.texel_mm, 1e-6))
     hist, edges = np.histogram(feature, bins=64)
     centres = 0.5 * (edges[1:] + edges[:-1])
     w0 = np.cumsum(hist)
@@ -207,6 +200,28 @@ def _albedo_blob(head: Head, tex: _Texels, box: np.ndarray, dark: bool = False) 
     keep = 1 + np.flatnonzero(sizes >= 0.2 * sizes.max())  # both lips (the mouth line may part them)
     blob = ndimage.binary_closing(np.isin(labels, keep), iterations=2)
     return np.asarray(ndimage.binary_fill_holes(blob), bool).reshape(-1)[tex.flat] & box
+
+
+def _smoothed(values: np.ndarray, flat: np.ndarray, res: int, sigma: float) -> np.ndarray:
+    """``values`` at the texels ``flat`` (of a ``res``² image), Gaussian-averaged over those texels alone.
+
+    A normalised convolution (``sigma`` in texels), read back at the same texels.
+    Filtered on the texels' box grown by the kernel's radius (``gaussian_filter``'s ``truncate`` 4): every
+    sum these texels read lies inside it, and beyond it the image is 0, so the same numbers as the whole image.
+    """
+    from scipy import ndimage
+
+    r, c = flat // res, flat % res
+    reach = int(4.0 * sigma + 0.5) + 1
+    r0, c0 = max(int(r.min()) - reach, 0), max(int(c.min()) - reach, 0)
+    shape = (min(int(r.max()) + reach + 1, res) - r0, min(int(c.max()) + reach + 1, res) - c0)
+    img = np.zeros(shape)
+    wgt = np.zeros(shape)
+    img[r - r0, c - c0] = values
+    wgt[r - r0, c - c0] = 1.0
+    num = ndimage.gaussian_filter(img, sigma)
+    den = ndimage.gaussian_filter(wgt, sigma)
+    return np.asarray((num / np.maximum(den, 1e-9))[r - r0, c - c0])
 
 
 #: The lash line's band: from this far below the lids' slit (mm) …
