@@ -216,10 +216,11 @@ def median_filter(values: np.ndarray, size: int, rows: int = 64) -> np.ndarray:
     from numpy.lib.stride_tricks import sliding_window_view
 
     r = size // 2
-    padded = np.pad(np.asarray(values, dtype=np.float64), r, mode="symmetric")  # scipy's "reflect"
-    out = np.empty(np.shape(values), np.float64)
+    src = np.asarray(values, dtype=np.float64)
+    padded = np.pad(src, r, mode="symmetric")  # scipy's "reflect"
+    out = np.empty_like(src)
     mid = size * size // 2
-    for i in range(0, out.shape[0], rows):
+    for i in range(0, len(src), rows):
         windows = sliding_window_view(padded[i:i + rows + 2 * r], (size, size))
         flat = windows.reshape(windows.shape[0], windows.shape[1], size * size)
         out[i:i + rows] = np.partition(flat, mid, axis=-1)[..., mid]
