@@ -175,7 +175,7 @@ class ShadeFinder(QWidget):
     def rematch(self) -> None:
         """Rank the shades again for the current skin, light and target (nothing before a skin is fitted)."""
         from core.errors import SheerError
-        from shade.match import ShadeBank, foundations, make_target, match_shades
+        from shade.match import ShadeBank, confidence, foundations, make_target, match_shades
 
         if self.fit is None:
             return
@@ -192,10 +192,9 @@ class ShadeFinder(QWidget):
             return
         self._target_r = target.reflectance
         p = self.fit.params
-        gamut = (f" — outside the model's gamut (ΔE00 {self.fit.residual_de2000:.1f}): the closest skin is used"
-                 if self.fit.out_of_gamut else "")
+        sure = confidence(self.fit)  # the command line's and the kiosk's reading of the same fit
         self.status.setText(f"{self._label}: melanin {100 * p.melanin:.1f} %, blood {100 * p.blood:.2f} %, "
-                            f"scattering ×{p.scattering:.2f}; fit ΔE00 {self.fit.residual_de2000:.2f}{gamut}")
+                            f"scattering ×{p.scattering:.2f}; {sure.level} confidence: {sure.words}")
         self._fill_table()
 
     def _fill_table(self) -> None:

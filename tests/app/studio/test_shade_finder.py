@@ -47,10 +47,24 @@ def test_typed_colour_is_matched_like_the_library_match(window: object) -> None:
     assert "R,G,B" in finder.status.text()
 
 
+def test_the_status_says_the_matchs_confidence_in_the_words_the_command_line_and_kiosk_use(window: object) -> None:
+    """One reading of a skin: the dock says the confidence ``shade.match.confidence`` gives the same fit."""
+    from shade.match import confidence
+
+    finder = window.shade_finder
+    for typed, level in (("150,100,75", "high"), ("60,160,60", "low")):  # a skin colour; a green no skin has
+        finder.rgb_edit.setText(typed)
+        finder.match_typed()
+        sure = confidence(finder.fit)
+        assert sure.level == level, (typed, sure)
+        assert f"{level} confidence: {sure.words}" in finder.status.text()
+        assert "gamut" not in finder.status.text()
+
+
 def test_apply_gives_the_foundation_layer_the_shade_as_one_undo_step(window: object) -> None:
     finder = window.shade_finder
     finder.match_head()
-    assert finder.results and "fit ΔE00" in finder.status.text()
+    assert finder.results and "confidence:" in finder.status.text()
     doc = window.doc
     layers_before = [(lay.name, lay.material) for lay in doc.layers]
     finder.table.selectRow(1)
