@@ -25,6 +25,7 @@ reproduces the file byte for byte. Usage::
     python scripts/build_default_library.py            # rewrite resources/materials/default.json
     python scripts/build_default_library.py --check    # exit 1 if the file is not what this builds
     python scripts/build_default_library.py --out X.json
+    python scripts/build_default_library.py --check --out A.json --out B.json   # one build, both files
 """
 
 from __future__ import annotations
@@ -269,21 +270,28 @@ def build_text(shades: tuple[tuple[str, str, str, str], ...] = SHADES) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output file (default {DEFAULT_OUT})")
-    parser.add_argument("--check", action="store_true", help="compare with the file instead of writing it")
+    parser.add_argument("--out", type=Path, action="append",
+                        help=f"output file (default {DEFAULT_OUT}); given again, each of them (one build)")
+    parser.add_argument("--check", action="store_true",
+                        help="compare with the file(s) instead of writing: exit 1 if any is out of date")
     args = parser.parse_args(argv)
+    outs: list[Path] = args.out or [DEFAULT_OUT]
     text = build_text()
     if args.check:
-        current = args.out.read_text(encoding="utf-8") if args.out.exists() else ""
-        if current != text:
-            print(f"{args.out} is out of date: run scripts/build_default_library.py", file=sys.stderr)
-            return 1
-        print(f"{args.out} is up to date")
-        return 0
+        stale = 0
+        for out in outs:
+            current = out.read_text(encoding="utf-8") if out.exists() else ""
+            if current != text:
+                print(f"{out} is out of date: run scripts/build_default_library.py", file=sys.stderr)
+                stale += 1
+            else:
+                print(f"{out} is up to date")
+        return 1 if stale else 0
     from core.atomicio import atomic_write_text
 
-    atomic_write_text(args.out, text)
-    print(f"wrote {args.out} ({text.count(chr(10))} lines)")
+    for out in outs:
+        atomic_write_text(out, text)
+        print(f"wrote {out} ({text.count(chr(10))} lines)")
     return 0
 
 
