@@ -151,9 +151,10 @@ class ShopperSession:
         return self.private_cache.open()
 
     def end_private_session(self) -> None:
-        """Her session ends: her face, her document and the private folder (with all in it) go."""
+        """Her session ends: her face, her document, the shades found for her and the private folder go."""
         self.tryon.end()
         self.unwear_shopper()
+        self.foundation_finder.reset()  # on the sample face too: the next shopper is not shown hers
         self.private_cache.close()
 
     def wear_shopper(self, session: Session) -> None:

@@ -6,11 +6,14 @@ photograph, colour-corrected when a ColorChecker is in the frame — :mod:`captu
 configured captured face's fitted diffuse colour, else the head's skin (:meth:`painting.head.Head.skin_rgb`:
 the median of its albedo's middle third). The reading and the match run in the thread pool (a checker search takes seconds). It is fitted with the skin model and the library's
 foundations ranked on it (:func:`shade.match.match_shades`: own skin as the target, daylight, with the
-metamerism check under the store's light F11 and warm indoor light A). Three touch-sized buttons show
-the shades over her skin; a line says in plain words which of them change under the shop's light, and
-asks her to have the shade confirmed when her skin was hard to read (:func:`shade.match.confidence`).
+metamerism check under the store's light F11 and warm indoor light A). Three touch-sized tiles side by
+side show the shades over her skin, each named with a shopper's word for how well it matches
+(:func:`match_words`: "great match", "good match" or "nearest we have"; the ΔE figures belong in the
+studio); a line says in plain words which of them change under the shop's light, and asks her to have
+the shade confirmed when her skin was hard to read (:func:`shade.match.confidence`).
 Tapping one gives the look's foundation layer that shade. The ``found`` signal names the three, so the
-kiosk can show each on her face (:meth:`FoundationFinder.set_preview` puts the picture on its button).
+kiosk can show each on her face (:meth:`FoundationFinder.set_preview` puts the picture on its tile,
+:data:`THUMB_PX` tall).
 """
 
 from __future__ import annotations
@@ -18,9 +21,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from PySide6.QtCore import QSize, Signal
+from PySide6.QtCore import QSize, Qt, Signal
 from PySide6.QtGui import QIcon, QImage, QPixmap
-from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
+from PySide6.QtWidgets import QHBoxLayout, QLabel, QSizePolicy, QToolButton, QVBoxLayout, QWidget
 
 from app.kiosk.pin_pad import big_button
 
@@ -34,6 +37,38 @@ if TYPE_CHECKING:
 
 SHOWN = 3
 _PLAIN_LIGHTS = {"D65": "daylight", "F11": "the shop's light", "A": "warm indoor light"}
+#: The height of her face on a shade's tile, pixels (at 1080 lines: a tenth of a landscape screen).
+THUMB_PX = 128
+#: A shade's tile: her face above, the shade's name and its match word below, pixels tall.
+TILE_PX = THUMB_PX + 76
+#: ΔE2000 (under daylight) up to which a shade is a "great match", then a "good match"; beyond: the
+#: "nearest we have". 2 is about what a shopper notices side by side on skin.
+GREAT_DE2000, GOOD_DE2000 = 2.0, 5.0
+_WORDS = ("great match", "good match", "nearest we have")
+
+
+def match_words(shade: ShadeMatch, level: str = "high") -> str:
+    """How well ``shade`` matches, in a shopper's words (never a ΔE figure).
+
+    Args:
+        shade: the match (its ``de2000`` under daylight).
+        level: how well her skin was read (:func:`shade.match.confidence`'s level: high, medium, low);
+            a medium reading says at best "good match", a low one "nearest we have".
+    """
+    rank = 0 if shade.de2000 <= GREAT_DE2000 else 1 if shade.de2000 <= GOOD_DE2000 else 2
+    floor = {"high": 0, "medium": 1}.get(level, 2)
+    return _WORDS[max(rank, floor)]
+
+
+def shade_tile() -> QToolButton:
+    """A shade's touch tile: her face (an icon, :data:`THUMB_PX` tall) over two lines of words."""
+    b = QToolButton()
+    b.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextUnderIcon)
+    b.setFocusPolicy(Qt.FocusPolicy.NoFocus)
+    b.setMinimumSize(120, TILE_PX)
+    b.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+    b.setIconSize(QSize(THUMB_PX, THUMB_PX))
+    return b
 
 
 def plain_warning(shade: ShadeMatch) -> str:
@@ -75,19 +110,22 @@ class FoundationFinder(QWidget):
         self.shades: list[ShadeMatch] = []
         self.note = ""
         self.busy = False
-        self.find_button = big_button("Find my foundation")
+        self._round = 0  # counts resets: a reading finished after one (the shopper left) is dropped
+        self.find_button = big_button("Find my foundation", 60)
         self.find_button.clicked.connect(guard(self.find))
-        self.shade_buttons = [big_button("", 64) for _ in range(SHOWN)]
+        self.shade_buttons = [shade_tile() for _ in range(SHOWN)]
+        tiles = QHBoxLayout()
         for i, b in enumerate(self.shade_buttons):
             b.clicked.connect(guard(lambda _c=False, i=i: self.wear(i)))
             b.hide()
+            tiles.addWidget(b)
         self.message = QLabel("")
         self.message.setWordWrap(True)
+        self.message.setStyleSheet("font-size: 18px;")
         lay = QVBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
         lay.addWidget(self.find_button)
-        for b in self.shade_buttons:
-            lay.addWidget(b)
+        lay.addLayout(tiles)
         lay.addWidget(self.message)
 
     def skin_rgb(self) -> np.ndarray:
@@ -109,36 +147,47 @@ class FoundationFinder(QWidget):
         from app.workers import run_task
 
         self.busy = True
+        started = self._round
         self.find_button.setEnabled(False)
         self.message.setText("Reading your skin…")
         for b in self.shade_buttons:
             b.hide()
 
-        def job(_progress: Any, _cancelled: Any) -> tuple[list[ShadeMatch], bool]:
+        def job(_progress: Any, _cancelled: Any) -> tuple[list[ShadeMatch], bool, str]:
             from km.skin import fit_skin
             from shade.match import ShadeBank, confidence, foundations, match_shades
 
             fit = fit_skin(linear_rgb=self.skin_rgb())
             bank = ShadeBank.from_materials(foundations(self.library))
             # the confidence `sheer shade match` states: low when the model cannot make her skin's colour
-            return match_shades(fit.reflectance, fit.reflectance, bank), confidence(fit).hard_to_read
+            read = confidence(fit)
+            return match_shades(fit.reflectance, fit.reflectance, bank), read.hard_to_read, read.level
 
-        run_task(None, "", job, self.guard(self._show), self.guard(self._failed), show_progress=False)
+        def show(result: tuple[list[ShadeMatch], bool, str]) -> None:
+            if started == self._round:  # else the shopper who asked has gone
+                self._show(result)
+
+        def failed(message: str) -> None:
+            if started == self._round:
+                self._failed(message)
+
+        run_task(None, "", job, self.guard(show), self.guard(failed), show_progress=False)
 
     def _failed(self, message: str) -> None:
         self.busy = False
         self.find_button.setEnabled(True)
         raise RuntimeError(f"Find my foundation: {message}")
 
-    def _show(self, result: tuple[list[ShadeMatch], bool]) -> None:
-        ranked, hard_to_read = result
+    def _show(self, result: tuple[list[ShadeMatch], bool, str]) -> None:
+        ranked, hard_to_read, level = result
         self.busy = False
         self.find_button.setEnabled(True)
         self.shades = ranked[:SHOWN]
         for b, s in zip(self.shade_buttons, self.shades):
-            b.setText(f"{s.name}  ·  ΔE {s.de2000:.1f}")
+            b.setText(f"{s.name}\n{match_words(s, level)}")
             dark = int(s.swatch_hex[1:3], 16) + int(s.swatch_hex[3:5], 16) + int(s.swatch_hex[5:7], 16) < 384
-            b.setStyleSheet(f"background: {s.swatch_hex}; color: {'#f4efe9' if dark else '#1d1b1c'};")
+            b.setStyleSheet(f"QToolButton {{ background: {s.swatch_hex}; color: {'#f4efe9' if dark else '#1d1b1c'};"
+                            " border-radius: 14px; padding: 6px; font-size: 18px; }")
             b.show()
         for b in self.shade_buttons[len(self.shades):]:
             b.hide()
@@ -150,20 +199,28 @@ class FoundationFinder(QWidget):
         self.found.emit([s.name for s in self.shades])
 
     def reset(self) -> None:
-        """Forget the shades shown (a new shopper)."""
+        """Forget the shades shown and any reading still running (a new shopper)."""
+        self._round += 1
         self.shades = []
         self.note = ""
+        self.busy = False
+        self.find_button.setEnabled(True)
         for b in self.shade_buttons:
             b.setIcon(QIcon())
+            b.setText("")
+            b.setStyleSheet("")
             b.hide()
         self.message.setText("")
 
     def set_preview(self, index: int, image: QImage) -> None:
-        """Show shade ``index`` on her face: ``image`` as the icon of its button."""
+        """Show shade ``index`` on her face: ``image`` as its tile's picture, :data:`THUMB_PX` pixels tall."""
         b = self.shade_buttons[index]
-        side = max(48, b.height() - 12)
-        b.setIcon(QIcon(QPixmap.fromImage(image)))
-        b.setIconSize(QSize(side, side))
+        pix = QPixmap.fromImage(image).scaledToHeight(THUMB_PX, Qt.TransformationMode.SmoothTransformation)
+        room = max(THUMB_PX, b.width() - 16)
+        if pix.width() > room:  # a wide crop keeps its height: its middle is shown
+            pix = pix.copy((pix.width() - room) // 2, 0, room, THUMB_PX)
+        b.setIcon(QIcon(pix))
+        b.setIconSize(QSize(pix.width(), THUMB_PX))
 
     def wear(self, index: int) -> None:
         """Give the look's foundation layer the shade of button ``index``."""

@@ -236,14 +236,14 @@ class TryOn(QObject):
         self.timings.update(result.timings)
         self.kiosk.activity()
         self.shopper = result
+        self.view = "mirror"  # before her controls are shown: the Mirror button is the one checked
+        self.light = None
+        self.shopper_view.yaw = self.shopper_view.pitch = 0.0
         self.kiosk.wear_shopper(result.session)
         self.renderer = ShopperRenderer(result.head, result.face, result.photo)
         self.renderer.frame.connect(self.kiosk.guard(self._frame))
         self.renderer.previewed.connect(self.kiosk.guard(self._previewed))
         self.renderer.failed.connect(self.kiosk.guard(self.kiosk.fail))
-        self.view = "mirror"
-        self.light = None
-        self.shopper_view.yaw = self.shopper_view.pitch = 0.0
         self.refresh()
 
     # ------------------------------------------------------------------ her face on screen
@@ -369,3 +369,11 @@ class TryOn(QObject):
             self.shopper.photo = np.zeros((0, 0, 3), np.uint8)
             self.shopper = None
         self._shutter = None
+        # the next shopper starts in the mirror view, in her photograph's light, facing forward
+        self.view = "mirror"
+        self.light = None
+        self.shopper_view.yaw = self.shopper_view.pitch = 0.0
+        self.shopper_view.turnable = False
+        self.previews_shown = 0
+        self.last_refusal = ""
+        self.busy_page.step.setText("")

@@ -12,15 +12,18 @@ derived from her in memory or a private temporary folder, removed when it ends.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import math
 import os
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from PySide6.QtCore import QEvent, QObject, QPoint, Qt, QTimer
-from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QShortcut
+from PySide6.QtCore import QEvent, QObject, QPoint, QSize, Qt, QTimer
+from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QResizeEvent, QShortcut
 from PySide6.QtWidgets import (
+    QBoxLayout,
     QFrame,
     QGridLayout,
     QHBoxLayout,
@@ -63,6 +66,44 @@ KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
 #: The invitation on the start screen.
 INVITATION = "Try on makeup — touch to start"
+#: The smallest touch target, pixels: 9 mm at 135 DPI (a 16-inch 1920×1080 panel, the densest kiosk
+#: screen supported; on the usual 21–32-inch panels, 69–105 DPI, 48 px is 11.6–17.7 mm).
+MIN_TARGET_PX = 48
+#: The height of the kiosk's touch buttons, pixels (above :data:`MIN_TARGET_PX`).
+BUTTON_PX = 60
+#: The attract mode's sway: the face turns ±this many degrees about the front (never its back).
+ATTRACT_SWAY_DEG = 35.0
+#: Seconds of one whole sway (front → right → front → left → front).
+ATTRACT_PERIOD_S = 16.0
+#: Milliseconds between two steps of the sway (a new camera yaw and a full-resolution frame).
+ATTRACT_STEP_MS = 50
+#: The attract mode's light: the default key light dimmed by this factor, so that the bald crown stays
+#: below white (the brightest head pixel of the attract frames stays well under 255).
+ATTRACT_KEY_SCALE = 0.8
+
+
+def attract_yaw(t_s: float) -> float:
+    """The attract camera's yaw, degrees, ``t_s`` seconds into the sway: ±:data:`ATTRACT_SWAY_DEG` about 0."""
+    return ATTRACT_SWAY_DEG * math.sin(2.0 * math.pi * t_s / ATTRACT_PERIOD_S)
+
+
+class _SidePanel(QScrollArea):
+    """The try-on controls; they scroll only in a window smaller than the kiosk's screens.
+
+    Its size hint is its content's whole size (a scroll area's own hint is capped), so a portrait
+    screen gives the controls their full height under the face.
+    """
+
+    def sizeHint(self) -> QSize:  # noqa: N802
+        """The content's size hint, pixels."""
+        inner = self.widget()
+        return inner.sizeHint() if inner is not None else super().sizeHint()
+
+    def eventFilter(self, obj: QObject, event: QEvent) -> bool:  # noqa: N802
+        """The content grew or shrank (the finder's shades, her views): ask the window's layout again."""
+        if obj is self.widget() and event.type() == QEvent.Type.LayoutRequest:
+            self.updateGeometry()
+        return super().eventFilter(obj, event)
 
 
 class _ActivityFilter(QObject):
@@ -119,6 +160,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         # per look: (material, layer name, max thickness µm, map µm) of each layer, bottom first
         self.look_cache: dict[str, list[tuple[str, str, float, np.ndarray]]] = {}
         self.viewport = self._make_viewport()
+        self._fresh_lighting = dataclasses.replace(self.viewport.lighting)  # what each new shopper starts with
+        self._attract_t0 = time.monotonic()
         self.setup_engines()
         self.stack = QStackedWidget()
         self.tryon = TryOn(self)
@@ -147,8 +190,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.idle_timer.setSingleShot(True)
         self.idle_timer.timeout.connect(self.guard(self.start_attract))
         self.spin_timer = QTimer(self)
-        self.spin_timer.setInterval(40)
-        self.spin_timer.timeout.connect(self.guard(lambda: self.viewport.orbit_by(0.6)))
+        self.spin_timer.setInterval(ATTRACT_STEP_MS)
+        self.spin_timer.timeout.connect(self.guard(lambda: self.attract_turn()))
         self.look_timer = QTimer(self)
         self.look_timer.timeout.connect(self.guard(self._next_attract_look))
         self._filter = _ActivityFilter(self.activity)
@@ -206,7 +249,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.looks_bar = QWidget()
         looks = QHBoxLayout(self.looks_bar)
         for name in KIOSK_LOOKS:
-            b = big_button(name.replace("-", " ").title())
+            b = big_button(name.replace("-", " ").title(), BUTTON_PX)
             b.setCheckable(True)
             b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_look(n)))
             looks.addWidget(b)
@@ -215,23 +258,36 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.face_stack = QStackedWidget()
         self.face_stack.addWidget(self.viewport)
         self.face_stack.addWidget(self.tryon.shopper_view)
-        body = QHBoxLayout()
+        # landscape: the face left, the controls right; portrait: the controls under the face (_fit_screen)
+        self.body = QBoxLayout(QBoxLayout.Direction.LeftToRight)
         left = QVBoxLayout()
         left.addWidget(self.face_stack, 1)
         left.addWidget(self.privacy_label)  # under her face, while it is shown
-        body.addLayout(left, 3)
-        # the controls scroll rather than push the window past a small screen (the foundation finder grows)
-        self.side_panel = QScrollArea()
+        self.body.addLayout(left, 3)
+        # the controls fit the kiosk's screens (1920×1080, 1080×1920) whole; only a smaller window scrolls
+        self.side_panel = _SidePanel()
         self.side_panel.setWidget(side_box)
         self.side_panel.setWidgetResizable(True)
         self.side_panel.setFrameShape(QFrame.Shape.NoFrame)
         self.side_panel.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        body.addWidget(self.side_panel, 2)
+        self.body.addWidget(self.side_panel, 2)
         lay = QVBoxLayout(page)
         lay.addWidget(self.invite)
         lay.addWidget(self.looks_bar)
-        lay.addLayout(body, 1)
+        lay.addLayout(self.body, 1)
         return page
+
+    def _fit_screen(self) -> None:
+        """Lay the try-on screen out for the window's shape: side by side when wide, stacked when tall."""
+        portrait = self.height() > self.width()
+        self.body.setDirection(QBoxLayout.Direction.TopToBottom if portrait else QBoxLayout.Direction.LeftToRight)
+        self.body.setStretch(0, 1 if portrait else 3)
+        self.body.setStretch(1, 0 if portrait else 2)
+
+    def resizeEvent(self, event: QResizeEvent) -> None:  # noqa: N802
+        """Follow the screen's orientation (a portrait kiosk stacks the controls under the face)."""
+        super().resizeEvent(event)
+        self._fit_screen()
 
     def _build_side(self) -> QWidget:
         """The side panel: the views, the products, the light, Before|After, Save Photo, the foundation finder."""
@@ -239,11 +295,11 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         lights = self._build_lights()
         self.split = QSlider(Qt.Orientation.Horizontal)
         self.split.setRange(0, 100)
-        self.split.setMinimumHeight(64)
+        self.split.setMinimumHeight(BUTTON_PX)
         self.split.valueChanged.connect(self.guard(self._split_changed))
-        self.snapshot_button = big_button("Save Photo")
+        self.snapshot_button = big_button("Save Photo", BUTTON_PX)
         self.snapshot_button.clicked.connect(self.guard(self.snapshot))
-        self.done_button = big_button("Done")
+        self.done_button = big_button("Done", BUTTON_PX)
         self.done_button.clicked.connect(self.guard(self.show_start))
         self.toast = QLabel("")
         self._build_views_bar()
@@ -256,18 +312,23 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         side.setContentsMargins(0, 0, 0, 0)
         side.addWidget(self.views_bar)
         side.addLayout(products)
-        side.addWidget(QLabel("Light"))
+        lights.insertWidget(0, QLabel("Light"))
         side.addLayout(lights)
-        side.addWidget(QLabel("Before  ◀▶  After"))
-        side.addWidget(self.split)
-        side.addWidget(self.snapshot_button)
+        before_after = QHBoxLayout()
+        before_after.addWidget(QLabel("Before"))
+        before_after.addWidget(self.split, 1)
+        before_after.addWidget(QLabel("After"))
+        side.addLayout(before_after)
         self.foundation_finder = FoundationFinder(
             self.library, self.doc, lambda: self.tryon.shopper.face if self.tryon.shopper else self.face,
             self.refresh_products, self.guard, skin_source=self.tryon.her_skin)
         self.foundation_finder.found.connect(self.guard(self.tryon.preview_shades))
         side.addWidget(self.foundation_finder)
         side.addWidget(self.toast)
-        side.addWidget(self.done_button)
+        last_row = QHBoxLayout()  # Save Photo and Done side by side: the finder's shades above stay on screen
+        last_row.addWidget(self.snapshot_button)
+        last_row.addWidget(self.done_button)
+        side.addLayout(last_row)
         side.addStretch(1)
         # the head scan's licence (CC BY) asks for its credit wherever it is shown
         credit = self.doc.head.credit
@@ -283,7 +344,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.product_labels: dict[str, QLabel] = {}
         products = QGridLayout()
         for row, cat in enumerate(CATEGORIES):
-            prev, nxt = big_button("◀", 64), big_button("▶", 64)
+            prev, nxt = big_button("◀", BUTTON_PX), big_button("▶", BUTTON_PX)
             prev.setMinimumWidth(72)
             nxt.setMinimumWidth(72)
             label = QLabel(cat.title())
@@ -302,7 +363,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         lights = QHBoxLayout()
         self.light_buttons: dict[str, QPushButton] = {}
         for name in LIGHT_PRESETS:
-            b = big_button(name.title(), 64)
+            b = big_button(name.title(), BUTTON_PX)
             b.setCheckable(True)
             b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_light(n)))
             lights.addWidget(b)
@@ -314,7 +375,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.view_buttons: dict[str, QPushButton] = {}
         views = QHBoxLayout()
         for name, text in (("mirror", "Mirror"), ("relight", "Turn and relight")):
-            b = big_button(text, 64)
+            b = big_button(text, BUTTON_PX)
             b.setCheckable(True)
             b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_view(n)))
             views.addWidget(b)
@@ -472,6 +533,10 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         """
         self.end_private_session()
         self.stop_attract()
+        try:
+            self.reset_screen()
+        except Exception:  # (an error that brought the start screen may break this too: log it, go on)
+            log.exception("kiosk: the screen could not be reset for the next shopper")
         self.start_message.setText(INVITATION)
         self.invite.show()
         self.looks_bar.hide()
@@ -479,12 +544,35 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.stack.setCurrentWidget(self.main_page)
         if attract:
             self.attract = True
+            self._attract_t0 = time.monotonic()
+            self.viewport.lighting.intensity = self._fresh_lighting.intensity * ATTRACT_KEY_SCALE
             self.spin_timer.start()
             self.look_timer.start(int(self.config.look_seconds * 1000))
         self.viewport.update()
 
+    def reset_screen(self) -> None:
+        """Put every control back as a fresh kiosk shows it: nothing of one shopper reaches the next.
+
+        The status line, the finder's shades, the light (none checked, the default key light), the
+        before/after split, her views' buttons, the sample face's look (its swaps undone) and its view.
+        """
+        self.toast.setText("")
+        self.foundation_finder.reset()
+        for b in (*self.light_buttons.values(), *self.view_buttons.values()):
+            b.setChecked(False)
+        self.split.setValue(0)
+        self.viewport.split = 0.0
+        self.viewport.lighting = dataclasses.replace(self._fresh_lighting)
+        self.viewport.frame_head()
+        if not hasattr(self, "_opening_look"):  # (the first start screen: the look the kiosk opened with)
+            self._opening_look = self.look
+        self.set_look(self._opening_look)  # as a fresh kiosk opens: her look and product swaps undone
+
     def show_main(self) -> None:
         """Show the try-on screen (and count it as activity); a shopper's session uses a private cache."""
+        if self.attract:  # the sample face comes to rest facing her, in the shop's default light
+            self.viewport.frame_head()
+            self.viewport.lighting.intensity = self._fresh_lighting.intensity
         self.begin_private_session()
         self.invite.hide()
         self.looks_bar.show()
@@ -527,6 +615,18 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.attract = False
         self.spin_timer.stop()
         self.look_timer.stop()
+
+    def attract_turn(self, t_s: float | None = None) -> float:
+        """One step of the attract mode's sway: the camera at :func:`attract_yaw` of ``t_s``; returns the yaw.
+
+        ``t_s``: seconds into the sway (None: since the attract mode started). The frame is a full-resolution
+        one (a camera move, not an input: no low-resolution interactive frames in the attract mode).
+        """
+        t = time.monotonic() - self._attract_t0 if t_s is None else t_s
+        cam = self.viewport.camera
+        cam.yaw, cam.pitch = attract_yaw(t), 5.0
+        self.viewport.update()
+        return float(cam.yaw)
 
     def _next_attract_look(self) -> None:
         looks = [n for n in KIOSK_LOOKS if n != "bare"]
