@@ -62,7 +62,8 @@ class Shopper:
 
     Attributes:
         face: her captured face (``capture.face.Face``); head: her head; session: her document.
-        photo: her photograph as captured (uint8 sRGB, the face's camera size).
+        photo: her photograph as shot (uint8 sRGB (H, W, 3), its own resolution: the camera frame, not the
+            reduced copy the capture may have fitted the face on).
         folder: the face folder (inside the private folder).
         timings: seconds per step ("capture_s", "document_s", "look_s").
         skin: her skin read from her photograph, (linear sRGB, note), once read (``()``: unreadable).
@@ -107,13 +108,9 @@ def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | N
     timings["capture_s"] = time.perf_counter() - t
     t = time.perf_counter()
     head = face.load_head()
-    shot = photo
-    photo_path = getattr(face, "photo_path", None)
-    if photo_path is not None and Path(photo_path).is_file():
-        from PIL import Image
-
-        with Image.open(photo_path) as im:
-            shot = np.asarray(im.convert("RGB"), dtype=np.uint8)
+    # her photograph itself, at its own resolution: the capture fits a reduced copy when her face is large
+    # (face.json ``downscale``), the mirror view and Save Photo draw on the original
+    shot = np.ascontiguousarray(np.asarray(photo, dtype=np.uint8)[..., :3])
     doc = Document(head, resolution=resolution, library=library)
     session = Session(library, doc)
     timings["document_s"] = time.perf_counter() - t

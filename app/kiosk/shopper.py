@@ -9,6 +9,11 @@ while a frame is drawn are merged (only the newest is drawn) and each frame come
 through the ``frame`` signal. :class:`ShopperView` shows the frames, scaled to fit, and turns the relit
 face by dragging (±:data:`render.mirror.MAX_TURN_DEG`).
 
+The mirror view is drawn at her photograph's own resolution and shown as a mirror shows her: flipped
+left–right, like the camera screen's live preview (the before/after split is then laid over the flipped
+frame, so its left part is still "before"). :meth:`ShopperRenderer.still` draws her made-up photograph,
+and the same without makeup, as a camera shows her (not flipped, no split line), for Save Photo.
+
 Everything here lives in memory; :meth:`ShopperRenderer.close` releases the GPU objects and the context.
 """
 
@@ -18,6 +23,7 @@ import logging
 import queue
 import threading
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -92,7 +98,8 @@ class ShopperRenderer(QObject):
     Args:
         head: her head (the captured face's mesh).
         face: her captured face (``capture.face.Face``).
-        photo: her photograph, uint8 sRGB (H, W, 3), the capture's size.
+        photo: her photograph, uint8 sRGB (H, W, 3), at its own resolution (the capture's size, or the
+            original it was reduced from: :class:`render.mirror.MirrorView`).
 
     Signals:
         frame(image, ms, request): a frame drawn (uint8 (H, W, 3)), its drawing time in ms and its request.
@@ -107,7 +114,8 @@ class ShopperRenderer(QObject):
     def __init__(self, head: Head, face: Any, photo: np.ndarray) -> None:
         super().__init__()
         self.head, self.face, self.photo = head, face, photo
-        self._queue: queue.Queue[FrameRequest | None] = queue.Queue()
+        self._queue: queue.Queue[FrameRequest | Future[tuple[np.ndarray, np.ndarray]] | None] = queue.Queue()
+        self._ahead: list[Future[tuple[np.ndarray, np.ndarray]]] = []  # stills met while merging requests
         self._thread = threading.Thread(target=self._run, name="sheer-shopper-gl", daemon=True)
         self.frames = 0
         self._thread.start()
@@ -123,16 +131,42 @@ class ShopperRenderer(QObject):
             self._thread.join(timeout_s)
         self.photo = np.zeros((0, 0, 3), np.uint8)  # her photograph is not kept a moment longer
 
-    def _take(self) -> FrameRequest | None:
-        """The newest waiting request, with the newest layers any merged request carried; None = stop."""
+    def still(self, timeout_s: float = 60.0) -> tuple[np.ndarray, np.ndarray]:
+        """Her made-up photograph and the same without makeup (before), uint8 (H, W, 3) each.
+
+        The mirror view at her photograph's own resolution as a camera shows her (not flipped, no
+        before/after split), with the layers of the requests made so far; drawn in the renderer's thread,
+        this call waits for it (at most ``timeout_s`` seconds: ``TimeoutError``).
+
+        Raises:
+            RuntimeError: the renderer is closed (``concurrent.futures.CancelledError``: it closed meanwhile);
+                or whatever drawing raised.
+        """
+        if not self._thread.is_alive():
+            raise RuntimeError("the try-on renderer is closed")
+        done: Future[tuple[np.ndarray, np.ndarray]] = Future()
+        self._queue.put(done)
+        return done.result(timeout_s)
+
+    def _take(self) -> FrameRequest | Future[tuple[np.ndarray, np.ndarray]] | None:
+        """The next still, or the newest waiting request with the newest layers any merged request carried.
+
+        None = stop. A still waiting behind a request is kept for the next call (requests after it are
+        still merged into this one: a still draws the layers, not a frame).
+        """
+        if self._ahead:
+            return self._ahead.pop(0)
         req = self._queue.get()
-        while req is not None:
+        while isinstance(req, FrameRequest):
             try:
                 nxt = self._queue.get_nowait()
             except queue.Empty:
                 break
             if nxt is None:
                 return None
+            if isinstance(nxt, Future):
+                self._ahead.append(nxt)
+                continue
             if nxt.layers is None:
                 nxt.layers = req.layers
             if nxt.previews is None:
@@ -162,6 +196,9 @@ class ShopperRenderer(QObject):
             req = self._take()
             if req is None:
                 break
+            if isinstance(req, Future):
+                self._still(mirror, req)
+                continue
             try:
                 if req.previews:
                     shots = []
@@ -179,11 +216,44 @@ class ShopperRenderer(QObject):
             except Exception as exc:
                 log.exception("kiosk: a try-on frame failed")
                 self.failed.emit(f"a try-on frame failed: {exc}")
+        self._cancel_stills()
         self._release(ctx, mirror, relight)
 
+    @staticmethod
+    def _still(mirror: Any, done: Future[tuple[np.ndarray, np.ndarray]]) -> None:
+        """Draw :meth:`still`'s pair with ``mirror`` into ``done``."""
+        if not done.set_running_or_notify_cancel():
+            return
+        try:
+            mirror.show_makeup = True
+            after = np.asarray(mirror.render_image())
+            mirror.show_makeup = False
+            before = np.asarray(mirror.render_image())
+            done.set_result((after, before))
+        except Exception as exc:
+            log.exception("kiosk: her photo could not be drawn")
+            done.set_exception(exc)
+        finally:
+            mirror.show_makeup = True
+
     def _drain(self) -> None:
-        while self._queue.get() is not None:
-            pass
+        while (item := self._queue.get()) is not None:
+            if isinstance(item, Future):
+                item.cancel()
+        self._cancel_stills()
+
+    def _cancel_stills(self) -> None:
+        """Cancel the stills still waiting (the thread stops): :meth:`still` raises at once, not after its timeout."""
+        waiting, self._ahead = self._ahead, []
+        while True:
+            try:
+                item = self._queue.get_nowait()
+            except queue.Empty:
+                break
+            if isinstance(item, Future):
+                waiting.append(item)
+        for done in waiting:
+            done.cancel()
 
     @staticmethod
     def _release(ctx: Any, mirror: Any, relight: Any) -> None:
@@ -214,8 +284,8 @@ class ShopperRenderer(QObject):
         else:
             view = mirror
 
-            def draw() -> np.ndarray:
-                return np.asarray(view.render_image())
+            def draw() -> np.ndarray:  # as a mirror shows her: flipped left-right
+                return np.ascontiguousarray(np.asarray(view.render_image())[:, ::-1])
         mirror.show_makeup = relight.show_makeup = True
         after = draw()
         if req.split <= 0.0:

@@ -14,8 +14,11 @@ The flow (:class:`TryOn`, one per kiosk):
 3. **Her face** on the try-on screen, in place of the sample head: the mirror view (her photograph
    with the makeup) or the relit view (turnable, under the light presets), drawn by
    :class:`app.kiosk.shopper.ShopperRenderer`; the looks, product swaps, foundation finder, light presets
-   and before/after act on her document. Done or the idle timeout ends the session: her views, document,
-   photograph and private folder are dropped. Only Save Photo writes anything (the rendered image).
+   and before/after act on her document. The mirror view is at her photograph's own resolution and
+   shown flipped left–right, as a mirror shows her. Done or the idle timeout ends the session: her views,
+   document, photograph and private folder are dropped. Only Save Photo writes anything: her made-up
+   photograph at its full resolution as a camera shows her (not flipped, no before/after line), and with
+   the before/after slider on, the pair side by side in a second file (:meth:`TryOn.save_image`).
 
 :attr:`TryOn.timings` records ``tryon_first_frame_s``: the shutter to her first made-up frame on screen.
 """
@@ -57,6 +60,19 @@ def face_box(face: Any, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
     x0, y0 = max(0, int(ax - px)), max(0, int(ay - py))
     x1, y1 = min(w, int(np.ceil(bx + px))), min(h, int(np.ceil(by + py)))
     return (x0, y0, x1, y1) if x1 - x0 > 4 and y1 - y0 > 4 else (0, 0, w, h)
+
+def _write_png(path: Path, rgb: np.ndarray) -> None:
+    """Write uint8 (H, W, 3) ``rgb`` to ``path`` as a PNG, atomically (``OSError`` if it cannot be written)."""
+    import io
+
+    from PIL import Image
+
+    from core.atomicio import atomic_write_bytes
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgb)).save(buf, format="PNG")
+    atomic_write_bytes(path, buf.getvalue())
+
 
 #: What the start screen says when the camera stops or cannot be opened.
 CAMERA_TROUBLE = "Sorry, the camera is not working right now. Please ask a member of staff."
@@ -317,7 +333,7 @@ class TryOn(QObject):
 
         x0, y0, x1, y1 = face_box(self.shopper.face, images[0].shape)
         for i, img in enumerate(images):
-            crop = np.ascontiguousarray(img[y0:y1, x0:x1])
+            crop = np.ascontiguousarray(img[y0:y1, x0:x1][:, ::-1])  # as the mirror view shows her: flipped
             h, w = crop.shape[:2]
             self.kiosk.foundation_finder.set_preview(i, QImage(crop.data, w, h, 3 * w,
                                                                QImage.Format.Format_RGB888).copy())
@@ -334,26 +350,28 @@ class TryOn(QObject):
         self.view = "relight"
         self.refresh(layers=False)
 
-    def save_image(self, path: Path) -> None:
-        """Write her face as shown (PNG).
+    def save_image(self, path: Path) -> list[Path]:
+        """Write her made-up photograph (PNG) to ``path``; returns the files written.
+
+        The mirror view drawn offscreen at her photograph's own resolution, as a camera shows her (not
+        flipped as on screen), with no before/after line, whichever view is on screen. With the
+        before/after slider on, a second file, ``<name>-before-after.png``: her photograph without and
+        with the makeup side by side (twice her photograph's width).
 
         Raises:
-            OSError: it could not be written; SheerError: no frame is shown yet.
+            OSError: it could not be written; SheerError: her try-on is not on screen yet.
         """
         from core.errors import SheerError
 
-        img = self.shopper_view.image
-        if img is None:
+        if self.renderer is None or self.shopper_view.image is None:
             raise SheerError("her try-on is not on screen yet")
-        import io
-
-        from PIL import Image
-
-        from core.atomicio import atomic_write_bytes
-
-        buf = io.BytesIO()
-        Image.fromarray(img).save(buf, format="PNG")
-        atomic_write_bytes(path, buf.getvalue())
+        after, before = self.renderer.still()
+        paths = [path]
+        _write_png(path, after)
+        if self.kiosk.split.value() > 0:
+            paths.append(path.with_name(f"{path.stem}-before-after.png"))
+            _write_png(paths[1], np.concatenate([before, after], axis=1))
+        return paths
 
     def end(self) -> None:
         """Drop everything of hers: the camera, the views (GPU), the document and the photograph."""

@@ -497,8 +497,15 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         if self.tryon.active:
             self.tryon.refresh()
 
+    #: What Save Photo says with her face on screen: the screen is a mirror, the photo is not.
+    SAVED_AS_CAMERA = "Photo saved — as a camera sees you (the screen shows you as a mirror does)"
+
     def snapshot(self) -> Path:
-        """Save the view as a PNG in the configured snapshot folder; returns the file.
+        """Save Photo: a PNG in the configured snapshot folder; returns the file.
+
+        With her face on screen, her made-up photograph at its own resolution as a camera shows her (not
+        the mirrored screen, no before/after line; with the before/after slider on, the pair side by side
+        too: :meth:`app.kiosk.tryon.TryOn.save_image`); else the sample head's view.
 
         Raises:
             OSError: the photo could not be written.
@@ -507,11 +514,13 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         folder.mkdir(parents=True, exist_ok=True)
         path = folder / f"sheer-{time.strftime('%Y%m%d-%H%M%S')}-{len(self.snapshots):03d}.png"
         if self.tryon.active:
-            self.tryon.save_image(path)  # her face as shown: the one thing of hers that is written
-        elif not self.viewport.grabFramebuffer().save(str(path)):
+            written = self.tryon.save_image(path)  # her photo, drawn anew: the one thing of hers that is written
+        elif self.viewport.grabFramebuffer().save(str(path)):
+            written = [path]
+        else:
             raise OSError(f"could not write the photo to {folder}")
-        self.snapshots.append(path)
-        self.toast.setText("Photo saved")
+        self.snapshots.extend(written)
+        self.toast.setText(self.SAVED_AS_CAMERA if self.tryon.active else "Photo saved")
         return path
 
     # ------------------------------------------------------------------ screens
