@@ -11,18 +11,30 @@
 
 Frames are uint8 sRGB (H, W, 3), at most :data:`MAX_SIDE` pixels on the long side (a 10-megapixel photo
 is reduced; a grey-scale or CMYK file converted to RGB; a truncated one refused with a one-line message).
+
+The configured camera is checked when it is stored and when the kiosk starts: :func:`check_camera_setting`
+refuses what can never be a camera (a word that is no device and no file, a missing file, a still image, a
+file OpenCV cannot read a frame from), :func:`probe_camera` opens it and reads a frame, and
+:func:`camera_at_start` says whether the camera gives pictures when the kiosk opens (a device unplugged
+since is the kiosk's to report, not a reason not to start).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+import sys
 import time
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from core.errors import SheerError
+
+if TYPE_CHECKING:
+    from collections.abc import Iterator
 
 log = logging.getLogger("sheer.kiosk")
 
@@ -42,6 +54,10 @@ class CameraError(SheerError):
 
 class CameraGone(CameraError):
     """The camera stopped giving frames during the preview (unplugged, switched off, at its end)."""
+
+
+class CameraSettingError(CameraError):
+    """The configured camera can never give pictures: no device and no file, a still image, not a video."""
 
 
 class FrameSource(Protocol):
@@ -110,7 +126,8 @@ class CameraSource:
 
         self.device = device
         spec: int | str = 0 if device in ("", "auto") else int(device) if device.isdigit() else device
-        self._cap = cv2.VideoCapture(spec)
+        with _quiet_stderr():  # OpenCV and FFmpeg print their own lines about a device they cannot open
+            self._cap = cv2.VideoCapture(spec)
         self._failed = 0
         self._last: np.ndarray | None = None
         if not self._cap.isOpened():
@@ -233,6 +250,119 @@ def camera_present(camera: str) -> bool:
     if spec.isdigit():
         return Path(f"/dev/video{spec}").exists()
     return Path(spec).exists()
+
+
+#: What a camera setting may be, for the messages that refuse one.
+CAMERA_CHOICES = "auto, off, a device index (0, 1…), a device path (/dev/video2) or a video file"
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Send file descriptor 2 to /dev/null for the block (OpenCV and FFmpeg write there from C)."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no real standard error: nothing to quieten
+        yield
+        return
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _is_still_image(path: Path) -> bool:
+    """Whether ``path`` is a still image (by its suffix, or a picture Pillow recognises)."""
+    if path.suffix.lower() in PHOTO_SUFFIXES:
+        return True
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            return getattr(im, "n_frames", 1) == 1
+    except (UnidentifiedImageError, OSError, ValueError):
+        return False
+
+
+def is_device(camera: str) -> bool:
+    """Whether the camera setting names a video device: an index ("0") or a path under ``/dev``."""
+    spec = camera.strip()
+    return spec.isdigit() or spec.startswith("/dev/")
+
+
+def check_camera_setting(camera: str) -> str:
+    """The camera setting ``camera``, checked and normalised (a video file's path made absolute).
+
+    "auto" (also ""), "off" and a device (an index, a path under ``/dev``) are taken as they are: a
+    device is opened by :func:`probe_camera`. Anything else is a video file: it must exist, not be a
+    still image (the watched folder takes photos), and give a frame.
+
+    Raises:
+        CameraSettingError: one line naming the setting and what is wrong.
+    """
+    spec = camera.strip()
+    if spec.lower() in ("", "auto", "off"):
+        return spec.lower() or "auto"
+    if is_device(spec):
+        return str(int(spec)) if spec.isdigit() else spec
+    path = Path(spec).expanduser()
+    if not path.exists():
+        raise CameraSettingError(f"camera {spec!r}: no such device or file; the camera is {CAMERA_CHOICES}")
+    if path.is_dir():
+        raise CameraSettingError(f"camera {spec!r}: is a folder, not a camera; a folder the photo is taken from "
+                                 f"is set with --watch-dir DIR")
+    if _is_still_image(path):
+        raise CameraSettingError(f"camera {spec!r}: is a still image, not a camera or a video; to take the "
+                                 f"shopper's photo from image files, use a watched folder "
+                                 f"(sheer kiosk --camera off --watch-dir DIR)")
+    try:
+        probe_camera(str(path.resolve()))
+    except CameraError:
+        raise CameraSettingError(f"camera {spec!r}: not a video OpenCV can read a frame from") from None
+    return str(path.resolve())
+
+
+def probe_camera(camera: str) -> None:
+    """Open the camera ``camera`` (a device or a video file), read one frame and release it.
+
+    Raises:
+        CameraError: one line naming the camera and what is wrong (no such device, no picture).
+    """
+    spec = camera.strip()
+    if spec.isdigit() and not Path(f"/dev/video{int(spec)}").exists():
+        raise CameraError(f"camera {spec}: there is no video device /dev/video{int(spec)}")
+    if spec.startswith("/dev/") and not Path(spec).exists():
+        raise CameraError(f"camera {spec}: no such device")
+    CameraSource(spec).close()
+
+
+def camera_at_start(camera: str) -> tuple[bool, str]:
+    """Whether the configured camera gives pictures as the kiosk starts, and why not.
+
+    Returns:
+        (works, why): ``why`` is "" when it works or when none is configured ("off", or "auto" on a
+        machine with no video device); else what is wrong, in one line, for the log.
+    """
+    spec = camera.strip()
+    if spec.lower() == "off":
+        return False, ""
+    if spec.lower() in ("", "auto"):
+        if not any(Path("/dev").glob("video*")):
+            return False, ""
+        spec = "auto"
+    try:
+        if spec == "auto":
+            CameraSource("auto").close()
+        elif is_device(spec):
+            probe_camera(spec)
+        else:
+            check_camera_setting(spec)  # a video file: there, and giving a frame
+    except CameraError as exc:
+        return False, str(exc)
+    return True, ""
 
 
 def open_source(camera: str, watch_dir: str) -> FrameSource:

@@ -1,6 +1,10 @@
-"""``sheer kiosk [--project FILE] [--config FILE] [--set-pin [--pin-file FILE] [--allow-short-pin]] [--windowed]``.
+"""``sheer kiosk [--project FILE] [--config FILE] [--log FILE] [--set-pin [--pin-file FILE] [--allow-short-pin]] [--windowed]``.
 
-The in-store kiosk. Setting up (each stores into the configuration and exits; they combine):
+The in-store kiosk. ``--project FILE`` makes a brand's project the kiosk's look: its button first (named
+from the project), selected, and in the attract mode's cycle, before the configured looks.
+
+Setting up (each stores into the configuration and exits; they combine). The configuration
+(``~/.config/sheer/kiosk.json``, ``$XDG_CONFIG_HOME``) holds the PIN's hash: it is written mode 0600.
 
 - ``--set-pin`` stores the administrator PIN's salted hash. At a terminal it asks twice; when standard
   input is not a terminal (a provisioning script: ``echo 482913 | sheer kiosk --set-pin``) it reads the
@@ -13,7 +17,17 @@ The in-store kiosk. Setting up (each stores into the configuration and exits; th
   ball, taken with the kiosk's camera and light (``--probe-reflectance R`` for a chrome ball's
   reflectance, default 1); "Try it on me" then captures with it instead of a white flash on the axis.
 - ``--camera auto|off|INDEX|PATH`` and ``--watch-dir DIR`` (``""`` for none): the camera "Try it on me"
-  uses, or the folder a kiosk without one takes the photo from.
+  uses, or the folder a kiosk without one takes the photo from. A device must be there and give a
+  picture, a file must be a video OpenCV reads a frame from (a still image is refused: use a watched
+  folder); checked again when the kiosk starts.
+- ``--looks LIST``: the try-on screen's looks, comma-separated built-in looks and ``.sheer`` projects
+  (``--looks brand.sheer,natural,red-lip``; ``""`` for the default ones); each project is opened and
+  checked.
+
+Starting, the configuration is checked first (the PIN, every project, the camera): what is wrong is one
+line and exit status 2, before any window. The kiosk logs to ``--log FILE``, else ``$SHEER_KIOSK_LOG``,
+else the configuration's ``log``, else ``~/.local/state/sheer/kiosk.log`` (``$XDG_STATE_HOME``), and says
+where as it starts.
 """
 
 from __future__ import annotations
@@ -23,8 +37,11 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     import argparse
+    import logging
+    from pathlib import Path
 
     from app.commands import Subcommands
+    from app.kiosk.config import KioskConfig
 
 #: The fewest digits ``--set-pin`` accepts, and with ``--allow-short-pin``; the most digits.
 MIN_PIN, MIN_SHORT_PIN, MAX_PIN = 6, 4, 12
@@ -38,7 +55,7 @@ def register(sub: Subcommands) -> None:
 
     p = sub.add_parser("kiosk", help="start the full-screen customer kiosk", description=__doc__,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--project", help="project (.sheer) to show")
+    p.add_argument("--project", help="a project (.sheer): the kiosk's first look, before the configured ones")
     p.add_argument("--config", help="kiosk configuration file (default: ~/.config/sheer/kiosk.json)")
     p.add_argument("--set-pin", action="store_true",
                    help="store a new administrator PIN (hashed) and exit: asked at a terminal, else read from "
@@ -55,6 +72,12 @@ def register(sub: Subcommands) -> None:
                    help="store the camera 'Try it on me' uses and exit")
     p.add_argument("--watch-dir", metavar="DIR",
                    help="store the folder a kiosk without a camera takes the photo from and exit ('' for none)")
+    p.add_argument("--looks", metavar="LIST",
+                   help="store the try-on screen's looks and exit: comma-separated built-in looks and .sheer "
+                        "projects, in order ('' for the default ones)")
+    p.add_argument("--log", metavar="FILE",
+                   help="the kiosk's log file (default: the configuration's 'log', else "
+                        "~/.local/state/sheer/kiosk.log)")
     p.add_argument("--windowed", action="store_true", help="run in a window (for setting up)")
     p.set_defaults(func=run)
 
@@ -119,10 +142,126 @@ def _calibrated_light(path: str, reflectance: float) -> dict[str, object]:
     return light
 
 
-def run(args: argparse.Namespace) -> int:
-    """Store the set-up options given (PIN, snapshot folder, light, camera, watched folder), or run the kiosk."""
+def _checked_looks(text: str) -> list[str]:
+    """``--looks LIST`` checked: built-in looks by name, projects opened and stored as absolute paths."""
+    from app.kiosk.config import KioskConfig, kiosk_looks, open_look_projects
+
+    entries = [e.strip() for e in text.split(",") if e.strip()]
+    if not entries:
+        return []
+    looks = kiosk_looks(KioskConfig(looks=entries), where="--looks")
+    open_look_projects(looks)
+    return [look.builtin or str(look.path) for look in looks]
+
+
+def _checked_camera(text: str) -> str:
+    """``--camera`` checked: a device that is there and gives a picture, or a video file that gives a frame."""
+    from app.camera_source import check_camera_setting, is_device, probe_camera
+
+    camera = check_camera_setting(text)
+    if is_device(camera):
+        probe_camera(camera)
+    return camera
+
+
+def _store(args: argparse.Namespace) -> int:
+    """Check every set-up option given, then store them all in the configuration (a refused one changes nothing)."""
     from pathlib import Path
 
+    from app.kiosk.config import KioskConfig
+
+    path = Path(args.config) if args.config else None
+    cfg = KioskConfig.load(path)
+    if args.set_pin:
+        cfg.pin_hash = _new_pin_hash(args)
+    if args.calibrate_light:
+        cfg.light = _calibrated_light(args.calibrate_light, args.probe_reflectance)
+    if args.snapshot_dir:
+        cfg.snapshot_dir = str(Path(args.snapshot_dir).expanduser().resolve())
+    if args.camera is not None:
+        cfg.camera = _checked_camera(args.camera)
+    if args.watch_dir is not None:
+        cfg.watch_dir = str(Path(args.watch_dir).expanduser().resolve()) if args.watch_dir else ""
+    if args.looks is not None:
+        cfg.looks = _checked_looks(args.looks)
+    print(f"kiosk configuration saved to {cfg.save(path)}")
+    if args.calibrate_light:
+        light = cfg.light
+        print(f"kiosk light: θ={float(light['theta_deg']):.1f}° φ={float(light['phi_deg']):.1f}° from the camera's "  # type: ignore[arg-type]
+              f"axis, flash colour {[round(float(v), 3) for v in light['flash_rgb']]}")  # type: ignore[attr-defined]
+    return 0
+
+
+def _open_log(cfg: KioskConfig, override: str | None) -> tuple[logging.Handler, Path]:
+    """Start logging (INFO and up, every logger) to the kiosk's log file; the handler and the file.
+
+    Raises:
+        SheerError: the file cannot be written (naming it, and how to choose another).
+    """
+    import logging
+
+    from core.errors import SheerError
+
+    path = cfg.log_path(override)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handler = logging.FileHandler(path, encoding="utf-8")
+    except OSError as exc:
+        raise SheerError(f"{path}: the kiosk cannot write its log there ({exc.strerror or exc}); choose another "
+                         f"with --log FILE or the configuration's 'log'") from None
+    handler.setLevel(logging.INFO)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger()
+    root.addHandler(handler)
+    root.setLevel(min(root.getEffectiveLevel(), logging.INFO))
+    return handler, path
+
+
+def _start(args: argparse.Namespace) -> int:
+    """Check the configuration (PIN, looks, camera) and run the kiosk; what is wrong is one line, exit 2."""
+    import logging
+    from pathlib import Path
+
+    from app.application import require_display
+    from app.camera_source import CameraError, check_camera_setting
+    from app.kiosk.config import (
+        KioskConfig,
+        install_look_projects,
+        kiosk_looks,
+        open_look_projects,
+        require_pin,
+    )
+    from core.errors import SheerError
+
+    cfg = KioskConfig.load(Path(args.config) if args.config else None)
+    require_pin(cfg)  # the first thing to set up
+    looks = kiosk_looks(cfg, args.project)
+    open_look_projects(looks)
+    try:
+        cfg.camera = check_camera_setting(cfg.camera)
+    except CameraError as exc:
+        raise SheerError(f"{cfg.source}: {exc}") from None
+    require_display("kiosk")  # before Qt is imported: its abort is a paragraph and status 134
+    from app.session import Session
+
+    session = Session.open(resolution=cfg.resolution)
+    install_look_projects(looks, session)  # a project painted on another head is refused here
+    handler, log_path = _open_log(cfg, args.log)
+    print(f"sheer kiosk: logging to {log_path}", flush=True)
+    log = logging.getLogger("sheer.kiosk")
+    log.info("kiosk: starting (configuration %s, log %s, looks %s)", cfg.source, log_path,
+             ", ".join(look.label for look in looks))
+    from app.kiosk.window import run_kiosk
+
+    try:
+        return run_kiosk(cfg, looks=looks, session=session, windowed=args.windowed)
+    finally:
+        logging.getLogger().removeHandler(handler)
+        handler.close()
+
+
+def run(args: argparse.Namespace) -> int:
+    """Store the set-up options given (PIN, snapshot folder, light, camera, watched folder, looks), or run the kiosk."""
     from core.errors import SheerError
 
     if (args.allow_short_pin or args.pin_file) and not args.set_pin:
@@ -130,34 +269,9 @@ def run(args: argparse.Namespace) -> int:
     if args.probe_reflectance != 1.0 and not args.calibrate_light:
         raise SheerError("--probe-reflectance goes with --calibrate-light (the mirror ball it describes)")
     setting_up = (args.set_pin, args.snapshot_dir, args.calibrate_light, args.camera is not None,
-                  args.watch_dir is not None)
+                  args.watch_dir is not None, args.looks is not None)
     if any(setting_up):
-        from app.kiosk.config import KioskConfig
-
-        path = Path(args.config) if args.config else None
-        cfg = KioskConfig.load(path)
-        # everything is checked before anything is stored: a refused option changes nothing
-        if args.set_pin:
-            cfg.pin_hash = _new_pin_hash(args)
-        if args.calibrate_light:
-            cfg.light = _calibrated_light(args.calibrate_light, args.probe_reflectance)
-        if args.snapshot_dir:
-            cfg.snapshot_dir = str(Path(args.snapshot_dir).expanduser().resolve())
-        if args.camera is not None:
-            cfg.camera = args.camera.strip() or "auto"
-        if args.watch_dir is not None:
-            cfg.watch_dir = str(Path(args.watch_dir).expanduser().resolve()) if args.watch_dir else ""
-        print(f"kiosk configuration saved to {cfg.save(path)}")
-        if args.calibrate_light:
-            light = cfg.light
-            print(f"kiosk light: θ={float(light['theta_deg']):.1f}° φ={float(light['phi_deg']):.1f}° from the camera's "  # type: ignore[arg-type]
-                  f"axis, flash colour {[round(float(v), 3) for v in light['flash_rgb']]}")  # type: ignore[attr-defined]
-        return 0
-    from app.application import require_display
-    from app.kiosk.config import KioskConfig, require_pin
-
-    require_pin(KioskConfig.load(Path(args.config) if args.config else None))  # the first thing to set up
-    require_display("kiosk")  # before Qt is imported: its abort is a paragraph and status 134
-    from app.kiosk.window import run_kiosk
-
-    return run_kiosk(project=args.project, config_path=args.config, windowed=args.windowed)
+        if args.project or args.log:
+            raise SheerError("--project and --log go with starting the kiosk, not with the set-up options")
+        return _store(args)
+    return _start(args)

@@ -9,8 +9,8 @@ so about 52 days to try half of them; a 6-digit PIN takes about 14 years (hence 
 6-digit minimum).
 
 The count and the lock are kept in a small JSON file beside the kiosk's configuration
-(``kiosk.json`` → ``kiosk-pin-lock.json``), written atomically after every attempt, so restarting the
-kiosk (or the machine) resets nothing. Times are the wall clock (a lock must outlive the process); a
+(``kiosk.json`` → ``kiosk-pin-lock.json``), written atomically after every attempt, readable by its owner
+only (mode 0600, as the configuration), so restarting the kiosk (or the machine) resets nothing. Times are the wall clock (a lock must outlive the process); a
 clock set back before the lock began restarts the lock from the new time. A lock file that cannot be
 read locks the pad (fail closed) rather than forgetting the count. Each wrong attempt is logged with a
 UTC timestamp and the count — never any digit of the PIN typed.
@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING
 
-from app.kiosk.config import check_pin
+from app.kiosk.config import check_pin, write_private
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -132,13 +132,10 @@ class PinGuard:
     def _save(self) -> None:
         if self.state_path is None:
             return
-        from core.atomicio import atomic_write_text
-
         data = {"failures": self.failures, "locked_at": self.locked_at, "lock_s": self.lock_s,
                 "locked_until_utc": _utc(self.locked_at + self.lock_s) if self.lock_s else None}
         try:
-            self.state_path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write_text(self.state_path, json.dumps(data, indent=2))
+            write_private(self.state_path, json.dumps(data, indent=2))
         except OSError as exc:  # the lock still holds in this process
             log.error("kiosk: cannot write the PIN lock file %s (%s)", self.state_path, exc.strerror or exc)
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
-import os
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -38,7 +37,18 @@ from PySide6.QtWidgets import (
 
 from app.actions import KIOSK_ACTIONS
 from app.kiosk.camera_page import PRIVACY_LINE
-from app.kiosk.config import KioskConfig, require_pin
+from app.kiosk.config import (
+    DEFAULT_LOOKS,
+    KioskConfig,
+    KioskLook,
+    builtin_look,
+    install_look_projects,
+    kiosk_looks,
+    open_look_projects,
+    replay_layers,
+    require_pin,
+    snapshot_layers,
+)
 from app.kiosk.parts import KioskEngines, ShopperSession
 from app.kiosk.pin_lock import PinGuard
 from app.kiosk.pin_pad import PinPad, big_button
@@ -47,21 +57,24 @@ from app.kiosk.tryon import TryOn
 from app.session import Session
 from app.settings import LIGHT_PRESETS
 from core.cache import PrivateCache
+from core.errors import SheerError
 
 if TYPE_CHECKING:
     from collections.abc import Callable
     from types import TracebackType
 
-    import numpy as np
-
+    from app.kiosk.config import LookLayer
     from app.view.viewport import Viewport
 
 log = logging.getLogger("sheer.kiosk")
 
 #: The material categories a shopper can swap shades of (one row of ◀ ▶ buttons each).
 CATEGORIES: tuple[str, ...] = ("foundation", "lipstick", "blush", "eyeshadow")
-#: The built-in looks on the try-on screen (``bare`` is left out of the attract mode's cycle).
-KIOSK_LOOKS: tuple[str, ...] = ("natural", "evening", "red-lip", "bare")
+#: The built-in looks on the try-on screen when the configuration lists no ``looks`` (``bare`` is left out
+#: of the attract mode's cycle).
+KIOSK_LOOKS: tuple[str, ...] = DEFAULT_LOOKS
+#: What the start screen says when the configured camera gives no pictures and no watched folder is set.
+CAMERA_DOWN = "“Try it on me” is not available right now: the camera is not working."
 #: What the start screen says after an error (the error itself is only logged).
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
 #: The invitation on the start screen.
@@ -136,12 +149,16 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
 
     Args:
         config: the kiosk's configuration; it must hold an administrator PIN (else ``SheerError``).
-        project: a ``.sheer`` project to show instead of the built-in looks.
+        project: a ``.sheer`` project: the first look (its button first, selected), then the configured ones.
         session: the library and document to show; None opens the sample head's at
             ``config.resolution``.
+        looks: the looks, their projects already on ``session``'s head (``sheer kiosk`` checks them before
+            any window opens); None reads them from ``config`` and ``project`` (one that cannot be used
+            is logged and left out).
     """
 
-    def __init__(self, config: KioskConfig, project: str | None = None, session: Session | None = None) -> None:
+    def __init__(self, config: KioskConfig, project: str | None = None, session: Session | None = None,
+                 looks: list[KioskLook] | None = None) -> None:
         require_pin(config)
         super().__init__()
         self.config = config
@@ -157,8 +174,9 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.library = self.session.library
         self.doc = self.session.document
         self.look = "natural"
-        # per look: (material, layer name, max thickness µm, map µm) of each layer, bottom first
-        self.look_cache: dict[str, list[tuple[str, str, float, np.ndarray]]] = {}
+        # per look: its layers on the document shown, bottom first (replayed instantly in the attract mode)
+        self.look_cache: dict[str, list[LookLayer]] = {}
+        self.looks = self._prepare_looks(looks, project)
         self.viewport = self._make_viewport()
         self._fresh_lighting = dataclasses.replace(self.viewport.lighting)  # what each new shopper starts with
         self._attract_t0 = time.monotonic()
@@ -198,7 +216,8 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         from PySide6.QtWidgets import QApplication
 
         QApplication.instance().installEventFilter(self._filter)
-        self.guard(lambda: self._load(project))()
+        self._camera_at_start()
+        self.guard(self._load)()
         self.show_start()  # the attract mode from the start: the face turning under the invitation
 
     # ------------------------------------------------------------------ construction
@@ -247,13 +266,9 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.invite = self._build_invite()
         self.look_buttons: dict[str, QPushButton] = {}
         self.looks_bar = QWidget()
-        looks = QHBoxLayout(self.looks_bar)
-        for name in KIOSK_LOOKS:
-            b = big_button(name.replace("-", " ").title(), BUTTON_PX)
-            b.setCheckable(True)
-            b.clicked.connect(self.guard(lambda _c=False, n=name: self.set_look(n)))
-            looks.addWidget(b)
-            self.look_buttons[name] = b
+        QHBoxLayout(self.looks_bar)
+        for look in self.looks:
+            self._add_look_button(look)
         side_box = self._build_side()
         self.face_stack = QStackedWidget()
         self.face_stack.addWidget(self.viewport)
@@ -411,37 +426,130 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.start_message.setText(message)
 
     # ------------------------------------------------------------------ state
-    def _load(self, project: str | None) -> None:
-        if project:
-            from app.project_io import load_project_into
+    def _camera_at_start(self) -> None:
+        """Check the configured camera once, as the kiosk opens; say what is wrong, never fail.
 
-            # no dialogs in the kiosk: a project painted at another resolution is resampled
-            load_project_into(self.doc, self.library, Path(project), resample=True)
-            self.look = "project"
-            self.refresh_products()
-        else:
-            self.set_look("natural")
+        A camera that gives no pictures (unplugged since it was configured) is logged with its reason;
+        with a watched folder "Try it on me" takes the photo from it (the camera is tried again at each
+        try-on), without one the start screen says the camera is not working and offers no try-on.
+        """
+        from app.camera_source import camera_at_start
+
+        works, why = camera_at_start(self.config.camera)
+        watched = bool(self.config.watch_dir)
+        self.tryon_button.setVisible(works or watched)
+        self.camera_notice = QLabel(CAMERA_DOWN if why and not watched else "")
+        self.camera_notice.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.camera_notice.setWordWrap(True)
+        self.camera_notice.setStyleSheet("color: #e0b0a0; font-size: 18px;")
+        self.camera_notice.setVisible(bool(self.camera_notice.text()))
+        self.invite.layout().addWidget(self.camera_notice)
+        if why and watched:
+            log.warning("kiosk: %s; 'Try it on me' takes the photo from the watched folder %s",
+                        why, self.config.watch_dir)
+        elif why:
+            log.error("kiosk: %s; 'Try it on me' is not offered", why)
+        elif not works and not watched and self.config.camera_enabled:
+            log.info("kiosk: no camera found (camera %r) and no watched folder: 'Try it on me' is not offered",
+                     self.config.camera)
+
+    def _prepare_looks(self, looks: list[KioskLook] | None, project: str | None) -> list[KioskLook]:
+        """The kiosk's looks, each project's layers on the kiosk's head.
+
+        ``looks`` as ``sheer kiosk`` checked them, or read from the configuration and ``project``; here a
+        look that cannot be used is logged and left out (the built-in looks when none is left).
+        """
+
+        def refused(_look: KioskLook, message: str) -> None:
+            log.error("kiosk: %s; the look is left out", message)
+            self.last_error = message
+
+        if looks is None:
+            try:
+                looks = kiosk_looks(self.config, project)
+            except SheerError as exc:
+                refused(builtin_look(""), str(exc))
+                looks = [builtin_look(name) for name in DEFAULT_LOOKS]
+        open_look_projects(looks, on_error=refused)
+        install_look_projects(looks, self.stock_session, on_error=refused)
+        return looks or [builtin_look(name) for name in DEFAULT_LOOKS]
+
+    def _add_look_button(self, look: KioskLook, index: int = -1) -> None:
+        """The look's button on the looks' bar (at ``index``; -1: last)."""
+        b = big_button(look.label, BUTTON_PX)
+        b.setCheckable(True)
+        b.clicked.connect(self.guard(lambda _c=False, n=look.key: self.set_look(n)))
+        self.looks_bar.layout().insertWidget(index, b)
+        self.look_buttons[look.key] = b
+
+    def _load(self, project: str | None = None) -> None:
+        """Show the first look; with ``project``, that project becomes the first look (its button first).
+
+        Raises:
+            SheerError: the project cannot be used (the looks are unchanged then).
+        """
+        if project:
+            look = KioskLook("", "", "--project", path=Path(project).absolute())
+            open_look_projects([look])
+            install_look_projects([look], self.stock_session)  # resampled: no dialogs in the kiosk
+            old = next((i for i, k in enumerate(self.looks) if k.key == look.key), None)
+            if old is None:
+                self.looks.insert(0, look)
+                self._add_look_button(look, 0)
+            else:
+                self.looks[old] = look
+                self.look_buttons[look.key].setText(look.label)
+            self.look_cache.pop(look.key, None)
+            if self.session is not self.stock_session:
+                getattr(self, "_stock_looks", {}).pop(look.key, None)
+        self.set_look(self.looks[0].key)
+
+    def _look_named(self, name: str) -> KioskLook:
+        """The kiosk's look ``name`` (its key); a built-in look the kiosk does not list is taken too."""
+        return next((k for k in self.looks if k.key == name), None) or builtin_look(name)
 
     def set_look(self, name: str) -> None:
-        """Apply a built-in look; painted once, then replayed from a cache (instant in attract mode)."""
-        import numpy as np
+        """Show the look ``name`` (a key of :attr:`looks`, or any built-in look) on the face shown.
 
+        Painted (or carried onto her face) once, then replayed from a cache (instant in the attract mode).
+
+        Raises:
+            SheerError: an unknown look (the face is unchanged then).
+        """
         cached = self.look_cache.get(name)
         if cached is None:
-            self.session.apply_look(name)
-            self.look_cache[name] = [(lay.material, lay.name, float(lay.max_thickness), np.array(lay.thickness))
-                                      for lay in self.doc.layers]
+            self._paint_look(self._look_named(name))
+            self.look_cache[name] = snapshot_layers(self.doc)
         else:
-            for i in reversed(range(len(self.doc.layers))):
-                self.doc.remove_layer(i)
-            for material, lname, max_t, thick in cached:
-                lay = self.doc.add_layer(material, name=lname, max_thickness=max_t)
-                self.doc.set_thickness(lay, thick)
+            replay_layers(self.doc, cached)
         self.doc.clear_history()
         self.look = name
         for n, b in self.look_buttons.items():
             b.setChecked(n == name)
         self.refresh_products()
+
+    def _paint_look(self, look: KioskLook) -> None:
+        """Put ``look`` on the document shown: a built-in look painted, a project's layers replayed.
+
+        On her face a project's layers, painted on the kiosk's head, are carried onto her head
+        (``painting.transfer``) from the kiosk's document, which is given them for the while.
+        """
+        if look.layers is None:
+            self.session.apply_look(look.builtin)
+            return
+        if self.session is self.stock_session:
+            replay_layers(self.doc, look.layers)
+            return
+        from painting.transfer import transfer_layers
+
+        stock = self.stock_doc
+        kept = snapshot_layers(stock)
+        replay_layers(stock, look.layers)
+        try:
+            replay_layers(self.doc, [])
+            transfer_layers(stock, self.doc)
+        finally:
+            replay_layers(stock, kept)
 
     def _layer_for(self, category: str) -> int | None:
         for i, lay in enumerate(self.doc.layers):
@@ -638,7 +746,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         return float(cam.yaw)
 
     def _next_attract_look(self) -> None:
-        looks = [n for n in KIOSK_LOOKS if n != "bare"]
+        looks = [k.key for k in self.looks if k.in_attract] or [self.looks[0].key]
         i = (looks.index(self.look) + 1) % len(looks) if self.look in looks else 0
         self.set_look(looks[i])
 
@@ -696,18 +804,18 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         super().keyPressEvent(event)
 
 
-def run_kiosk(project: str | None = None, config_path: str | None = None, windowed: bool = False) -> int:
-    """Start the kiosk; never shows a traceback (errors are logged and shown as a friendly screen)."""
+def run_kiosk(config: KioskConfig, looks: list[KioskLook] | None = None, session: Session | None = None,
+              windowed: bool = False) -> int:
+    """Start the kiosk; never shows a traceback (errors are logged and shown as a friendly screen).
+
+    ``sheer kiosk`` has checked the configuration, opened ``looks``' projects on ``session``'s head and
+    opened the log (``app.commands.kiosk``); a look left None is read from ``config`` here.
+    """
     import sys
 
     from app.application import make_application
 
-    cfg_path = Path(config_path) if config_path else None
-    config = KioskConfig.load(cfg_path)
     require_pin(config)  # before any window: a one-line message from the command line
-    log_dir = Path(config.snapshot_dir).parent
-    logging.basicConfig(level=logging.INFO, filename=str(Path(os.environ.get("SHEER_KIOSK_LOG", str(
-        log_dir / "sheer-kiosk.log")))) if os.access(log_dir, os.W_OK) else None)
     app = make_application()
 
     def hook(exc_type: type[BaseException], exc: BaseException, tb: TracebackType | None) -> None:
@@ -717,7 +825,7 @@ def run_kiosk(project: str | None = None, config_path: str | None = None, window
 
     win: KioskWindow | None = None
     sys.excepthook = hook
-    win = KioskWindow(config, project=project)
+    win = KioskWindow(config, session=session, looks=looks)
     if config.fullscreen and not windowed:
         win.show_full_screen()
     else:
