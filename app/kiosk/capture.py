@@ -15,9 +15,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
-    from app.kiosk.config import KioskConfig
+    from app.kiosk.config import KioskConfig, KioskLook
     from app.session import Session
     from capture.probe import ProbeAnalysis
     from km.library import Library
@@ -76,6 +76,16 @@ class Shopper:
     folder: Path
     timings: dict[str, float] = field(default_factory=dict)
     skin: tuple[Any, ...] | None = None
+
+
+def look_to_replay(looks: Sequence[KioskLook], key: str) -> str:
+    """The ``look`` :func:`prepare_shopper` takes for the kiosk look ``key`` among ``looks``.
+
+    A built-in look's name (replayed on her head), or "" for a project's look, whichever its key (its layers
+    are carried onto her head from the document on screen); ``key`` itself when it is none of ``looks``.
+    """
+    shown = next((lk for lk in looks if lk.key == key), None)
+    return key if shown is None else shown.builtin
 
 
 def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | None, library: Library,

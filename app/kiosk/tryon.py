@@ -39,6 +39,7 @@ from app.kiosk.capture import (
     SHOPPER_RESOLUTION,
     Shopper,
     capture_probe,
+    look_to_replay,
     prepare_shopper,
     shopper_skin,
     warm_up,
@@ -214,7 +215,7 @@ class TryOn(QObject):
         kiosk = self.kiosk
         probe = capture_probe(kiosk.config)
         resolution = min(int(kiosk.config.resolution), SHOPPER_RESOLUTION)
-        look = kiosk.look
+        look = look_to_replay(kiosk.looks, kiosk.look)
         source_doc = kiosk.stock_doc
         self.busy_page.step.setText("")
         kiosk.stack.setCurrentWidget(self.busy_page)
