@@ -13,6 +13,15 @@ makes, so where there is no makeup the photograph comes back byte for byte; the 
 over :data:`EDGE_FEATHER_MM` at the mesh's open boundary and towards its silhouette. Outside the face
 the photograph is untouched. See ``mirror_face.frag.glsl``.
 
+Her lips (:mod:`render.mirror_lips`): where the face has her detected landmarks (the automatic capture),
+the lip layers (lipstick, gloss, liner) show only within her lips' own outer contour, a smooth curve
+through the landmarks rasterised antialiased at the photograph's resolution (the atlas's lip region, seen
+through the camera, is the mesh's faceted polygon, feathered outwards); outside it the other layers
+alone make the difference (a second KM pass without the lip layers). On her lips her own micro-shading
+(the photograph's luminance over its low-pass there) shades the made-up colour as it shades the bare
+lip, so a full-coverage lipstick keeps her lips' texture. :attr:`MirrorView.clip_lips` False draws
+without both (as a face without landmarks).
+
 **Relight** (:class:`RelightView`): the lightweight engine (:class:`render.lightweight.LightweightRenderer`,
 Phong × the detail texture) on the captured head, from the photograph's camera orbited by up to
 :data:`MAX_TURN_DEG` about the neck (:func:`render.pinhole.turn_pivot`), under the captured flash or a
@@ -207,6 +216,66 @@ class MirrorView(_Layers):
         self._background_vao = ctx.vertex_array(self._background, [])
         self._programs: dict[int, tuple[Any, Any]] = {}
         self._offscreen: tuple[Any, Any, Any] | None = None
+        self._init_lips(img)
+
+    def _init_lips(self, img: np.ndarray) -> None:
+        """Her lips in the photograph (:func:`render.mirror_lips.lip_image`) uploaded for the face program."""
+        from render.mirror_lips import lip_image
+
+        h = img.shape[0]
+        #: False: the lip layers as the atlas paints them, without her micro-shading (before/after)
+        self.clip_lips = True
+        self.lips = lip_image(self.face, self.head, photo_camera_at(self.face, *self.size), img)
+        self._rest: KMTextureSpace | None = None
+        self._rest_version = -1
+        self._lip_texture: Any = None
+        self._lip_box = (0, 0, 0, 0)
+        if self.lips is not None:
+            cov, shade = self.lips.coverage, self.lips.shading
+            rg = np.ascontiguousarray(np.stack([cov, shade], axis=2)[::-1], dtype="f4")
+            self._lip_texture = self.ctx.texture((cov.shape[1], cov.shape[0]), 2, rg.tobytes(), dtype="f4")
+            self._lip_texture.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+            x0, y0 = self.lips.origin
+            self._lip_box = (x0, h - (y0 + cov.shape[0]), cov.shape[1], cov.shape[0])
+
+    def _lip_slots(self) -> list[bool]:
+        """Per active layer of the KM pass, whether it is a lip layer clipped to her lips (all False when off)."""
+        from render.mirror_lips import is_lip_layer
+
+        km = self.km
+        if self.lips is None or not self.clip_lips:
+            return [False] * len(km.active)
+        return [is_lip_layer(km.layers[i]) for i in km.active]
+
+    def _update_rest(self, lip_slots: list[bool]) -> None:
+        """Evaluate the KM pass without the lip layers when the layers changed.
+
+        Called before the frame's framebuffer is bound: the pass draws into its own.
+        """
+        km = self.km
+        if not any(lip_slots) or (self._rest is not None and self._rest_version == km.version):
+            return
+        if self._rest is None:
+            self._rest = KMTextureSpace(self.ctx, self.shaders)
+        lip_ids = {i for i, lip in zip(km.active, lip_slots, strict=True) if lip}
+        self._rest.set_layers([lay for i, lay in enumerate(km.layers) if i not in lip_ids])
+        self._rest_version = km.version
+
+    def _bind_lips(self, prog: Any, lip_slots: list[bool]) -> None:
+        """Bind her lips' texture and the KM pass without the lip layers (units 6–9), and their uniforms."""
+        on = any(lip_slots) and self._rest is not None
+        if on:
+            assert self._rest is not None
+            self._rest.bind(6)
+            self._lip_texture.use(9)
+        else:
+            self.km.bind(6)  # unread: the samplers stay valid
+        set_uniform(prog, "u_lip_box", self._lip_box if on else (0, 0, 0, 0))
+        flags = np.zeros(8, np.float32)
+        flags[:min(len(lip_slots), 8)] = np.asarray(lip_slots[:8], dtype=np.float32)
+        write_uniform(prog, "u_layer_lip", flags)
+        for name, unit in (("u_rest_r_top", 6), ("u_rest_transmittance", 7), ("u_rest_r_bottom", 8), ("u_lips", 9)):
+            set_uniform(prog, name, unit)
 
     def _program(self, n_layers: int) -> tuple[Any, Any]:
         """The face program (and its vertex array) for ``n_layers`` specular lobes, compiled once."""
@@ -258,6 +327,8 @@ class MirrorView(_Layers):
         if (w, h) != self.size:
             raise RenderError(f"the mirror view draws at the photograph's size {self.size[0]}×{self.size[1]}, "
                               f"not {w}×{h}")
+        lip_slots = self._lip_slots() if self.has_makeup else []
+        self._update_rest(lip_slots)
         fbo.use()
         fbo.viewport = (vx, vy, w, h)
         fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
@@ -289,6 +360,7 @@ class MirrorView(_Layers):
             set_uniform(prog, name, unit)
         km.bind(1)
         km.bind_spec(4, 5)
+        self._bind_lips(prog, lip_slots)
         ctx.enable(ctx.DEPTH_TEST)
         write_uniform(self._depth, "u_view_proj", vp.T.reshape(1, 16))
         # colour kept by blending (ZERO, ONE): a framebuffer's colour mask only applies while moderngl
@@ -322,7 +394,11 @@ class MirrorView(_Layers):
         self._programs = {}
         release_all(self.ctx, (*(self._offscreen or ()), *progs, self._background_vao, self._background,
                                self._depth_vao, self._depth, *self._buffers, self._index, self._all_index,
-                               self.photo))
+                               self.photo, *((self._lip_texture,) if self._lip_texture is not None else ())))
+        self._lip_texture = None
+        if self._rest is not None:
+            self._rest.release()
+            self._rest = None
         self._offscreen = None
         self._buffers = []
         self._release_layers()
