@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import secrets
 import shutil
 import tempfile
 from pathlib import Path
@@ -120,16 +121,25 @@ def _keep_backup(target: Path) -> None:
     copy; fsynced, and put in place by a rename, so the previous ``.bak`` is replaced atomically too.
     """
     backup = target.with_name(target.name + ".bak")
-    backup_tmp = target.with_name(f".{target.name}.bak.tmp")
-    with contextlib.suppress(FileNotFoundError):
-        backup_tmp.unlink()  # left by an interrupted save
+    # a name of its own (two writers of one file never share it; one left by a killed save is swept by
+    # project.recovery_files.remove_stale_temporaries, as ``.<name>.*.tmp``)
+    backup_tmp = target.with_name(f".{target.name}.bak.{os.getpid()}.{secrets.token_hex(4)}.tmp")
     try:
-        os.link(target, backup_tmp)
-    except OSError:
-        shutil.copy2(target, backup_tmp)
-        with open(backup_tmp, "rb") as bfh:
-            os.fsync(bfh.fileno())
-    os.replace(backup_tmp, backup)
+        try:
+            os.link(target, backup_tmp)
+        except OSError:
+            shutil.copy2(target, backup_tmp)
+            with open(backup_tmp, "rb") as bfh:
+                os.fsync(bfh.fileno())
+        os.replace(backup_tmp, backup)
+        # a rename between two links of one file does nothing (POSIX): another writer's backup of the same
+        # version already is the .bak, and this name goes
+        with contextlib.suppress(FileNotFoundError):
+            backup_tmp.unlink()
+    except BaseException:
+        with contextlib.suppress(OSError):
+            backup_tmp.unlink()
+        raise
 
 
 def _umask() -> int:

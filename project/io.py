@@ -32,6 +32,7 @@ from typing import IO, Any
 import numpy as np
 
 from core.atomicio import atomic_writer
+from core.locks import writing
 from painting.head import MAX_HEAD_FILE_BYTES
 from painting.maps_io import (
     MapError,
@@ -59,8 +60,11 @@ from project.model import (
     Project,
     ProjectLayer,
 )
-from project.recovery_files import discard_recovery
+from project.recovery_files import discard_recovery, remove_stale_temporaries
 from project.schema import check_semantics, parse_json, validate_json
+
+#: A temporary file beside a project older than this (s) was left by a killed save: the next save removes it.
+STALE_TEMP_S = 3600.0
 
 # ---------------------------------------------------------------------------------------------- reading
 
@@ -378,20 +382,43 @@ def project_bytes(project: Project, *, self_contained: bool = False, target_dir:
 
 
 def save_project(project: Project, path: str | Path, *, self_contained: bool | None = None,
-                 keep_backup: bool = True, clear_recovery: bool = True) -> Path:
+                 keep_backup: bool = True, clear_recovery: bool = True, lock: bool = True) -> Path:
     """Save atomically: temporary file in the same folder, flush + fsync, rename over ``path``.
 
     The previous file is kept as ``<path>.bak`` (``keep_backup``). When the file being replaced has an
     older ``schema_version`` (the project was migrated on open), it is also copied once to
     ``<path>.v<N>.bak`` first, so the original is never lost. A crash at any moment leaves either the
-    old or the new file, both loadable. After a normal save the autosave recovery file of ``path`` is
-    removed (``clear_recovery``). ``self_contained=None`` keeps the head embedded if it was.
+    old or the new file, both loadable. After a normal save this process's autosave recovery file of
+    ``path`` is removed (``clear_recovery``). ``self_contained=None`` keeps the head embedded if it was.
+
+    One writer at a time (``lock``, :func:`core.locks.writing`): the write waits for another process's
+    save of the same file (up to :data:`core.locks.WRITE_WAIT_S` seconds) and is refused while another
+    Sheer has the project open; under the lock, temporary files a killed save left beside it more than
+    :data:`STALE_TEMP_S` seconds ago are removed.
+
+    Raises:
+        core.locks.LockedError: another Sheer has the project open (the message names it and its host, pid).
 
     Returns the absolute path written.
     """
     target = Path(path).absolute()
     embed = project.head.embedded if self_contained is None else bool(self_contained)
     entries = _entries(project, target.parent, embed)  # everything validated before the file is touched
+    with writing(target) if lock else contextlib.nullcontext():
+        if lock:
+            remove_stale_temporaries(target, STALE_TEMP_S)
+        _write(target, entries, keep_backup)
+    if embed and project.head.data is None:
+        project.head = embed_head(project.head)
+    project.source_path = target
+    project.source_schema_version = SCHEMA_VERSION
+    if clear_recovery:
+        discard_recovery(target)
+    return target
+
+
+def _write(target: Path, entries: list[tuple[str, bytes, bool]], keep_backup: bool) -> None:
+    """Write the container of ``entries`` over ``target`` atomically (keeping ``.v<N>.bak`` of an old one)."""
     if target.exists():
         with contextlib.suppress(ProjectError, OSError):
             old = project_version(target)
@@ -401,13 +428,6 @@ def save_project(project: Project, path: str | Path, *, self_contained: bool | N
                     shutil.copy2(target, original)
     with atomic_writer(target, "wb", keep_backup=keep_backup) as fh:
         write_container(fh, entries)
-    if embed and project.head.data is None:
-        project.head = embed_head(project.head)
-    project.source_path = target
-    project.source_schema_version = SCHEMA_VERSION
-    if clear_recovery:
-        discard_recovery(target)
-    return target
 
 
 def new_project(name: str = "Untitled", head_path: str | Path | None = None, look: str | None = None,

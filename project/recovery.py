@@ -1,9 +1,9 @@
 """Autosave and crash recovery (Qt-free: the studio drives :class:`Autosaver` from a timer).
 
 - Every ``interval_s`` seconds (default :data:`DEFAULT_AUTOSAVE_INTERVAL_S`, configurable) a project
-  with unsaved changes is written, atomically, to its *recovery file*: ``.<name>.recovery`` beside the
-  project (``<folder>/.<name>.recovery``), or in :func:`recovery_dir` when the project has no file yet
-  (``untitled-<session>.recovery``) or its folder is not writable (``<hash>-<name>.recovery``). A
+  with unsaved changes is written, atomically, to this process's *recovery file*: ``.<name>.<pid>.recovery``
+  beside the project, or in :func:`recovery_dir` when the project has no file yet
+  (``untitled-<pid>-<time>.recovery``) or its folder is not writable (``<hash>-<pid>-<name>.recovery``). A
   recovery file is an ordinary ``.sheer`` zip whose ``project.json`` has a ``recovery`` block
   (original path, UTC time, process id). Where it goes is :mod:`project.recovery_files`.
 - A normal save (:func:`project.io.save_project`) or close (:meth:`Autosaver.close`) removes it.
@@ -22,6 +22,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from core.locks import process_alive
 from project.errors import ProjectError
 from project.io import open_project, save_project
 from project.recovery_files import (
@@ -52,7 +53,8 @@ class RecoveryInfo:
         original: the project file it belongs to (None for untitled work).
         saved_at: UTC time of the autosave (ISO 8601).
         pid: the process that wrote it; ``owner_alive`` is True when that process still runs (then
-            it is another open studio's live autosave, not a crash: do not offer it).
+            it is another open studio's live autosave, not a crash: do not offer it). A process that
+            has the same id but started later (the id was reused) is not the owner.
         newer_than_original: the autosave is more recent than the project file (or there is none).
         error: why the file cannot be recovered (damaged), or None.
     """
@@ -66,17 +68,14 @@ class RecoveryInfo:
     error: str | None = None
 
 
-def _pid_alive(pid: int) -> bool:
-    """True when process ``pid`` runs (this process included; pid ≤ 0 never)."""
-    if pid <= 0 or pid == os.getpid():
-        return pid == os.getpid()
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
+def _pid_alive(pid: int, written_at: float) -> bool:
+    """True when process ``pid`` runs and started before ``written_at`` (Unix time, s); this one included.
+
+    A process that started after its file was written only reuses the id of the one that wrote it.
+    """
+    if pid == os.getpid():
         return True
-    return True
+    return process_alive(pid, since=written_at)
 
 
 def _info(path: Path) -> RecoveryInfo:
@@ -91,7 +90,8 @@ def _info(path: Path) -> RecoveryInfo:
     if original is not None and original.exists():
         newer = path.stat().st_mtime >= original.stat().st_mtime
     pid = int(block.get("pid", 0))
-    return RecoveryInfo(path, original, str(block.get("saved_at", "")), pid, _pid_alive(pid), newer)
+    alive = _pid_alive(pid, path.stat().st_mtime)
+    return RecoveryInfo(path, original, str(block.get("saved_at", "")), pid, alive, newer)
 
 
 def autosave(project: Project, project_path: str | Path | None, *, session_id: str | None = None) -> Path:
@@ -107,16 +107,20 @@ def autosave(project: Project, project_path: str | Path | None, *, session_id: s
         "saved_at": datetime.now(UTC).isoformat(timespec="seconds"),
         "pid": os.getpid(),
     })
-    save_project(snapshot, target, keep_backup=False, clear_recovery=False)
+    # this process's own file: no other writer to wait for
+    save_project(snapshot, target, keep_backup=False, clear_recovery=False, lock=False)
     return target
 
 
 def find_recovery(project_path: str | Path) -> RecoveryInfo | None:
-    """The recovery file left for ``project_path`` by a session that did not end normally, or None."""
-    for candidate in recovery_candidates(project_path):
-        if candidate.is_file():
-            return _info(candidate)
-    return None
+    """A recovery file of ``project_path``, or None: one left by a process that ended first.
+
+    A live process's file (``owner_alive``: another studio's autosave, or this one's) comes only when
+    there is none of a dead process.
+    """
+    found = [_info(c) for c in recovery_candidates(project_path) if c.is_file()]
+    found.sort(key=lambda info: info.owner_alive)
+    return found[0] if found else None
 
 
 def list_recoveries() -> list[RecoveryInfo]:

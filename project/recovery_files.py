@@ -1,9 +1,11 @@
 """Where crash-recovery files live, and removing them; the temporaries an interrupted save leaves.
 
-A project's recovery file (an autosave, see :mod:`project.recovery`) is ``.<name>.recovery`` beside the
-project, or, when the project has no file yet or its folder is not writable, a file in
-:func:`recovery_dir`. A normal save (:func:`project.io.save_project`) calls :func:`discard_recovery`.
-This module only names and removes files: it reads none.
+A project's recovery file (an autosave, see :mod:`project.recovery`) is ``.<name>.<pid>.recovery`` beside
+the project, or, when the project has no file yet or its folder is not writable, a file in
+:func:`recovery_dir`. Each process writes its own (the process id is in the name), so two studios with
+one project open never overwrite each other's autosave. A normal save (:func:`project.io.save_project`)
+calls :func:`discard_recovery`, which removes this process's file. This module only names and removes
+files: it reads none.
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ import hashlib
 import os
 import time
 from pathlib import Path
+
+from core.locks import process_alive
 
 #: Suffix of every recovery file.
 RECOVERY_SUFFIX = ".recovery"
@@ -31,34 +35,57 @@ def recovery_dir() -> Path:
     return Path(state) / "sheer" / "recovery"
 
 
-def _beside(project_path: Path) -> Path:
-    """``.<name>.recovery`` in the project's folder."""
-    return project_path.with_name(f".{project_path.name}{RECOVERY_SUFFIX}")
+def _beside(project_path: Path, pid: int | None = None) -> Path:
+    """``.<name>.<pid>.recovery`` in the project's folder (``pid``: this process by default)."""
+    return project_path.with_name(f".{project_path.name}.{os.getpid() if pid is None else pid}{RECOVERY_SUFFIX}")
 
 
-def _central(project_path: Path) -> Path:
-    """``<hash of the absolute path>-<name>.recovery`` in :func:`recovery_dir`."""
+def _central(project_path: Path, pid: int | None = None) -> Path:
+    """``<hash of the absolute path>-<pid>-<name>.recovery`` in :func:`recovery_dir`."""
     digest = hashlib.sha256(str(project_path.absolute()).encode()).hexdigest()[:12]
-    return recovery_dir() / f"{digest}-{project_path.name}{RECOVERY_SUFFIX}"
+    return recovery_dir() / f"{digest}-{os.getpid() if pid is None else pid}-{project_path.name}{RECOVERY_SUFFIX}"
 
 
 def recovery_candidates(project_path: str | Path) -> list[Path]:
-    """Where the recovery file of ``project_path`` may be, in order of preference."""
+    """Every recovery file of ``project_path`` on disk, of any process: beside it first, then central ones.
+
+    Also the one file an older Sheer wrote for every process (``.<name>.recovery``) when it is there.
+    """
     p = Path(project_path).absolute()
-    return [_beside(p), _central(p)]
+    beside = sorted(p.parent.glob(f".{_glob_escape(p.name)}.*{RECOVERY_SUFFIX}"))
+    legacy = p.with_name(f".{p.name}{RECOVERY_SUFFIX}")
+    central = sorted(recovery_dir().glob(f"{_central(p, 0).name.split('-')[0]}-*-{_glob_escape(p.name)}"
+                                         f"{RECOVERY_SUFFIX}"))
+    own = [q for q in beside if q.name[len(p.name) + 2:-len(RECOVERY_SUFFIX)].isdigit()]
+    return own + ([legacy] if legacy.is_file() else []) + central
+
+
+def _glob_escape(name: str) -> str:
+    """``name`` with glob's special characters taken literally."""
+    return "".join(f"[{c}]" if c in "*?[]" else c for c in name)
 
 
 def recovery_path(project_path: str | Path | None, session_id: str | None = None) -> Path:
-    """The recovery file autosave writes for ``project_path``.
+    """The recovery file autosave writes for ``project_path`` in this process.
 
     Beside the project when its folder is writable, else in :func:`recovery_dir`; for an untitled
-    project (``project_path`` None) ``untitled-<session_id>.recovery`` in :func:`recovery_dir`.
+    project (``project_path`` None) ``untitled-<session_id>.recovery`` in :func:`recovery_dir` (the
+    session id starts with the process id).
     """
     if project_path is None:
         return recovery_dir() / f"untitled-{session_id or new_session_id()}{RECOVERY_SUFFIX}"
     p = Path(project_path).absolute()
-    beside = _beside(p)
-    return beside if os.access(p.parent, os.W_OK) else _central(p)
+    return _beside(p) if os.access(p.parent, os.W_OK) else _central(p)
+
+
+def _owner(recovery_file: Path) -> int:
+    """The process id in a recovery file's name (0 for an older Sheer's shared file)."""
+    name = recovery_file.name.removesuffix(RECOVERY_SUFFIX)
+    if recovery_file.name.startswith("."):
+        tail = name.rsplit(".", 1)[-1]
+    else:
+        tail = name.split("-")[1] if name.count("-") >= 2 else ""
+    return int(tail) if tail.isdigit() else 0
 
 
 def new_session_id() -> str:
@@ -67,9 +94,19 @@ def new_session_id() -> str:
 
 
 def discard_recovery(project_path: str | Path | None, session_id: str | None = None) -> None:
-    """Remove the recovery file(s) of ``project_path`` (or of an untitled session)."""
-    paths = (recovery_candidates(project_path) if project_path is not None
-             else [recovery_path(None, session_id)] if session_id else [])
+    """Remove this process's recovery file(s) of ``project_path`` (or of an untitled session).
+
+    Those of processes that ended (crashed: their work is in the project just saved, or was given up) and
+    the file an older Sheer shared between processes (``.<name>.recovery``) go too; the autosave of a
+    process that still runs (a second studio's unsaved work) is left alone.
+    """
+    paths: list[Path] = []
+    if project_path is not None:
+        p = Path(project_path).absolute()
+        paths = [_beside(p), _central(p)]
+        paths += [q for q in recovery_candidates(p) if not process_alive(_owner(q))]
+    elif session_id:
+        paths = [recovery_path(None, session_id)]
     for p in paths:
         with contextlib.suppress(FileNotFoundError):
             p.unlink()

@@ -7,7 +7,7 @@
   materials, and ``manifest.json``; ``--ora`` adds ``layers.ora`` (OpenRaster, for GIMP and Krita);
   ``--gltf OUT.glb`` writes the made-up head as glTF/GLB (the makeup baked into the albedo).
 - ``upgrade FILE``: rewrite a project from an older Sheer in the current format (the original is
-  kept as ``FILE.v<N>.bak``).
+  kept as ``FILE.v<N>.bak``); refused (exit 2) while a studio has the project open.
 """
 
 from __future__ import annotations
@@ -183,15 +183,21 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_upgrade(args: argparse.Namespace) -> int:
-    """Rewrite a project from an older Sheer in the current format (keeping ``FILE.v<N>.bak``); returns 0."""
+    """Rewrite a project from an older Sheer in the current format (keeping ``FILE.v<N>.bak``); returns 0.
+
+    The project's lock is held from the read to the write (:func:`core.locks.writing`): refused, exit 2,
+    while a studio has it open; another save waits for it.
+    """
+    from core.locks import writing
     from project.io import SCHEMA_VERSION, open_project, save_project
 
-    project = open_project(args.file)
-    old = project.source_schema_version
-    if old == SCHEMA_VERSION:
-        print(f"{args.file}: already schema_version {SCHEMA_VERSION}; nothing to do")
-        return 0
-    save_project(project, args.file)
+    with writing(args.file):
+        project = open_project(args.file)
+        old = project.source_schema_version
+        if old == SCHEMA_VERSION:
+            print(f"{args.file}: already schema_version {SCHEMA_VERSION}; nothing to do")
+            return 0
+        save_project(project, args.file)
     print(f"{args.file}: upgraded from schema_version {old} to {SCHEMA_VERSION} (original kept as "
           f"{args.file}.v{old}.bak)")
     return 0

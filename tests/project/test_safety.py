@@ -75,7 +75,7 @@ def test_autosave_recovery_after_a_crash(tmp_path: Path) -> None:
     info = find_recovery(path)
     assert info is not None and info.error is None
     assert info.original == path.absolute() and not info.owner_alive and info.newer_than_original
-    assert info.path == tmp_path / ".look.sheer.recovery"
+    assert info.path == tmp_path / f".look.sheer.{info.pid}.recovery" and info.pid > 0
     project = recover(info)
     assert project.name == "unsaved work" and project.source_path == path.absolute()
     assert project.recovery is None
