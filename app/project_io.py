@@ -285,6 +285,14 @@ def load_project_into(doc: Document, library: Library, source: Path | Project, r
 # ---------------------------------------------------------------------------------------------- autosave
 
 
+def sweep_temporaries(path: Path) -> int:
+    """Remove the temporary files a killed save of ``path`` left beside it over an hour ago; how many."""
+    from project.io import STALE_TEMP_S
+    from project.recovery_files import remove_stale_temporaries
+
+    return remove_stale_temporaries(path, STALE_TEMP_S)
+
+
 def make_autosaver(snap: Callable[[], Project], project_path: Path | None, interval_s: float) -> Autosaver:
     """A ``project.recovery.Autosaver`` of the projects ``snap()`` returns, every ``interval_s`` seconds."""
     from project.recovery import Autosaver

@@ -7,6 +7,10 @@ unsaved work every few minutes. Reading and writing are :mod:`app.project_io` (n
 threads where they may take seconds; every question (relink a head, resample maps, save changes,
 recover work) is a real message box from :mod:`app.studio.dialogs`.
 
+One Sheer at a time writes a project: the window holds the lock of the project it has open
+(:class:`app.studio.project_lock.ProjectHold`); opening one another Sheer holds asks "Open a copy / Take
+over / Cancel", and a project another Sheer takes over stays in this window as an untitled copy.
+
 The window listens to two signals: :attr:`ProjectFiles.replaced` (the document's layers and the view
 settings now come from a project: refresh the panels and apply the settings) and
 :attr:`ProjectFiles.changed` (the file, the name or the recent files changed: update the actions).
@@ -24,6 +28,7 @@ from PySide6.QtWidgets import QFileDialog, QMainWindow
 from app import project_io
 from app.settings import ENVIRONMENTS, LIGHT_PRESETS
 from app.studio import dialogs
+from app.studio.project_lock import ProjectHold
 from app.workers import run_task
 
 if TYPE_CHECKING:
@@ -56,6 +61,7 @@ class ProjectFiles(QObject):
         project: the project last opened or saved, None for a new one.
         look_record: the look the document started from, as a project stores it (``{"name", "tags"}``).
         autosaver: the ``project.recovery.Autosaver`` of this window.
+        hold: the lock of the project's file this window holds.
     """
 
     #: The document's layers and the view settings were replaced (a project opened or recovered).
@@ -77,6 +83,9 @@ class ProjectFiles(QObject):
         self.look_record: dict[str, object] | None = {"name": session.look, "tags": []} if session.look else None
         self.autosaver = project_io.make_autosaver(self.snapshot, None, settings.autosave_minutes * 60.0)
         self.autosaver.watch(self.doc)
+        self.hold = ProjectHold(window)
+        self.hold.lost.connect(self._taken_over)
+        self._copy = False
         self.doc.subscribe(self._on_doc_event)
         self._autosaving = False
         self.timer = QTimer(self)
@@ -124,6 +133,7 @@ class ProjectFiles(QObject):
             return
         self.autosaver.close()
         self.autosaver.project_path = None
+        self.hold.release()
         self.path, self.name = None, "Untitled"
         self.project, self.look_record = None, {"name": look, "tags": []}
         self.set_modified(False)
@@ -147,6 +157,10 @@ class ProjectFiles(QObject):
             if not name:
                 return False
             path, background = Path(name), True
+        claim = self.hold.claim(Path(path))
+        if claim is None:
+            return False
+        self._copy = claim == "copy"
         return self._open_attempt(Path(path), background, None, False)
 
     def _open_attempt(self, path: Path, background: bool, head_path: Path | None, accept: bool) -> bool:
@@ -162,14 +176,19 @@ class ProjectFiles(QObject):
             if isinstance(result, HeadMissingError | HeadChecksumError):
                 answer = self._offer_relink(path, result)
                 if answer is None:
+                    self.hold.drop_pending()
                     return False
                 if answer == "accept":  # keep a head located before: it is the one that changed
                     return self._open_attempt(path, background, head_path, True)
                 return self._open_attempt(path, background, answer, False)
             project, opened = result  # type: ignore[misc]
-            return self._opened(path, project, opened)
+            if not self._opened(path, project, opened):
+                self.hold.drop_pending()
+                return False
+            return True
 
         def failed(message: str) -> None:
+            self.hold.drop_pending()
             dialogs.error(self._window, "Open project", f"The project could not be opened: {message}")
 
         if background:
@@ -237,7 +256,7 @@ class ProjectFiles(QObject):
             run_task(self._window, "Resampling the project's maps",
                      lambda p, c: project_io.resample_layers(self.doc, opened, p),
                      lambda result: self._opened(path, project, opened, result),
-                     lambda m: dialogs.error(self._window, "Open project", f"The maps could not be resampled: {m}"))
+                     lambda m: self._open_failed(f"The maps could not be resampled: {m}"))
             return True
         try:
             project_io.check_compatible(project, opened, self.doc, resample=maps is not None)
@@ -248,12 +267,38 @@ class ProjectFiles(QObject):
         self.project, self.name, self.path = project, str(project.name), path
         self.look_record = project.look
         self._restore_view(project)
-        self.autosaver.project_path = self.path.absolute()
         self.autosaver.dirty = False
-        self.settings.add_recent(str(path))
+        if self._copy:  # another Sheer has the file: this one is an untitled copy until saved elsewhere
+            self.path, self.name = None, f"{project.name} (copy)"
+            self.hold.release()
+        else:
+            self.hold.keep()
+            project_io.sweep_temporaries(path)
+            self.settings.add_recent(str(path))
+        self.autosaver.project_path = None if self.path is None else self.path.absolute()
+        self._copy = False
         self.replaced.emit()
         self.set_modified(False)
         return True
+
+    def _open_failed(self, message: str) -> None:
+        self.hold.drop_pending()
+        dialogs.error(self._window, "Open project", message)
+
+    def _taken_over(self, asker: object) -> None:
+        """Another Sheer (``asker``) took the project over: keep the work here as an untitled copy."""
+        from project.recovery_files import discard_recovery
+
+        old = self.path
+        if old is None:
+            return
+        discard_recovery(old)
+        self.path, self.name = None, f"{self.name} (copy)"
+        self.autosaver.project_path = None
+        self.autosaver.mark_dirty()
+        self.set_modified(True)
+        self._window.statusBar().showMessage(
+            f"{old.name} was taken over by another Sheer ({asker}); this window's work is an untitled copy", 15000)
 
     def _restore_view(self, project: Project) -> None:
         """Key light, environment and camera of a project into the settings and the viewport's camera."""
@@ -309,6 +354,7 @@ class ProjectFiles(QObject):
             dialogs.error(self._window, "Save project", f"The project could not be saved: {exc}")
             return False
         self.project, self.path, self.name = project, saved, saved.stem
+        self.hold.hold(saved)
         self.autosaver.saved(saved)
         self.settings.add_recent(str(saved))
         self.set_modified(False)
@@ -369,7 +415,8 @@ class ProjectFiles(QObject):
         except (SheerError, OSError, ValueError) as exc:
             dialogs.error(self._window, "Recover unsaved work", f"The recovery file could not be opened: {exc}")
             return
-        self.path = info.original
+        self.path = info.original if info.original and self.hold.hold(info.original) else None
+        self.autosaver.project_path = None if self.path is None else self.path.absolute()
         self.project, self.look_record = project, project.look
         self._restore_view(project)
         self.replaced.emit()
@@ -395,6 +442,8 @@ class ProjectFiles(QObject):
         return True
 
     def close(self) -> None:
-        """The window closes normally: stop autosaving and remove this session's recovery file."""
+        """The window closes normally: stop autosaving, remove this session's recovery file, let go of the lock."""
         self.timer.stop()
         self.autosaver.close()
+        self.hold.timer.stop()
+        self.hold.release()
