@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from core.cache_entry import DamagedEntry, read_entry, write_entry
+from core.locks import process_alive, process_token
 
 if TYPE_CHECKING:
     from collections.abc import Iterable, Mapping
@@ -444,11 +445,18 @@ class PrivateCache:
     this process goes under :attr:`root` (a fresh folder of mode 0700 in the temporary directory), and
     ``$SHEER_CACHE_DIR`` points there for child processes; reads fall back to the shared cache. Closing
     deletes the folder and refuses any later write under it (an object that kept an entry's path).
+
+    The folder's name carries its process (``sheer-private-cache-<pid>-<start>-XXXXXXXX``, see
+    :func:`core.locks.process_token`), so one a killed kiosk left is known as such: making a
+    ``PrivateCache`` (the kiosk does at start) removes those of processes that no longer run
+    (:func:`sweep_private_caches`).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, sweep: bool = True) -> None:
         self.root: Path | None = None
         self._env: str | None = None
+        if sweep:
+            sweep_private_caches()
 
     @property
     def is_open(self) -> bool:
@@ -460,7 +468,7 @@ class PrivateCache:
         if self.root is not None:
             return self.root
         shared = shared_root()
-        self.root = Path(tempfile.mkdtemp(prefix="sheer-private-cache-"))
+        self.root = Path(tempfile.mkdtemp(prefix=f"{PRIVATE_PREFIX}{os.getpid()}-{process_token()}-"))
         self._env = os.environ.get("SHEER_CACHE_DIR")
         _PRIVATE.append((self.root, shared))
         os.environ["SHEER_CACHE_DIR"] = str(self.root)
@@ -486,3 +494,38 @@ class PrivateCache:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+#: The name of every private cache folder starts so (then ``<pid>-<process token>-``).
+PRIVATE_PREFIX = "sheer-private-cache-"
+
+
+def _private_owner(folder: Path) -> tuple[int, str] | None:
+    """The process id and token in a private folder's name, or None when it carries none."""
+    parts = folder.name.removeprefix(PRIVATE_PREFIX).split("-")
+    if len(parts) < 3 or not parts[0].isdigit():
+        return None
+    return int(parts[0]), parts[1]
+
+
+def sweep_private_caches(folder: Path | None = None) -> list[Path]:
+    """Remove the private cache folders (a shopper's photo, mesh, albedo) of processes that no longer run.
+
+    A kiosk killed during a session (``kill -9``, a power cut) leaves its folder in the temporary directory
+    (``folder``, default ``tempfile.gettempdir()``); a folder whose process still runs (another kiosk's live
+    session), or that is not this user's, is never touched. Returns the folders removed.
+    """
+    base = Path(tempfile.gettempdir()) if folder is None else Path(folder)
+    removed = []
+    with contextlib.suppress(OSError):
+        for candidate in sorted(base.glob(f"{PRIVATE_PREFIX}*")):
+            owner = _private_owner(candidate)
+            with contextlib.suppress(OSError):
+                if (owner is None or not candidate.is_dir() or candidate.is_symlink()
+                        or candidate.stat().st_uid != os.getuid() or process_alive(*owner)):
+                    continue
+                shutil.rmtree(candidate)
+                removed.append(candidate)
+    if removed:
+        log.info("cache: removed %d private folder(s) left by a process that ended", len(removed))
+    return removed

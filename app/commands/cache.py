@@ -4,7 +4,8 @@ The cache (:mod:`core.cache`) holds derived data that is slow to make and safe t
 their texel indexes, UV layouts, painted looks, render data, colour matrices and parsed meshes. ``info``
 prints its location, its size and entries per kind and its cap (and where the cap comes from:
 ``SHEER_CACHE_MAX_MB``, the studio's settings, or automatic); ``clear`` deletes every entry, or those of
-one kind. Sheer makes again whatever it needs.
+one kind, and the private session folders a killed kiosk left in the temporary folder (those of processes
+that no longer run). Sheer makes again whatever it needs.
 """
 
 from __future__ import annotations
@@ -74,11 +75,14 @@ def run_info(args: argparse.Namespace) -> int:
 
 
 def run_clear(args: argparse.Namespace) -> int:
-    """Delete every cache entry, or those of ``--kind``; prints what was freed; returns 0."""
+    """Delete every cache entry, or those of ``--kind``, and dead kiosks' private folders; returns 0."""
     from core import cache
 
     root = cache.cache_root()
     count, freed = cache.clear(args.kind, root)
     noun = "entry" if count == 1 else "entries"
     print(f"removed {count} {args.kind + ' ' if args.kind else ''}{noun} ({_mib(freed)}) from {root}")
+    swept = cache.sweep_private_caches()
+    if swept:
+        print(f"removed {len(swept)} private session folder(s) left by a kiosk that did not close normally")
     return 0
