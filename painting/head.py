@@ -339,6 +339,18 @@ def _read_image(path: Path, mode: str) -> np.ndarray:
     return decode_texture(read_bounded(path, MAX_HEAD_FILE_BYTES, "texture file", HeadError), str(path), mode)
 
 
+def _check_topology(vertices: np.ndarray, faces: np.ndarray, where: str) -> None:
+    """Refuse vertices that are not (N, 3) and faces that are not triangles of vertex indices in range."""
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
+        raise HeadError(f"{where}: the mesh's vertices have shape {vertices.shape}, (N, 3) expected")
+    if faces.shape[1] != 3:
+        raise HeadError(f"{where}: the mesh's faces have {faces.shape[1]} corners, triangles expected")
+    bad = faces[(faces < 0) | (faces >= len(vertices))]
+    if len(bad):
+        raise HeadError(f"{where}: a face refers to vertex {int(bad[0])}, outside the mesh's "
+                        f"{len(vertices):,} vertices")
+
+
 def _mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Validate what ``trimesh.load`` returned and give (vertices, faces, uv, vertex normals).
 
@@ -366,15 +378,35 @@ def _mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.nd
         raise HeadError(f"{where}: the mesh has no triangles")
     if len(faces) > MAX_FACES:
         raise HeadError(f"{where}: the mesh has {len(faces):,} triangles, over the {MAX_FACES:,} limit")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    _check_topology(vertices, faces, where)
     uv = getattr(mesh.visual, "uv", None)
     if uv is None or len(uv) != len(mesh.vertices):
         raise HeadError(f"{where}: the mesh has no UV coordinates (Sheer paints in UV space)")
-    vertices = np.asarray(mesh.vertices, dtype=np.float64)
     uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim != 2 or uv.shape[1] != 2:
+        raise HeadError(f"{where}: the mesh's UV coordinates have shape {uv.shape}, (N, 2) expected")
     if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(uv))):
         raise HeadError(f"{where}: the mesh has NaN or infinite vertex positions or UVs")
     normals = np.asarray(mesh.vertex_normals, dtype=np.float64)
     return vertices, faces, uv, normals
+
+
+def _check_obj_indices(blob: bytes, where: str) -> None:
+    """Refuse an OBJ face index with more digits than the file has lines, before trimesh parses it.
+
+    trimesh allocates an array as long as the largest index (a forged ``f 4294967295 …`` asks for
+    32 GiB); any index longer than the line count is out of range, so the check never refuses a good file.
+    """
+    import re
+
+    lines = blob.count(b"\n") + 1
+    first_face = max(blob.find(b"\nf"), 0)  # faces usually follow the vertices: scan from the first
+    for found in re.finditer(rb"(?<![\d.])[1-9]\d{%d,}" % len(str(lines)), blob[first_face:]):
+        line = blob[blob.rfind(b"\n", 0, first_face + found.start()) + 1:first_face + found.start()].lstrip()
+        if line[:2] in (b"f ", b"f\t"):
+            raise HeadError(f"{where}: a face refers to vertex {found.group(0)[:20].decode()}, beyond the "
+                            f"file's {lines:,} lines")
 
 
 def parse_mesh(blob: bytes, name: str, where: str, folder: Path | None = None,
@@ -404,13 +436,17 @@ def parse_mesh(blob: bytes, name: str, where: str, folder: Path | None = None,
             return cached
     import trimesh  # ~1.8 s to import on a slow machine: only when the mesh is not in the cache
 
+    if file_type == "obj":
+        _check_obj_indices(blob, where)
     resolver = trimesh.resolvers.FilePathResolver(str(folder)) if folder is not None else None
     try:
         loaded = trimesh.load(io.BytesIO(blob), file_type=file_type, resolver=resolver, process=False,
                               maintain_order=True)
-    except Exception as exc:  # trimesh raises many types for malformed files
-        raise HeadError(f"{where}: cannot read mesh: {exc}") from None
-    arrays = _mesh_arrays_from_loaded(loaded, where)
+        arrays = _mesh_arrays_from_loaded(loaded, where)
+    except HeadError:
+        raise
+    except Exception as exc:  # trimesh raises many types for malformed files, some lazily (a GLB's
+        raise HeadError(f"{where}: cannot read mesh: {exc}") from None  # image decoded when copied)
     if cached_at is not None:
         _save_mesh_cache(cached_at, arrays)
     return arrays
