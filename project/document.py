@@ -65,7 +65,7 @@ def project_head(project: Project, head_path: str | Path | None = None) -> Head:
 
     Raises:
         ProjectError: no head to load, or the head's files cannot be used (the
-            :class:`painting.head.HeadError`'s message, after the project's name).
+            :class:`painting.head.HeadError`'s message, after the project's file, else its name).
     """
     try:
         if head_path is not None:
@@ -76,7 +76,12 @@ def project_head(project: Project, head_path: str | Path | None = None) -> Head:
             raise ProjectError(f"project '{project.name}': no head to load")
         return load_head(project.head.mesh_path)
     except HeadError as exc:
-        raise ProjectError(f"project '{project.name}': {exc}") from None
+        raise ProjectError(f"{_where(project)}: {exc}") from None
+
+
+def _where(project: Project) -> str:
+    """Names the project in messages: its file, when it came from one, else its name."""
+    return str(project.source_path) if project.source_path is not None else f"project '{project.name}'"
 
 
 def document_from_project(project: Project, head_path: str | Path | None = None, **doc_kwargs: Any) -> Document:
@@ -93,15 +98,19 @@ def document_from_project(project: Project, head_path: str | Path | None = None,
             were painted on.
     """
     from painting.document import Document
+    from painting.layout import AtlasError
 
     head = project_head(project, head_path)
     doc_kwargs.setdefault("library", project_library(project))
-    doc = Document(head, resolution=project.resolution, **doc_kwargs)
+    try:
+        doc = Document(head, resolution=project.resolution, **doc_kwargs)
+    except AtlasError as exc:  # a head that loads but cannot be painted (e.g. only degenerate triangles)
+        raise ProjectError(f"{_where(project)}: the head cannot be painted: {exc}") from None
     if project.layout is not None:
         actual = layout_record(doc.layout)
         if actual != project.layout:
             raise ProjectError(
-                f"project '{project.name}': the head's paint layout changed since the project was saved "
+                f"{_where(project)}: the head's paint layout changed since the project was saved "
                 f"(saved: {project.layout['source']} {project.layout['sha256'][:12]}…, now: {actual['source']} "
                 f"{actual['sha256'][:12]}…): the maps would not line up")
     for pl in project.layers:
@@ -117,7 +126,7 @@ def document_from_project(project: Project, head_path: str | Path | None = None,
                 recipe = None if pl.mask is None else LayerMask.from_json(pl.mask, "mask")
                 doc.set_layer_mask(layer, recipe, pl.mask_channel)
             except SheerError as exc:
-                raise ProjectError(f"project '{project.name}': layer {pl.name!r}: {exc}") from None
+                raise ProjectError(f"{_where(project)}: layer {pl.name!r}: {exc}") from None
     doc.clear_history()
     return doc
 
