@@ -104,7 +104,7 @@ def read_photo_file(path: Path) -> np.ndarray:
         with Image.open(io.BytesIO(data)) as im:
             im.load()
             rgb = ImageOps.exif_transpose(im).convert("RGB")
-    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+    except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
         raise CameraError(f"{path}: not a readable photo ({exc})") from None
     return fit_frame(np.asarray(rgb, dtype=np.uint8))
 

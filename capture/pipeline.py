@@ -70,18 +70,34 @@ def linear_to_srgb8(linear: np.ndarray) -> np.ndarray:
     return to_uint8(srgb_encode(np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)))
 
 
+#: Refuse a photograph of more pixels than this (read as float64, 36 Mpx is 0.8 GiB), before decoding.
+MAX_PHOTO_PIXELS = 36_000_000
+
+
 def read_photo(path: str | Path) -> np.ndarray:
-    """Read a photograph as linear RGB float64 (H, W, 3) in [0, 1] (8/16-bit sRGB images)."""
+    """Read a photograph as linear RGB float64 (H, W, 3) in [0, 1] (8/16-bit sRGB images).
+
+    A photograph of more than :data:`MAX_PHOTO_PIXELS` pixels is refused from its header, before decoding.
+    """
     from PIL import Image, UnidentifiedImageError
 
     try:
         with Image.open(path) as im:
-            arr = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
+            if im.width * im.height > MAX_PHOTO_PIXELS:
+                raise CaptureError(f"{path}: the photo is {im.width}×{im.height}, over the "
+                                   f"{MAX_PHOTO_PIXELS:,}-pixel limit: downscale it")
+            codes = np.asarray(im.convert("RGB"))
+    except CaptureError:
+        raise
     except FileNotFoundError:
         raise CaptureError(f"{path}: photo not found") from None
-    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
         raise CaptureError(f"{path}: cannot read the image: {exc}") from None
-    return srgb_decode(arr)
+    return _SRGB8_TO_LINEAR[codes]  # the decode of each 8-bit code, looked up: no float temporaries
+
+
+#: The linear value of each 8-bit sRGB code (:func:`read_photo`).
+_SRGB8_TO_LINEAR = srgb_decode(np.arange(256, dtype=np.float64) / 255.0)
 
 
 @dataclass

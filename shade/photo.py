@@ -39,8 +39,9 @@ __all__ = ["PhotoError", "PhotoSkin", "read_photo", "detect_checker", "region_co
 FloatArray = NDArray[np.float64]
 Box = tuple[int, int, int, int]
 
-#: The largest photograph read (pixels).
-MAX_PHOTO_PIXELS = 40_000_000
+#: The largest photograph read (pixels; checked from the header, before decoding): read as float64,
+#: 36 Mpx is 0.8 GiB.
+MAX_PHOTO_PIXELS = 36_000_000
 #: colour-science's characterisation method and its options.
 CORRECTION_METHOD = "Finlayson 2015"
 CORRECTION_DEGREE = 2
@@ -96,10 +97,16 @@ def read_photo(path: str | Path) -> FloatArray:
         with Image.open(p) as im:
             if im.width * im.height > MAX_PHOTO_PIXELS:
                 raise PhotoError(f"{p}: photograph too large ({im.width}×{im.height} px)")
-            arr = np.asarray(im.convert("RGB"), dtype=np.float64) / 255.0
-    except (UnidentifiedImageError, OSError, ValueError) as exc:
+            codes = np.asarray(im.convert("RGB"))
+    except PhotoError:
+        raise
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
         raise PhotoError(f"{p}: cannot read the photograph: {exc}") from None
-    return arr
+    return _CODE_VALUES[codes]  # looked up once the image is closed: no float temporaries
+
+
+#: The float of each 8-bit code, code / 255 (:func:`read_photo`).
+_CODE_VALUES = np.arange(256, dtype=np.float64) / 255.0
 
 
 @functools.lru_cache(maxsize=1)

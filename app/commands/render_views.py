@@ -77,7 +77,7 @@ def read_photo_srgb8(path: str) -> np.ndarray:
             return np.asarray(ImageOps.exif_transpose(im).convert("RGB"), dtype=np.uint8)
     except FileNotFoundError:
         raise SheerError(f"{path}: photo not found") from None
-    except (UnidentifiedImageError, OSError, Image.DecompressionBombError) as exc:
+    except (UnidentifiedImageError, OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
         raise SheerError(f"{path}: cannot read the image: {exc}") from None
 
 
