@@ -20,7 +20,7 @@ BENCHMARKS: dict[str, str] = {
     "paint": "bench.paint:main",
     "lightweight": "bench.lightweight:main",
     "studio": "bench.studio:main",
-    "fuzz": "bench.fuzz:bench_main",
+    "fuzz": "bench.fuzz_importers:main",  # --importers N, else bench.fuzz
     "project": "bench.project:main",
     "catalogue": "bench.catalogue:main",
     "shade": "bench.shade:main",

@@ -12,6 +12,9 @@
   project, and the ``.bak`` (there from the start) must never go missing. A killed process leaves the
   kernel's page cache intact: power cuts are modelled in ``tests/project/test_power_cut.py``.
 
+``sheer bench fuzz --importers N`` fuzzes the importers instead (meshes, photographs, EXR files, projects
+with an embedded head): :mod:`bench.fuzz_importers`, which the command runs first.
+
 ``sheer bench fuzz [--cases N] [--crash-runs N] [--seed S] --json`` prints cases run, outcomes by kind
 and by mutation, the time to open one damaged file (``case_ms``: median, ``case_ms_p90``,
 ``case_ms_max``), the crash-kill results and timings. It exits 1 unless no case raised anything but a
