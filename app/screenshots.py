@@ -46,7 +46,9 @@ def kiosk_shots(out: Path, tmp: Path) -> None:
     from app.kiosk.config import KioskConfig, hash_pin
     from app.kiosk.window import KioskWindow
 
-    portrait = Path(__file__).resolve().parents[2] / "shared" / "assets" / "photos" / "grace_hopper.jpg"
+    from core.assets import find_asset
+
+    portrait = find_asset("photos/grace_hopper.jpg")  # the asset search path (SHEER_ASSETS, …)
     with Image.open(portrait) as im:
         rgb = np.asarray(im.convert("RGB"), dtype=np.uint8)
     import cv2
