@@ -38,6 +38,10 @@ if TYPE_CHECKING:
 
 #: Refuse meshes larger than this many triangles (a 3D scan for real-time painting is far smaller).
 MAX_FACES = 2_000_000
+#: Refuse a vertex coordinate larger than this (mesh units), or a UV coordinate larger than ``MAX_UV``: the
+#: layout's areas and the rasteriser's pixel indices overflow far beyond them.
+MAX_COORDINATE = 1e9
+MAX_UV = 1e6
 #: Refuse textures larger than this on a side (texels).
 MAX_TEXTURE_SIDE = 16384
 #: Refuse a head file (mesh, sidecar, texture) larger than this (bytes), before reading it.
@@ -388,6 +392,10 @@ def _mesh_arrays_from_loaded(loaded: Any, where: str) -> tuple[np.ndarray, np.nd
         raise HeadError(f"{where}: the mesh's UV coordinates have shape {uv.shape}, (N, 2) expected")
     if not (np.all(np.isfinite(vertices)) and np.all(np.isfinite(uv))):
         raise HeadError(f"{where}: the mesh has NaN or infinite vertex positions or UVs")
+    for values, what, limit in ((vertices, "vertex coordinate", MAX_COORDINATE), (uv, "UV coordinate", MAX_UV)):
+        largest = float(np.abs(values).max())
+        if largest > limit:
+            raise HeadError(f"{where}: a {what} is {largest:.3g}, over the limit of {limit:g}")
     normals = np.asarray(mesh.vertex_normals, dtype=np.float64)
     return vertices, faces, uv, normals
 

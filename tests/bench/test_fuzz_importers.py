@@ -130,6 +130,14 @@ def test_an_obj_with_two_coordinates_per_vertex_is_refused() -> None:
         load_head_from_bytes({"h.obj": obj}, "h.obj")
 
 
+@pytest.mark.parametrize(("v", "vt", "said"), [("0 1e308 0", "0 1", r"a vertex coordinate is 1e\+308, over the limit"),
+                                              ("0 1 0", "0 1e29", r"a UV coordinate is 1e\+29, over the limit")])
+def test_huge_finite_coordinates_are_refused(v: str, vt: str, said: str) -> None:
+    obj = f"v 0 0 0\nv 1 0 0\nv {v}\nvt 0 0\nvt 1 0\nvt {vt}\nf 1/1 2/2 3/3\n".encode()
+    with pytest.raises(HeadError, match=r"'h\.obj': " + said):
+        load_head_from_bytes({"h.obj": obj}, "h.obj")
+
+
 def test_faces_out_of_range_are_refused() -> None:
     import trimesh
 
