@@ -314,11 +314,44 @@ class Face:
 def face_albedo(face: Face) -> np.ndarray:
     """The captured skin albedo for the physical renderer, uint8 sRGB (H, W, 3) in the head's UV space.
 
-    Detail × fitted diffuse colour, encoded as 8-bit sRGB (values above 1 — the eyes' and teeth's
-    highlights — clip).
+    Detail × fitted diffuse colour, in reflectance: the Phong diffuse colour is in the photograph's units
+    (the flash's intensity and the exposure are unknown, set to 1), so it is scaled by
+    :func:`albedo_scale` to the reflectance of a skin, then encoded as 8-bit sRGB (what is still above 1 —
+    the eyes' and teeth's highlights — clips).
     """
     lin = np.asarray(face.detail, dtype=np.float64) * np.asarray(face.params.diffuse, dtype=np.float64)[None, None, :]
-    return linear_to_srgb8(lin)
+    return linear_to_srgb8(lin * albedo_scale(lin))
+
+
+#: Luminance (Rec. 709 / sRGB primaries) of linear RGB.
+_LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def albedo_scale(linear_rgb: np.ndarray) -> float:
+    """The factor that turns a capture's diffuse colour map (photograph units, (H, W, 3)) into reflectance.
+
+    Its median colour over the texels it covers (non-zero) is fitted by the skin model
+    (:func:`km.skin.fit_skin`: melanin, blood, scattering); the map is scaled so that colour's luminance is
+    the fitted skin's (Y under D65, a fraction). A photograph's skin brighter than any skin (a flash, an
+    exposure, a print's gain) would otherwise give albedos of 1 and more: clipped red channels, an orange
+    face. Her colour's chromaticity is kept. 1 for a map with no colour.
+    """
+    from km.skin import SkinError, fit_skin
+
+    texels = linear_rgb.reshape(-1, 3)
+    texels = texels[np.all(np.isfinite(texels), axis=1) & (texels.sum(axis=1) > 0)]
+    if len(texels) == 0:
+        return 1.0
+    median = np.median(texels, axis=0)
+    y_map = float(median @ _LUMA)
+    if y_map <= 0:
+        return 1.0
+    try:
+        fit = fit_skin(linear_rgb=median)
+    except SkinError:
+        return 1.0
+    y_skin = ((float(fit.lab[0]) + 16.0) / 116.0) ** 3  # L* → Y (L* > 8)
+    return y_skin / y_map
 
 
 def load_face(folder: str | Path) -> Face:
