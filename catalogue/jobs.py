@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from catalogue.errors import CatalogueError
-from catalogue.spec import label
+from catalogue.labels import label
 
 if TYPE_CHECKING:
     from catalogue.spec import HeadSource, LightRig, LookSource, Spec, View
@@ -59,6 +59,7 @@ class Job:
         resolution: thickness-map texels per side for looks.
         version: :func:`renderer_version` of the driver (a worker refuses a job from another Sheer).
         group: the chunking key (head, look, light): jobs sharing it reuse a worker's caches.
+        product_label: the product's label in file names (``look`` without a product).
     """
 
     kind: str
@@ -79,6 +80,7 @@ class Job:
     resolution: int
     version: str
     group: tuple[str, ...] = field(default=())
+    product_label: str = "look"
 
     def params(self) -> dict[str, Any]:
         """The job's parameters for the manifest (JSON types)."""
@@ -251,7 +253,8 @@ def expand(spec: Spec) -> list[Job]:
                              **({k: v for k, v in common.items() if k != "version"} if kind == "image"
                                 else {"resolution": spec.resolution})}
                     key = _sha(json.dumps(ident, sort_keys=True, separators=(",", ":")).encode())
-                    names = {"product": label(product or "look"), "head": head.name, "look": look.name,
+                    plabel = spec.product_labels.get(product, label(product)) if product else "look"
+                    names = {"product": plabel, "head": head.name, "look": look.name,
                              "light": rig.name if rig else "glb", "view": view.name if view else "glb",
                              "hash": key[:NAME_HASH_DIGITS], "mode": spec.mode,
                              "size": f"{spec.size[0]}x{spec.size[1]}"}
@@ -261,14 +264,41 @@ def expand(spec: Spec) -> list[Job]:
                     else:
                         out = f"glb/{names['product']}/{head.name}-{look.name}-{names['hash']}.glb"
                     jobs.append(Job(kind, key, out, head, hhash, look, lhash, product, swap, mat_json, rig, view,
-                                    **common, group=(kind, hhash, lhash, rig.name if rig else "")))  # type: ignore[arg-type]
+                                    **common, group=(kind, hhash, lhash, rig.name if rig else ""),  # type: ignore[arg-type]
+                                    product_label=plabel))
     seen: dict[str, Job] = {}
     for job in jobs:
         if job.out in seen and seen[job.out].key != job.key:
             raise CatalogueError(f"{spec.path}: naming: two different images would be written to {job.out!r} "
                                  "(add the axis that differs, e.g. {view} or {light}, to the pattern)")
         seen[job.out] = job
+    if spec.contact_sheets:
+        _check_sheet_names(spec, jobs)
     return list(seen.values())  # one job per output (two labels for the same pixels stay two files)
+
+
+def sheet_name(job: Job) -> str:
+    """The file name of the contact sheet an image job is on: ``<product label>-<view label>.png``."""
+    assert job.view is not None
+    return f"{job.product_label}-{job.view.name}.png"
+
+
+def _check_sheet_names(spec: Spec, jobs: list[Job]) -> None:
+    """Refuse two (product, view) pairs whose contact sheets would be one file (``A-b`` + ``c``, ``A`` + ``b-c``).
+
+    Raises:
+        CatalogueError: naming the spec, both products and views and the shared sheet.
+    """
+    owners: dict[str, tuple[str, str]] = {}
+    for job in jobs:
+        if job.kind != "image" or job.view is None:
+            continue
+        name, pair = sheet_name(job), (job.product or "look", job.view.name)
+        other = owners.setdefault(name.casefold(), pair)
+        if other != pair:
+            raise CatalogueError(f"{spec.path}: contact_sheets: product {other[0]!r} in view {other[1]!r} and "
+                                 f"product {pair[0]!r} in view {pair[1]!r} would share sheets/{name} "
+                                 "(rename a view, or set contact_sheets = false)")
 
 
 def _project_head_hash(look: LookSource) -> str:

@@ -26,12 +26,12 @@ def sheet_groups(folder: Path, jobs: list[Job], only_if_changed: bool = False) -
         jobs: the catalogue's jobs (GLB jobs are ignored).
         only_if_changed: leave out sheets that already exist (nothing was rendered since they were made).
     """
-    from catalogue.spec import label
+    from catalogue.jobs import sheet_name
 
     groups: dict[Path, list[Job]] = {}
     for job in jobs:
         if job.kind == "image" and job.view is not None:
-            groups.setdefault(folder / "sheets" / f"{label(job.product or 'look')}-{job.view.name}.png", []).append(job)
+            groups.setdefault(folder / "sheets" / sheet_name(job), []).append(job)
     return {path: items for path, items in groups.items() if not (only_if_changed and path.exists())}
 
 

@@ -12,15 +12,17 @@ resolution texels per side.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from catalogue.errors import CatalogueError
+from catalogue.labels import LabelCollision, normal, unique_labels
 from core.errors import SheerError
 
 if TYPE_CHECKING:
@@ -118,6 +120,7 @@ class Spec:
         heads, looks, lights, views: the axes of the catalogue.
         category: the product category swapped, or None (looks as they are).
         products: the product material names (library order), empty without a category.
+        product_labels: each product's label in file names (:func:`catalogue.labels.unique_labels`).
         swaps: per look index, the layer indices whose material is replaced by each product.
     """
 
@@ -138,7 +141,11 @@ class Spec:
     views: list[View]
     category: str | None = None
     products: list[str] = field(default_factory=list)
+    product_labels: dict[str, str] = field(default_factory=dict)
     swaps: dict[int, tuple[int, ...]] = field(default_factory=dict)
+
+
+_Named = TypeVar("_Named", HeadSource, LookSource, LightRig, View)
 
 
 @functools.cache
@@ -154,11 +161,6 @@ def _key(parts: Any) -> str:
     for p in parts:
         out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
     return out or "(top level)"
-
-
-def label(text: str) -> str:
-    """A label safe in a file name (letters, digits, ``.``, ``_``, ``-``)."""
-    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._") or "x"
 
 
 def key_line(text: str, key: str) -> int | None:
@@ -263,13 +265,10 @@ def load_spec(path: str | Path) -> Spec:
                 raise fail(f"looks[{i}].project", "mode 'lightweight' renders captured faces only; a project "
                                                   "is rendered on its own head")
     lights = _lights(data, rel, fail)
-    views = [View(label(v.get("name") or f"yaw{v.get('yaw', 0):g}_pitch{v.get('pitch', 0):g}"),
+    views = [View(str(v.get("name") or f"yaw{v.get('yaw', 0):g}_pitch{v.get('pitch', 0):g}"),
                   float(v.get("yaw", 0.0)), float(v.get("pitch", 0.0))) for v in data.get("views", [{}])]
-    for axis, items in (("heads", heads), ("looks", looks), ("lights", lights), ("views", views)):
-        names = [it.name for it in items]
-        dup = next((n for n in names if names.count(n) > 1), None)
-        if dup is not None:
-            raise fail(axis, f"two entries are named {dup!r} (give each a distinct 'name')")
+    heads, looks = _labelled("heads", heads, fail), _labelled("looks", looks, fail)
+    lights, views = _labelled("lights", lights, fail), _labelled("views", views, fail)
     spec = Spec(path=p, name=str(data.get("name", p.stem)), size=tuple(data.get("size", [1280, 720])),
                 mode=mode, exposure=float(data.get("exposure", 0.85)), resolution=int(data.get("resolution", 1024)),
                 naming=naming, library=library, library_path=library_path, glb=bool(data.get("glb", False)),
@@ -278,6 +277,23 @@ def load_spec(path: str | Path) -> Spec:
     if "products" in data:
         _products(spec, data["products"], fail)
     return spec
+
+
+def _labelled(axis: str, items: list[_Named], fail: Any) -> list[_Named]:
+    """``items`` (one axis: heads, looks, lights or views) with their names turned into unique labels.
+
+    Raises:
+        CatalogueError: two entries with one name, or two names that would share a label.
+    """
+    names = [normal(it.name) for it in items]
+    dup = next((n for n in names if names.count(n) > 1), None)
+    if dup is not None:
+        raise fail(axis, f"two entries are named {dup!r} (give each a distinct 'name')")
+    try:
+        labels = unique_labels(names)
+    except LabelCollision as exc:
+        raise fail(axis, f"{exc} in file names (rename one)") from None
+    return [dataclasses.replace(it, name=lab) for it, lab in zip(items, labels, strict=True)]
 
 
 def _library(data: dict[str, Any], rel: Any, fail: Any) -> tuple[Library, Path | None]:
@@ -302,14 +318,14 @@ def _heads(data: dict[str, Any], rel: Any, fail: Any, mode: str) -> list[HeadSou
             folder = Path(rel(h["face"]))
             if not (folder / "face.json").is_file():
                 raise fail(f"heads[{i}].face", f"{folder}: not a face folder (no face.json; see 'sheer capture')")
-            heads.append(HeadSource(label(h.get("name") or folder.name), None, str(folder)))
+            heads.append(HeadSource(str(h.get("name") or folder.name), None, str(folder)))
         elif "path" in h:
             mesh = Path(rel(h["path"]))
             if not mesh.is_file():
                 raise fail(f"heads[{i}].path", f"{mesh}: head mesh not found")
-            heads.append(HeadSource(label(h.get("name") or mesh.stem), str(mesh)))
+            heads.append(HeadSource(str(h.get("name") or mesh.stem), str(mesh)))
         else:
-            heads.append(HeadSource(label(h.get("name") or "sample")))
+            heads.append(HeadSource(str(h.get("name") or "sample")))
         if mode == "lightweight" and heads[-1].face is None:
             raise fail(f"heads[{i}]", "mode 'lightweight' renders captured faces only: give 'face'")
     return heads
@@ -324,7 +340,7 @@ def _looks(data: dict[str, Any], rel: Any, fail: Any, library: Library) -> list[
             proj = Path(rel(entry["project"]))
             if not proj.is_file():
                 raise fail(f"looks[{i}].project", f"{proj}: project not found")
-            looks.append(LookSource(label(entry.get("name") or proj.stem), project=str(proj)))
+            looks.append(LookSource(str(entry.get("name") or proj.stem), project=str(proj)))
             continue
         text = entry["look"]
         ref = rel(text) if text.lower().endswith(".json") else text
@@ -336,7 +352,7 @@ def _looks(data: dict[str, Any], rel: Any, fail: Any, library: Library) -> list[
             if lay.material not in library:
                 raise fail(f"looks[{i}].look", f"layers[{j}]: unknown material {lay.material!r} "
                                                f"(not in the library {library.name!r})")
-        looks.append(LookSource(label(entry.get("name") or look.name), look=ref))
+        looks.append(LookSource(str(entry.get("name") or look.name), look=ref))
     return looks
 
 
@@ -358,7 +374,7 @@ def _lights(data: dict[str, Any], rel: Any, fail: Any) -> list[LightRig]:
         directional = tuple(tuple(float(v) for v in d) for d in lt.get("directional", []))
         preset = None if directional else str(lt.get("preset", "portrait"))
         name = lt.get("name") or (preset if preset is not None else f"light{i}")
-        rigs.append(LightRig(label(name), preset, directional, env,  # type: ignore[arg-type]
+        rigs.append(LightRig(str(name), preset, directional, env,  # type: ignore[arg-type]
                              float(lt.get("environment_intensity", 0.3))))
     return rigs
 
@@ -384,6 +400,10 @@ def _products(spec: Spec, products: dict[str, Any], fail: Any) -> None:
                                             f"(its categories: {known})")
         names = in_category
     spec.category, spec.products = category, names
+    try:
+        spec.product_labels = dict(zip(names, unique_labels(names), strict=True))
+    except LabelCollision as exc:
+        raise fail("products", f"{exc} in file names (rename one)") from None
     for i, src in enumerate(spec.looks):
         cats = _layer_categories(src, lib)
         swap = tuple(k for k, c in enumerate(cats) if c == category)
