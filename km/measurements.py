@@ -13,7 +13,12 @@ brackets are ignored, extra columns are ignored): ``wavelength`` (nm; also ``wav
 Metadata keys: ``D_mm`` (thickness of the R sample in mm; ``--thickness-mm`` overrides it), ``name``,
 ``category``, ``instrument``, ``illuminant``, ``saunderson_k1``, ``saunderson_k2``, ``source``
 (``measured``, the default, or ``modelled``) and ``provenance``. Comma, semicolon
-or tab separated. :func:`export_csv` writes this format (plus S and K columns), so an export imports.
+or tab separated. Numbers are read the same in every locale: ``.`` is the decimal separator, and so is a
+``,`` between digits where it cannot be a column separator — a semicolon- or tab-separated file (as a
+spreadsheet in a decimal-comma locale such as German or French writes it: ``400;0,5;0,3;0,05``), a quoted
+value, a ``# D_mm: 0,15`` line. In a comma-separated file an unquoted decimal comma splits a value in two:
+a row with more values than the header has columns is refused in one line (never read as other numbers).
+:func:`export_csv` writes this format (plus S and K columns), so an export imports.
 
 X-Rite / CGATS (ISO 28178, ANSI CGATS.17)
 -----------------------------------------
@@ -132,6 +137,19 @@ def parse_number(text: str) -> float | None:
     except ValueError:
         return None
     return x
+
+
+#: A number written with a decimal comma (``0,5``, ``-1,25e-3``): one comma between digits, no point.
+_DECIMAL_COMMA = re.compile(r"\s*[+-]?\d+,\d+(?:[eE][+-]?\d+)?\s*")
+
+
+def csv_number(text: str) -> float | None:
+    """A CSV value or header number as a float, ``.`` or one ``,`` between digits as the decimal separator.
+
+    None when it is not a number. A comma here is never a thousands separator: no measured quantity is
+    written with one (a wavelength of "1,050" nm reads as 1.05 nm and is rejected as out of range).
+    """
+    return parse_number(text.replace(",", ".") if _DECIMAL_COMMA.fullmatch(text) else text)
 
 
 def format_wavelength(x: float) -> str:
@@ -296,6 +314,8 @@ _CSV_COLUMNS: dict[str, tuple[str, ...]] = {
     "R": ("r", "r_black", "r_d", "r_sample"),
     "Rg": ("rg", "r_g", "r_background", "background"),
 }
+#: Metadata keys whose values are numbers (read with :func:`csv_number`).
+_NUMERIC_META = ("d_mm", "d", "saunderson_k1", "saunderson_k2")
 _META_RE = re.compile(r"^#\s*([A-Za-z_][A-Za-z0-9_ ]*?)\s*[:=]\s*(.*?)\s*$")
 
 
@@ -325,6 +345,9 @@ def read_csv(path: str | Path, *, thickness_mm: float | None = None, name: str |
     if header_index is None:
         raise MeasurementImportError(f"{source}: no header row (expected columns wavelength, R_inf, R, Rg)")
     delimiter, header, columns = _csv_columns(lines[header_index], header_index, source, result)
+    for key in _NUMERIC_META:  # "# D_mm: 0,15" (a decimal comma) is 0.15
+        if key in meta and (x := csv_number(meta[key])) is not None:
+            meta[key] = repr(x)
     d_mm = sample_thickness(thickness_mm, meta.get("d_mm", meta.get("d")), f"{source}: header D_mm",
                              f"{source}: the sample thickness D is not given: add a '# D_mm: 0.15' header line")
     saunderson = saunderson_coefficients(meta, source)
@@ -412,9 +435,14 @@ def _csv_rows(body: list[str], header_index: int, delimiter: str, header: list[s
         if len(cells) < len(header):
             result.rejected.append((where, f"{len(cells)} values, the header has {len(header)} columns"))
             continue
+        if delimiter == "," and any(c.strip() for c in cells[len(header):]):
+            raise MeasurementImportError(
+                f"{source}: {where}: {len(cells)} values but the header has {len(header)} columns: decimal "
+                "commas in a comma-separated file? Separate the columns with ';' or tabs, or write decimals "
+                "with '.'; nothing was imported")
         values: dict[str, float] = {}
         for key, j in columns.items():
-            x = parse_number(cells[j])
+            x = csv_number(cells[j])
             if x is None:
                 result.rejected.append((where, f"{key} {cells[j].strip()!r} is not a number"))
                 break

@@ -202,3 +202,50 @@ def test_export_of_a_material_without_measurement(tmp_path: Path) -> None:
     back = read_csv(export_csv(m, tmp_path / "bare.csv")).accepted[0]
     np.testing.assert_allclose(back.S, s, rtol=1e-8)
     np.testing.assert_allclose(back.K, k, rtol=1e-8)
+
+
+def _decimal_comma_lines(wl: np.ndarray, cols: tuple[np.ndarray, ...], sep: str) -> list[str]:
+    """Data rows as a spreadsheet in a decimal-comma locale (German, French) writes them."""
+    return [sep.join([f"{w:g}"] + [repr(float(c[i])).replace(".", ",") for c in cols]) for i, w in enumerate(wl)]
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_decimal_commas_read_as_decimals_where_the_comma_cannot_separate_columns(tmp_path: Path, sep: str) -> None:
+    s = 30.0 * (560.0 / GRID)
+    k = 5.0 + 4.0 * np.sin(GRID / 40.0)
+    cols = _triplet(s, k, 0.15)
+    lines = ["# D_mm: 0,15", sep.join(["Wavelength (nm)", "R_inf", "R", "Rg"])]
+    path = tmp_path / "de.csv"
+    path.write_text("\n".join(lines + _decimal_comma_lines(GRID, cols, sep)) + "\n", encoding="utf-8")
+    result = read_csv(path)
+    assert result.rejected == [] and len(result.accepted) == 1
+    m = result.accepted[0]
+    assert m.measurement is not None and m.measurement.D_mm == 0.15
+    np.testing.assert_allclose(m.S, s, rtol=1e-9)  # the same numbers as a file written with '.'
+    np.testing.assert_allclose(m.K, k, rtol=1e-9)
+
+
+def test_quoted_decimal_commas_in_a_comma_separated_file(tmp_path: Path) -> None:
+    s, k = np.full(GRID.size, 20.0), np.full(GRID.size, 2.0)
+    cols = _triplet(s, k, 0.1)
+    rows = [",".join([f"{w:g}"] + [f'"{float(c[i])!r}"'.replace(".", ",") for c in cols]) for i, w in enumerate(GRID)]
+    path = tmp_path / "quoted.csv"
+    path.write_text("\n".join(["# D_mm: 0.1", "wavelength,R_inf,R,Rg", *rows]) + "\n", encoding="utf-8")
+    m = read_csv(path).accepted[0]
+    np.testing.assert_allclose(m.S, s, rtol=1e-9)
+    np.testing.assert_allclose(m.K, k, rtol=1e-9)
+
+
+def test_unquoted_decimal_commas_in_a_comma_separated_file_are_refused_in_one_line(tmp_path: Path, capsys) -> None:
+    from app.cli import main
+
+    cols = _triplet(np.full(GRID.size, 20.0), np.full(GRID.size, 2.0), 0.1)
+    path = tmp_path / "ambiguous.csv"
+    path.write_text("\n".join(["# D_mm: 0,1", "wavelength,R_inf,R,Rg", *_decimal_comma_lines(GRID, cols, ",")])
+                    + "\n", encoding="utf-8")
+    library = tmp_path / "lib.json"
+    assert main(["materials", "import", str(path), "--library", str(library)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"sheer: error: {path}: line 3: ") and "\n" not in err, err
+    assert "decimal commas in a comma-separated file" in err
+    assert not library.exists()  # nothing was saved
