@@ -17,7 +17,6 @@ from PySide6.QtGui import QColor, QDropEvent, QIcon, QPixmap
 from PySide6.QtWidgets import (
     QAbstractItemView,
     QComboBox,
-    QDoubleSpinBox,
     QFormLayout,
     QHBoxLayout,
     QListWidget,
@@ -27,6 +26,8 @@ from PySide6.QtWidgets import (
     QVBoxLayout,
     QWidget,
 )
+
+from app.studio.number_fields import NumberField
 
 if TYPE_CHECKING:
     from app.studio.mask_editor import MaskEditor
@@ -178,7 +179,7 @@ class LayersPanel(QWidget):
         self.export_button = QPushButton("Export Map…")
         self.opacity = QSlider(Qt.Orientation.Horizontal)
         self.opacity.setRange(0, 100)
-        self.max_thickness = QDoubleSpinBox()
+        self.max_thickness = NumberField()
         self.max_thickness.setRange(0.1, 500.0)
         self.max_thickness.setSuffix(" µm")
         self.layer_material = QComboBox()

@@ -40,6 +40,7 @@ from PySide6.QtWidgets import (
 from app.studio import dialogs
 from app.studio.layers_panel import applied_rgb, colours_ready, material_rgb, swatch_icon, swatch_of
 from app.studio.library_edits import EDITABLE, duncan_mix
+from app.studio.number_fields import NumberField
 from km.coverage import LIP_CATEGORIES
 
 if TYPE_CHECKING:
@@ -131,7 +132,7 @@ class LibraryDock(QWidget):
         for attr, (lo, hi, suffix, step) in {
             "thickness_um": (0.1, 10000.0, " µm", 1.0), "max_thickness_um": (0.1, 10000.0, " µm", 1.0),
             "roughness": (0.01, 1.0, "", 0.05), "ior": (1.0, 3.0, "", 0.01)}.items():
-            s = QDoubleSpinBox()
+            s = NumberField()
             s.setRange(lo, hi)
             s.setSingleStep(step)
             s.setDecimals(2)
@@ -140,7 +141,7 @@ class LibraryDock(QWidget):
             self.spins[attr] = s
         self.scales: dict[str, QDoubleSpinBox] = {}
         for arr, tip in (("K", "absorption × (darker / deeper shade)"), ("S", "scattering × (more coverage)")):
-            sp = QDoubleSpinBox()
+            sp = NumberField()
             sp.setRange(0.1, 10.0)
             sp.setSingleStep(0.1)
             sp.setValue(1.0)

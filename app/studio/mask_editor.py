@@ -16,7 +16,6 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
-    QDoubleSpinBox,
     QGridLayout,
     QGroupBox,
     QListWidget,
@@ -24,6 +23,8 @@ from PySide6.QtWidgets import (
     QVBoxLayout,
     QWidget,
 )
+
+from app.studio.number_fields import NumberField
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -58,7 +59,7 @@ class MaskEditor(QGroupBox):
         self.remove_button = QPushButton("Remove")
         self.remove_button.setToolTip("Remove the selected region from the mask")
         self.invert_check = QCheckBox("Invert")
-        self.feather_spin = QDoubleSpinBox()
+        self.feather_spin = NumberField()
         self.feather_spin.setRange(0.0, 50.0)
         self.feather_spin.setSingleStep(0.5)
         self.feather_spin.setSuffix(" mm")

@@ -21,9 +21,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from PySide6.QtCore import QByteArray, QSize, Qt
-from PySide6.QtWidgets import QCheckBox, QComboBox, QDoubleSpinBox, QLabel, QSlider, QToolBar, QWidget
+from PySide6.QtWidgets import QCheckBox, QComboBox, QLabel, QSlider, QToolBar, QWidget
 
 from app.settings import ENVIRONMENTS, LIGHT_PRESETS
+from app.studio.number_fields import NumberField
 from app.studio.region_picker import RegionPicker
 from render.view import RENDER_MODES
 
@@ -106,13 +107,13 @@ class StudioToolbars:
         tb = WholeToolBar("Brush")
         tb.setObjectName("brush_toolbar")
         self.addToolBar(tb)
-        self.radius_spin = QDoubleSpinBox()
+        self.radius_spin = NumberField()
         self.radius_spin.setRange(0.5, 100.0)
         self.radius_spin.setSuffix(" mm")
-        self.strength_spin = QDoubleSpinBox()
+        self.strength_spin = NumberField()
         self.strength_spin.setRange(0.05, 1.0)
         self.strength_spin.setSingleStep(0.05)
-        self.hardness_spin = QDoubleSpinBox()
+        self.hardness_spin = NumberField()
         self.hardness_spin.setRange(0.0, 0.95)
         self.hardness_spin.setSingleStep(0.05)
         self.mode_combo = QComboBox()
