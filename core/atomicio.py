@@ -24,12 +24,14 @@ if TYPE_CHECKING:
 
 @contextlib.contextmanager
 def atomic_writer(path: str | Path, mode: str = "wb", keep_backup: bool = False,
-                  encoding: str | None = None) -> Iterator[IO]:
+                  encoding: str | None = None, file_mode: int | None = None) -> Iterator[IO]:
     """Context manager yielding a file object; on a clean exit the content replaces ``path`` atomically.
 
     If the block raises, the temporary file is removed and ``path`` is untouched. With
     ``keep_backup=True`` the previous file (if any) is kept as ``<path>.bak`` (a hard link or copy made
-    before the rename, so the target never disappears).
+    before the rename, so the target never disappears). The new file keeps the replaced file's
+    permissions (a new one gets the umask's), or ``file_mode`` when given: e.g. 0o600 for a secret, which
+    the temporary file has from its creation (``mkstemp``), so it is never readable by others.
     """
     target = Path(path)
     folder = target.parent if str(target.parent) else Path(".")
@@ -43,16 +45,15 @@ def atomic_writer(path: str | Path, mode: str = "wb", keep_backup: bool = False,
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
-        if target.exists():
-            try:
-                existing_mode = target.stat().st_mode & 0o777
-                os.chmod(tmp, existing_mode)
-            except OSError:
-                pass
-            if keep_backup:
-                _keep_backup(target)
+        if file_mode is not None:
+            os.chmod(tmp, file_mode)
+        elif target.exists():
+            with contextlib.suppress(OSError):
+                os.chmod(tmp, target.stat().st_mode & 0o777)
         else:
             os.chmod(tmp, 0o666 & ~_umask())
+        if keep_backup and target.exists():
+            _keep_backup(target)
         os.replace(tmp, target)
         _fsync_dir(folder)
     except OSError as exc:

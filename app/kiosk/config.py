@@ -20,7 +20,6 @@ import logging
 import math
 import os
 import secrets
-import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -54,40 +53,19 @@ PRIVATE_MODE = 0o600
 def write_private(path: Path, text: str) -> None:
     """Write UTF-8 ``text`` to ``path`` atomically, readable and writable by its owner only (mode 0600).
 
-    The data goes to a temporary file in the same folder, created with mode 0600 (``mkstemp``), fsynced
-    and renamed over ``path``: at no moment is the file (old or new) readable by others, and an older
-    file with a wider mode is replaced by a 0600 one. (``core.atomicio`` keeps the replaced file's
-    mode, which is right for a project and wrong for a secret.) A new folder is made with mode 0700.
+    :func:`core.atomicio.atomic_writer` with ``file_mode``: the temporary file in the same folder is 0600
+    from its creation, fsynced and renamed over ``path``, so at no moment is the file (old or new) readable
+    by others, and an older file with a wider mode is replaced by a 0600 one. A new folder is made with
+    mode 0700.
 
     Raises:
         OSError: the file could not be written (naming ``path``); the old file is unchanged then.
     """
+    from core.atomicio import atomic_writer
+
     path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-    try:
-        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    except OSError as exc:
-        raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from None
-    tmp = Path(tmp_name)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            os.fchmod(fh.fileno(), PRIVATE_MODE)  # mkstemp's mode already; said here, not assumed
-            fh.write(text.encode("utf-8"))
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    try:
-        dfd = os.open(path.parent, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(dfd)
-    except OSError:
-        pass
-    finally:
-        os.close(dfd)
+    with atomic_writer(path, "wb", file_mode=PRIVATE_MODE) as fh:
+        fh.write(text.encode("utf-8"))
 
 
 def default_log_path() -> Path:
