@@ -359,7 +359,9 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
                + "; the photograph's highlights are in the detail texture")
         notes.append(msg)
         _say(progress, f"note: {msg}")
-    extra = {"photo": PHOTO_FILE, "source_photo": source, "downscale": downscale, "notes": notes,
+    # the original's absolute path: a copy reduced for the fit is drawn from it at its own resolution
+    original = str(Path(photo).resolve()) if isinstance(photo, (str, Path)) else source
+    extra = {"photo": PHOTO_FILE, "source_photo": original, "downscale": downscale, "notes": notes,
              "landmarks": {**face.to_json(), "points_px": np.round(face.points, 2).tolist()},
              "quality": report.to_json(), "head_kind": "person" if person else "given", "focal": focal_record}
     _write_face_folder(out, result, the_head, person, srgb8, face, extra, timings, t_all)

@@ -251,6 +251,17 @@ class Face:
         """The photograph as captured (automatic capture's ``photo.png``), or None."""
         return self._file("photo")
 
+    @property
+    def original_photo_path(self) -> Path | None:
+        """The photograph a reduced ``photo.png`` was made from, if that file is still there; else None.
+
+        face.json ``source_photo`` (an absolute path), when ``downscale`` says the capture reduced it.
+        """
+        if not self.data.get("downscale"):
+            return None
+        path = self._file("source_photo")
+        return path if path is not None and path.is_absolute() and path.is_file() else None
+
     def load_head(self) -> Head:
         """The head the face was captured on (:func:`painting.head.load_head`; None in face.json: the sample head)."""
         from painting.head import load_head

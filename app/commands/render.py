@@ -16,8 +16,8 @@ projection matrix (JSON ``{"P": …}``, pixels ← mesh units, as ``sheer captur
 
 Two views of a captured shopper (issue 15), ``--view`` with ``--face``:
 
-- ``--view mirror``: her photograph (face.json's ``photo`` in the face folder, or ``--photo PATH``) at its
-  own size and pose, the makeup composited on the face (the photograph ÷ the capture's fitted shading, the
+- ``--view mirror``: her photograph (``--photo PATH``, else the original a reduced capture was made from,
+  else face.json's ``photo`` in the face folder) at its own size and pose, the makeup composited on the face (the photograph ÷ the capture's fitted shading, the
   layers over it, shaded again: where there is no makeup the photograph comes back unchanged).
   Takes no camera, size, light or environment options: the photograph fixes them.
 - ``--view relight``: the lightweight engine from the capture's camera, turned by ``--yaw``/``--pitch``
@@ -164,7 +164,8 @@ def register(sub: Subcommands) -> None:
                    help="with --face: 'mirror' (the photograph with the makeup composited on the face, at its own "
                         "size) or 'relight' (the lightweight engine, --yaw/--pitch turn it up to ±25°)")
     p.add_argument("--photo", metavar="PATH",
-                   help="--view mirror: the photograph the face was captured from (default: the face folder's)")
+                   help="--view mirror: the photograph the face was captured from, drawn at its own size (default: "
+                        "the original a reduced capture was made from while it exists, else the face folder's)")
     p.add_argument("--light-preset", metavar="NAME",
                    help=f"--view relight: a kiosk light preset ({', '.join(LIGHT_PRESETS)})")
     p.add_argument("--out", required=True, metavar="FILE.png", help="output PNG")

@@ -45,15 +45,19 @@ def check_view_args(args: argparse.Namespace) -> None:
 
 
 def photo_path(args: argparse.Namespace, face: Face) -> str:
-    """The photograph the face was captured from: ``--photo``, else face.json's ``photo`` (in the folder).
+    """The photograph the face was captured from, at the largest size there is.
 
-    ``--photo`` may be the original of a photograph the capture reduced (face.json ``downscale``): the
-    mirror is then drawn at the original's resolution.
+    ``--photo``, else the original a reduced copy was made from (face.json ``source_photo`` when
+    ``downscale`` says the capture reduced it, while the file exists), else face.json's ``photo`` (in the
+    folder). The original draws the mirror at its own resolution.
     """
     from core.errors import SheerError
 
     if args.photo:
         return str(args.photo)
+    original = face.original_photo_path
+    if original is not None:
+        return str(original)
     path = face.photo_path  # face.json's photo, relative to its folder
     if path is None:
         raise SheerError(f"{args.face}: the face folder names no photograph (face.json 'photo'): give --photo PATH")

@@ -42,3 +42,14 @@ def test_the_faces_albedo_is_not_clipped(hopper_face: Path) -> None:
     centre = albedo[h // 4: 3 * h // 4, w // 4: 3 * w // 4]
     clipped = float((centre[..., 0] >= 254).mean())
     assert clipped < 0.08, clipped  # 0.25 unscaled
+
+
+def test_an_automatic_capture_records_its_original_absolutely(hopper_face: Path) -> None:
+    """face.json ``source_photo``: the photograph's absolute path, which the mirror draws from when the capture
+    fitted a reduced copy (``sheer render --view mirror`` without ``--photo``)."""
+    from pathlib import Path
+
+    from capture.face import load_face
+
+    source = Path(load_face(hopper_face).data["source_photo"])
+    assert source.is_absolute() and source.name == "grace_hopper.jpg" and source.is_file()

@@ -238,3 +238,25 @@ def test_relight_adds_the_layers_own_lobes(face_dir: Path, gl_ctx: object) -> No
     finally:
         rv.release()
     assert np.all(shiny >= matte - 1) and (shiny - matte).max() > 10
+
+
+def test_mirror_draws_from_the_original_a_reduced_capture_was_made_from(face_dir: Path, tmp_path: Path) -> None:
+    """Without ``--photo``, a face whose photo.png the capture reduced (face.json ``downscale``) draws from
+    the original it recorded (``source_photo``, absolute) at the original's size; the copy when the original
+    is gone."""
+    import shutil
+
+    folder = tmp_path / "face"
+    shutil.copytree(face_dir, folder)
+    original = tmp_path / "her-original.png"
+    shutil.copy(face_dir / "original.png", original)
+    data = json.loads((folder / "face.json").read_text())
+    data.update(source_photo=str(original), downscale={"from": [3 * W, 3 * H], "to": [W, H], "why": "face taller"})
+    (folder / "face.json").write_text(json.dumps(data))
+    code, bare, err = _render("--face", str(folder), "--view", "mirror", "--out", str(tmp_path / "a.png"))
+    assert code == 0 and bare is not None, err
+    assert np.array_equal(bare, np.asarray(Image.open(original)))  # 3× the copy, her original's bytes
+    original.unlink()
+    code, bare, err = _render("--face", str(folder), "--view", "mirror", "--out", str(tmp_path / "b.png"))
+    assert code == 0 and bare is not None and bare.shape == (H, W, 3), err
+
