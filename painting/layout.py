@@ -423,6 +423,9 @@ def unwrap(vertices: np.ndarray, faces: np.ndarray, face_index: np.ndarray, norm
     pack_options.resolution = 2048
     pack_options.padding = 8  # texels at 2048²: room for painting.atlas.DEFAULT_PADDING at 1024² and above
     pack_options.bilinear = True
+    # A chart longer than the atlas (a sliver triangle 1e8 times longer than wide) is scaled down to fit,
+    # not packed into an atlas millions of texels long (seconds to forever, and the memory for it).
+    pack_options.max_chart_size = pack_options.resolution - 2 * pack_options.padding
     progress("unwrap", 0.1)
     try:
         atlas.generate(chart_options, pack_options)

@@ -138,6 +138,19 @@ def test_huge_finite_coordinates_are_refused(v: str, vt: str, said: str) -> None
         load_head_from_bytes({"h.obj": obj}, "h.obj")
 
 
+def test_a_sliver_triangle_unwraps_in_moments() -> None:
+    import time
+
+    from painting.layout import build_layout
+
+    obj = b"v 0 0 1000000\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 0 0\nvt 0 0\nf 1/1 2/2 3/3\n"  # flat UVs: unwrapped
+    head = load_head_from_bytes({"h.obj": obj}, "h.obj")
+    start = time.perf_counter()
+    layout = build_layout(head)
+    assert layout.source == "xatlas" and time.perf_counter() - start < CASE_SECONDS  # was 9 s (1e8: hours)
+    assert np.all((layout.uv >= 0) & (layout.uv <= 1))
+
+
 def test_faces_out_of_range_are_refused() -> None:
     import trimesh
 
