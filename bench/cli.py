@@ -25,6 +25,7 @@ BENCHMARKS: dict[str, str] = {
     "catalogue": "bench.catalogue:main",
     "shade": "bench.shade:main",
     "capture": "bench.capture:main",
+    "soak": "bench.soak:main",
 }
 
 
