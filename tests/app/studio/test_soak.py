@@ -3,7 +3,7 @@
 
 The suite's size (200 strokes, 20 undo/redo cycles, 5 layer add/removes, 40 orbit frames); the full size
 (2,000 strokes …) is ``sheer bench soak`` (bench/soak.py, figures in docs/BENCHMARKS.md). The bounds are
-``bench.soak.STUDIO_BOUNDS``; a planted leak of one GL texture, 256 KB, one thread and one open file per
+``bench.soak.STUDIO_BOUNDS``; a planted leak of one GL texture, 512 KB, one thread and one open file per
 frame is caught by each of them.
 """
 
