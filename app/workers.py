@@ -36,7 +36,7 @@ class Task(QRunnable):
 
     def __init__(self, job: Job) -> None:
         super().__init__()
-        self.job = job
+        self.job: Job | None = job
         self.signals = _Signals()
         self._cancel = threading.Event()
         self.setAutoDelete(False)
@@ -49,8 +49,13 @@ class Task(QRunnable):
         """Run the job (in a pool thread) and emit its outcome; an internal error is logged, then reported."""
         from core.errors import SheerError
 
+        # the task lets go of its job as it starts: what the job holds (a shopper's photograph, a window) is
+        # freed when the job ends, whoever still holds the task
+        job, self.job = self.job, None
+        if job is None:
+            return
         try:
-            result = self.job(lambda f, m="": self.signals.progress.emit(float(f), str(m)), self._cancel.is_set)
+            result = job(lambda f, m="": self.signals.progress.emit(float(f), str(m)), self._cancel.is_set)
         except Cancelled:
             self.signals.cancelled.emit()
         except (SheerError, OSError, ValueError) as exc:
@@ -88,6 +93,10 @@ def run_task(parent: QWidget | None, title: str, job: Job, on_done: Callable[[An
 
     def finish() -> None:
         _RUNNING.discard(task)
+        # the connections are held by Qt, out of Python's garbage collector's sight; they hold these
+        # closures, which hold the task: the signals' object goes (after this emission), and its connections
+        # with it; without this, every finished task (and its result) stayed alive
+        task.signals.deleteLater()
         if dialog is not None:
             dialog.canceled.disconnect(task.cancel)  # closing the dialog emits canceled
             dialog.close()
