@@ -45,7 +45,6 @@ def kiosk_shots(out: Path, tmp: Path) -> None:
 
     from app.kiosk.config import KioskConfig, hash_pin
     from app.kiosk.window import KioskWindow
-
     from core.assets import find_asset
 
     portrait = find_asset("photos/grace_hopper.jpg")  # the asset search path (SHEER_ASSETS, …)
