@@ -4,9 +4,11 @@ the idle timeout, and a kiosk killed (SIGKILL) mid-session and restarted — lea
 open files behind, no private folder, and nothing in the snapshot folder but the saved photos.
 
 The suite's size (6 shoppers, two of them captured); the full size (50 shoppers) is ``sheer bench soak``
-(bench/soak.py, figures in docs/BENCHMARKS.md); the bounds are ``bench.soak.KIOSK_BOUNDS``. Memory is not
-flat yet: each captured shopper leaves resident memory and Python heap behind, and a closed kiosk window
-is not freed (:func:`test_memory_is_flat_after_the_warm_up`, expected to fail until that is fixed).
+(bench/soak.py, figures in docs/BENCHMARKS.md); the bounds are ``bench.soak.KIOSK_BOUNDS``. Memory is
+measured there only: over 6 shoppers, one of them a restart, the resident set's and the Python heap's slopes
+are within their noise (in one process that ran other tests, freed pages are reused unseen), so no bound on
+them would be a test; over 24 (``sheer bench soak --studio-strokes 0 --kiosk-shoppers 24``) the Python heap
+is flat and the resident set still grows (docs/BENCHMARKS.md, soak).
 """
 
 from __future__ import annotations
@@ -68,15 +70,3 @@ def test_shoppers_in_a_row_leave_nothing_behind(soak: dict[str, Any]) -> None:
     assert private_folders(mine=True) == set() and private_folders() <= soak["others"]
     assert sorted(p.name for p in (folder / "photos").iterdir()) == sorted(tally.saved)
     assert len(tally.saved) == 1 and not list((folder / "drop").iterdir())
-
-
-@pytest.mark.xfail(strict=True, raises=AssertionError,
-                   reason="each captured shopper still leaves ~11-19 MB resident outside the Python heap (about "
-                          "40 % of it glibc's per-thread arenas: MALLOC_ARENA_MAX=2 takes +1,890 to +1,150 MB per "
-                          "100 shoppers), and a closed kiosk window stays alive; the shoppers' own objects no "
-                          "longer do (24 shoppers: Python heap -1 MB per 100); docs/BENCHMARKS.md, soak")
-def test_memory_is_flat_after_the_warm_up(soak: dict[str, Any]) -> None:
-    from bench.soak import KIOSK_BOUNDS, leaks
-
-    memory = {k: v for k, v in soak["trends"].items() if k in ("rss_mb", "py_mb")}
-    assert leaks(memory, KIOSK_BOUNDS) == []

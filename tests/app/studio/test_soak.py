@@ -58,7 +58,7 @@ def test_a_long_session_holds_no_more_as_it_goes_on(studio: tuple[Any, Any]) -> 
 @pytest.fixture
 def planted_leak(studio: tuple[Any, Any], monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """Each frame the viewport draws keeps a GL texture, 512 KB of memory, a thread and an open file."""
-    import numpy as np
+    import mmap
 
     vp = studio[0].viewport
     kept: list[Any] = []
@@ -68,7 +68,11 @@ def planted_leak(studio: tuple[Any, Any], monkeypatch: pytest.MonkeyPatch) -> It
     def leaky_paint() -> None:
         paint()
         kept.append(vp.ctx.texture((4, 4), 4))
-        kept.append(np.ones(1 << 16))
+        # a fresh mapping, every page written: resident whatever the process freed before (a heap block
+        # could reuse pages earlier tests left resident, and the resident set would not show it)
+        block = mmap.mmap(-1, 1 << 19)
+        block.write(b"\x01" * (1 << 19))
+        kept.append(block)
         kept.append(open("/dev/null", "rb"))  # noqa: SIM115
         thread = threading.Thread(target=stop.wait, daemon=True)
         thread.start()
