@@ -7,7 +7,10 @@ the result as a face folder and reads it back.
 """
 from __future__ import annotations
 
+import copy
+import hashlib
 import time
+from collections import OrderedDict
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import TYPE_CHECKING, Any
@@ -41,6 +44,7 @@ if TYPE_CHECKING:
 
     from capture.camera import Camera
     from capture.probe import ProbeAnalysis
+    from capture.raster import GBuffer
     from painting.head import Head
 
 #: The detail texture's range is [0, 2**DETAIL_DOUBLINGS].
@@ -176,14 +180,17 @@ class CaptureResult:
     """Everything the capture found (:func:`capture.face.face_json` names the units).
 
     Attributes:
-        camera, params, light_dir_world (unit, mesh coordinates), exponent, fit, rmap: what was fitted.
+        camera, params, light_dir_world (unit, mesh coordinates), exponent, fit, rmap: what was fitted
+            (``rmap``, the paper's reflectance map, is built when first read, unless the capture's progress
+            lines said it).
         detail: float32 (S, S, 3) the detail texture, [0, 8]; detail_valid: bool (S, S) texels seen.
         skin_mask: bool (H, W) the skin pixels used; photo_lin: the photograph (H, W, 3), linear.
         fitted_render: (H, W, 3) the fitted Phong model alone; reproduction: Phong × detail, clipped.
         reproduction_de2000_skin: mean CIEDE2000 photo vs reproduction over the skin pixels used.
         probe: the probe analysis, or None. timings_s: seconds per step. robustness: see
         :func:`capture.phong.robustness`, or None. ambient_scale_photo: k the photograph alone prefers
-        (diagnostic). specular_joint: i_s of the joint fit. specular_separation: i_s from the detail.
+        (diagnostic; like ``rmap``, fitted when first read unless the progress lines said it).
+        specular_joint: i_s of the joint fit. specular_separation: i_s from the detail.
     """
 
     camera: Camera
@@ -191,7 +198,6 @@ class CaptureResult:
     light_dir_world: np.ndarray
     exponent: ExponentEstimate
     fit: FitResult
-    rmap: ReflectanceMap
     detail: np.ndarray
     detail_valid: np.ndarray
     skin_mask: np.ndarray
@@ -202,10 +208,28 @@ class CaptureResult:
     probe: ProbeAnalysis | None
     timings_s: dict[str, float] = field(default_factory=dict)
     robustness: dict[str, Any] | None = None
-    ambient_scale_photo: float | None = None
     specular_joint: float | None = None
     specular_separation: DetailSpecular | None = None
     pose: PoseRefinement | None = None
+    #: ``rmap`` and ``ambient_scale_photo``: their values, and how to compute the ones not yet read.
+    _values: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    _deferred: dict[str, Callable[[], Any]] = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def rmap(self) -> ReflectanceMap:
+        """The paper's reflectance map of the skin pixels (camera-space normals), built when first read."""
+        return self._value("rmap")
+
+    @property
+    def ambient_scale_photo(self) -> float | None:
+        """The ambient scale k the photograph alone prefers (diagnostic; :func:`capture.phong.photo_ambient_scale`)."""
+        return self._value("ambient_scale_photo")
+
+    def _value(self, name: str) -> Any:
+        if name not in self._values:
+            self._values[name] = self._deferred.pop(name)()
+        return self._values[name]
+
 
 def _log(progress: Callable[[str], None] | None, msg: str) -> None:
     if progress is not None:
@@ -277,30 +301,44 @@ def capture(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnaly
     specular_joint = fit.params.specular
     fit, exp_est, sep = _lobe_from_detail(fp, fit, exp_est, camera, (h, w), progress)
     p = fit.params
-    k_photo = photo_ambient_scale(fp.colours, fp.geo, p)
+    # Two figures nothing downstream of the capture needs (face.json reports the first; the paper's reflectance
+    # map is kept in the result): computed when first read, or here when the progress lines say them.
+    deferred = {"ambient_scale_photo": partial(photo_ambient_scale, fp.colours, fp.geo, copy.deepcopy(p)),
+                # built once the camera is final: a capture refitted from a turned camera above builds it there
+                "rmap": partial(_timed, timings, "reflectance_map", build_reflectance_map,
+                                (fp.pix.normals @ camera.R.T)[fp.sel], fp.colours)}
+    result_values: dict[str, Any] = {}
+    if progress is not None:
+        result_values["ambient_scale_photo"] = k_photo = deferred.pop("ambient_scale_photo")()
     timings["phong_fit"] = time.perf_counter() - t
-    # the ambient scale is the probe's: without one there is no ambient light, and nothing to say about it
-    ambient = "" if probe is None else (f", ambient scale {p.ambient_scale:.3f} (the probe's photometry"
-                                        + ("" if k_photo is None else f"; the photograph alone would choose {k_photo:.3f}")
-                                        + ")")
-    _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}{ambient}; "
-                   f"residual {fit.rms_luv:.2f} Luv per pixel")
-    # The paper's reflectance map (kept in the result), built once the camera is final: a capture refitted
-    # from a turned camera above builds it there instead.
-    t = time.perf_counter()
-    rmap = build_reflectance_map((fp.pix.normals @ camera.R.T)[fp.sel], fp.colours)
-    timings["reflectance_map"] = time.perf_counter() - t
-    _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
+    if progress is not None:
+        # the ambient scale is the probe's: without one there is no ambient light, and nothing to say about it
+        ambient = "" if probe is None else (f", ambient scale {p.ambient_scale:.3f} (the probe's photometry"
+                                            + ("" if k_photo is None else f"; the photograph alone would choose "
+                                                                          f"{k_photo:.3f}")
+                                            + ")")
+        _log(progress, f"Phong fit: diffuse {np.round(p.diffuse, 4).tolist()}, specular {p.specular:.4f}{ambient}; "
+                       f"residual {fit.rms_luv:.2f} Luv per pixel")
+        result_values["rmap"] = rmap = deferred.pop("rmap")()
+        _log(progress, f"reflectance map: {len(rmap.cluster_dirs)} clusters")
     rob = None if robustness_starts <= 0 else _robustness(fp, exp_est.s, robustness_starts, timings, progress)
     detail, valid, fitted, repro, de, skin_used = _reproduce(head, camera, photo_lin, fp, p, texture_size, timings,
                                                              progress)
     timings["total"] = time.perf_counter() - t_all
     _log(progress, f"reproduction: mean ΔE2000 {float(de.mean()):.2f} on skin; total {timings['total']:.1f} s")
     return CaptureResult(camera=camera, params=p, light_dir_world=fp.light_world, exponent=exp_est, fit=fit,
-                         rmap=rmap, detail=detail, detail_valid=valid, skin_mask=skin_used, photo_lin=photo_lin,
+                         detail=detail, detail_valid=valid, skin_mask=skin_used, photo_lin=photo_lin,
                          fitted_render=fitted, reproduction=repro, reproduction_de2000_skin=float(de.mean()),
-                         probe=probe, timings_s=timings, robustness=rob, ambient_scale_photo=k_photo,
-                         specular_joint=specular_joint, specular_separation=sep)
+                         probe=probe, timings_s=timings, robustness=rob, specular_joint=specular_joint,
+                         specular_separation=sep, _values=result_values, _deferred=deferred)
+
+
+def _timed(timings: dict[str, float], name: str, func: Callable[..., Any], *args: Any) -> Any:
+    """``func(*args)``, its seconds in ``timings[name]``."""
+    t = time.perf_counter()
+    out = func(*args)
+    timings[name] = time.perf_counter() - t
+    return out
 
 
 def _fit_pixels(head: Head, photo_lin: np.ndarray, camera: Camera, probe: ProbeAnalysis | None,
@@ -552,6 +590,41 @@ def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
 UNSEEN_FADE_MM = 15.0
 
 
+#: How many heads' UV layouts :func:`_uv_layout` keeps (a 1024² one holds 28 MB, a 512² one 7 MB).
+UV_LAYOUTS_KEPT = 2
+_UV_LAYOUTS: OrderedDict[bytes, tuple[GBuffer, np.ndarray, np.ndarray]] = OrderedDict()
+
+
+def _uv_layout(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[GBuffer, np.ndarray, np.ndarray]:
+    """The UV atlas rasterised at ``size``² and, for every texel, the nearest covered one.
+
+    The rasterisation is :func:`capture.raster.rasterize_uv`'s; the nearest covered texel (row and column
+    indices; itself when covered) is :func:`bake_detail`'s gutter fill. They depend on the UVs, the faces
+    and the size alone — the same for every capture of a head, and for every automatic capture, whose heads
+    all share the canonical topology — and cost more than the rest of the bake at 1024² (the nearest-texel
+    transform alone 1.2 s), so the last :data:`UV_LAYOUTS_KEPT` are kept, keyed by their bytes; read-only.
+    """
+    uv = np.ascontiguousarray(uv)
+    faces = np.ascontiguousarray(faces)
+    digest = hashlib.blake2b(repr((uv.dtype.str, uv.shape, faces.dtype.str, faces.shape, int(size))).encode(),
+                             digest_size=20)
+    digest.update(uv.tobytes())
+    digest.update(faces.tobytes())
+    key = digest.digest()
+    if key in _UV_LAYOUTS:
+        _UV_LAYOUTS.move_to_end(key)
+        return _UV_LAYOUTS[key]
+    gb = rasterize_uv(uv, faces, (size, size))
+    _, (iy, ix) = ndimage.distance_transform_edt(~gb.covered, return_indices=True)
+    layout = (gb, iy, ix)
+    for a in (gb.tri, gb.bary, gb.depth, iy, ix):
+        a.flags.writeable = False
+    _UV_LAYOUTS[key] = layout
+    while len(_UV_LAYOUTS) > UV_LAYOUTS_KEPT:
+        _UV_LAYOUTS.popitem(last=False)
+    return layout
+
+
 def _texels_per_unit_uv(head: Head) -> float:
     """UV units per mesh unit on the head, median over its triangles (√(UV area / 3D area))."""
     v = np.asarray(head.vertices)[head.faces]
@@ -608,7 +681,7 @@ def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.nda
     """
     from scipy.spatial import cKDTree
 
-    gb = rasterize_uv(head.uv, head.faces, (size, size))
+    gb, iy, ix = _uv_layout(head.uv, head.faces, size)
     cov = gb.covered
     b = gb.bary[cov].astype(np.float64)
     f = head.faces[gb.tri[cov]]
@@ -658,6 +731,5 @@ def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.nda
         w = np.exp(-dist[near] * mm_per_unit / UNSEEN_FADE_MM)[:, None]
         fill[near] = w * low[rr[vis][nb[near]], cc[vis][nb[near]]] + (1.0 - w)
         detail[rr[unseen], cc[unseen]] = fill
-    _, (iy, ix) = ndimage.distance_transform_edt(~cov, return_indices=True)
-    detail = detail[iy, ix]
+    detail = detail[iy, ix]  # the gutter: the nearest covered texel's value
     return detail, valid

@@ -304,10 +304,21 @@ def refine_rotation(photo_lin: np.ndarray, surface: Surface, camera: Camera, lig
     seen, _ = camera.project(positions)
     photo = photo_lin[rows, cols]
     evaluations = 0
+    # The lobe fits of the last few turns: the least squares' finite difference in log s asks again for the
+    # turn it last evaluated (a fit depends on the turn alone; the exponent is the residual's argument).
+    fitted: dict[bytes, LobeHighPass] = {}
 
     def lobe_fit(theta: np.ndarray) -> LobeHighPass:
         nonlocal evaluations
         evaluations += 1
+        key = np.asarray(theta[:2], dtype=float).tobytes()
+        if key not in fitted:
+            fitted[key] = _lobe_fit(theta)
+            while len(fitted) > 4:
+                del fitted[next(iter(fitted))]
+        return fitted[key]
+
+    def _lobe_fit(theta: np.ndarray) -> LobeHighPass:
         cam = camera.turned(np.radians([theta[0], theta[1], 0.0]), pivot)
         if theta[0] == 0.0 and theta[1] == 0.0:
             nrm, pos = normals, positions

@@ -10,7 +10,7 @@ samples directly at 0.5° resolution (:func:`estimate_exponent`), not on this gr
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage
@@ -31,21 +31,35 @@ class ReflectanceMap:
     """A dense reflectance map.
 
     Attributes:
-        grid: float (N, N, 3) linear RGB (photograph units) per cell; see the module docstring.
+        grid: float (N, N, 3) linear RGB (photograph units) per cell; see the module docstring. Extended from
+            the clusters when first read (:func:`build_reflectance_map`'s extension, its k-nearest search
+            most of the map's cost: a capture reports the clusters, and reads the grid only when asked).
         cluster_dirs: (C, 3) unit normals of the clusters (camera coordinates).
         cluster_rgb: (C, 3) robust mean colour of each cluster.
         cluster_count: (C,) samples per cluster.
+        cells, neighbours, scale_deg: the grid's N and the extension's k and unit of distance
+            (:func:`build_reflectance_map`'s n, k and scale_deg).
     """
 
-    grid: np.ndarray
     cluster_dirs: np.ndarray
     cluster_rgb: np.ndarray
     cluster_count: np.ndarray
+    cells: int = 64
+    neighbours: int = 1024
+    scale_deg: float = 15.0
+    _grid: np.ndarray | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def grid(self) -> np.ndarray:
+        """(N, N, 3) the map per cell (extended from the clusters on first read)."""
+        if self._grid is None:
+            self._grid = _extend(self.cluster_dirs, self.cluster_rgb, self.cells, self.neighbours, self.scale_deg)
+        return self._grid
 
     @property
     def n(self) -> int:
         """The grid's cells per side."""
-        return int(self.grid.shape[0])
+        return int(self.cells)
 
     def sample(self, normals_cam: np.ndarray) -> np.ndarray:
         """The map at camera-space unit normals (..., 3) (back-facing ones use their projection), bilinear."""
@@ -116,8 +130,12 @@ def build_reflectance_map(normals_cam: np.ndarray, colours: np.ndarray, n: int =
         counts.append(int(keep.sum()))
     if len(dirs) < 10:
         raise ReflectanceError(f"only {len(dirs)} reflectance clusters; the skin mask is too small")
-    cdir = np.asarray(dirs)
-    crgb = np.asarray(rgbs)
+    return ReflectanceMap(cluster_dirs=np.asarray(dirs), cluster_rgb=np.asarray(rgbs),
+                          cluster_count=np.asarray(counts), cells=n, neighbours=k, scale_deg=scale_deg)
+
+
+def _extend(cdir: np.ndarray, crgb: np.ndarray, n: int, k: int, scale_deg: float) -> np.ndarray:
+    """:func:`build_reflectance_map`'s extension of the clusters (C, 3) to every cell: the grid (n, n, 3)."""
     tree = cKDTree(cdir)
     gdirs = _grid_dirs(n).reshape(-1, 3)
     kk = min(k, len(cdir))
@@ -134,8 +152,7 @@ def build_reflectance_map(normals_cam: np.ndarray, colours: np.ndarray, n: int =
     per = bin_count[np.arange(g)[:, None], dbin]
     wgt = np.exp(-(ang - ang.min(axis=1, keepdims=True)) / scale_deg) / per
     grid = np.einsum("gk,gkc->gc", wgt, crgb[nb]) / wgt.sum(axis=1, keepdims=True)
-    return ReflectanceMap(grid=grid.reshape(n, n, 3), cluster_dirs=cdir, cluster_rgb=crgb,
-                          cluster_count=np.asarray(counts))
+    return grid.reshape(n, n, 3)
 
 
 def eq3_exponent(alpha_rad: float) -> float:

@@ -3,8 +3,8 @@ the shared portraits altered (blurred, exposed, shrunk, doubled).
 
 The renders use the capture's own CPU renderer (:func:`capture.pipeline.pixel_data`: the sample head
 rasterised for a :class:`capture.camera.Camera`, its albedo sampled, Lambert-shaded by a light at the
-camera plus a little ambient, over a grey background), so the truth of a landmark is its sidecar point
-projected by the same camera. Cached per process (each is ≈ 0.3 s).
+camera plus a little ambient, over a grey background, optionally with that light's highlight), so the truth
+of a landmark is its sidecar point projected by the same camera. Cached per process (each is ≈ 0.3 s).
 """
 
 from __future__ import annotations
@@ -32,13 +32,16 @@ def sample_head():  # type: ignore[no-untyped-def]
 
 @cache
 def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_deg: float = 15.0,
-                  roll_deg: float = 0.0, aim_mm: float = 0.0) -> tuple[np.ndarray, Camera]:
+                  roll_deg: float = 0.0, aim_mm: float = 0.0, specular: float = 0.0,
+                  exponent: float = 20.0) -> tuple[np.ndarray, Camera]:
     """The sample head seen from ``yaw_deg`` about the vertical (and rolled ``roll_deg`` in the image).
 
     Returns uint8 sRGB (size, size, 3) and the camera. ``distance`` in mesh units (20 ≈ 1.05 m), vertical
     field ``fov_deg``: the face fills about 60 % of the frame's height. ``aim_mm``: the camera, still at
     ``yaw_deg`` from the face, aims that far to its right of the face's centre (mm), so the face sits
-    off-centre (to the left for a positive value).
+    off-centre (to the left for a positive value). ``specular``: the light's white highlight added,
+    i_s · max(r·v, 0)^``exponent`` with the light at the camera (r·v = 2 (n·v)² − 1): a flash photograph
+    as the automatic capture assumes one (0: none, the matte render).
     """
     from capture.camera import Camera
     from capture.pipeline import linear_to_srgb8, pixel_data, sample_texture
@@ -58,6 +61,8 @@ def render_sample(yaw_deg: float, size: int = 512, distance: float = 20.0, fov_d
     lambert = np.clip(np.einsum("pc,pc->p", pix.normals, pix.view), 0.0, 1.0)
     img = np.full((size, size, 3), 0.18)
     img[pix.rows, pix.cols] = colour * (0.25 + 0.9 * lambert[:, None])
+    if specular:
+        img[pix.rows, pix.cols] += specular * (np.clip(2 * lambert ** 2 - 1, 0.0, None) ** exponent)[:, None]
     out = linear_to_srgb8(img)
     out.flags.writeable = False
     return out, cam

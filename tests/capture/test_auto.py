@@ -97,10 +97,14 @@ def test_captured_head_has_regions_and_paints(hopper_face) -> None:  # type: ign
 
 def test_fitting_a_given_head_finds_the_render_camera(tmp_path: Path) -> None:
     """The sample head rendered with a known camera, captured with --head: the camera from the detected
-    standard landmarks projects the sidecar points within a few pixels of where the true camera does."""
+    standard landmarks projects the sidecar points within a few pixels of where the true camera does
+    (measured 1.3 % of the eyes' distance at the median, 2.6 % at worst). The render is a flash photograph
+    as the capture assumes one (the flash on the lens's axis, its highlight i_s 0.15, s 20), so the camera's
+    refinement on the lobe has one to fit (a matte render leaves the lobe's registration searching a flat
+    cost for ~20 s; Grace Hopper's portrait on the sample head, tests/capture/test_photos.py, still does)."""
     from capture.auto import capture_auto
 
-    img, _ = render_sample(0.0)
+    img, _ = render_sample(0.0, specular=0.15)
     head = sample_head()
     face = capture_auto(np.array(img), tmp_path / "f", head=head, allow_closed_eyes=True, texture_size=128)
     assert face.data["head_kind"] == "given" and not (tmp_path / "f" / "head.obj").exists()

@@ -10,9 +10,8 @@ distance error is the camera's geometry, not the metric scale.
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
+import contextlib
+import io
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -29,8 +28,9 @@ if TYPE_CHECKING:
 
 @pytest.fixture(scope="module")
 def captures(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
-    """Three automatic captures of the phone photograph: with EXIF (``sheer capture`` in its own process,
-    a JPEG), with a corrupt tag (in process, a PNG) and with ``--focal-mm`` on a file without EXIF."""
+    """Three automatic captures of the phone photograph: with EXIF (``sheer capture``, a JPEG; the command's
+    standard error kept), with a corrupt tag (``capture_auto``, a PNG) and with ``--focal-mm`` on a file
+    without EXIF. All in this process: the command's own process is tests/capture/test_cli_output.py's."""
     from app.cli import main
     from capture.auto import capture_auto
     from capture.face import load_face
@@ -40,16 +40,16 @@ def captures(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     Image.fromarray(srgb8).save(d / "exif.jpg", quality=95, exif=_exif({FOCAL_35: round(LENS_MM)}))
     Image.fromarray(srgb8).save(d / "corrupt.png", exif=_exif({FOCAL_35: 0}))
     Image.fromarray(srgb8).save(d / "bare.png")
-    env = {**os.environ, "PYTHONPATH": os.getcwd()}
-    proc = subprocess.run([sys.executable, "-m", "app.cli", "capture", "--photo", str(d / "exif.jpg"), "--out",
-                           str(d / "exif"), "--allow-closed-eyes", "--texture-size", "128"],
-                          capture_output=True, text=True, env=env, timeout=300)
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        rc_exif = main(["capture", "--photo", str(d / "exif.jpg"), "--out", str(d / "exif"), "--allow-closed-eyes",
+                        "--texture-size", "128"])
     lines: list[str] = []
     capture_auto(d / "corrupt.png", d / "corrupt", allow_closed_eyes=True, texture_size=128, progress=lines.append)
     rc = main(["capture", "--photo", str(d / "bare.png"), "--focal-mm", str(LENS_MM), "--out", str(d / "given"),
                "--allow-closed-eyes", "--texture-size", "128"])
-    assert proc.returncode == 0 and rc == 0, proc.stderr
-    return {"camera": camera, "cli": proc.stderr, "lines": lines,
+    assert rc_exif == 0 and rc == 0, err.getvalue()
+    return {"camera": camera, "cli": err.getvalue(), "lines": lines,
             **{k: load_face(d / k) for k in ("exif", "corrupt", "given")}}
 
 
@@ -60,7 +60,7 @@ def _figures(face: Any, camera: Any) -> dict[str, float]:
 
 
 def test_the_photos_exif_sets_the_automatic_captures_camera(captures: dict[str, Any]) -> None:
-    """A real process reads the JPEG's FocalLengthIn35mmFilm (26 mm): the log and face.json say so, the
+    """``sheer capture`` reads the JPEG's FocalLengthIn35mmFilm (26 mm): the log and face.json say so, the
     person's head is un-projected through it, and the camera's distance comes out within 5 % (measured
     −0.2 % on the GPU bench; the fitted focal length 0.94 × the true one)."""
     face = captures["exif"]

@@ -24,6 +24,7 @@ from painting.head import load_head
 if TYPE_CHECKING:
     import moderngl
 
+    from bench.capture_truth import Scene
     from capture.pipeline import CaptureResult
 
 
@@ -133,12 +134,10 @@ def test_the_photographs_own_turn_follows_the_camera_s_error(gl_ctx: moderngl.Co
     camera turned by (0.5°, −0.7°), (−0.8°, 0°) and (0°, 0.9°) with a loose prior (10° σ): the lobe fit's
     own turn back (``photometric_deg``) regresses on the turn needed with a slope of 1.02 (measured; the
     refinement that kept each pixel's first surface point: −0.06, its turn did not follow at all)."""
-    from bench.capture_truth import Case, draw_case
     from capture.pipeline import compute_skin_mask, pixel_data
     from capture.probe import analyse_probe
 
-    scene = draw_case(gl_ctx, Case("sample", 30.0, environment="lobby", light_deg=(5.0, -4.0),
-                                   ambient="irradiance", yaw_deg=20.0))
+    scene = _lobby_scene(gl_ctx)
     probe = analyse_probe(scene.probe_linear)
     params = PhongParams(diffuse=np.asarray(scene.diffuse), specular=0.18, exponent=30.0, ambient_scale=1.0,
                          flash_rgb=probe.flash_rgb, ambient_rgb=probe.ambient_rgb)
@@ -159,15 +158,22 @@ def test_the_photographs_own_turn_follows_the_camera_s_error(gl_ctx: moderngl.Co
 
 
 @cache
-def _turned_capture(ctx: moderngl.Context) -> tuple[CaptureResult, Camera, Camera]:
-    """A GPU photograph (s 30, the head turned 20°, the flash 5° above and 4° left, lobby sky) captured
-    from its true camera turned by (−1.2°, +1.5°) with a 1° prior: (the result, the turned camera, the truth)."""
+def _lobby_scene(ctx: moderngl.Context) -> Scene:
+    """A GPU photograph (s 30, the head turned 20°, the flash 5° above and 4° left, lobby sky), drawn once."""
     from bench.capture_truth import Case, draw_case
+
+    return draw_case(ctx, Case("sample", 30.0, environment="lobby", light_deg=(5.0, -4.0), ambient="irradiance",
+                               yaw_deg=20.0))
+
+
+@cache
+def _turned_capture(ctx: moderngl.Context) -> tuple[CaptureResult, Camera, Camera]:
+    """:func:`_lobby_scene` captured from its true camera turned by (−1.2°, +1.5°) with a 1° prior: (the
+    result, the turned camera, the truth)."""
     from capture.pipeline import capture
     from capture.probe import analyse_probe
 
-    scene = draw_case(ctx, Case("sample", 30.0, environment="lobby", light_deg=(5.0, -4.0), ambient="irradiance",
-                                yaw_deg=20.0))
+    scene = _lobby_scene(ctx)
     pivot = np.array(list(scene.head.metadata.landmarks.values())).mean(axis=0)
     turned = scene.camera.turned(np.radians([-1.2, 1.5, 0.0]), pivot)
     turned.rotation_covariance_deg2 = 9.0 * np.eye(2)

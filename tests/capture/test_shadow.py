@@ -38,7 +38,10 @@ def _scene() -> tuple[Head, np.ndarray, Camera]:
     return head, texture, case_camera(head, Case("sample", 24.0))
 
 
+@cache
 def _draw(ctx: moderngl.Context, right_deg: float, shadows: bool) -> GpuPhoto:
+    """The scene drawn with the flash ``right_deg`` right of the lens (once per flash and shadows: the tests
+    that share a drawing read it, never write it)."""
     head, texture, camera = _scene()
     return render_photo(ctx, head, texture, camera, SKIN, 0.18, 24.0, light_from_camera(camera, 0.0, right_deg),
                         FLASH_RGB, np.full(3, 0.1), shadows=shadows)
