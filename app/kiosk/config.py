@@ -436,16 +436,25 @@ def open_look_projects(looks: list[KioskLook], on_error: Callable[[KioskLook, st
             except OSError as exc:
                 raise SheerError(f"{look.path}: {exc.strerror or exc}") from None
         except SheerError as exc:
-            message = f"{look.origin}: {exc}"
-            if on_error is None:
-                raise SheerError(message) from None
-            on_error(look, message)
-            looks.remove(look)
+            _refuse(looks, look, f"{look.origin}: {exc}", on_error)
             continue
         name = str(look.project.name or "").strip()
         look.label = name if name and name != "Untitled" else look.path.stem
     for n, look in enumerate([k for k in looks if k.path is not None], start=1):
         look.key = "project" if n == 1 else f"project-{n}"
+
+
+def _refuse(looks: list[KioskLook], look: KioskLook, message: str,
+            on_error: Callable[[KioskLook, str], None] | None) -> None:
+    """Refuse a look that cannot be used.
+
+    :class:`SheerError` with ``message`` (one line), or, with ``on_error``, ``on_error(look, message)`` and
+    the look removed from ``looks``.
+    """
+    if on_error is None:
+        raise SheerError(message) from None
+    on_error(look, message)
+    looks.remove(look)
 
 
 def install_look_projects(looks: list[KioskLook], session: Session,
@@ -474,11 +483,7 @@ def install_look_projects(looks: list[KioskLook], session: Session,
         try:
             load_project_into(doc, session.library, look.project, resample=True)
         except SheerError as exc:
-            message = f"{look.origin}: {look.path}: {exc}"
-            if on_error is None:
-                raise SheerError(message) from None
-            on_error(look, message)
-            looks.remove(look)
+            _refuse(looks, look, f"{look.origin}: {look.path}: {exc}", on_error)
             continue
         look.layers = snapshot_layers(doc)
     replay_layers(doc, [])
