@@ -95,15 +95,16 @@ def read_photo_file(path: Path) -> np.ndarray:
     """
     import io
 
-    from PIL import Image, ImageOps
+    from PIL import Image
 
     from core.files import read_bounded
+    from core.photos import upright
 
     data = read_bounded(path, MAX_PHOTO_BYTES, "photo", CameraError)
     try:
         with Image.open(io.BytesIO(data)) as im:
             im.load()
-            rgb = ImageOps.exif_transpose(im).convert("RGB")
+            rgb = upright(im).convert("RGB")
     except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
         raise CameraError(f"{path}: not a readable photo ({exc})") from None
     return fit_frame(np.asarray(rgb, dtype=np.uint8))

@@ -91,7 +91,9 @@ def read_photo_srgb8(path: str | Path) -> tuple[np.ndarray, list[str]]:
     missing, unreadable or truncated file, a decompression bomb, or a grey-scale photograph (the capture
     measures the skin's colour).
     """
-    from PIL import Image, ImageOps, UnidentifiedImageError
+    from PIL import Image, UnidentifiedImageError
+
+    from core.photos import upright
 
     notes: list[str] = []
     try:
@@ -100,13 +102,13 @@ def read_photo_srgb8(path: str | Path) -> tuple[np.ndarray, list[str]]:
             with Image.open(path) as im:
                 im.load()  # decode now: a truncated file fails here
                 mode = im.mode
-                upright = ImageOps.exif_transpose(im)
+                turned = upright(im)
                 if mode in ("1", "L", "LA", "I", "I;16", "I;16B", "I;16L", "F"):
                     raise CaptureError(f"{path}: a grey-scale photo ({mode}); the capture measures the skin's "
                                        f"colour: use a colour photograph")
                 if mode == "CMYK":
                     notes.append("CMYK photo converted to RGB without colour management (colours approximate)")
-                rgb = upright.convert("RGB")
+                rgb = turned.convert("RGB")
                 arr = np.array(rgb, dtype=np.uint8)
     except CaptureError:
         raise

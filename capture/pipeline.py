@@ -85,12 +85,14 @@ def read_photo(path: str | Path) -> np.ndarray:
     """
     from PIL import Image, UnidentifiedImageError
 
+    from core.photos import upright
+
     try:
         with Image.open(path) as im:
             if im.width * im.height > MAX_PHOTO_PIXELS:
                 raise CaptureError(f"{path}: the photo is {im.width}×{im.height}, over the "
                                    f"{MAX_PHOTO_PIXELS:,}-pixel limit: downscale it")
-            codes = np.asarray(im.convert("RGB"))
+            codes = np.asarray(upright(im).convert("RGB"))  # EXIF orientation applied
     except CaptureError:
         raise
     except FileNotFoundError:

@@ -90,6 +90,8 @@ def read_photo(path: str | Path) -> FloatArray:
 
     from PIL import Image, UnidentifiedImageError
 
+    from core.photos import upright
+
     p = Path(path)
     if not p.is_file():
         raise PhotoError(f"{p}: no such photograph")
@@ -97,7 +99,7 @@ def read_photo(path: str | Path) -> FloatArray:
         with Image.open(p) as im:
             if im.width * im.height > MAX_PHOTO_PIXELS:
                 raise PhotoError(f"{p}: photograph too large ({im.width}×{im.height} px)")
-            codes = np.asarray(im.convert("RGB"))
+            codes = np.asarray(upright(im).convert("RGB"))  # EXIF orientation applied
     except PhotoError:
         raise
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:

@@ -72,13 +72,14 @@ def read_photo_srgb8(path: str) -> np.ndarray:
     A clear one-line error when it cannot be read.
     """
     import numpy as np
-    from PIL import Image, ImageOps, UnidentifiedImageError
+    from PIL import Image, UnidentifiedImageError
 
     from core.errors import SheerError
+    from core.photos import upright
 
     try:
         with Image.open(path) as im:
-            return np.asarray(ImageOps.exif_transpose(im).convert("RGB"), dtype=np.uint8)
+            return np.asarray(upright(im).convert("RGB"), dtype=np.uint8)
     except FileNotFoundError:
         raise SheerError(f"{path}: photo not found") from None
     except (UnidentifiedImageError, OSError, SyntaxError, ValueError, Image.DecompressionBombError) as exc:
