@@ -239,6 +239,21 @@ MISSED = {
 }
 
 
+#: The documented misses' own bounds, an ordinary test each (:func:`test_a_documented_miss_stays_within_its_bound`):
+#: the figure measured above plus a margin wider than the five drawings moved it (0.05 ΔE2000, 1 to 1.4 points
+#: of i_s), so a miss that grows fails, whatever its target's expected failure does. A bound is loosened only
+#: with the measured cause in the commit message.
+MISS_BOUNDS = {
+    ("yaw+30-s24-above", "i_s"): 0.085,  # +7.3 %
+    ("yaw+30-s24-above", "diffuse_de"): 1.06,  # 1.002-1.007
+    ("s60-beside-far", "i_s"): 0.065,  # -4.9 to -5.3 %
+    ("sensor-noise-vignetting", "i_s"): 0.07,  # -4.6 to -5.6 %
+    ("shadow-above15-s40", "diffuse_de"): 1.12,  # 1.07
+    ("photo-s12-yaw-15-off-axis", "diffuse_de"): 1.06,  # 1.007
+    ("photo-s12-yaw-15-off-axis", "i_s"): 0.075,  # -6.2 %
+}
+
+
 #: Documented misses within another rasteriser's reach of their targets (the module docstring): measured
 #: across the five drawings, yaw+30-s24-above's ΔE2000 1.002–1.007, s60-beside-far's i_s −4.9 to −5.3 %,
 #: sensor-noise-vignetting's i_s −4.6 to −5.6 %.
@@ -251,7 +266,8 @@ def _params() -> list[object]:
         for quantity in QUANTITIES:
             reason = MISSED.get((name, quantity))
             strict = (name, quantity) not in STRADDLING
-            marks = [pytest.mark.xfail(strict=strict, reason=f"measured {reason}")] if reason else []
+            marks = ([pytest.mark.xfail(strict=strict, raises=AssertionError, reason=f"measured {reason}")]
+                     if reason else [])
             # a case's quantities share one capture (measure's cache): one worker measures them all
             marks.append(pytest.mark.xdist_group(f"out-of-sample-{name}"))
             out.append(pytest.param(name, quantity, marks=marks, id=f"{name}-{quantity}"))
@@ -264,6 +280,21 @@ def test_every_figure_has_a_bound_within_its_target_or_is_a_documented_miss() ->
             missed = (name, quantity) in MISSED
             assert missed != (quantity in BOUNDS[name]), (name, quantity)
             assert missed or BOUNDS[name][quantity] <= TARGETS[quantity], (name, quantity)
+
+
+def test_every_documented_miss_has_its_own_bound() -> None:
+    assert set(MISS_BOUNDS) == set(MISSED)
+    for (name, quantity), bound in MISS_BOUNDS.items():
+        assert bound > TARGETS[quantity], (name, quantity)  # a miss: beyond its target, within its own bound
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize(("name", "quantity"),
+                         [pytest.param(name, quantity, marks=pytest.mark.xdist_group(f"out-of-sample-{name}"),
+                                       id=f"{name}-{quantity}") for name, quantity in sorted(MISS_BOUNDS)])
+def test_a_documented_miss_stays_within_its_bound(name: str, quantity: str, gl_ctx: moderngl.Context) -> None:
+    figures = measure(gl_ctx, name)  # the capture its target's test measured (measure's cache)
+    assert abs(getattr(figures, quantity)) < MISS_BOUNDS[(name, quantity)], f"{name}: {figures}"
 
 
 @pytest.mark.gl
