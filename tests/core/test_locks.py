@@ -9,7 +9,7 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
@@ -27,8 +27,10 @@ from core.locks import (
     takeover_request,
     writing,
 )
+from tests.cli_support import checkout_env
 
-CHECKOUT = Path(__file__).resolve().parents[2]
+if TYPE_CHECKING:
+    from pathlib import Path
 
 #: A child that holds the lock of argv[1] for a studio ("open"), says so, and waits to be killed.
 HOLDER = (
@@ -42,7 +44,7 @@ HOLDER = (
 
 
 def _child(script: str, *args: str) -> subprocess.Popen[str]:
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT)}
+    env = checkout_env()
     proc = subprocess.Popen([sys.executable, "-c", script, *args], env=env, stdout=subprocess.PIPE, text=True)
     assert proc.stdout is not None and proc.stdout.readline().strip() == "held"
     return proc

@@ -15,8 +15,7 @@ import pytest
 from bench.fuzz import sample_project
 from core.locks import FileLock, LockedError
 from project.io import STALE_TEMP_S, open_project, save_project
-
-CHECKOUT = Path(__file__).resolve().parents[2]
+from tests.cli_support import checkout_env
 
 #: Saves ``argv[3]`` versions of one small project (64² maps, with its .bak) to ``argv[1]``, named
 #: ``<argv[2]> <i>``; prints ``{"failures": [...]}``.
@@ -51,7 +50,7 @@ READER = (
 
 
 def _python(script: str, *args: str) -> subprocess.Popen[str]:
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT)}
+    env = checkout_env()
     return subprocess.Popen([sys.executable, "-c", script, *args], env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
 
@@ -107,7 +106,7 @@ def test_a_killed_saves_temporary_file_is_swept_by_the_next_save(tmp_path: Path)
     script = ("import os, signal, sys\nfrom core.atomicio import atomic_writer\n"
               "with atomic_writer(sys.argv[1], 'wb', keep_backup=True) as fh:\n"
               "    fh.write(b'half a project')\n    fh.flush()\n    os.kill(os.getpid(), signal.SIGKILL)\n")
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT)}
+    env = checkout_env()
     proc = subprocess.run([sys.executable, "-c", script, str(path)], env=env, timeout=60)
     assert proc.returncode == -signal.SIGKILL
     left = list(tmp_path.glob(".p.sheer.*.tmp"))

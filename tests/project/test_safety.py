@@ -18,8 +18,7 @@ from project.recovery_files import (
     remove_stale_temporaries,
     stale_temporaries,
 )
-
-CHECKOUT = Path(__file__).resolve().parents[2]
+from tests.cli_support import checkout_env
 
 
 @pytest.fixture(autouse=True)
@@ -69,7 +68,7 @@ def test_autosave_recovery_after_a_crash(tmp_path: Path) -> None:
         "assert a.tick() is not None\n"
         "os._exit(9)  # crash: no close, no save\n"
     )
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT)}
+    env = checkout_env()
     proc = subprocess.run([sys.executable, "-c", script, str(path)], env=env, capture_output=True, timeout=60)
     assert proc.returncode == 9, proc.stderr.decode()
     info = find_recovery(path)

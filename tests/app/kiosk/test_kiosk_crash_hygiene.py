@@ -12,8 +12,7 @@ from pathlib import Path
 import pytest
 
 from core.cache import PRIVATE_PREFIX, PrivateCache, sweep_private_caches
-
-CHECKOUT = Path(__file__).resolve().parents[3]
+from tests.cli_support import checkout_env
 
 #: A kiosk's session in a child: the private folder opens (the real code), her photograph, mesh and albedo
 #: are written into it, and it waits (to be killed, as a kiosk's power is cut mid-session).
@@ -31,7 +30,7 @@ SESSION = (
 
 
 def _session(tmp: Path) -> tuple[subprocess.Popen[str], Path]:
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT), "TMPDIR": str(tmp)}
+    env = checkout_env(TMPDIR=str(tmp))
     proc = subprocess.Popen([sys.executable, "-c", SESSION], env=env, stdout=subprocess.PIPE, text=True)
     assert proc.stdout is not None
     root = Path(proc.stdout.readline().strip())
@@ -71,9 +70,8 @@ def test_sheer_cache_clear_sweeps_dead_kiosks_private_folders(tmp: Path, tmp_pat
     killed.wait()
     stranger = tmp / f"{PRIVATE_PREFIX}abcdefgh"  # no process in its name (not one of ours): kept
     stranger.mkdir()
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT), "TMPDIR": str(tmp),
-           "SHEER_CACHE_DIR": str(tmp_path / "cache"), "QT_QPA_PLATFORM": "offscreen",
-           "XDG_CONFIG_HOME": str(tmp_path / "config")}
+    env = checkout_env(TMPDIR=str(tmp), SHEER_CACHE_DIR=str(tmp_path / "cache"), QT_QPA_PLATFORM="offscreen",
+                       XDG_CONFIG_HOME=str(tmp_path / "config"))
     proc = subprocess.run([sys.executable, "-m", "app", "cache", "clear"], env=env, capture_output=True,
                           text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr

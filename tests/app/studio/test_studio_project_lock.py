@@ -10,7 +10,6 @@ import socket
 import subprocess
 import sys
 import time
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import pytest
@@ -18,8 +17,11 @@ import pytest
 from app.qt_compat import pin_singletons
 from core.locks import Holder, holder_of, takeover_request
 from tests.app.studio_support import driver_fixture, studio_fixture, window_fixture
+from tests.cli_support import checkout_env
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from tests.app.studio_support import DialogDriver
 
 pin_singletons()
@@ -30,7 +32,6 @@ studio = studio_fixture(wait_full_quality=False, check_gl_release=False)
 window = window_fixture()
 driver = driver_fixture()
 
-CHECKOUT = Path(__file__).resolve().parents[3]
 CHOICES = ["Open a copy", "Take over", "Cancel"]
 
 #: Another Sheer that has ``argv[1]`` open; with ``argv[2] == "yields"`` it lets go when asked to.
@@ -48,7 +49,7 @@ OTHER = (
 
 
 def _other(path: Path, yields: bool = False) -> subprocess.Popen[str]:
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT)}
+    env = checkout_env()
     proc = subprocess.Popen([sys.executable, "-c", OTHER, str(path), "yields" if yields else "holds"], env=env,
                             stdout=subprocess.PIPE, text=True)
     assert proc.stdout is not None and proc.stdout.readline().strip() == "held"
@@ -110,7 +111,7 @@ def test_another_sheer_taking_over_leaves_the_work_here_as_an_untitled_copy(wind
     assert window.files.open_project(path) and window.files.path == path
     script = ("import sys\nfrom core.locks import take_over\nlock = take_over(sys.argv[1], timeout_s=30)\n"
               "print('took', flush=True)\nsys.stdin.read()\n")
-    env = {**os.environ, "PYTHONPATH": str(CHECKOUT)}
+    env = checkout_env()
     other = subprocess.Popen([sys.executable, "-c", script, str(path)], env=env, stdin=subprocess.PIPE,
                              stdout=subprocess.PIPE, text=True)
     try:
