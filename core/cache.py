@@ -68,6 +68,8 @@ _PRIVATE: list[tuple[Path, Path]] = []
 #: Private roots already closed: nothing is ever written under them again.
 _CLOSED: set[Path] = set()
 _warned_env: set[str] = set()
+#: (cache folder, errno) of write failures already warned about: one warning each per process.
+_warned_write: set[tuple[str, int | None]] = set()
 
 
 # ---------------------------------------------------------------------------------------------- where
@@ -337,7 +339,10 @@ def save_arrays(path: Path, arrays: Mapping[str, Any], version: int | str = 0, c
             return False
         os.replace(tmp, target)
         tmp = None
-    except (OSError, TypeError, ValueError) as exc:
+    except OSError as exc:
+        _write_failed(target, root, exc)
+        return False
+    except (TypeError, ValueError) as exc:
         log.debug("cache: could not write %s (%s)", target, exc)
         return False
     finally:
@@ -346,6 +351,21 @@ def save_arrays(path: Path, arrays: Mapping[str, Any], version: int | str = 0, c
                 os.unlink(tmp)
     evict(keep=target, root=root)
     return True
+
+
+def _write_failed(target: Path, root: Path, exc: OSError) -> None:
+    """Say once per cache folder and cause (a full disk, a read-only folder) that entries cannot be written.
+
+    One warning line naming the entry and the reason; the same failure again (every later entry on a full
+    disk) is logged at debug level only. Nothing else happens: the caller computes what it needed.
+    """
+    key = (os.path.abspath(root), exc.errno)
+    reason = exc.strerror or str(exc)
+    if key in _warned_write:
+        log.debug("cache: could not write %s (%s)", target, reason)
+        return
+    _warned_write.add(key)
+    log.warning("cache: cannot write %s: %s (carrying on without caching)", target, reason)
 
 
 def load_arrays(path: Path, version: int | str = 0) -> dict[str, np.ndarray] | None:

@@ -137,8 +137,11 @@ class FileLock:
                 if self._same_file(fd):
                     break
                 os.close(fd)  # locked a lock file its holder removed on release: lock the new one
-            os.ftruncate(fd, 0)
-            os.pwrite(fd, json.dumps(_me(self.purpose).__dict__).encode("utf-8"), 0)
+            # who holds it is for the messages only: on a full disk the flock alone still locks, and the
+            # save itself says what is wrong
+            with contextlib.suppress(OSError):
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, json.dumps(_me(self.purpose).__dict__).encode("utf-8"), 0)
             self._fd, self._held = fd, True
             _HELD[self.path] = self
             return None

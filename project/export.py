@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from core.atomicio import atomic_write_bytes
+from core.atomicio import atomic_write_bytes, check_can_create
 from painting.maps_io import encode_exr, encode_png16, png16_um_per_count, quantise
 from project.container import container_bytes
 from project.io import open_project
@@ -34,9 +34,14 @@ def _slug(text: str) -> str:
 
 
 def export_project(path: str | Path, out_dir: str | Path, *, ora: bool = False) -> dict[str, Any]:
-    """Write the maps and ``manifest.json`` of the project at ``path`` into ``out_dir``; returns the manifest."""
-    project = open_project(path, verify_head=False)
+    """Write the maps and ``manifest.json`` of the project at ``path`` into ``out_dir``; returns the manifest.
+
+    An ``out_dir`` that cannot be created (a read-only folder, a file in the way) is refused before the
+    project is read, with a :class:`core.errors.SheerError` naming it.
+    """
     out = Path(out_dir)
+    check_can_create(out / "layers")
+    project = open_project(path, verify_head=False)
     (out / "layers").mkdir(parents=True, exist_ok=True)
     layers = []
     for i, layer in enumerate(project.layers):

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from PySide6.QtCore import QEvent, QObject, QPoint, QSize, Qt, QTimer
+from PySide6.QtCore import QBuffer, QByteArray, QEvent, QIODevice, QObject, QPoint, QSize, Qt, QTimer
 from PySide6.QtGui import QCloseEvent, QGuiApplication, QKeyEvent, QKeySequence, QResizeEvent, QShortcut
 from PySide6.QtWidgets import (
     QBoxLayout,
@@ -56,6 +56,7 @@ from app.kiosk.shades import FoundationFinder
 from app.kiosk.tryon import TryOn
 from app.session import Session
 from app.settings import LIGHT_PRESETS
+from core.atomicio import atomic_write_bytes
 from core.cache import PrivateCache
 from core.errors import SheerError
 
@@ -623,10 +624,16 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         path = folder / f"sheer-{time.strftime('%Y%m%d-%H%M%S')}-{len(self.snapshots):03d}.png"
         if self.tryon.active:
             written = self.tryon.save_image(path)  # her photo, drawn anew: the one thing of hers that is written
-        elif self.viewport.grabFramebuffer().save(str(path)):
-            written = [path]
         else:
-            raise OSError(f"could not write the photo to {folder}")
+            # encoded in memory, then written atomically: QImage.save to the file itself says it saved
+            # a photo that a full disk cut short
+            png = QByteArray()
+            buffer = QBuffer(png)
+            buffer.open(QIODevice.OpenModeFlag.WriteOnly)
+            if not self.viewport.grabFramebuffer().save(buffer, "PNG"):
+                raise OSError(f"{path}: the view could not be encoded as a PNG")
+            atomic_write_bytes(path, png.data())
+            written = [path]
         self.snapshots.extend(written)
         self.toast.setText(self.SAVED_AS_CAMERA if self.tryon.active else "Photo saved")
         return path

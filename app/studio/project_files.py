@@ -44,6 +44,16 @@ log = logging.getLogger("sheer.app")
 
 #: Seconds between checks whether an autosave is due (the autosave interval itself is a setting).
 AUTOSAVE_CHECK_S = 10.0
+#: How long the status bar shows that an autosave failed (ms): until about the next try.
+AUTOSAVE_FAILED_MS = 12000
+
+
+def autosave_failure(reason: str) -> str:
+    """The status bar's line when an autosave fails (a full disk): ``reason`` names the recovery file.
+
+    The work is still in the window and is autosaved again at the next check; the line says so.
+    """
+    return f"Autosave failed, will try again: {' '.join(reason.split())}"
 
 
 class ProjectFiles(QObject):
@@ -384,6 +394,7 @@ class ProjectFiles(QObject):
         def failed(msg: str) -> None:
             self._autosaving = False
             log.warning("autosave failed: %s", msg)
+            self._window.statusBar().showMessage(autosave_failure(msg), AUTOSAVE_FAILED_MS)
 
         run_task(self._window, "Autosave", lambda p, c: a.autosave_now(project), done, failed, show_progress=False)
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import socket
 import subprocess
 import sys
@@ -16,11 +15,13 @@ from typing import TYPE_CHECKING
 import pytest
 
 from app.cli import main
+from tests import disk_support
 
 if TYPE_CHECKING:
     from collections.abc import Iterator
 
 pytestmark = pytest.mark.gl
+tiny_tmpfs = disk_support.tiny_tmpfs  # the fixture: a tmpfs mounted for the test
 DASK = str(Path(sys.executable).with_name("dask"))
 
 
@@ -86,31 +87,12 @@ def test_unreachable_scheduler_is_a_clear_error(write_spec, tmp_path, capsys) ->
     assert f"cannot reach the Dask scheduler at {address}" in capsys.readouterr().err
 
 
-@pytest.fixture
-def tiny_tmpfs(tmp_path: Path) -> Iterator[tuple[Path, Path]]:
-    """A 32 KiB tmpfs and a read-only tmpfs (root and mount(8) needed; skipped where not available)."""
-    full, ro = tmp_path / "full", tmp_path / "ro"
-    full.mkdir()
-    ro.mkdir()
-    mounted = []
-    try:
-        for target, opts in ((full, "size=32k"), (ro, "ro,size=32k")):
-            if shutil.which("mount") is None or subprocess.run(["mount", "-t", "tmpfs", "-o", opts, "tmpfs",
-                                                                str(target)], capture_output=True).returncode:
-                pytest.skip("cannot mount a tmpfs here (needs root)")
-            mounted.append(target)
-        yield full, ro
-    finally:
-        for target in mounted:
-            subprocess.run(["umount", str(target)], check=False)
-
-
 def test_bad_output_folders_are_refused_before_work(write_spec, tmp_path, tiny_tmpfs, capsys) -> None:
     spec = str(write_spec())
     (tmp_path / "a-file").write_text("in the way")
     assert main(["catalogue", spec, "--out", str(tmp_path / "a-file")]) == 2
     assert "a-file: not a folder (a file is in the way)" in capsys.readouterr().err
-    full, ro = tiny_tmpfs
+    full, ro = tiny_tmpfs("full", "size=32k"), tiny_tmpfs("ro", "ro,size=32k")
     assert main(["catalogue", spec, "--out", str(full / "cat")]) == 2
     err = capsys.readouterr().err
     assert "cannot write the catalogue here: No space left on device" in err and err.count("\n") == 1
