@@ -44,13 +44,18 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--frames", type=int, default=9)
     p.add_argument("--json", action="store_true")
     p.add_argument("--starts", type=int, default=200, help="random starts of the Phong fit (robustness; 0 = skip)")
+    p.add_argument("--texture-size", type=int, default=1024,
+                   help="the capture's detail texture side (texels, 64-4096; default 1024, the capture's own)")
     args = p.parse_args(argv or [])
     w, h = (int(x) for x in args.size.lower().split("x"))
+    if not 64 <= args.texture_size <= 4096:
+        p.error(f"--texture-size must be 64-4096 texels, got {args.texture_size}")
 
     head = load_head()
     scene = make_scene(head, read_env(str(find_asset("environments/warehouse.exr"))))
     t0 = time.perf_counter()
-    result = capture(head, scene.photo_lin, scene.camera, probe=analyse_probe(scene.probe_lin))
+    result = capture(head, scene.photo_lin, scene.camera, probe=analyse_probe(scene.probe_lin),
+                     texture_size=args.texture_size)
     capture_s = time.perf_counter() - t0
     robustness = _robustness(head, scene, result, args.starts) if args.starts > 0 else {}
     from capture.face import Face
@@ -66,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     out["note"] = ("frames interleaved across configurations; eight_lights_shadows_ms: shadow maps cached while "
                    "the lights stay still (as in the studio), compared per vertex (shadow_mode auto); "
                    "..._moving_ms re-renders all 8 maps every frame. capture_s: probe analysis + capture "
-                   "(1024² detail texture) of the synthetic ground-truth photograph of the sample head")
+                   f"({args.texture_size}² detail texture) of the synthetic ground-truth photograph of the sample head")
     print(json.dumps(out, indent=2))
     return 0
 
