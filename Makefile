@@ -30,10 +30,13 @@ run: $(STAMP)
 # pytest exits 5 when it collected no test: the suite has tests, so that fails too (e.g. a PYTEST_ARGS
 # that selects nothing). The workers (pytest-xdist, tests/xdist_support.py) get a module or an xdist_group at
 # a time, each on its own X server; a worker that crashes fails the run (xdist cannot give its module to a
-# new one). PYTEST_WORKERS=0 runs the suite in one process.
+# new one). PYTEST_WORKERS=0 runs the suite in one process. Compiled modules are kept (__pycache__, ignored by
+# git) even where the environment says PYTHONDONTWRITEBYTECODE: the workers and the few dozen `sheer`
+# processes the tests start then compile Sheer once, and pytest keeps its assertion-rewritten test modules.
 XDIST_ARGS := -n $(PYTEST_WORKERS) $(if $(filter-out 0,$(PYTEST_WORKERS)),--dist loadgroup --max-worker-restart 0)
 test: $(STAMP)
-	@if [ -z "$$DISPLAY" ]; then \
+	@unset PYTHONDONTWRITEBYTECODE; \
+	if [ -z "$$DISPLAY" ]; then \
 		echo "No DISPLAY: running the suite under xvfb-run"; \
 		xvfb-run -a -s "-screen 0 1920x1080x24" $(PY) -m pytest $(XDIST_ARGS) $(PYTEST_ARGS); rc=$$?; \
 	else \

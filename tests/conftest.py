@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import random
 import sys
@@ -62,6 +63,11 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     worker = xdist_support.worker_id(session.config)
     if worker is not None:
         xdist_support.write_groups(worker, session.items)
+    # What collection imported (Qt, numpy, scipy, every test module: a few hundred thousand objects) lives
+    # to the end of the run: frozen, the collector's full passes stop walking it again and again (measured
+    # on tests/app/studio and tests/painting: 8.2 s of garbage collection → 4.3 s in a 2-minute run)
+    gc.collect()
+    gc.freeze()
 
 
 @pytest.hookimpl(tryfirst=True, optionalhook=True)
