@@ -58,7 +58,10 @@ class DialogDriver:
         from PySide6.QtWidgets import QApplication, QDialog, QDialogButtonBox, QMessageBox
 
         for w in QApplication.topLevelWidgets():
-            if not w.isVisible():
+            try:
+                if not w.isVisible():
+                    continue
+            except RuntimeError:  # a menu or popup whose C++ object Qt deleted since the list was made
                 continue
             if isinstance(w, QMessageBox):
                 self._answer_box(w)

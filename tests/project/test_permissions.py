@@ -36,13 +36,17 @@ def _reachable_by_nobody(path: Path) -> bool:
 
 @pytest.fixture
 def shared_folder() -> Iterator[Path]:
-    """A fresh folder under the system's temporary folder, searchable by ``nobody`` (pytest's is root's only)."""
+    """A fresh folder under the system's temporary folder, searchable by ``nobody`` (pytest's is root's only,
+    and so is a test worker's own temporary folder: the nearest folder above it that ``nobody`` may search)."""
     why = can_drop_to_nobody()
     if why is not None:
         pytest.skip(f"cannot run sheer as an unprivileged user here: {why}")
     if not _reachable_by_nobody(CHECKOUT / "app" / "cli.py"):
         pytest.skip(f"{CHECKOUT} cannot be read by nobody")
-    base = Path(tempfile.mkdtemp(prefix="sheer-permissions-"))
+    parent = Path(tempfile.gettempdir())
+    while not _reachable_by_nobody(parent) and parent != parent.parent:
+        parent = parent.parent
+    base = Path(tempfile.mkdtemp(prefix="sheer-permissions-", dir=parent))
     try:
         base.chmod(0o755)
         yield base
