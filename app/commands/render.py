@@ -333,17 +333,19 @@ def _debug_slot(renderer: Renderer, layer: int) -> int:
 
 
 def _write_png(out: Path, image: np.ndarray) -> None:
-    """Write ``image`` (uint8 (H, W, 3)) to ``out`` as a PNG, atomically (a temporary file renamed)."""
+    """Write ``image`` (uint8 (H, W, 3)) to ``out`` as a PNG through :func:`core.atomicio.atomic_write_with`.
+
+    At any moment ``out`` is the complete old file or the complete new one; a failure is one
+    ``SheerError`` line naming ``out``.
+    """
     from PIL import Image
 
+    from core.atomicio import atomic_write_with
     from core.errors import SheerError
 
-    tmp = out.with_name(out.name + ".tmp.png")
     try:
-        Image.fromarray(image).save(tmp, format="PNG")
-        tmp.replace(out)
+        atomic_write_with(out, lambda fh: Image.fromarray(image).save(fh, format="PNG"))
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
         raise SheerError(f"{out}: cannot write the image: {exc.strerror or exc}") from None
 
 
