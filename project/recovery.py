@@ -224,8 +224,12 @@ class Autosaver:
         self.dirty = False
 
     def _discard(self) -> None:
-        """Remove this session's recovery files (of the project's file and of its untitled work)."""
+        """Remove this session's recovery files (of the project's file and of its untitled work).
+
+        Another process's (a crashed session's the user kept for later) stay; a save of the project
+        (:func:`project.io.save_project`) removes those of processes that ended.
+        """
         if self.project_path is not None:
-            discard_recovery(self.project_path)
+            discard_recovery(self.project_path, ended=False)
         discard_recovery(None, self.session_id)
         self.last_autosave = None

@@ -93,18 +93,22 @@ def new_session_id() -> str:
     return f"{os.getpid()}-{int(time.time())}"
 
 
-def discard_recovery(project_path: str | Path | None, session_id: str | None = None) -> None:
+def discard_recovery(project_path: str | Path | None, session_id: str | None = None, *,
+                     ended: bool = True) -> None:
     """Remove this process's recovery file(s) of ``project_path`` (or of an untitled session).
 
-    Those of processes that ended (crashed: their work is in the project just saved, or was given up) and
-    the file an older Sheer shared between processes (``.<name>.recovery``) go too; the autosave of a
-    process that still runs (a second studio's unsaved work) is left alone.
+    With ``ended`` (a save of ``project_path``), those of processes that ended (crashed: their work is in
+    the project just saved) and the file an older Sheer shared between processes (``.<name>.recovery``) go
+    too; without it (a window closing, or showing another project) they stay, to be offered again (the
+    user may have answered "Later"). The autosave of a process that still runs (a second studio's unsaved
+    work) is always left alone.
     """
     paths: list[Path] = []
     if project_path is not None:
         p = Path(project_path).absolute()
         paths = [_beside(p), _central(p)]
-        paths += [q for q in recovery_candidates(p) if not process_alive(_owner(q))]
+        if ended:
+            paths += [q for q in recovery_candidates(p) if not process_alive(_owner(q))]
     elif session_id:
         paths = [recovery_path(None, session_id)]
     for p in paths:

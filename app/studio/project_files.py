@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from app.view.viewport import Viewport
     from painting import ChangeEvent, Document
     from project.model import Project
+    from project.recovery import RecoveryInfo
 
 log = logging.getLogger("sheer.app")
 
@@ -286,9 +287,12 @@ class ProjectFiles(QObject):
             project_io.sweep_temporaries(path)
             self.settings.add_recent(str(path))
         self.autosaver.project_path = None if self.path is None else self.path.absolute()
+        held = not self._copy
         self._copy = False
         self.replaced.emit()
         self.set_modified(False)
+        if held:
+            self._offer_recovery_of(path)
         return True
 
     def _open_failed(self, message: str) -> None:
@@ -404,13 +408,29 @@ class ProjectFiles(QObject):
         Recover installs it (the window shows it modified, under the original file's name), Discard
         deletes the recovery file, Later keeps it for the next start.
         """
+        pending = project_io.pending_recoveries()
+        if pending:
+            self._offer(pending[0])
+
+    def _offer_recovery_of(self, path: Path) -> None:
+        """``path`` was just opened (File → Open, a recent file, ``sheer studio --project``): offer its autosave.
+
+        The same question as at start-up (:meth:`offer_recovery`), for a recovery file of ``path`` (beside
+        it, or in the recovery folder) left by a Sheer that did not close normally and written after the
+        project was last saved; another running Sheer's live autosave, a damaged file or one older than
+        the project is not offered.
+        """
+        from project.recovery import find_recovery
+
+        info = find_recovery(path)
+        if info is not None and not info.owner_alive and info.error is None and info.newer_than_original:
+            self._offer(info)
+
+    def _offer(self, info: RecoveryInfo) -> None:
+        """Ask Recover / Discard / Later about the recovery file ``info`` and do what the user chose."""
         from core.errors import SheerError
         from project.recovery import recover
 
-        pending = project_io.pending_recoveries()
-        if not pending:
-            return
-        info = pending[0]
         what = info.original.name if info.original else "untitled work"
         answer = dialogs.ask(self._window, "Recover unsaved work",
                              f"Sheer did not close normally. Recover {what} autosaved at {info.saved_at}?",
