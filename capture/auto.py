@@ -295,7 +295,7 @@ def warm_up() -> None:
 def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: str | Path | Head | None = None,
                  probe: ProbeAnalysis | str | Path | None = None, allow_closed_eyes: bool = False,
                  progress: Callable[[str], None] | None = None, texture_size: int = AUTO_TEXTURE_SIZE,
-                 focal_mm: float | None = None) -> Face:
+                 focal_mm: float | None = None, full_head: bool = False) -> Face:
     """Capture a face from one photograph, automatically (see the module docstring).
 
     Args:
@@ -310,6 +310,9 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
         focal_mm: the lens's 35 mm-equivalent focal length (mm, 4–2000, over the diagonal); None: the
             photograph file's EXIF if it has a usable one, else the portrait-lens prior (see
             :func:`photo_focal`).
+        full_head: with ``head`` None, capture on a full head (:func:`capture.full_head.fit_full_head`: the
+            sample head's skull, ears and neck warped onto her landmarks) instead of the face mesh alone: her
+            photograph's detail on her face, her fitted skin tone elsewhere (:func:`capture.full_head.blend_detail`).
 
     Returns:
         The face folder read back (:func:`capture.face.load_face`).
@@ -326,6 +329,8 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
 
     if not 16 <= int(texture_size) <= 8192:
         raise CaptureError(f"texture_size must be between 16 and 8192, got {texture_size}")
+    if full_head and head is not None:
+        raise CaptureError("a full head is fitted to her own landmarks: it cannot be combined with a given head")
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
     out = Path(out_dir)
@@ -353,8 +358,18 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
                    f": RMS reprojection error {camera.reprojection_error_px:.2f} px"))
     photo_lin = srgb_decode(srgb8 / 255.0)
     mask = region_skin_mask(the_head, camera, photo_lin, pixel_data(the_head, camera)) if person else None
+    face_only = the_head
+    fit_record: dict[str, Any] | None = None
+    if full_head:
+        the_head, fit_record = _full_head(the_head, out, timings, progress)
     result = capture(the_head, photo_lin, camera, probe=probe_analysis, mask=mask, texture_size=int(texture_size),
                      progress=progress)
+    if full_head:
+        from capture.full_head import blend_detail, face_weight
+
+        t = time.perf_counter()
+        result.detail = blend_detail(the_head, result.detail, face_weight(the_head, face_only, camera.centre))
+        timings["full_head_blend"] = time.perf_counter() - t
     if result.params.specular < NO_SPECULAR:
         # Said, not silent: i_s 0 reads as a matte skin, while the photograph's shine went into the detail texture.
         msg = ("no specular lobe found: i_s (0) and s are not measured" + (f"; {NO_SPECULAR_PERSON}" if person else "")
@@ -365,8 +380,11 @@ def capture_auto(photo: str | Path | np.ndarray, out_dir: str | Path, *, head: s
     original = str(Path(photo).resolve()) if isinstance(photo, (str, Path)) else source
     extra = {"photo": PHOTO_FILE, "source_photo": original, "downscale": downscale, "notes": notes,
              "landmarks": {**face.to_json(), "points_px": np.round(face.points, 2).tolist()},
-             "quality": report.to_json(), "head_kind": "person" if person else "given", "focal": focal_record}
-    _write_face_folder(out, result, the_head, person, srgb8, face, extra, timings, t_all)
+             "quality": report.to_json(), "head_kind": "full" if full_head else "person" if person else "given",
+             "focal": focal_record}
+    if fit_record is not None:
+        extra["full_head"] = fit_record
+    _write_face_folder(out, result, the_head, person, srgb8, face, extra, timings, t_all, full_head)
     _say(progress, f"wrote {out} in {time.perf_counter() - t_all:.1f} s")
     return load_face(out)
 
@@ -468,8 +486,33 @@ def _auto_head(head: str | Path | Head | None, face: FaceLandmarks, out: Path, r
     return the_head
 
 
+def _full_head(person: Head, out: Path, timings: dict[str, float], progress: Callable[[str], None] | None
+               ) -> tuple[Head, dict[str, Any]]:
+    """The full head fitted to the person's face-mesh head (:func:`capture.full_head.fit_full_head`), in ``out``.
+
+    Returns it and face.json's record of the fit (residual in mm over the fitted points, the sample head's scale).
+    """
+    import dataclasses
+
+    from capture.full_head import WARP_POINTS, fit_full_head
+    from capture.person import HEAD_FILE
+
+    t = time.perf_counter()
+    fit = fit_full_head(person.vertices)
+    head = dataclasses.replace(fit.head, path=out / HEAD_FILE)
+    r = fit.residual_mm[WARP_POINTS]
+    residual = {"median": round(float(np.median(r)), 3), "p95": round(float(np.percentile(r, 95)), 3),
+                "max": round(float(r.max()), 3)}
+    record = {"residual_mm": residual, "mm_per_sample_unit": round(fit.scale * 10.0, 3), "vertices": len(head.vertices)}
+    timings["full_head"] = time.perf_counter() - t
+    _say(progress, f"full head: the sample head warped onto her landmarks ({len(head.vertices)} vertices; residual "
+                   f"median {residual['median']:.2f} mm, max {residual['max']:.2f} mm)")
+    return head, record
+
+
 def _write_face_folder(out: Path, result: CaptureResult, the_head: Head, person: bool, srgb8: np.ndarray,
-                       face: FaceLandmarks, extra: dict[str, Any], timings: dict[str, float], t_all: float) -> None:
+                       face: FaceLandmarks, extra: dict[str, Any], timings: dict[str, float], t_all: float,
+                       full_head: bool = False) -> None:
     """Write the face folder beside ``out`` and move it into place (nothing is left when it fails).
 
     The person's head (with the albedo the capture found) and the photograph go with it; face.json gets
@@ -487,7 +530,12 @@ def _write_face_folder(out: Path, result: CaptureResult, the_head: Head, person:
         tmp.mkdir()
         if person:
             albedo = face_albedo(FaceRecord(params=result.params, detail=result.detail, data={}))
-            write_person_head(the_head, tmp, albedo)
+            if full_head:
+                from capture.full_head import write_full_head
+
+                write_full_head(the_head, tmp, albedo)
+            else:
+                write_person_head(the_head, tmp, albedo)
         Image.fromarray(srgb8).save(tmp / PHOTO_FILE)
         timings["total"] = time.perf_counter() - t_all
         extra["auto_timings_s"] = {k: round(v, 4) for k, v in timings.items()}

@@ -35,6 +35,8 @@ from capture.errors import CaptureError
 from capture.landmarks import N_MESH
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from painting.head import Head
 
 #: The canonical face model's sidecar (its standard landmarks), in resources/heads/.
@@ -221,3 +223,118 @@ def _canonical_faces() -> np.ndarray:
     from capture.person import canonical_topology
 
     return canonical_topology().faces
+
+
+#: Over how many millimetres inside her face mesh's open boundary the photograph's detail fades in.
+FACE_FEATHER_MM = 12.0
+#: A full-head vertex farther than this (mm) from her face mesh is not on her face.
+ON_FACE_MM = 3.0
+#: The cosine between a texel's normal and the direction to the photograph's camera below which the
+#: photograph's detail fades out (at grazing angles one photograph pixel is smeared over many texels).
+FACING_COS = (0.2, 0.5)
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def face_weight(head: Head, person: Head, centre: np.ndarray) -> np.ndarray:
+    """Per vertex of the fitted ``head``, how much of the photograph's detail it keeps: float64 (N,) in [0, 1].
+
+    1 on her face (within :data:`ON_FACE_MM` of the ``person``'s face mesh) farther than
+    :data:`FACE_FEATHER_MM` from its open boundary, falling smoothly to 0 at the boundary; 0 off her face
+    (skull, ears, neck); times the facing weight (:data:`FACING_COS`, the vertex normal against the direction
+    to the photograph's camera at ``centre``, mesh coordinates).
+    """
+    import trimesh
+    from scipy.spatial import cKDTree
+
+    v = np.asarray(head.vertices, dtype=np.float64)
+    face_mesh = trimesh.Trimesh(np.asarray(person.vertices, dtype=np.float64)[:N_MESH], person.faces, process=False)
+    lo, hi = face_mesh.bounds
+    near = np.all((v >= lo - ON_FACE_MM / float(head.mm_per_unit)) & (v <= hi + ON_FACE_MM / float(head.mm_per_unit)),
+                  axis=1)  # the rest (skull, neck, shoulders) is farther than ON_FACE_MM: no surface query
+    dist = np.full(len(v), np.inf)
+    if near.any():
+        dist[near] = trimesh.proximity.closest_point(face_mesh, v[near])[1]
+    edges = face_mesh.edges_sorted
+    uniq, counts = np.unique(edges, axis=0, return_counts=True)
+    boundary = np.unique(uniq[counts == 1])
+    d_boundary, _ = cKDTree(face_mesh.vertices[boundary]).query(v, k=1)
+    mm = float(head.mm_per_unit)
+    on_face = (np.asarray(dist) * mm <= ON_FACE_MM).astype(np.float64)
+    inside = _smoothstep(d_boundary * mm / FACE_FEATHER_MM)
+    view = np.asarray(centre, dtype=np.float64)[None, :] - v
+    view /= np.maximum(np.linalg.norm(view, axis=1, keepdims=True), 1e-12)
+    cos = np.einsum("pc,pc->p", np.asarray(head.normals, dtype=np.float64), view)
+    facing = _smoothstep((cos - FACING_COS[0]) / (FACING_COS[1] - FACING_COS[0]))
+    return on_face * inside * facing
+
+
+def blend_detail(head: Head, detail: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """The detail texture with the photograph's detail kept by ``weight`` and her plain skin tone elsewhere.
+
+    ``detail``: float32 (S, S, 3), the capture's detail in ``head``'s UV space (1 = the fitted diffuse
+    colour, her skin tone); ``weight``: per vertex (:func:`face_weight`), interpolated over each texel's
+    triangle. Returns float32 (S, S, 3): weight·detail + (1 − weight)·1 (the gutter copies the nearest
+    covered texel, as the capture's bake does).
+    """
+    from capture.pipeline import _uv_layout
+
+    size = detail.shape[0]
+    gb, iy, ix = _uv_layout(head.uv, head.faces, size)
+    w = np.zeros((size, size), dtype=np.float64)
+    cov = gb.covered
+    w[cov] = np.einsum("pk,pk->p", gb.bary[cov].astype(np.float64), weight[head.faces[gb.tri[cov]]])
+    w = w[iy, ix]
+    return (w[..., None] * detail + (1.0 - w[..., None])).astype(np.float32)
+
+
+#: The fitted head's skin mask in the face folder (the sample head's, in the same UVs).
+SKIN_MASK_FILE = "skin-mask.png"
+
+
+def obj_text(head: Head) -> str:
+    """The fitted head as Wavefront OBJ text (one ``vt`` per vertex, same index)."""
+    lines = ["# Sheer captured head: the sample head's topology and UVs warped onto the face from the photograph",
+             f"# mesh units: centimetres ({head.mm_per_unit:g} mm per unit)"]
+    lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in head.vertices]
+    lines += [f"vt {u:.6f} {v:.6f}" for u, v in head.uv]
+    lines += [f"f {a + 1}/{a + 1} {b + 1}/{b + 1} {c + 1}/{c + 1}" for a, b, c in head.faces]
+    return "\n".join(lines) + "\n"
+
+
+def write_full_head(head: Head, folder: Path, albedo_srgb8: np.ndarray, sample: Head | None = None) -> list[Path]:
+    """Write the fitted head into ``folder``: ``head.obj``, its sidecar, ``albedo.png``, the regions and skin mask.
+
+    The regions and the skin mask are ``sample``'s (default the sample head; same UVs), copied. ``albedo_srgb8``:
+    uint8 (S, S, 3) sRGB in the head's UV space. Returns the files written.
+    """
+    import dataclasses
+    import shutil
+
+    from PIL import Image
+
+    from capture.person import ALBEDO_FILE, HEAD_FILE, sidecar_json
+    from painting.head import SIDECAR_SUFFIX, find_sidecar, load_head
+    from painting.regions import regions_file
+
+    sample = load_head() if sample is None else sample
+    mesh = folder / HEAD_FILE
+    sidecar = folder / (HEAD_FILE + SIDECAR_SUFFIX)
+    files = [mesh, sidecar, folder / ALBEDO_FILE]
+    sample_sidecar = find_sidecar(sample.path)
+    regions = regions_file(sample_sidecar) if sample_sidecar is not None else None
+    if head.skin_mask is not None:
+        Image.fromarray(np.asarray(head.skin_mask, dtype=np.uint8) * 255).save(folder / SKIN_MASK_FILE)
+        files.append(folder / SKIN_MASK_FILE)
+    meta = dataclasses.replace(head.metadata, albedo=ALBEDO_FILE,
+                               skin_mask=SKIN_MASK_FILE if head.skin_mask is not None else None)
+    mesh.write_text(obj_text(head), encoding="utf-8")
+    sidecar.write_text(sidecar_json(meta), encoding="utf-8")
+    Image.fromarray(np.asarray(albedo_srgb8, dtype=np.uint8)).save(folder / ALBEDO_FILE)
+    if regions is not None and regions.is_file():
+        shutil.copyfile(regions, regions_file(sidecar))
+        files.append(regions_file(sidecar))
+    return files

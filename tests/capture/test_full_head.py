@@ -101,3 +101,58 @@ def test_bad_landmarks_are_one_line() -> None:
         fit_full_head(np.zeros((20, 3)))
     with pytest.raises(CaptureError, match="468 finite 3D"):
         fit_full_head(np.full((468, 3), np.nan))
+
+
+def test_the_photograph_is_kept_on_her_face_and_her_skin_tone_elsewhere() -> None:
+    from capture.full_head import blend_detail, face_weight
+    from capture.pipeline import _uv_layout
+
+    person, fit = _hopper()
+    head = fit.head
+    w = face_weight(head, person, np.array([0.0, 0.0, 60.0]))  # a camera 60 cm in front of her face
+    assert w.min() >= 0.0 and w.max() <= 1.0
+    nose = int(np.argmin(np.linalg.norm(head.vertices - np.asarray(head.metadata.landmarks["nose_tip"]), axis=1)))
+    cheek = int(np.argmin(np.linalg.norm(head.vertices - np.asarray(head.metadata.landmarks["left_cheek"]), axis=1)))
+    assert w[nose] > 0.99 and w[cheek] > 0.99
+    behind = head.vertices[:, 2] < person.vertices[:, 2].min() - 1.0  # the skull, ears, neck behind her face mesh
+    assert behind.sum() > 2000 and w[behind].max() == 0.0 and (w == 0.0).sum() > len(w) // 2
+    # a detail texture with a streak everywhere (what a smeared photograph would leave): only her face keeps it
+    size = 128
+    rng = np.random.default_rng(3)
+    detail = (1.0 + rng.uniform(-0.5, 0.5, (size, size, 3))).astype(np.float32)
+    out = blend_detail(head, detail, w)
+    gb, _, _ = _uv_layout(head.uv, head.faces, size)
+    tri = np.maximum(gb.tri, 0)
+    off = gb.covered & (w[head.faces].max(axis=1)[tri] == 0.0)
+    on = gb.covered & (w[head.faces].min(axis=1)[tri] >= 0.999)
+    assert off.sum() > size * size // 4
+    np.testing.assert_array_equal(out[off], 1.0)  # off her face: her fitted skin tone, exactly
+    assert on.sum() > 500
+    np.testing.assert_allclose(out[on], detail[on], atol=2e-3)  # on her face: the photograph's detail
+
+
+def test_the_automatic_capture_writes_her_full_head(tmp_path: Path) -> None:
+    from capture.auto import capture_auto
+    from core.assets import find_asset
+    from painting.region_shapes import regions_for
+
+    lines: list[str] = []
+    face = capture_auto(find_asset("photos/grace_hopper.jpg"), tmp_path / "g", full_head=True, texture_size=64,
+                        progress=lines.append)
+    head = face.load_head()
+    assert face.data["head_kind"] == "full" and len(head.vertices) == 9279 and head.mm_per_unit == 10.0
+    assert face.data["full_head"]["residual_mm"]["p95"] < 1.0
+    assert any(line.startswith("full head: the sample head warped") for line in lines)
+    assert head.albedo is not None and head.skin_mask is not None and face.detail.shape == (64, 64, 3)
+    assert "lips" in regions_for(head).names()
+
+
+def test_a_full_head_with_a_given_head_is_one_line(tmp_path: Path) -> None:
+    from capture.auto import capture_auto
+    from capture.errors import CaptureError
+    from core.assets import find_asset
+
+    with pytest.raises(CaptureError, match="cannot be combined with a given head"):
+        capture_auto(find_asset("photos/grace_hopper.jpg"), tmp_path / "g", head=find_asset("heads/lee-perry-smith/head.glb"),
+                     full_head=True)
+    assert not (tmp_path / "g").exists()
