@@ -528,21 +528,49 @@ def _private_owner(folder: Path) -> tuple[int, str] | None:
     return int(parts[0]), parts[1]
 
 
+#: Seconds after its last write that a private folder whose name carries no process is removed (1 day):
+#: an older Sheer named them ``sheer-private-cache-XXXXXXXX``, so whether their kiosk still runs is unknown.
+UNOWNED_PRIVATE_MAX_AGE_S = 86400.0
+
+
+def _last_written(folder: Path) -> float:
+    """The newest modification time (Unix time, s) of ``folder`` and of everything under it."""
+    newest = folder.lstat().st_mtime
+    for dirpath, dirnames, filenames in os.walk(folder):
+        for name in (*dirnames, *filenames):
+            with contextlib.suppress(OSError):
+                newest = max(newest, os.lstat(os.path.join(dirpath, name)).st_mtime)
+    return newest
+
+
+def _private_folder_ended(candidate: Path) -> bool:
+    """Whether the session of the private folder ``candidate`` is over.
+
+    Its process no longer runs or, for a name without one (an older Sheer's), nothing in it was written for
+    :data:`UNOWNED_PRIVATE_MAX_AGE_S` seconds.
+    """
+    owner = _private_owner(candidate)
+    if owner is not None:
+        return not process_alive(*owner)
+    return time.time() - _last_written(candidate) >= UNOWNED_PRIVATE_MAX_AGE_S
+
+
 def sweep_private_caches(folder: Path | None = None) -> list[Path]:
-    """Remove the private cache folders (a shopper's photo, mesh, albedo) of processes that no longer run.
+    """Remove the private cache folders (a shopper's photo, mesh, albedo) of sessions that are over.
 
     A kiosk killed during a session (``kill -9``, a power cut) leaves its folder in the temporary directory
     (``folder``, default ``tempfile.gettempdir()``); a folder whose process still runs (another kiosk's live
-    session), or that is not this user's, is never touched. Returns the folders removed.
+    session), or that is not this user's, is never touched. A folder an older Sheer named without its
+    process (``sheer-private-cache-XXXXXXXX``) goes once nothing in it was written for a day
+    (:data:`UNOWNED_PRIVATE_MAX_AGE_S`). Returns the folders removed.
     """
     base = Path(tempfile.gettempdir()) if folder is None else Path(folder)
     removed = []
     with contextlib.suppress(OSError):
         for candidate in sorted(base.glob(f"{PRIVATE_PREFIX}*")):
-            owner = _private_owner(candidate)
             with contextlib.suppress(OSError):
-                if (owner is None or not candidate.is_dir() or candidate.is_symlink()
-                        or candidate.stat().st_uid != os.getuid() or process_alive(*owner)):
+                if (not candidate.is_dir() or candidate.is_symlink() or candidate.stat().st_uid != os.getuid()
+                        or not _private_folder_ended(candidate)):
                     continue
                 shutil.rmtree(candidate)
                 removed.append(candidate)
