@@ -9,7 +9,9 @@ refuses a photo with no face or several, a turned or tilted head, a small face, 
 ``--allow-closed-eyes``), blur, clipped or dark skin (each with its reason, in one line); the person's
 own head is built from the face mesh (canonical topology, metric from the iris) and written into
 FACE_DIR (head.obj, its sidecar, albedo.png, regions) with photo.png; the camera comes from the
-landmarks. ``--head PATH`` fits that head instead of building one (its sidecar's standard landmarks).
+landmarks. ``--head PATH`` fits that head instead of building one (its sidecar's standard landmarks);
+``--full-head`` puts her face on a full head instead of the face mesh alone (the sample head's skull, ears
+and neck warped onto her landmarks: :mod:`capture.full_head`).
 face.json then also holds the detected landmarks (named, pixels) and the quality report; report.png
 draws the landmarks. Photos over 1600 px on the longer side are downscaled (said).
 
@@ -72,6 +74,9 @@ def register(sub: Subcommands) -> None:
     cam = p.add_mutually_exclusive_group()
     cam.add_argument("--camera", metavar="FILE", help="projection matrix JSON (else: automatic)")
     cam.add_argument("--points", metavar="FILE", help="2D-3D correspondences JSON (at least 6; else: automatic)")
+    p.add_argument("--full-head", action="store_true",
+                   help="automatic capture: her face on a full head (the sample head's skull, ears and neck warped "
+                        "onto her landmarks) instead of the face mesh alone")
     p.add_argument("--allow-closed-eyes", action="store_true",
                    help="automatic capture: let closed eyes through the quality gate (e.g. the sample head's scan)")
     p.add_argument("--probe", metavar="PATH", help="mirror-ball photograph, cropped to the ball")
@@ -157,6 +162,8 @@ def run(args: argparse.Namespace) -> int:
         return run_auto(args, say)
     if args.allow_closed_eyes:
         raise CaptureError("--allow-closed-eyes is for the automatic capture (without --camera/--points)")
+    if args.full_head:
+        raise CaptureError("--full-head is for the automatic capture (without --camera/--points)")
     head = load_head(args.head)
     say(f"head {head.name}: {len(head.faces)} triangles, {head.mm_per_unit:g} mm per unit")
     photo = read_photo(args.photo)
@@ -218,12 +225,12 @@ def run_auto(args: argparse.Namespace, say: Callable[[str], None]) -> int:
     try:
         face = capture_auto(args.photo, args.out, head=args.head, probe=probe,
                             allow_closed_eyes=args.allow_closed_eyes, progress=say, texture_size=args.texture_size,
-                            focal_mm=args.focal_mm)
+                            focal_mm=args.focal_mm, full_head=args.full_head)
     except QualityError as exc:
         codes = ", ".join(i.code for i in exc.issues)
         raise CaptureError(f"{args.photo}: refused by the quality gate ({codes}): {exc}") from None
     files = "face.json, detail.exr, report.png, skin_mask.png, photo.png"
-    if face.data.get("head_kind") == "person":
+    if face.data.get("head_kind") in ("person", "full"):
         files += ", head.obj (+ sidecar, albedo.png, regions)"
     print(f"capture: wrote {args.out}/: {files}", file=sys.stderr)
     return 0

@@ -131,20 +131,34 @@ def test_the_photograph_is_kept_on_her_face_and_her_skin_tone_elsewhere() -> Non
     np.testing.assert_allclose(out[on], detail[on], atol=2e-3)  # on her face: the photograph's detail
 
 
-def test_the_automatic_capture_writes_her_full_head(tmp_path: Path) -> None:
-    from capture.auto import capture_auto
+def test_sheer_capture_full_head_writes_her_full_head(tmp_path: Path) -> None:
+    import contextlib
+    import io
+
+    from app.cli import main
+    from capture.face import load_face
     from core.assets import find_asset
     from painting.region_shapes import regions_for
 
-    lines: list[str] = []
-    face = capture_auto(find_asset("photos/grace_hopper.jpg"), tmp_path / "g", full_head=True, texture_size=64,
-                        progress=lines.append)
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["capture", "--photo", str(find_asset("photos/grace_hopper.jpg")), "--full-head",
+                     "--texture-size", "64", "--out", str(tmp_path / "g")])
+    assert code == 0, err.getvalue()
+    assert "head.obj (+ sidecar" in err.getvalue()
+    face = load_face(tmp_path / "g")
     head = face.load_head()
     assert face.data["head_kind"] == "full" and len(head.vertices) == 9279 and head.mm_per_unit == 10.0
     assert face.data["full_head"]["residual_mm"]["p95"] < 1.0
-    assert any(line.startswith("full head: the sample head warped") for line in lines)
     assert head.albedo is not None and head.skin_mask is not None and face.detail.shape == (64, 64, 3)
     assert "lips" in regions_for(head).names()
+    # with --points it is one line
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        code = main(["capture", "--photo", str(find_asset("photos/grace_hopper.jpg")), "--full-head", "--points",
+                     str(DATA / "grace_hopper_points.json"), "--out", str(tmp_path / "p")])
+    assert code == 2 and "--full-head is for the automatic capture" in err.getvalue()
+    assert len(err.getvalue().strip().splitlines()) == 1
 
 
 def test_a_full_head_with_a_given_head_is_one_line(tmp_path: Path) -> None:
