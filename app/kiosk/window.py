@@ -80,6 +80,9 @@ CAMERA_DOWN = "“Try it on me” is not available right now: the camera is not 
 FRIENDLY = "Sorry, something went wrong. Touch the screen to start again."
 #: The invitation on the start screen.
 INVITATION = "Try on makeup — touch to start"
+#: What the try-on screen says when Save Photo could not write the photo (a full disk, a folder it cannot
+#: write in); she stays on her screen and may try again.
+PHOTO_NOT_SAVED = "Your photo could not be saved — please ask a member of staff"
 #: The smallest touch target, pixels: 9 mm at 135 DPI (a 16-inch 1920×1080 panel, the densest kiosk
 #: screen supported; on the usual 21–32-inch panels, 69–105 DPI, 48 px is 11.6–17.7 mm).
 MIN_TARGET_PX = 48
@@ -314,7 +317,7 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.split.setMinimumHeight(BUTTON_PX)
         self.split.valueChanged.connect(self.guard(self._split_changed))
         self.snapshot_button = big_button("Save Photo", BUTTON_PX)
-        self.snapshot_button.clicked.connect(self.guard(self.snapshot))
+        self.snapshot_button.clicked.connect(self.guard(self.save_photo))
         self.done_button = big_button("Done", BUTTON_PX)
         self.done_button.clicked.connect(self.guard(self.show_start))
         self.toast = QLabel("")
@@ -637,6 +640,22 @@ class KioskWindow(KioskEngines, ShopperSession, QWidget):
         self.snapshots.extend(written)
         self.toast.setText(self.SAVED_AS_CAMERA if self.tryon.active else "Photo saved")
         return path
+
+    def save_photo(self) -> Path | None:
+        """The Save Photo button: :meth:`snapshot`; the file written, or None when it could not be written.
+
+        A photo that cannot be written (``OSError``: a full disk, a folder the kiosk cannot write in)
+        leaves her on her try-on screen with :data:`PHOTO_NOT_SAVED`, to try again or press Done; the
+        reason goes to the log as one line and into ``last_error``. Any other error is the guard's.
+        """
+        try:
+            return self.snapshot()
+        except OSError as exc:
+            reason = " ".join(str(exc).split())
+            self.last_error = reason
+            log.error("kiosk: Save Photo failed: %s", reason)
+            self.toast.setText(PHOTO_NOT_SAVED)
+            return None
 
     # ------------------------------------------------------------------ screens
     def show_full_screen(self) -> None:
