@@ -410,6 +410,9 @@ class Case:
         focal: for "clicks"/"noisy", "exif" (the calibration is given the true camera's focal length as
             a photograph's EXIF gives it: FocalLengthIn35mmFilm rounded to whole mm, :mod:`capture.exif`)
             or "none" (the calibration's portrait-lens prior).
+        probe_without_flash: the probe also photographed without the flash (the room alone, same exposure),
+            and the flash's hue read from the difference (:func:`capture.probe.analyse_probe`'s
+            ``without_flash``).
     """
 
     head: str
@@ -427,6 +430,7 @@ class Case:
     shadows: bool = False
     occlusion: bool = False
     focal: str = "none"
+    probe_without_flash: bool = False
 
 
 class Figures(NamedTuple):
@@ -522,8 +526,9 @@ def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:
     else:
         # Seeded by the case's repr; without a sensor, as it read before Case had that field (the figures
         # measured then, in tests/capture/test_out_of_sample.py and the README, stand); never with the
-        # shadows or the occlusion (a case with and without them has the same landmarks, so they compare).
-        key = re.sub(r", (shadows|occlusion)=(True|False)|, focal='\w+'", "", repr(case))
+        # shadows, the occlusion or the flash-less probe (a case with and without them has the same landmarks,
+        # so they compare).
+        key = re.sub(r", (shadows|occlusion|probe_without_flash)=(True|False)|, focal='\w+'", "", repr(case))
         key = key if case.sensor is not None else key.replace(", sensor=None", "")
         rng = np.random.default_rng(zlib.crc32(key.encode()))
         pixels = pixels + rng.normal(0.0, case.noise_px, pixels.shape)
@@ -543,6 +548,8 @@ class Scene:
     Attributes:
         head, camera: the head and the true camera. fit_camera: the camera the capture is given.
         photo: the GPU photograph. probe_linear: the probe as photographed (linear, (256, 256, 3)).
+        probe_without_flash_linear: the same probe photographed without the flash (the room alone, same
+        exposure), or None when the case has none.
         light: the true flash direction (unit, world). diffuse: the D drawn (the texture's mean on the
         face ~1 times it).
     """
@@ -554,6 +561,7 @@ class Scene:
     probe_linear: np.ndarray
     light: np.ndarray
     diffuse: np.ndarray
+    probe_without_flash_linear: np.ndarray | None = None
 
 
 def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
@@ -567,7 +575,7 @@ def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
         read_env,
     )
     from capture.mask import landmark_region
-    from capture.probe import synthetic_probe
+    from capture.probe import probe_environment, synthetic_probe
     from core.assets import find_asset
 
     head, texture = case_head(case.head)
@@ -587,8 +595,9 @@ def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
     photo = render_photo(ctx, head, texture, camera, diffuse, sensor=case.sensor, shadows=case.shadows,
                          occlusion=case.occlusion, **args)
     probe = as_photographed(synthetic_probe(env, camera.R, light, FLASH_RGB, size=256, env_scale=scale))
+    room = as_photographed(probe_environment(env, camera.R, 256, scale)) if case.probe_without_flash else None
     return Scene(head=head, camera=camera, fit_camera=calibrated_camera(head, camera, case), photo=photo,
-                 probe_linear=probe, light=light, diffuse=diffuse)
+                 probe_linear=probe, light=light, diffuse=diffuse, probe_without_flash_linear=room)
 
 
 def measure_case(ctx: moderngl.Context, case: Case) -> Figures:
@@ -598,8 +607,8 @@ def measure_case(ctx: moderngl.Context, case: Case) -> Figures:
     from capture.probe import analyse_probe
 
     scene = draw_case(ctx, case)
-    result = capture(scene.head, scene.photo.linear, scene.fit_camera, probe=analyse_probe(scene.probe_linear),
-                     texture_size=512)
+    probe = analyse_probe(scene.probe_linear, without_flash=scene.probe_without_flash_linear)
+    result = capture(scene.head, scene.photo.linear, scene.fit_camera, probe=probe, texture_size=512)
     truth = truth_diffuse(scene.diffuse, scene.photo, result.skin_mask)
     return Figures(
         light_deg=float(np.degrees(np.arccos(np.clip(result.light_dir_world @ scene.light, -1.0, 1.0)))),

@@ -9,7 +9,11 @@ The probe is a photograph of a mirror ball taken with the same camera and flash 
   measures ~2° of error from that).
 - The flash's **hue** from the unsaturated halo around the saturated highlight (regressed along rays
   from the highlight, so that the environment behind the halo cancels). Its intensity is set to 1 (a
-  luminance of 1 in the photograph's linear units): intensities are relative to the photograph.
+  luminance of 1 in the photograph's linear units): intensities are relative to the photograph. Given a
+  second photograph of the ball taken without the flash at the same exposure, the hue is that of the
+  halo in the difference of the two (:func:`_flash_hue_difference`): the room's texture under the halo,
+  which one flash photograph cannot tell from the flash (2–4 % off per channel in the lobby and the
+  night, tests/capture/test_probe_hue.py), is then gone.
 - The **ambient** light: the mean radiance of the whole ball outside the flash's core and halo (the
   environment's mean radiance, hue and intensity), in the photograph's linear units; see
   :func:`analyse_probe` for why not the paper's ring around the halo.
@@ -74,6 +78,8 @@ class ProbeAnalysis:
         ambient_sh: (9, 3) the environment's irradiance E(n) as spherical-harmonic coefficients in
             camera coordinates (:func:`capture.ambient.probe_irradiance_sh`; A(n) = E(n)/π, photograph
             units, averages ``ambient_rgb`` over all normals), or None (a probe known only by its mean).
+        hue_from_difference: the flash's hue read from the flash photograph minus one taken without the
+            flash (:func:`_flash_hue_difference`), rather than from the flash photograph alone.
     """
 
     light_dir_camera: np.ndarray
@@ -87,6 +93,7 @@ class ProbeAnalysis:
     flash_hue_spread: float = 0.0
     reflectance: float = 1.0
     ambient_sh: np.ndarray | None = None
+    hue_from_difference: bool = False
 
     def to_json(self) -> dict[str, Any]:
         """The analysis as JSON numbers and lists (face.json's ``probe``; the classes image left out)."""
@@ -98,6 +105,7 @@ class ProbeAnalysis:
             "clipped_fraction": self.clipped_fraction, "flash_hue_spread": self.flash_hue_spread,
             "reflectance": self.reflectance,
             "ambient_sh": None if self.ambient_sh is None else self.ambient_sh.tolist(),
+            "flash_hue_from_difference": self.hue_from_difference,
         }
 
 
@@ -277,9 +285,62 @@ def _flash_hue(img: np.ndarray, halo: np.ndarray, px: np.ndarray, py: np.ndarray
     return hue, float(np.median(np.abs(rel), axis=0).max())
 
 
+def _flash_hue_difference(diff: np.ndarray, halo: np.ndarray, px: np.ndarray, py: np.ndarray, hx: float,
+                          hy: float, sectors: int = 16) -> tuple[np.ndarray, float] | None:
+    """The flash's colour (linear, luminance 1) from the flash photograph minus one without it, and its spread.
+
+    ``diff``: (H, W, 3) the flash probe minus the flash-less one (linear); ``halo``: bool (H, W), the halo's
+    pixels unclipped in both photographs, around the core at (hx, hy) (pixels). The room is gone from the
+    difference, so the halo there is the flash's colour times its radial profile alone: the hue is the
+    halo's summed colour (the brightest pixels, the least quantised, weigh most). The spread: the median
+    relative deviation of the hue summed over each of ``sectors`` angular sectors, worst channel (0.01 =
+    1 %). On the lobby's and the night's probes (tests/capture/test_probe_hue.py) the sum reads within
+    0.19 %, :func:`_flash_hue`'s regression on the difference within 0.32 %; in an even room, whose
+    flash-less photograph is one 8-bit code, that code's rounding biases the halo's faint rim (+0.62 % in
+    one channel, tests/app/kiosk/test_kiosk_light.py). None when the halo's sum is not positive.
+    """
+    v = diff[halo]
+    total = v.sum(axis=0)
+    if float(total @ LUMINANCE) <= 0 or np.any(total <= 0):
+        return None
+    hue = total / float(total @ LUMINANCE)
+    az = np.arctan2(py[halo] - hy, px[halo] - hx)
+    sec = np.floor((az + np.pi) / (2 * np.pi) * sectors).astype(np.int64) % sectors
+    rel = []
+    for k in range(sectors):
+        part = v[sec == k].sum(axis=0)
+        if int(np.count_nonzero(sec == k)) >= 6 and float(part @ LUMINANCE) > 0:
+            rel.append(part / float(part @ LUMINANCE) / hue - 1.0)
+    spread = float(np.median(np.abs(np.asarray(rel)), axis=0).max()) if rel else 0.0
+    return hue, spread
+
+
+#: The flash-less probe's room may read at most this much brighter than the flash probe's (a flash never
+#: darkens the room: more is another exposure) ...
+ROOM_RATIO_MAX = 1.1
+#: ... and at least this fraction of it (the flash lights the room too, the more the nearer the walls: less
+#: is another exposure). Ratio of the two photographs' luminance summed over the room's pixels unclipped in
+#: both; the synthetic probes, whose flash lights nothing but the ball, read 0.99–1.00.
+ROOM_RATIO_MIN = 0.5
+
+
+def _checked_without_flash(without_flash: np.ndarray, shape: tuple[int, ...], source: str) -> np.ndarray:
+    """The flash-less probe as float64 (H, W, 3), refused in one line unless it is a finite RGB image of ``shape``."""
+    dark = np.asarray(without_flash, dtype=np.float64)
+    if dark.ndim != 3 or dark.shape[2] != 3:
+        raise ProbeError(f"{source}: expected an RGB image")
+    if dark.shape != shape:
+        raise ProbeError(f"{source}: the photograph without the flash is {dark.shape[1]}×{dark.shape[0]} px, the "
+                         f"probe with it {shape[1]}×{shape[0]}: take both with the same camera and crop")
+    if not np.all(np.isfinite(dark)):
+        raise ProbeError(f"{source}: the image has NaN or infinite values")
+    return dark
+
+
 def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = None,
                   saturation_level: float = 0.98, max_flash_deg: float = 20.0,
-                  source: str = "probe", reflectance: float = 1.0) -> ProbeAnalysis:
+                  source: str = "probe", reflectance: float = 1.0, without_flash: np.ndarray | None = None,
+                  without_flash_source: str = "probe without the flash") -> ProbeAnalysis:
     """Analyse a mirror-ball photograph.
 
     - **The flash's core**: the connected pixels whose *every* channel clips (a flash many times brighter
@@ -292,7 +353,11 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
       of its inscribed disc: the flash merged with a bright part of the environment), the highlight is
       ambiguous and a :class:`ProbeError` says so rather than returning a guess.
     - **The flash's hue**: from the halo around the core, by regressing each channel on the luminance
-      along rays from the highlight (:func:`_flash_hue`), so the environment behind the halo cancels.
+      along rays from the highlight (:func:`_flash_hue`), so the environment behind the halo cancels where
+      it is even along each ray; its texture under the halo does not (2–4 % per channel in the lobby and
+      the night). With ``without_flash``, from the halo in ``image`` − ``without_flash`` instead
+      (:func:`_flash_hue_difference`: within 0.19 % on both). The direction, the halo's extent and the
+      ambient light are read from ``image`` alone either way.
     - **The ambient light**: the mean radiance of the whole ball outside the flash's core and halo. An
       orthographic mirror ball is an *equal-area* map of the sphere of directions (a pixel at
       normalised radius ρ reflects the direction at θ = 2·arcsin ρ from the viewer; dω = sin θ dθ dφ =
@@ -319,6 +384,11 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
             environment it shows is that much darker than the room, so the ambient light is the ball's
             mean divided by it. The flash's direction and hue do not depend on it (its intensity is
             set to 1 whatever the ball shows).
+        without_flash: None (the flash's hue from ``image`` alone), or (H, W, 3) linear RGB in [0, 1], the
+            same ball photographed without the flash at the same exposure, camera and crop: its size must
+            match ``image``'s, and its room must read :data:`ROOM_RATIO_MIN`–:data:`ROOM_RATIO_MAX` of
+            ``image``'s (else a :class:`ProbeError` names ``without_flash_source``).
+        without_flash_source: names the flash-less photograph in error messages.
     """
     if not (np.isfinite(reflectance) and 0.0 < reflectance <= 1.0):
         raise ProbeError(f"{source}: the ball's reflectance must be in (0, 1], got {reflectance!r}")
@@ -327,6 +397,7 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
         raise ProbeError(f"{source}: expected an RGB image")
     if not np.all(np.isfinite(img)):
         raise ProbeError(f"{source}: the image has NaN or infinite values")
+    dark = None if without_flash is None else _checked_without_flash(without_flash, img.shape, without_flash_source)
     h, w = img.shape[:2]
     if ball is None:
         ball = (w / 2.0, h / 2.0, min(w, h) / 2.0)
@@ -355,12 +426,22 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
     usable = inside & ~clipped
     halo_r = _halo_radius(img, usable, dist, core_r + 1.0, float(background @ LUMINANCE))
     halo = usable & (dist > core_r + 1.0) & (dist <= max(halo_r or 0.0, halo_out))
-    measured = _flash_hue(img, halo, px, py, hx, hy)
+    env = inside & (dist > max(ring_in, halo_r or 0.0))
+    if dark is None:
+        measured = _flash_hue(img, halo, px, py, hx, hy)
+    else:
+        lit = env & ~clipped & (dark.max(axis=2) < saturation_level)
+        room = float((img[lit] @ LUMINANCE).sum())
+        ratio = float((dark[lit] @ LUMINANCE).sum()) / room if room > 0 else 1.0
+        if not ROOM_RATIO_MIN <= ratio <= ROOM_RATIO_MAX:
+            raise ProbeError(f"{without_flash_source}: the room reads {ratio:.2f}× as bright as in {source} (expected "
+                             f"{ROOM_RATIO_MIN:g}–{ROOM_RATIO_MAX:g}): take the photograph without the flash at the "
+                             f"same exposure (shutter, aperture, ISO) as the one with it")
+        measured = _flash_hue_difference(img - dark, halo & (dark.max(axis=2) < saturation_level), px, py, hx, hy)
     if measured is None:
         raise ProbeError(f"{source}: the halo around the highlight is no brighter than the environment; "
                          f"cannot measure the flash's hue")
     flash, spread = measured
-    env = inside & (dist > max(ring_in, halo_r or 0.0))
     ambient = img[env].mean(axis=0) / reflectance
     ambient_sh = probe_irradiance_sh(img, (cx, cy, r), env, inside & ~env, background, reflectance)
     classes = np.zeros((h, w), dtype=np.uint8)
@@ -370,7 +451,7 @@ def analyse_probe(image: np.ndarray, ball: tuple[float, float, float] | None = N
     return ProbeAnalysis(light_dir_camera=d, theta_deg=theta, phi_deg=phi, highlight_px=(hx, hy),
                          flash_rgb=flash, ambient_rgb=ambient, classes=classes,
                          clipped_fraction=float(clipped[env].mean()), flash_hue_spread=spread,
-                         reflectance=float(reflectance), ambient_sh=ambient_sh)
+                         reflectance=float(reflectance), ambient_sh=ambient_sh, hue_from_difference=dark is not None)
 
 
 def equirect_lookup(env: np.ndarray, directions: np.ndarray) -> np.ndarray:

@@ -1,8 +1,9 @@
 """``sheer capture``: a relightable face from a flash photograph of a face and its 3D head (Paris et al. 2003).
 
-    sheer capture --photo PATH --out FACE_DIR [--head PATH] [--allow-closed-eyes] [--probe PATH]   (automatic)
-    sheer capture --head PATH --photo PATH (--camera FILE | --points FILE) [--probe PATH] [--mask PATH]
-                  --out FACE_DIR
+    sheer capture --photo PATH --out FACE_DIR [--head PATH] [--allow-closed-eyes] [--probe PATH
+                  [--probe-without-flash PATH]]   (automatic)
+    sheer capture --head PATH --photo PATH (--camera FILE | --points FILE) [--probe PATH
+                  [--probe-without-flash PATH]] [--mask PATH] --out FACE_DIR
 
 **Automatic** (no ``--camera``/``--points``): MediaPipe finds the face's 478 landmarks, the quality gate
 refuses a photo with no face or several, a turned or tilted head, a small face, closed eyes (unless
@@ -22,6 +23,9 @@ draws the landmarks. Photos over 1600 px on the longer side are downscaled (said
   see docs/CAPTURE.md); without it, a white flash on the camera axis and no ambient light are assumed.
   ``--probe-reflectance R`` (0 < R ≤ 1, default 1: a perfect mirror) is the ball's reflectance: a chrome
   ball reflects about 0.5–0.7, and the ambient light is the ball's mean divided by it.
+  ``--probe-without-flash PATH``: the same ball photographed right after, *without* the flash, at the same
+  exposure and crop: the flash's colour is then read from the difference of the two, free of the room's
+  texture under the flash's reflection (2–4 % per channel from one probe, within 0.2 % from two).
 - ``--focal-mm F35``: with ``--points`` or automatic, the lens's 35 mm-equivalent focal length (mm,
   4–2000; over the diagonal, as EXIF's FocalLengthIn35mmFilm). Without it, the photograph's own EXIF focal
   length is used when its file has one (FocalLengthIn35mmFilm, or FocalLength with the sensor's
@@ -62,6 +66,7 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from app.commands import Subcommands
+    from capture.probe import ProbeAnalysis
 
 
 def register(sub: Subcommands) -> None:
@@ -80,6 +85,9 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--allow-closed-eyes", action="store_true",
                    help="automatic capture: let closed eyes through the quality gate (e.g. the sample head's scan)")
     p.add_argument("--probe", metavar="PATH", help="mirror-ball photograph, cropped to the ball")
+    p.add_argument("--probe-without-flash", metavar="PATH",
+                   help="with --probe: the same ball photographed without the flash at the same exposure and crop "
+                        "(the flash's colour is read from the difference)")
     p.add_argument("--probe-reflectance", type=float, default=1.0, metavar="R",
                    help="the ball's reflectance, 0 < R ≤ 1 (default 1, a perfect mirror; chrome ≈ 0.5–0.7)")
     p.add_argument("--focal-mm", type=float, default=None, metavar="F35",
@@ -130,7 +138,6 @@ def run(args: argparse.Namespace) -> int:
     from capture.face import write_face
     from capture.mask import load_mask
     from capture.pipeline import capture, read_photo
-    from capture.probe import analyse_probe
     from capture.vignetting import LensFalloff, flat_field
     from core.atomicio import check_can_create
     from painting.head import load_head
@@ -148,6 +155,8 @@ def run(args: argparse.Namespace) -> int:
                            "holds its own focal length)")
     if args.probe_reflectance != 1.0 and not args.probe:
         raise CaptureError("--probe-reflectance needs --probe (the mirror ball it describes)")
+    if args.probe_without_flash and not args.probe:
+        raise CaptureError("--probe-without-flash needs --probe (the same ball photographed with the flash)")
     falloff = None if args.vignetting is None else LensFalloff.parse(args.vignetting)
     check_can_create(args.out, CaptureError)  # a folder that cannot be written fails now, not after the fit
     say = _printer(args.verbose)
@@ -189,9 +198,7 @@ def run(args: argparse.Namespace) -> int:
         camera = load_points(args.points, w, h, focal_px=focal_px)
         say(f"camera from correspondences: RMS reprojection error {camera.reprojection_error_px:.2f} px, "
             f"focal length {camera.K[0, 0]:.0f} px")
-    probe = None
-    if args.probe:
-        probe = analyse_probe(read_photo(args.probe), source=args.probe, reflectance=args.probe_reflectance)
+    probe = read_probe(args)
     mask = load_mask(args.mask, (h, w)) if args.mask else None
     result = capture(head, photo, camera, probe=probe, mask=mask, texture_size=args.texture_size,
                      progress=say, robustness_starts=args.starts,
@@ -206,20 +213,33 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def read_probe(args: argparse.Namespace) -> ProbeAnalysis | None:
+    """``--probe``'s mirror ball analysed (with ``--probe-without-flash``'s, if given), or None without ``--probe``.
+
+    Both photographs are read as the face's is (EXIF orientation applied, sRGB decoded); a missing,
+    unreadable or mismatched one is a one-line error naming its file.
+    """
+    from capture.pipeline import read_photo
+    from capture.probe import analyse_probe
+
+    if not args.probe:
+        return None
+    ball = read_photo(args.probe)
+    without = None if not args.probe_without_flash else read_photo(args.probe_without_flash)
+    return analyse_probe(ball, source=args.probe, reflectance=args.probe_reflectance, without_flash=without,
+                         without_flash_source=args.probe_without_flash or "")
+
+
 def run_auto(args: argparse.Namespace, say: Callable[[str], None]) -> int:
     """The automatic capture (:func:`capture.auto.capture_auto`) for ``args``; returns 0."""
     from capture.auto import capture_auto
     from capture.errors import CaptureError
-    from capture.pipeline import read_photo
-    from capture.probe import analyse_probe
 
     if args.mask:
         raise CaptureError("--mask is for a capture with --camera or --points (the automatic one computes it)")
     if args.starts:
         raise CaptureError("--starts is for a capture with --camera or --points")
-    probe = None
-    if args.probe:
-        probe = analyse_probe(read_photo(args.probe), source=args.probe, reflectance=args.probe_reflectance)
+    probe = read_probe(args)
     from capture.quality import QualityError
 
     try:

@@ -33,8 +33,8 @@ canonical-face     s 30, i_s 0.25, lobby, flash 5° up 4° left  0.15°   29.51 
 coarse-head        s 16, i_s 0.15, night, flash 3° up 5° left  0.10°   15.56 (−2.7 %)  0.1498 (−0.1 %)  0.22 0.51
 yaw-30-s40-beside  s 40, turned −30°, flash 8° right, sunset   0.64°   38.05 (−4.9 %)  0.1880 (+4.5 %)  0.45 0.49
                    sky, noisy
-yaw+30-s24-above   turned +30°, flash 8° above, lobby sky,     0.23°   24.36 (+1.5 %)  0.1931 (+7.3 %)  1.00 0.50
-                   noisy
+yaw+30-s24-above   turned +30°, flash 8° above, lobby sky,     0.23°   24.36 (+1.5 %)  0.1937 (+7.6 %)  0.24 0.50
+                   noisy, the probe also without the flash
 yaw+15-s12-near    s 12, turned +15° at 1.2 m, flash 6° above, 0.33°   11.62 (−3.2 %)  0.1753 (−2.6 %)  0.27 0.47
                    city sky, noisy
 yaw-15-s8-off-axis s 8, turned −15°, flash 7° down 7° left,    0.51°   7.68 (−4.0 %)   0.1817 (+1.0 %)  0.27 0.45
@@ -45,8 +45,8 @@ sensor-noise-vign. s 24, flash 6° up 2° right, city sky, noisy, 0.95°   24.41
                    40 % vignetting, photon and read noise
 shadow-beside15-   s 24, turned +30°, flash 15° right, sunset  0.07°   21.85 (−9.0 %)  0.1858 (+3.2 %)  0.87 0.47
 yaw+30             sky, the flash's cast shadows
-shadow-above15-s40 s 40, flash 15° above, night sky, noisy,    0.50°   38.59 (−3.5 %)  0.1742 (−3.2 %)  1.07 0.43
-                   cast shadows
+shadow-above15-s40 s 40, flash 15° above, night sky, noisy,    0.50°   38.60 (−3.5 %)  0.1740 (−3.3 %)  0.55 0.43
+                   cast shadows, the probe also without the flash
 photo-s12-yaw-15-  s 12, turned −15°, flash 8° off-axis, city  0.40°   11.12 (−7.3 %)  0.1688 (−6.2 %)  1.01 0.91
 off-axis           sky, noisy, cast shadows, the sky occluded,
                    the sensor above
@@ -103,6 +103,14 @@ parameters). It moved the light 0.46 → 0.23° on yaw+30-s24-above (i_s +8.3 �
 0.39 → 0.51° on the two turned −15° (whose landmarks' focal length is fitted, so the outline informs it more
 than the turn), and D on photo-s12 0.94 → 1.01 across its target (its vignetting: 0.95 from the true camera);
 the others by ≤ 0.01° and ≤ 0.3 points.
+The two rows marked "the probe also without the flash" read the flash's hue from the probe photographed
+with the flash minus the same probe without it (capture.probe.analyse_probe's ``without_flash``): from the
+flash probe alone the room's texture under the flash's halo on the ball reads as flash light (R −2.2 %,
+B +3.3 % in the lobby; R +3.1 %, B −4.1 % in the night; tests/capture/test_probe_hue.py), and D was 1.004
+(1.002–1.007 over the five drawings) and 1.07, missing the target; with the second probe 0.24 (0.236–0.246)
+and 0.55 (0.550–0.551). It moved i_s +7.3 → +7.6 % and −3.2 → −3.3 %, light and s by ≤ 0.001° and
+0.05 points. Their D bounds follow the rule below (0.05 above the worst of the five drawings, rounded up
+to 0.05).
 The error distribution over 45 such scenes is ``sheer bench capture`` (the README).
 The probe alone, flash on a 6° grid within 12° of the lens: all 25 positions found (the flash on the
 lens's axis was refused before), within 0.3°.
@@ -162,7 +170,7 @@ CASES = {
     "yaw-30-s40-beside": Case("sample", 40.0, environment="sunset", light_deg=(0.0, 8.0), camera="noisy",
                               ambient="irradiance", yaw_deg=-30.0),
     "yaw+30-s24-above": Case("sample", 24.0, environment="lobby", light_deg=(8.0, 0.0), camera="noisy",
-                             ambient="irradiance", yaw_deg=30.0),
+                             ambient="irradiance", yaw_deg=30.0, probe_without_flash=True),
     "yaw+15-s12-near": Case("sample", 12.0, environment="city", light_deg=(6.0, 0.0), camera="noisy",
                             ambient="irradiance", yaw_deg=15.0, distance_mm=1200.0),
     "yaw-15-s8-off-axis": Case("sample", 8.0, environment="studio", light_deg=(-7.0, -7.0), camera="noisy",
@@ -172,12 +180,14 @@ CASES = {
     # A real sensor: 40 % vignetting in the corners, photon noise (SNR 100 at 0.5) and read noise.
     "sensor-noise-vignetting": Case("sample", 24.0, environment="city", light_deg=(6.0, 2.0), camera="noisy",
                                     ambient="irradiance", sensor=Sensor(vignetting=0.4, shot=5e-5, read=0.002)),
+    # yaw+30-s24-above and shadow-above15-s40 also photograph the probe without the flash (the flash's hue from
+    # the difference: one probe reads it 2-4 % off per channel in the lobby and the night, ΔE2000 1.004 and 1.07).
     # The flash's cast shadows (the GPU's own shadow map; the capture casts its own rays, capture/shadow.py),
     # a flash on a bracket 15° from the lens.
     "shadow-beside15-yaw+30": Case("sample", 24.0, environment="sunset", light_deg=(0.0, 15.0), ambient="irradiance",
                                    yaw_deg=30.0, shadows=True),
     "shadow-above15-s40": Case("sample", 40.0, environment="night", light_deg=(15.0, 0.0), camera="noisy",
-                               ambient="irradiance", shadows=True),
+                               ambient="irradiance", shadows=True, probe_without_flash=True),
     # What a photograph has: shadows, the sky occluded in the creases, the sensor's vignetting and noise,
     # landmarks with noise.
     "photo-s12-yaw-15-off-axis": Case("sample", 12.0, environment="city", light_deg=(-5.7, 5.7), camera="noisy",
@@ -206,30 +216,24 @@ BOUNDS: dict[str, dict[str, float]] = {
     "canonical-face": {"light_deg": 0.2, "s": 0.02, "i_s": 0.02, "diffuse_de": 0.25, "reproduction_de": 0.2},
     "coarse-head": {"light_deg": 0.15, "s": 0.04, "i_s": 0.015, "diffuse_de": 0.3, "reproduction_de": 0.55},
     "yaw-30-s40-beside": {"light_deg": 0.7, "s": 0.055, "i_s": 0.05, "diffuse_de": 0.5, "reproduction_de": 0.55},
-    "yaw+30-s24-above": {"light_deg": 0.3, "s": 0.02, "reproduction_de": 0.55},
+    "yaw+30-s24-above": {"light_deg": 0.3, "s": 0.02, "diffuse_de": 0.3, "reproduction_de": 0.55},
     "yaw+15-s12-near": {"light_deg": 0.4, "s": 0.05, "i_s": 0.035, "diffuse_de": 0.35, "reproduction_de": 0.5},
     "yaw-15-s8-off-axis": {"light_deg": 0.6, "s": 0.05, "i_s": 0.015, "diffuse_de": 0.4, "reproduction_de": 0.5},
     "s60-beside-far": {"light_deg": 0.4, "s": 0.04, "diffuse_de": 0.4, "reproduction_de": 0.5},
     "sensor-noise-vignetting": {"light_deg": 1.1, "s": 0.03, "diffuse_de": 0.65, "reproduction_de": 0.95},
     "shadow-beside15-yaw+30": {"light_deg": 0.1, "s": 0.1, "i_s": 0.04, "diffuse_de": 0.95, "reproduction_de": 0.5},
-    "shadow-above15-s40": {"light_deg": 0.6, "s": 0.045, "i_s": 0.04, "reproduction_de": 0.5},
+    "shadow-above15-s40": {"light_deg": 0.6, "s": 0.045, "i_s": 0.04, "diffuse_de": 0.65, "reproduction_de": 0.5},
     "photo-s12-yaw-15-off-axis": {"light_deg": 0.5, "s": 0.08, "reproduction_de": 0.95},
 }
 #: Targets missed today: (case, quantity) → the measured figure and the documented limitation.
 MISSED = {
-    ("yaw+30-s24-above", "i_s"): "i_s 0.1931 for 0.18 (+7.3 %; +7.9 % from the true camera, +0.2 % from it "
-                                 "untextured): the skin's texture under the lobe at 2 px",
-    ("yaw+30-s24-above", "diffuse_de"): "ΔE2000 1.004 (1.01 from the true camera): the flash's hue read from the "
-                                        "probe's halo, R -2.2 %, B +3.3 % (from the true camera with the true hue "
-                                        "0.25; the sky's E(n)/π as the ambient, capture.ambient, 0.99 from the "
-                                        "probe's, 0.99 from the truth's own)",
+    ("yaw+30-s24-above", "i_s"): "i_s 0.1937 for 0.18 (+7.6 %; +7.3 % with the flash's hue from one probe; "
+                                 "+7.9 % from the true camera, +0.2 % from it untextured): the skin's texture under "
+                                 "the lobe at 2 px",
     ("s60-beside-far", "i_s"): "i_s 0.1708 for 0.18 (-5.1 %; -5.3 % from the true camera, +0.5 % from it "
                                "untextured): the skin's texture under a narrow lobe at 2 px",
     ("sensor-noise-vignetting", "i_s"): "i_s 0.1709 for 0.18 (-5.1 %; -4.9 % from the true camera; -3.3 % with "
                                         "the lens's falloff given, capture.vignetting: the 40 % vignetting)",
-    ("shadow-above15-s40", "diffuse_de"): "ΔE2000 1.07 (1.06 from the true camera): the flash's hue read from the "
-                                          "probe's halo, R +3.1 %, B -4.1 % (from the true camera with the true "
-                                          "hue 0.53, and with the probe's E(n)/π as the ambient 0.29)",
     ("photo-s12-yaw-15-off-axis", "diffuse_de"): "ΔE2000 1.007 (0.94 before the face's outline joined the pose, "
                                                  "capture.contour; 0.95 from the true camera, 0.16 with the lens's "
                                                  "falloff given): the sensor's 40 % vignetting, read as darker skin "
@@ -244,20 +248,17 @@ MISSED = {
 #: of i_s), so a miss that grows fails, whatever its target's expected failure does. A bound is loosened only
 #: with the measured cause in the commit message.
 MISS_BOUNDS = {
-    ("yaw+30-s24-above", "i_s"): 0.085,  # +7.3 %
-    ("yaw+30-s24-above", "diffuse_de"): 1.06,  # 1.002-1.007
+    ("yaw+30-s24-above", "i_s"): 0.085,  # +7.5 to +7.6 %
     ("s60-beside-far", "i_s"): 0.065,  # -4.9 to -5.3 %
     ("sensor-noise-vignetting", "i_s"): 0.07,  # -4.6 to -5.6 %
-    ("shadow-above15-s40", "diffuse_de"): 1.12,  # 1.07
     ("photo-s12-yaw-15-off-axis", "diffuse_de"): 1.06,  # 1.007
     ("photo-s12-yaw-15-off-axis", "i_s"): 0.075,  # -6.2 %
 }
 
 
 #: Documented misses within another rasteriser's reach of their targets (the module docstring): measured
-#: across the five drawings, yaw+30-s24-above's ΔE2000 1.002–1.007, s60-beside-far's i_s −4.9 to −5.3 %,
-#: sensor-noise-vignetting's i_s −4.6 to −5.6 %.
-STRADDLING = {("yaw+30-s24-above", "diffuse_de"), ("s60-beside-far", "i_s"), ("sensor-noise-vignetting", "i_s")}
+#: across the five drawings, s60-beside-far's i_s −4.9 to −5.3 %, sensor-noise-vignetting's i_s −4.6 to −5.6 %.
+STRADDLING = {("s60-beside-far", "i_s"), ("sensor-noise-vignetting", "i_s")}
 
 
 def _params() -> list[object]:
