@@ -300,7 +300,7 @@ def obj_text(head: Head) -> str:
     lines = ["# Sheer captured head: the sample head's topology and UVs warped onto the face from the photograph",
              f"# mesh units: centimetres ({head.mm_per_unit:g} mm per unit)"]
     lines += [f"v {x:.6f} {y:.6f} {z:.6f}" for x, y, z in head.vertices]
-    lines += [f"vt {u:.6f} {v:.6f}" for u, v in head.uv]
+    lines += [f"vt {u:.10f} {v:.10f}" for u, v in head.uv]  # the sample's UVs exactly enough: 6 decimals fold a sliver
     lines += [f"f {a + 1}/{a + 1} {b + 1}/{b + 1} {c + 1}/{c + 1}" for a, b, c in head.faces]
     return "\n".join(lines) + "\n"
 

@@ -152,6 +152,10 @@ def test_sheer_capture_full_head_writes_her_full_head(tmp_path: Path) -> None:
     assert face.data["full_head"]["residual_mm"]["p95"] < 1.0
     assert head.albedo is not None and head.skin_mask is not None and face.detail.shape == (64, 64, 3)
     assert "lips" in regions_for(head).names()
+    # the sample head's UVs as they are (rounded to 6 decimals one sliver folded, and the paint layout was an unwrap)
+    from painting.head import load_head
+
+    assert np.abs(head.uv - load_head().uv).max() < 1e-9
     # with --points it is one line
     err = io.StringIO()
     with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
