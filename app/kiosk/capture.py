@@ -114,7 +114,7 @@ def prepare_shopper(photo: np.ndarray, folder: Path, *, probe: ProbeAnalysis | N
 
     timings: dict[str, float] = {}
     t = time.perf_counter()
-    face = capture_auto(photo, folder, probe=probe, progress=progress, texture_size=SHOPPER_TEXTURE)
+    face = capture_auto(photo, folder, probe=probe, progress=progress, texture_size=SHOPPER_TEXTURE, full_head=True)
     timings["capture_s"] = time.perf_counter() - t
     t = time.perf_counter()
     head = face.load_head()
