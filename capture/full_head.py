@@ -280,10 +280,10 @@ def blend_detail(head: Head, detail: np.ndarray, weight: np.ndarray) -> np.ndarr
     triangle. Returns float32 (S, S, 3): weight·detail + (1 − weight)·1 (the gutter copies the nearest
     covered texel, as the capture's bake does).
     """
-    from capture.pipeline import _uv_layout
+    from capture.pipeline import uv_layout
 
     size = detail.shape[0]
-    gb, iy, ix = _uv_layout(head.uv, head.faces, size)
+    gb, iy, ix = uv_layout(head.uv, head.faces, size)
     w = np.zeros((size, size), dtype=np.float64)
     cov = gb.covered
     w[cov] = np.einsum("pk,pk->p", gb.bary[cov].astype(np.float64), weight[head.faces[gb.tri[cov]]])

@@ -592,12 +592,12 @@ def sample_texture(tex: np.ndarray, uv: np.ndarray) -> np.ndarray:
 UNSEEN_FADE_MM = 15.0
 
 
-#: How many heads' UV layouts :func:`_uv_layout` keeps (a 1024² one holds 28 MB, a 512² one 7 MB).
+#: How many heads' UV layouts :func:`uv_layout` keeps (a 1024² one holds 28 MB, a 512² one 7 MB).
 UV_LAYOUTS_KEPT = 2
 _UV_LAYOUTS: OrderedDict[bytes, tuple[GBuffer, np.ndarray, np.ndarray]] = OrderedDict()
 
 
-def _uv_layout(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[GBuffer, np.ndarray, np.ndarray]:
+def uv_layout(uv: np.ndarray, faces: np.ndarray, size: int) -> tuple[GBuffer, np.ndarray, np.ndarray]:
     """The UV atlas rasterised at ``size``² and, for every texel, the nearest covered one.
 
     The rasterisation is :func:`capture.raster.rasterize_uv`'s; the nearest covered texel (row and column
@@ -683,7 +683,7 @@ def bake_detail(head: Head, camera: Camera, photo_lin: np.ndarray, depth: np.nda
     """
     from scipy.spatial import cKDTree
 
-    gb, iy, ix = _uv_layout(head.uv, head.faces, size)
+    gb, iy, ix = uv_layout(head.uv, head.faces, size)
     cov = gb.covered
     b = gb.bary[cov].astype(np.float64)
     f = head.faces[gb.tri[cov]]

@@ -105,7 +105,7 @@ def test_bad_landmarks_are_one_line() -> None:
 
 def test_the_photograph_is_kept_on_her_face_and_her_skin_tone_elsewhere() -> None:
     from capture.full_head import blend_detail, face_weight
-    from capture.pipeline import _uv_layout
+    from capture.pipeline import uv_layout
 
     person, fit = _hopper()
     head = fit.head
@@ -121,7 +121,7 @@ def test_the_photograph_is_kept_on_her_face_and_her_skin_tone_elsewhere() -> Non
     rng = np.random.default_rng(3)
     detail = (1.0 + rng.uniform(-0.5, 0.5, (size, size, 3))).astype(np.float32)
     out = blend_detail(head, detail, w)
-    gb, _, _ = _uv_layout(head.uv, head.faces, size)
+    gb, _, _ = uv_layout(head.uv, head.faces, size)
     tri = np.maximum(gb.tri, 0)
     off = gb.covered & (w[head.faces].max(axis=1)[tri] == 0.0)
     on = gb.covered & (w[head.faces].min(axis=1)[tri] >= 0.999)
