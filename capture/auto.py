@@ -520,8 +520,8 @@ def _write_face_folder(out: Path, result: CaptureResult, the_head: Head, person:
     """
     from PIL import Image
 
+    from capture.face import PNG_SAVE, face_albedo, write_face
     from capture.face import Face as FaceRecord
-    from capture.face import face_albedo, write_face
     from capture.person import HEAD_FILE, write_person_head
 
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -536,7 +536,7 @@ def _write_face_folder(out: Path, result: CaptureResult, the_head: Head, person:
                 write_full_head(the_head, tmp, albedo)
             else:
                 write_person_head(the_head, tmp, albedo)
-        Image.fromarray(srgb8).save(tmp / PHOTO_FILE)
+        Image.fromarray(srgb8).save(tmp / PHOTO_FILE, **PNG_SAVE)
         timings["total"] = time.perf_counter() - t_all
         extra["auto_timings_s"] = {k: round(v, 4) for k, v in timings.items()}
         write_face(result, tmp, head_path=tmp / HEAD_FILE if person else the_head.path,

@@ -316,6 +316,7 @@ def write_full_head(head: Head, folder: Path, albedo_srgb8: np.ndarray, sample: 
 
     from PIL import Image
 
+    from capture.face import PNG_SAVE
     from capture.person import ALBEDO_FILE, HEAD_FILE, sidecar_json
     from painting.head import SIDECAR_SUFFIX, find_sidecar, load_head
     from painting.regions import regions_file
@@ -327,13 +328,13 @@ def write_full_head(head: Head, folder: Path, albedo_srgb8: np.ndarray, sample: 
     sample_sidecar = find_sidecar(sample.path)
     regions = regions_file(sample_sidecar) if sample_sidecar is not None else None
     if head.skin_mask is not None:
-        Image.fromarray(np.asarray(head.skin_mask, dtype=np.uint8) * 255).save(folder / SKIN_MASK_FILE)
+        Image.fromarray(np.asarray(head.skin_mask, dtype=np.uint8) * 255).save(folder / SKIN_MASK_FILE, **PNG_SAVE)
         files.append(folder / SKIN_MASK_FILE)
     meta = dataclasses.replace(head.metadata, albedo=ALBEDO_FILE,
                                skin_mask=SKIN_MASK_FILE if head.skin_mask is not None else None)
     mesh.write_text(obj_text(head), encoding="utf-8")
     sidecar.write_text(sidecar_json(meta), encoding="utf-8")
-    Image.fromarray(np.asarray(albedo_srgb8, dtype=np.uint8)).save(folder / ALBEDO_FILE)
+    Image.fromarray(np.asarray(albedo_srgb8, dtype=np.uint8)).save(folder / ALBEDO_FILE, **PNG_SAVE)
     if regions is not None and regions.is_file():
         shutil.copyfile(regions, regions_file(sidecar))
         files.append(regions_file(sidecar))

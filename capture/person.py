@@ -304,6 +304,7 @@ def write_person_head(head: Head, folder: Path, albedo_srgb8: np.ndarray) -> lis
     """
     from PIL import Image
 
+    from capture.face import PNG_SAVE
     from core.assets import resource_path
     from painting.head import SIDECAR_SUFFIX
     from painting.regions import regions_file
@@ -313,6 +314,6 @@ def write_person_head(head: Head, folder: Path, albedo_srgb8: np.ndarray) -> lis
     regions = regions_file(sidecar)
     mesh.write_text(obj_text(head), encoding="utf-8")
     sidecar.write_text(sidecar_json(head.metadata), encoding="utf-8")
-    Image.fromarray(np.asarray(albedo_srgb8, dtype=np.uint8)).save(folder / ALBEDO_FILE)
+    Image.fromarray(np.asarray(albedo_srgb8, dtype=np.uint8)).save(folder / ALBEDO_FILE, **PNG_SAVE)
     shutil.copyfile(resource_path("heads", CANONICAL_REGIONS), regions)
     return [mesh, sidecar, folder / ALBEDO_FILE, regions]
