@@ -1,8 +1,10 @@
 """File → New from Photo…: capture a face from a photograph and paint the current look on it.
 
 The photograph goes through :func:`capture.auto.capture_auto` in a worker (a progress dialog follows its
-steps; Cancel stops between them), which builds the person's own head and writes a face folder under
-:func:`faces_dir`. The studio's current layers are then moved onto that head
+steps; Cancel stops between them), which builds the person's own head — a full head (``full_head=True``: the
+sample head's skull, ears and neck warped onto her landmarks, her photograph on her face, her skin tone
+elsewhere), as the kiosk captures, so the studio shows her face on a head rather than a face mask — and
+writes a face folder under :func:`faces_dir`. The studio's current layers are then moved onto that head
 (:func:`painting.transfer.transfer_document`, also in the worker), and a new studio window opens on the
 result — the captured head as the document's head, its face open for the lightweight mode — while the
 window it came from closes (offering to save its unsaved work first, as File → New does).
@@ -87,7 +89,7 @@ def capture_and_transfer(photo: Path, folder: Path, source: Document, progress: 
 
     progress(0.0, f"reading {photo.name}")
     try:
-        face = capture_auto(photo, folder, progress=step)
+        face = capture_auto(photo, folder, progress=step, full_head=True)
     except QualityError as exc:
         return exc
     if cancelled():

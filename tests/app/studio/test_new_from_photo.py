@@ -1,6 +1,6 @@
 """File → New from Photo… in the real studio window (xcb under Xvfb, Mesa GL): a refused photograph says
 why in the quality gate's words and changes nothing; a portrait is captured (real MediaPipe, the real
-capture pipeline) in a worker with progress, and a new window opens on her own head with the studio's
+capture pipeline) in a worker with progress, and a new window opens on her own full head with the studio's
 layers transferred onto it (the lipstick on her lips), while the old window closes."""
 
 from __future__ import annotations
@@ -189,14 +189,17 @@ def test_a_portrait_opens_her_own_head_with_the_layers(studio: tuple[Any, Dialog
         # the quality report and the transfer's summary, in one message
         info = [s for s in driver.shown if s.kind == "info" and s.title == "New from Photo"]
         assert len(info) == 1 and "Quality gate passed" in info[0].text and "face height" in info[0].text
-        assert "to 'Captured face'" in info[0].text
-        # her own head is the document's head, in a face folder under the faces folder
+        assert "to 'Captured head'" in info[0].text
+        # her own full head (her face on the sample head's skull, ears and neck: as the kiosk captures) is the
+        # document's head, in a face folder under the faces folder
         head = new.doc.head
-        assert head.name == "Captured face" and head.path.parent.parent == faces
+        assert head.name == "Captured head" and head.path.parent.parent == faces
+        assert new.viewport.face.data["head_kind"] == "full"
+        assert len(head.vertices) > 468 + 1000  # more than the face mesh (468 landmarks, its few extra points)
         assert (head.path.parent / "face.json").is_file() and new.viewport.face is not None
         assert new.face_path == head.path.parent
         assert [(lay.name, lay.material) for lay in new.doc.layers] == layers
-        assert new.isWindowModified() and "on Captured face" in new.windowTitle()
+        assert new.isWindowModified() and "on Captured head" in new.windowTitle()
         # the lipstick is on her lips
         lipstick = next(lay for lay in new.doc.layers if lay.name == "Lipstick")
         t = np.asarray(lipstick.effective_thickness())
