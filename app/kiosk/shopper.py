@@ -7,7 +7,9 @@ thread asks for frames with :meth:`ShopperRenderer.request` (a :class:`FrameRequ
 layers as the document holds them, the light, the turn, the before/after split); requests that pile up
 while a frame is drawn are merged (only the newest is drawn) and each frame comes back on the GUI thread
 through the ``frame`` signal. :class:`ShopperView` shows the frames, scaled to fit, and turns the relit
-face by dragging (±:data:`render.mirror.MAX_TURN_DEG`).
+face by dragging, as far as her photograph supports (:attr:`ShopperRenderer.turn_limits`,
+:func:`render.mirror.turn_limits`: at most ±:data:`render.mirror.MAX_TURN_DEG`, less towards a side her
+photograph saw at a grazing angle).
 
 The mirror view is drawn at her photograph's own resolution and shown as a mirror shows her: flipped
 left–right, like the camera screen's live preview (the before/after split is then laid over the flipped
@@ -56,7 +58,8 @@ class FrameRequest:
             None to keep the last ones.
         light: a light preset (``app.settings.LIGHT_PRESETS`` value) for the relit view, or None for the
             photograph's own light.
-        yaw, pitch: the relit face's turn from the photograph's view, degrees (within ±25).
+        yaw, pitch: the relit face's turn from the photograph's view, degrees (clamped to the view's
+            :class:`render.mirror.TurnLimits`, within ±25; positive yaw shows more of her left cheek).
         split: before/after: the left ``split`` fraction of the frame (0..1) shows her without makeup.
         previews: other sets of layers to draw her with first (mirror view), each returned in the
             ``previewed`` signal (e.g. each of the shades the foundation finder proposes), or None.
@@ -105,6 +108,9 @@ class ShopperRenderer(QObject):
         frame(image, ms, request): a frame drawn (uint8 (H, W, 3)), its drawing time in ms and its request.
         previewed(images): the request's ``previews`` drawn (uint8 (H, W, 3) each, in order).
         failed(message): the GL context or a view could not be made, or a frame failed.
+
+    Attributes: ``turn_limits`` (the :class:`render.mirror.TurnLimits` her photograph supports, degrees),
+    ``frames`` (frames drawn).
     """
 
     frame = Signal(object, float, object)
@@ -113,7 +119,10 @@ class ShopperRenderer(QObject):
 
     def __init__(self, head: Head, face: Any, photo: np.ndarray) -> None:
         super().__init__()
+        from render.mirror import turn_limits
+
         self.head, self.face, self.photo = head, face, photo
+        self.turn_limits = turn_limits(head, face.camera())
         self._queue: queue.Queue[FrameRequest | Future[tuple[np.ndarray, np.ndarray]] | None] = queue.Queue()
         self._ahead: list[Future[tuple[np.ndarray, np.ndarray]]] = []  # stills met while merging requests
         self._thread = threading.Thread(target=self._run, name="sheer-shopper-gl", daemon=True)
@@ -272,7 +281,7 @@ class ShopperRenderer(QObject):
             mirror.set_layers(req.layers)
         if req.view == "relight":
             view = relight
-            view.yaw, view.pitch = float(req.yaw), float(req.pitch)
+            view.yaw, view.pitch = view.limits.clamp(float(req.yaw), float(req.pitch))
             if req.light is None:
                 view.use_capture_light()
             else:
@@ -301,8 +310,11 @@ class ShopperRenderer(QObject):
 class ShopperView(QLabel):
     """Her face, the newest frame scaled to fit; dragging turns the relit face.
 
+    Attributes: ``yaw``, ``pitch`` (degrees), ``limits`` (a :class:`render.mirror.TurnLimits` the drag is
+    clamped to: her photograph's, set with her renderer; default ±25° each way), ``turnable``.
+
     Signals:
-        turned(yaw, pitch): the drag asks for this turn (degrees, clamped to ±25).
+        turned(yaw, pitch): the drag asks for this turn (degrees, clamped to ``limits``).
     """
 
     turned = Signal(float, float)
@@ -314,7 +326,10 @@ class ShopperView(QLabel):
         self.setMinimumSize(320, 240)
         self.setStyleSheet("background: #000;")
         self.image: np.ndarray | None = None
+        from render.mirror import TurnLimits
+
         self.yaw = self.pitch = 0.0
+        self.limits = TurnLimits()
         self.turnable = False
         self._drag: QPointF | None = None
         self._qimage: QImage | None = None
@@ -348,15 +363,13 @@ class ShopperView(QLabel):
         self._drag = event.position() if self.turnable else None
 
     def mouseMoveEvent(self, event: QMouseEvent) -> None:  # noqa: N802
-        """Turn her face with the drag (degrees per pixel: :data:`TURN_DEG_PER_PX`)."""
+        """Turn her face with the drag (degrees per pixel: :data:`TURN_DEG_PER_PX`), within :attr:`limits`."""
         if self._drag is None:
             return
-        from render.mirror import MAX_TURN_DEG
-
         d = event.position() - self._drag
         self._drag = event.position()
-        self.yaw = float(np.clip(self.yaw - d.x() * TURN_DEG_PER_PX, -MAX_TURN_DEG, MAX_TURN_DEG))
-        self.pitch = float(np.clip(self.pitch + d.y() * TURN_DEG_PER_PX, -MAX_TURN_DEG, MAX_TURN_DEG))
+        self.yaw, self.pitch = self.limits.clamp(self.yaw - d.x() * TURN_DEG_PER_PX,
+                                                 self.pitch + d.y() * TURN_DEG_PER_PX)
         self.turned.emit(self.yaw, self.pitch)
 
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:  # noqa: N802

@@ -258,6 +258,7 @@ class TryOn(QObject):
         self.shopper_view.yaw = self.shopper_view.pitch = 0.0
         self.kiosk.wear_shopper(result.session)
         self.renderer = ShopperRenderer(result.head, result.face, result.photo)
+        self.shopper_view.limits = self.renderer.turn_limits  # as far as her photograph supports
         self.renderer.frame.connect(self.kiosk.guard(self._frame))
         self.renderer.previewed.connect(self.kiosk.guard(self._previewed))
         self.renderer.failed.connect(self.kiosk.guard(self.kiosk.fail))
@@ -391,7 +392,10 @@ class TryOn(QObject):
         # the next shopper starts in the mirror view, in her photograph's light, facing forward
         self.view = "mirror"
         self.light = None
+        from render.mirror import TurnLimits
+
         self.shopper_view.yaw = self.shopper_view.pitch = 0.0
+        self.shopper_view.limits = TurnLimits()
         self.shopper_view.turnable = False
         self.previews_shown = 0
         self.last_refusal = ""

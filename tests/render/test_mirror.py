@@ -235,11 +235,13 @@ def test_relight_at_the_capture_light_reproduces_the_photograph(captured: Captur
         changed = np.abs(lips.astype(int) - same.astype(int)).max(axis=2) > 2
         assert changed.sum() > 50 and (changed & ~mouth).sum() <= 0.01 * changed.sum()
         frames = [rv.render_image((256, 256))]
-        for yaw, pitch in ((-MAX_TURN_DEG, 0.0), (MAX_TURN_DEG, 0.0), (0.0, MAX_TURN_DEG)):
+        lim = rv.limits  # what her photograph supports (render.mirror.turn_limits), within ±25°
+        assert max(abs(x) for x in (*lim.yaw, *lim.pitch)) <= MAX_TURN_DEG and lim.yaw[1] - lim.yaw[0] >= 20.0, lim
+        for yaw, pitch in ((lim.yaw[0], 0.0), (lim.yaw[1], 0.0), (0.0, lim.pitch[1])):
             rv.yaw, rv.pitch = yaw, pitch
             frames.append(rv.render_image((256, 256)))
-        rv.yaw, rv.pitch = MAX_TURN_DEG + 1.0, 0.0
-        with pytest.raises(RenderError, match="25"):
+        rv.yaw, rv.pitch = lim.yaw[1] + 1.0, 0.0
+        with pytest.raises(RenderError, match="her photograph lets the relight view turn"):
             rv.render_image()
     finally:
         rv.release()
