@@ -11,10 +11,12 @@ face by dragging, as far as her photograph supports (:attr:`ShopperRenderer.turn
 :func:`render.mirror.turn_limits`: at most ±:data:`render.mirror.MAX_TURN_DEG`, less towards a side her
 photograph saw at a grazing angle).
 
-The mirror view is drawn at her photograph's own resolution and shown as a mirror shows her: flipped
-left–right, like the camera screen's live preview (the before/after split is then laid over the flipped
-frame, so its left part is still "before"). :meth:`ShopperRenderer.still` draws her made-up photograph,
-and the same without makeup, as a camera shows her (not flipped, no split line), for Save Photo.
+Both views are shown as a mirror shows her: flipped left–right, like the camera screen's live preview, so
+switching views keeps her sides where they were (the before/after split is then laid over the flipped
+frame, so its left part is still "before"), and a drag to the right turns her relit face the way her
+reflection would turn (its front follows the drag). The mirror view is drawn at her photograph's own
+resolution. :meth:`ShopperRenderer.still` draws her made-up photograph, and the same without makeup, as a
+camera shows her (not flipped, no split line), for Save Photo, whichever view is on screen.
 
 Everything here lives in memory; :meth:`ShopperRenderer.close` releases the GPU objects and the context.
 """
@@ -288,13 +290,11 @@ class ShopperRenderer(QObject):
                 p = req.light
                 view.set_preset(p["azimuth"], p["elevation"], p["colour"], p["intensity"], p["ambient"])
 
-            def draw() -> np.ndarray:
-                return np.asarray(view.render_image())
         else:
             view = mirror
 
-            def draw() -> np.ndarray:  # as a mirror shows her: flipped left-right
-                return np.ascontiguousarray(np.asarray(view.render_image())[:, ::-1])
+        def draw() -> np.ndarray:  # either view as a mirror shows her: flipped left-right
+            return np.ascontiguousarray(np.asarray(view.render_image())[:, ::-1])
         mirror.show_makeup = relight.show_makeup = True
         after = draw()
         if req.split <= 0.0:
@@ -309,6 +309,10 @@ class ShopperRenderer(QObject):
 
 class ShopperView(QLabel):
     """Her face, the newest frame scaled to fit; dragging turns the relit face.
+
+    The frames are shown flipped (as a mirror shows her), so a drag to the right turns her as her
+    reflection would turn: its front follows the drag (more of her left cheek, positive yaw), a drag down
+    looks from above (positive pitch); :data:`TURN_DEG_PER_PX` degrees per pixel.
 
     Attributes: ``yaw``, ``pitch`` (degrees), ``limits`` (a :class:`render.mirror.TurnLimits` the drag is
     clamped to: her photograph's, set with her renderer; default ±25° each way), ``turnable``.
@@ -368,7 +372,8 @@ class ShopperView(QLabel):
             return
         d = event.position() - self._drag
         self._drag = event.position()
-        self.yaw, self.pitch = self.limits.clamp(self.yaw - d.x() * TURN_DEG_PER_PX,
+        # shown flipped: a drag to the right brings her left cheek (on the screen's left) forward
+        self.yaw, self.pitch = self.limits.clamp(self.yaw + d.x() * TURN_DEG_PER_PX,
                                                  self.pitch + d.y() * TURN_DEG_PER_PX)
         self.turned.emit(self.yaw, self.pitch)
 

@@ -1,6 +1,7 @@
 """Turn and relight on the kiosk, without a capture: the drag stays within what her photograph supports
 (render.mirror.TurnLimits), and the relit face is shown as the mirror view is (flipped left–right, a drag
-to the right turning her as her reflection would turn)."""
+to the right turning her as her reflection would turn). Save Photo stays as a camera sees her (not
+flipped) for both views: tests/app/kiosk/test_kiosk_her_photo.py."""
 
 from __future__ import annotations
 
@@ -71,7 +72,7 @@ class _FakeView:
         pass
 
     def render_image(self) -> np.ndarray:
-        return self.frame.copy()
+        return self.frame.copy() if self.show_makeup else np.zeros_like(self.frame)  # "before": dark
 
 
 def test_the_renderer_clamps_the_turn_to_the_relit_views_limits() -> None:
@@ -80,3 +81,30 @@ def test_the_renderer_clamps_the_turn_to_the_relit_views_limits() -> None:
     mirror, relight = _FakeView(200), _FakeView(100)
     ShopperRenderer._draw(mirror, relight, FrameRequest(view="relight", yaw=-40.0, pitch=3.0))
     assert (relight.yaw, relight.pitch) == (-10.0, 3.0)  # drawn at the limit, not refused
+
+
+@pytest.mark.parametrize("view", ["mirror", "relight"])
+def test_both_views_are_shown_flipped_as_a_mirror_shows_her(view: str) -> None:
+    from app.kiosk.shopper import FrameRequest, ShopperRenderer
+
+    mirror, relight = _FakeView(200), _FakeView(100)
+    drawn = (mirror if view == "mirror" else relight).frame
+    shown = ShopperRenderer._draw(mirror, relight, FrameRequest(view=view))
+    assert np.array_equal(shown, drawn[:, ::-1]), "shown as a camera sees her"  # the bright edge on the right
+    # before/after: the split is laid over the flipped frame, its left part "before"
+    split = ShopperRenderer._draw(mirror, relight, FrameRequest(view=view, split=0.5))
+    assert np.array_equal(split[:, 4:], drawn[:, ::-1][:, 4:]) and split[:, :2].max() == 0  # (2–3: the line)
+
+
+def test_a_drag_to_the_right_turns_her_as_her_reflection_would_turn(qapp: object) -> None:
+    """Shown flipped, her left cheek is on the screen's left: dragging right brings it forward (positive
+    yaw, render.mirror.RelightView's sign), as her reflection's front follows the hand; a drag down looks
+    at her from above (positive pitch)."""
+    from app.kiosk.shopper import TURN_DEG_PER_PX, ShopperView
+
+    view = ShopperView()
+    view.turnable = True
+    _drag(view, 10.0 / TURN_DEG_PER_PX)
+    assert view.yaw == pytest.approx(10.0) and view.pitch == 0.0
+    _drag(view, -20.0 / TURN_DEG_PER_PX, 5.0 / TURN_DEG_PER_PX)
+    assert view.yaw == pytest.approx(-10.0) and view.pitch == pytest.approx(5.0)
