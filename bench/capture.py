@@ -14,7 +14,12 @@ Two sweeps, printed as one JSON object:
   corners, photon noise at SNR 100 at 0.5 and read noise 0.002, seeded per scene; ``--truth plain``: neither,
   the figures before the shadows and the sensor); the capture's relative s and i_s errors |s / s_true − 1| in per cent:
   ``s_error_pct`` (the median), ``s_error_pct_p90``, ``s_error_pct_max`` (the worst),
-  ``s_within_10pct`` (how many cases), the same for i_s, and every case.
+  ``s_within_10pct`` (how many cases), the same for i_s, and every case. ``--pitch``: the same grid
+  from the camera lowered 10° (below the eyes, looking up), level and raised 10° (above, looking down)
+  about the head (:data:`PITCHES`, 135 scenes; each pitch's scenes have the level grid's skies, and the
+  level ones are the default run's), with ``s_error_pct_by_pitch``: per pitch (degrees, as a string key)
+  the median, p90 and worst |s error| (%), the signed median ``s_bias_pct`` (%) and ``s_within_10pct``
+  (cases) of its ``cases``.
 - **the probe**: random flashes 0.5–3° across (the clipped spot's angular diameter), within 15° of the
   lens, in mirror balls of 256, 512 and 1024 px (six environments at the validation's level, the flash's
   core averaged over 4 × 4 points per pixel so its rim pixels are partly covered): ``probe_acceptance``
@@ -46,6 +51,8 @@ import numpy as np
 #: The exponent sweep's axes (see the module docstring).
 EXPONENTS = (8.0, 12.0, 24.0, 40.0, 60.0)
 YAWS = (-30.0, 0.0, 30.0)
+#: ``--pitch``: the camera's elevation about the head, degrees (positive: above the eyes, looking down).
+PITCHES = (-10.0, 0.0, 10.0)
 FLASHES = {"above": (8.0, 0.0), "beside": (0.0, 8.0), "off-axis": (-5.7, 5.7)}
 ENVIRONMENTS = ("city", "lobby", "night", "studio", "sunset", "warehouse")
 #: ``--truth``: how the exponent sweep's photographs are drawn (see the module docstring).
@@ -117,31 +124,40 @@ def probe_acceptance(placements: int, seed: int = 0, sizes: tuple[int, ...] = PR
 
 
 def exponent_cases(quick: bool = False, camera: str = "noisy", truth: str = "photo",
-                   focal: str = "exif") -> list[tuple[str, Any]]:
+                   focal: str = "exif", pitch: bool = False) -> list[tuple[str, Any]]:
     """The exponent sweep's cases, named.
 
     ``quick``: every third; ``camera`` and ``focal``: as :class:`bench.capture_truth.Case`'s; ``truth``:
-    one of :data:`TRUTHS`.
+    one of :data:`TRUTHS`; ``pitch``: the grid at each of :data:`PITCHES` (the pitch outermost, so
+    ``quick`` and a spread of ``--cases`` take every pitch alike), else level only (45 scenes). A scene
+    keeps its level twin's sky; its sensor's seed is the twin's plus 45 for each pitch after the level one.
     """
     from bench.capture_truth import Case, Sensor
 
+    grid = [(s, y, f) for s in EXPONENTS for y in YAWS for f in FLASHES.items()]
+    pitches = sorted(PITCHES, key=lambda p: p != 0.0) if pitch else [0.0]  # the level grid's seeds first
     cases = []
-    for i, (s, yaw, (flash, angles)) in enumerate((s, y, f) for s in EXPONENTS for y in YAWS for f in FLASHES.items()):
-        env = ENVIRONMENTS[i % len(ENVIRONMENTS)]
-        name = f"s{s:g} yaw {yaw:+g}° flash {flash} {env}"
-        real = truth == "photo"
-        sensor = Sensor(vignetting=0.4, shot=5e-5, read=0.002, seed=i) if real else None
-        cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera=camera,
-                                 ambient="irradiance", yaw_deg=yaw, sensor=sensor, shadows=real,
-                                 focal=focal)))
+    for p in (PITCHES if pitch else (0.0,)):
+        for i, (s, yaw, (flash, angles)) in enumerate(grid):
+            env = ENVIRONMENTS[i % len(ENVIRONMENTS)]
+            name = f"s{s:g} yaw {yaw:+g}° flash {flash} {env}"
+            if pitch:
+                name = f"s{s:g} pitch {p:+g}° yaw {yaw:+g}° flash {flash} {env}"
+            real = truth == "photo"
+            seed = i + len(grid) * pitches.index(p)
+            sensor = Sensor(vignetting=0.4, shot=5e-5, read=0.002, seed=seed) if real else None
+            cases.append((name, Case("sample", s, environment=env, light_deg=angles, camera=camera,
+                                     ambient="irradiance", yaw_deg=yaw, sensor=sensor, shadows=real,
+                                     focal=focal, pitch_deg=p)))
     return cases[::3] if quick else cases
 
 
 def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = "noisy",
-                   truth: str = "photo", focal: str = "exif") -> dict[str, Any]:
+                   truth: str = "photo", focal: str = "exif", pitch: bool = False) -> dict[str, Any]:
     """Capture the cases of :func:`exponent_cases`; the error distribution of s, i_s and the light as a dict.
 
-    ``cases``: that many, spread over the grid (default all).
+    ``cases``: that many, spread over the grid (default all); ``pitch``: over :data:`PITCHES` too, with
+    ``s_error_pct_by_pitch`` (see the module docstring).
     """
     from bench.capture_truth import measure_case
     from bench.stats import spread
@@ -150,23 +166,40 @@ def exponent_sweep(quick: bool = False, cases: int | None = None, camera: str = 
     ctx = standalone_context()
     rows = []
     try:
-        grid = exponent_cases(quick, camera, truth, focal)
+        grid = exponent_cases(quick, camera, truth, focal, pitch)
         if cases is not None:
             grid = [grid[int(i)] for i in np.linspace(0, len(grid) - 1, min(cases, len(grid)))]
         for name, case in grid:
             f = measure_case(ctx, case)
-            rows.append({"case": name, "s": round(f.s_value, 3), "s_error_pct": round(100 * f.s, 2),
+            rows.append({"case": name, "pitch_deg": case.pitch_deg, "s": round(f.s_value, 3), "s_error_pct": round(100 * f.s, 2),
                          "i_s_error_pct": round(100 * f.i_s, 2), "light_deg": round(f.light_deg, 3),
                          "reproduction_de2000": round(f.reproduction_de, 3), "diffuse_de2000": round(f.diffuse_de, 3)})
     finally:
         ctx.release()
     s_err = [abs(r["s_error_pct"]) for r in rows]
     i_err = [abs(r["i_s_error_pct"]) for r in rows]
+    by_pitch: dict[str, Any] = {}
+    if pitch:
+        by_pitch["s_error_pct_by_pitch"] = {f"{p:+g}": s_by_pitch([r for r in rows if r["pitch_deg"] == p])
+                                            for p in PITCHES if any(r["pitch_deg"] == p for r in rows)}
     return {"cases": len(rows), "camera": camera, "truth": truth, "focal": focal, **spread("s_error_pct", s_err),
             "s_within_10pct": sum(e <= 10 for e in s_err), **spread("i_s_error_pct", i_err),
             "i_s_within_10pct": sum(e <= 10 for e in i_err), **spread("light_deg", [r["light_deg"] for r in rows]),
             **spread("diffuse_de2000", [r["diffuse_de2000"] for r in rows]),
-            "exponent_cases": rows}
+            **by_pitch, "exponent_cases": rows}
+
+
+def s_by_pitch(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The s error of ``rows``, one pitch's cases (at least one), as a dict.
+
+    ``cases``; the median, p90 and worst of |s error| (%); ``s_bias_pct``, the signed median (%);
+    ``s_within_10pct`` (cases).
+    """
+    from bench.stats import spread
+
+    signed = [r["s_error_pct"] for r in rows]
+    return {"cases": len(rows), **spread("s_error_pct", [abs(e) for e in signed]),
+            "s_bias_pct": round(float(np.median(signed)), 2), "s_within_10pct": sum(abs(e) <= 10 for e in signed)}
 
 
 def main(argv: list[str]) -> int:
@@ -184,6 +217,9 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--focal", choices=FOCALS, default="exif",
                         help="with --camera noisy: the calibration is given the true focal length as EXIF stores it "
                              "(FocalLengthIn35mmFilm, whole mm; default) or none (its portrait-lens prior)")
+    parser.add_argument("--pitch", action="store_true",
+                        help="the exponent sweep also from the camera 10° below and 10° above the eyes (135 scenes), "
+                             "with s_error_pct_by_pitch")
     parser.add_argument("--skip", choices=("exponent", "probe", *SECTIONS), action="append", default=[],
                         help="leave out a sweep (repeatable)")
     parser.add_argument("--json", action="store_true", help="print JSON (the only format)")
@@ -200,7 +236,7 @@ def main(argv: list[str]) -> int:
     if "probe" not in args.skip:
         out.update(probe_acceptance(placements))
     if "exponent" not in args.skip:
-        out.update(exponent_sweep(args.quick, args.cases, args.camera, args.truth, args.focal))
+        out.update(exponent_sweep(args.quick, args.cases, args.camera, args.truth, args.focal, args.pitch))
     for name, target in SECTIONS.items():
         if name not in args.skip:
             import importlib

@@ -413,6 +413,9 @@ class Case:
         probe_without_flash: the probe also photographed without the flash (the room alone, same exposure),
             and the flash's hue read from the difference (:func:`capture.probe.analyse_probe`'s
             ``without_flash``).
+        pitch_deg: the camera raised (positive: above the eyes, looking down) or lowered about the same
+            point as ``yaw_deg`` turns it, degrees (−90..90; 0: level, the validation's), at the same
+            distance; the yaw turns it about the vertical after.
     """
 
     head: str
@@ -431,6 +434,7 @@ class Case:
     occlusion: bool = False
     focal: str = "none"
     probe_without_flash: bool = False
+    pitch_deg: float = 0.0
 
 
 class Figures(NamedTuple):
@@ -489,20 +493,21 @@ def skin_texture(size: int = 512) -> np.ndarray:
 def case_camera(head: Head, case: Case, size: int = 512) -> Camera:
     """The true camera of ``case``, ``size``² pixels.
 
-    Aimed at the face from ``case.distance_mm`` in front of it, turned by ``case.yaw_deg`` about the
-    vertical, with the validation's framing (6.4° vertical field at 2362.5 mm, scaled with the
-    distance); the validation's own camera for the sample and coarse heads at yaw 0 and that distance.
+    Aimed at the face from ``case.distance_mm`` in front of it, raised by ``case.pitch_deg`` (positive:
+    above, looking down) and turned by ``case.yaw_deg`` about the vertical, with the validation's
+    framing (6.4° vertical field at 2362.5 mm, scaled with the distance); the validation's own camera
+    for the sample and coarse heads at yaw 0, pitch 0 and that distance.
     """
     from bench.capture_synthetic import validation_camera
     from capture.camera import Camera
 
-    if case.head != "canonical" and case.yaw_deg == 0.0 and case.distance_mm == 2362.5:
+    if case.head != "canonical" and case.yaw_deg == 0.0 and case.pitch_deg == 0.0 and case.distance_mm == 2362.5:
         return validation_camera(size)
     lm = np.array(list(head.metadata.landmarks.values()))
     target = (lm.min(axis=0) + lm.max(axis=0)) / 2 if case.head == "canonical" else np.array([0.0, 1.3, 0.0])
     distance = case.distance_mm / head.mm_per_unit
-    yaw = np.radians(case.yaw_deg)
-    eye = target + distance * np.array([np.sin(yaw), 0.0, np.cos(yaw)])
+    yaw, pitch = np.radians(case.yaw_deg), np.radians(case.pitch_deg)
+    eye = target + distance * np.array([np.sin(yaw) * np.cos(pitch), np.sin(pitch), np.cos(yaw) * np.cos(pitch)])
     fov = float(np.degrees(2 * np.arctan(np.tan(np.radians(3.2)) * 2362.5 / case.distance_mm)))
     return Camera.looking_at(eye, target, np.array([0.0, 1.0, 0.0]), fov, size, size)
 
@@ -527,8 +532,9 @@ def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:
         # Seeded by the case's repr; without a sensor, as it read before Case had that field (the figures
         # measured then, in tests/capture/test_out_of_sample.py and the README, stand); never with the
         # shadows, the occlusion or the flash-less probe (a case with and without them has the same landmarks,
-        # so they compare).
-        key = re.sub(r", (shadows|occlusion|probe_without_flash)=(True|False)|, focal='\w+'", "", repr(case))
+        # so they compare); the pitch only when it is not level (as it read before Case had that field).
+        key = re.sub(r", (shadows|occlusion|probe_without_flash)=(True|False)|, focal='\w+'|, pitch_deg=0\.0\b",
+                     "", repr(case))
         key = key if case.sensor is not None else key.replace(", sensor=None", "")
         rng = np.random.default_rng(zlib.crc32(key.encode()))
         pixels = pixels + rng.normal(0.0, case.noise_px, pixels.shape)

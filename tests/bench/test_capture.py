@@ -74,3 +74,59 @@ def test_the_focal_option_gives_the_calibration_the_exif_focal_length_or_not(
     assert abs(ratios[0] - 1) < 0.01 < 0.2 < abs(ratios[1] - 1), ratios
     assert sheer(["bench", "capture", "--json", "--focal", "true"]) == 2
     assert "--focal" in capsys.readouterr().err
+
+
+def test_the_pitch_option_spreads_s_by_pitch(capsys: pytest.CaptureFixture[str],
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--pitch``: the grid at −10°, 0 and +10° (135 scenes, the level ones the default run's 45), and
+    ``s_error_pct_by_pitch`` per pitch, consistent with the cases and the overall figures. The capture is
+    stood in for by an s error of 1.1 % per degree of pitch (−11, 0, +11 %: only the level ones within 10 %)."""
+    import bench.capture_truth
+    from bench.capture import PITCHES, exponent_cases
+    from bench.capture_truth import Figures
+
+    grid = exponent_cases(pitch=True)
+    assert len(grid) == 135 and len({name for name, _ in grid}) == 135
+    assert [c for _, c in grid if c.pitch_deg == 0.0] == [c for _, c in exponent_cases()]
+    assert {c.pitch_deg for _, c in exponent_cases(quick=True, pitch=True)} == set(PITCHES)
+
+    def fake(ctx: object, case: bench.capture_truth.Case) -> Figures:
+        s = 0.011 * case.pitch_deg
+        return Figures(0.1, s, 0.0, 0.5, 0.5, case.exponent * (1 + s), case.specular)
+
+    monkeypatch.setattr(bench.capture_truth, "measure_case", fake)
+    assert sheer(["bench", "capture", "--json", "--pitch", "--cases", "7", "--skip", "probe", "--skip", "auto",
+                  "--skip", "views", "--skip", "tryon"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    by_pitch = result["s_error_pct_by_pitch"]
+    assert set(by_pitch) == {"-10", "+0", "+10"}
+    assert sum(p["cases"] for p in by_pitch.values()) == result["cases"] == 7
+    assert sum(p["s_within_10pct"] for p in by_pitch.values()) == result["s_within_10pct"]
+    for key, figures in by_pitch.items():
+        rows = [r for r in result["exponent_cases"] if r["pitch_deg"] == float(key)]
+        assert figures["cases"] == len(rows) > 0
+        assert figures["s_error_pct"] <= figures["s_error_pct_p90"] <= figures["s_error_pct_max"]
+        assert figures["s_error_pct_max"] == max(abs(r["s_error_pct"]) for r in rows)
+        assert figures["s_bias_pct"] == pytest.approx(1.1 * float(key))
+        assert figures["s_within_10pct"] == (len(rows) if key == "+0" else 0)
+
+
+def test_a_pitched_camera_is_above_the_eyes_looking_down() -> None:
+    """``pitch_deg`` raises the camera about the face's centre at the same distance (positive: above,
+    looking down); 0 is the validation's camera, as before the field."""
+    import numpy as np
+
+    from bench.capture_synthetic import validation_camera
+    from bench.capture_truth import Case, case_camera
+    from painting.head import load_head
+
+    head = load_head()
+    level = case_camera(head, Case("sample", 24.0))
+    assert np.array_equal(level.K, validation_camera().K) and np.array_equal(level.R, validation_camera().R)
+    for pitch in (-10.0, 10.0):
+        cam = case_camera(head, Case("sample", 24.0, pitch_deg=pitch))
+        offset = cam.centre - np.array([0.0, 1.3, 0.0])
+        assert np.linalg.norm(offset) == pytest.approx(np.linalg.norm(level.centre - np.array([0.0, 1.3, 0.0])))
+        assert np.degrees(np.arcsin(offset[1] / np.linalg.norm(offset))) == pytest.approx(pitch)
+        forward = cam.R[2]  # the camera's viewing axis in world coordinates (+Z in camera space)
+        assert np.sign(forward[1]) == -np.sign(pitch)  # raised: looking down
