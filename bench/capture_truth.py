@@ -416,6 +416,8 @@ class Case:
         pitch_deg: the camera raised (positive: above the eyes, looking down) or lowered about the same
             point as ``yaw_deg`` turns it, degrees (−90..90; 0: level, the validation's), at the same
             distance; the yaw turns it about the vertical after.
+        texture: "skin" (the head's own texture, :func:`case_head`) or "flat" (1 everywhere: an untextured
+            skin of colour D, which separates what the skin's texture under the lobe costs the fit).
     """
 
     head: str
@@ -435,6 +437,7 @@ class Case:
     focal: str = "none"
     probe_without_flash: bool = False
     pitch_deg: float = 0.0
+    texture: str = "skin"
 
 
 class Figures(NamedTuple):
@@ -532,8 +535,9 @@ def calibrated_camera(head: Head, camera: Camera, case: Case) -> Camera:
         # Seeded by the case's repr; without a sensor, as it read before Case had that field (the figures
         # measured then, in tests/capture/test_out_of_sample.py and the README, stand); never with the
         # shadows, the occlusion or the flash-less probe (a case with and without them has the same landmarks,
-        # so they compare); the pitch only when it is not level (as it read before Case had that field).
-        key = re.sub(r", (shadows|occlusion|probe_without_flash)=(True|False)|, focal='\w+'|, pitch_deg=0\.0\b",
+        # so they compare); the pitch only when it is not level (as it read before Case had that field); never
+        # the texture (the same landmarks with and without it).
+        key = re.sub(r", (shadows|occlusion|probe_without_flash)=(True|False)|, focal='\w+'|, pitch_deg=0\.0\b|, texture='\w+'",
                      "", repr(case))
         key = key if case.sensor is not None else key.replace(", sensor=None", "")
         rng = np.random.default_rng(zlib.crc32(key.encode()))
@@ -585,6 +589,8 @@ def draw_case(ctx: moderngl.Context, case: Case) -> Scene:
     from core.assets import find_asset
 
     head, texture = case_head(case.head)
+    if case.texture == "flat":
+        texture = np.ones_like(texture)
     camera = case_camera(head, case)
     env = read_env(str(find_asset(f"environments/{case.environment}.exr")))
     mean_radiance = env_mean_radiance(env)

@@ -35,7 +35,7 @@ def test_bad_options_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_the_truth_option_draws_shadows_and_a_sensor_or_neither() -> None:
     """``--truth photo`` (the default) gives every scene the flash's shadows and a sensor seeded per scene;
-    ``--truth plain`` neither (the figures before them)."""
+    ``--truth plain`` neither (the figures before them); ``--truth untextured`` neither, and a flat skin."""
     from bench.capture import exponent_cases
 
     photo = [case for _, case in exponent_cases(truth="photo")]
@@ -44,6 +44,9 @@ def test_the_truth_option_draws_shadows_and_a_sensor_or_neither() -> None:
     assert all(c.shadows and c.sensor is not None and c.sensor.vignetting > 0 for c in photo)
     assert len({c.sensor.seed for c in photo if c.sensor is not None}) == 45
     assert not any(c.shadows or c.sensor is not None for c in plain)
+    untextured = [case for _, case in exponent_cases(truth="untextured")]
+    assert all(c.texture == "flat" and not c.shadows and c.sensor is None for c in untextured)
+    assert all(c.texture == "skin" for c in photo + plain)
 
 
 def test_an_unknown_truth_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
