@@ -609,8 +609,8 @@ class RelightView(_Layers):
         if not self.limits.allows(self.yaw, self.pitch):
             lim = self.limits
             raise RenderError(f"her photograph lets the relight view turn {lim.yaw[0]:+g}° to {lim.yaw[1]:+g}° of yaw "
-                              f"and {lim.pitch[0]:+g}° to {lim.pitch[1]:+g}° of pitch (asked yaw {self.yaw!r}, "
-                              f"pitch {self.pitch!r})")
+                              f"and {lim.pitch[0]:+g}° to {lim.pitch[1]:+g}° of pitch, at most ±{MAX_TURN_DEG:g}° for "
+                              f"any photograph (asked yaw {self.yaw!r}, pitch {self.pitch!r})")
         return pinhole_camera(self.photo_camera, self.head.vertices, self.yaw, self.pitch, self.pivot)
 
     def _prepare(self) -> None:
