@@ -168,6 +168,16 @@ class LandmarkWarp:
 
 # ------------------------------------------------------------------------------------------- correspondence
 
+def same_paint_layout(source: Document, target: Document) -> bool:
+    """Whether the two documents paint in one layout (texel i the same place of the skin on both).
+
+    The same triangles, UVs and charts: a head fitted from another, as the full head is from the sample head.
+    """
+    a, b = source.layout, target.layout
+    return (a.faces.shape == b.faces.shape and a.uv.shape == b.uv.shape and np.array_equal(a.faces, b.faces)
+            and np.array_equal(a.uv, b.uv) and np.array_equal(a.chart_of_face, b.chart_of_face))
+
+
 def _open_edges(layout: Any) -> np.ndarray:
     """Whether the edge opposite each corner of a layout triangle is on the open border: bool (F, 3).
 
@@ -223,6 +233,8 @@ class Correspondence:
         import trimesh
         from scipy.spatial import cKDTree
 
+        if same_paint_layout(source, target):
+            return cls.identity(source, target, resolution)
         warp = warp or LandmarkWarp.fit(source.head, target.head)
         atlas = target.atlas_at(resolution)
         covered = np.flatnonzero(atlas.coverage.reshape(-1))
@@ -268,6 +280,24 @@ class Correspondence:
         return cls(resolution=int(resolution), flat=covered_near[ok], source_uv=uv,
                    source_chart=layout.chart_of_face[best_f[ok]].astype(np.int32), source_point=best_p[ok],
                    gap_mm=gap[ok].astype(np.float32), covered=len(covered), target=atlas)
+
+    @classmethod
+    def identity(cls, source: Document, target: Document, resolution: int) -> Correspondence:
+        """Texel for texel, for heads that share one paint layout (:func:`same_paint_layout`).
+
+        A head fitted from another (the full head, warped from the sample head onto a face) has each texel
+        on the same place of the skin, whatever its shape. Every covered texel of the target is matched to
+        its own texel centre on the source (a resample then copies values exactly), gap 0.
+        """
+        atlas = target.atlas_at(resolution)
+        covered = np.flatnonzero(atlas.coverage.reshape(-1))
+        rows, cols = np.divmod(covered, resolution)
+        uv = np.stack([(cols + 0.5) / resolution, (rows + 0.5) / resolution], axis=1)
+        source_atlas = source.atlas_at(resolution)
+        return cls(resolution=int(resolution), flat=covered, source_uv=uv,
+                   source_chart=atlas.chart.reshape(-1)[covered].astype(np.int32),
+                   source_point=source_atlas.position.reshape(-1, 3)[covered].astype(np.float64),
+                   gap_mm=np.zeros(len(covered), dtype=np.float32), covered=len(covered), target=atlas)
 
     def resample(self, values: np.ndarray, source_atlas: Atlas, fill: float = 0.0) -> np.ndarray:
         """A source map (R, R) or (R, R, C) at the source bake's resolution → the target's, float32.

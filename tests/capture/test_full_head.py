@@ -178,3 +178,29 @@ def test_a_full_head_with_a_given_head_is_one_line(tmp_path: Path) -> None:
         capture_auto(find_asset("photos/grace_hopper.jpg"), tmp_path / "g", head=find_asset("heads/lee-perry-smith/head.glb"),
                      full_head=True)
     assert not (tmp_path / "g").exists()
+
+
+def test_a_look_moves_onto_her_full_head_texel_for_texel() -> None:
+    """The full head paints in the sample head's layout, so a layer painted on the sample head lands on the
+    same texels of hers: every texel matched (the 3D correspondence matched 58 % of them, the scalp and neck
+    beyond its reach), the thickness copied exactly."""
+    from painting.document import Document
+    from painting.head import load_head
+    from painting.transfer import inner_mouth_texels, same_paint_layout, transfer_layers
+
+    _, fit = _hopper()
+    source = Document(load_head(), resolution=64)  # the sample head
+    layer = source.add_layer("Blush Rose", resolution=64)
+    rng = np.random.default_rng(5)
+    thickness = (rng.uniform(0.0, 12.0, (64, 64)) * source.atlas_at(64).coverage).astype(np.float32)
+    source.set_thickness(layer, thickness, detail="test")
+    target = Document(fit.head, resolution=64, library=source.library)
+    assert same_paint_layout(source, target)
+    report = transfer_layers(source, target)
+    assert report.matched_fraction == 1.0
+    moved = target.layers[-1].thickness
+    covered = target.atlas_at(64).coverage
+    mouth = inner_mouth_texels(target, 64)  # a transfer leaves the inside of the mouth bare, as always
+    assert mouth is not None and 0 < mouth.sum() < 50
+    np.testing.assert_array_equal(moved[covered & ~mouth], thickness[covered & ~mouth])
+    assert not moved[mouth].any()
