@@ -38,7 +38,8 @@ def kiosk_shots(out: Path, tmp: Path) -> None:
 
     kiosk_start.png (the attract mode under the invitation), kiosk_tryon.png (the sample face, evening
     look, warm light), kiosk_camera.png ("Try it on me": the preview with its oval and prompt; the camera
-    is a video of the Grace Hopper portrait) and kiosk_her_face.png (her face, red lip, before/after).
+    is a video of the Grace Hopper portrait), kiosk_her_face.png (her face, red lip, before/after) and
+    kiosk_turn.png (Turn and relight: her face on the full head, turned by a drag).
     """
     import numpy as np
     from PIL import Image
@@ -87,6 +88,15 @@ def kiosk_shots(out: Path, tmp: Path) -> None:
     _wait(lambda: kiosk.tryon.renderer.frames > frames)  # (the two requests may be drawn as one frame)
     _wait(lambda: False, 2.0)
     _screen_grab(kiosk).save(str(out / "kiosk_her_face.png"))
+    kiosk.split.setValue(0)
+    kiosk.set_view("relight")
+    view = kiosk.tryon.shopper_view
+    frames = kiosk.tryon.renderer.frames
+    view.yaw, view.pitch = view.limits.clamp(15.0, -5.0)  # a drag: her face on her head, turned
+    view.turned.emit(view.yaw, view.pitch)
+    _wait(lambda: kiosk.tryon.renderer.frames > frames)
+    _wait(lambda: False, 2.0)
+    _screen_grab(kiosk).save(str(out / "kiosk_turn.png"))
     print(f"try-on: shutter to her first made-up frame {kiosk.tryon.timings.get('tryon_first_frame_s', 0):.2f} s")
     kiosk.close_without_pin()
 
