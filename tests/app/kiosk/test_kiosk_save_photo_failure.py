@@ -12,11 +12,11 @@ import pytest
 
 from app.qt_compat import pin_singletons
 from tests import disk_support
-from tests.app.kiosk.test_kiosk_pin import open_kiosk
+from tests.app.kiosk import test_kiosk_pin
 from tests.disk_support import fill, listing
 
 if TYPE_CHECKING:
-    from collections.abc import Callable, Iterator
+    from collections.abc import Callable
     from pathlib import Path
 
 pin_singletons()
@@ -24,23 +24,13 @@ pin_singletons()
 pytestmark = [pytest.mark.qt, pytest.mark.gl]
 
 tiny_tmpfs = disk_support.tiny_tmpfs  # the fixture: a tmpfs mounted for the test
-
-
-@pytest.fixture(scope="module")
-def shared(qapp: object, tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Any, Any]]:
-    """One kiosk for the module, its try-on screen drawn once, and the configuration it opened with."""
-    from pytestqt.qtbot import QtBot
-
-    with open_kiosk(qapp, tmp_path_factory.mktemp("kiosk")) as win:
-        win.show_main()
-        QtBot(qapp).waitUntil(lambda: win.viewport.frames > 0, timeout=60000)
-        yield win, win.config
+shared_kiosk = test_kiosk_pin.shared_kiosk  # the fixture: one kiosk for the module, drawn once
 
 
 @pytest.fixture
-def kiosk(shared: tuple[Any, Any]) -> Any:
+def kiosk(shared_kiosk: tuple[Any, Any]) -> Any:
     """The module's kiosk on its try-on screen (a shopper's session open), nothing said yet."""
-    win, _config = shared
+    win, _config = shared_kiosk
     win.show_main()
     win.toast.setText("")
     win.last_error = None
